@@ -150,6 +150,9 @@ mod tests {
         let a = JointsDeg::new([1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
         let b = JointsDeg::new([1.0, 2.5, 3.0, 1.0, 5.0, 6.0]);
         assert_eq!(a.max_abs_diff(&b), 3.0);
-        assert_eq!(format!("{}", JointsDeg::ZERO), "[0.000, 0.000, 0.000, 0.000, 0.000, 0.000] deg");
+        assert_eq!(
+            format!("{}", JointsDeg::ZERO),
+            "[0.000, 0.000, 0.000, 0.000, 0.000, 0.000] deg"
+        );
     }
 }

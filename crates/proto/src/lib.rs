@@ -2,10 +2,42 @@
 //!
 //! The sans-IO core of protocol 1040, the TCP text protocol spoken by the AS server program on a
 //! Kawasaki FS020N controller. No sockets, no clocks: only types, exact encoders and tolerant
-//! decoders.
+//! decoders, shared by the client (`fs020n-client`) and the emulator (`fs020n-sim`).
+//!
+//! * [`Request`] / [`Command`] — what the PC sends, encoded exactly ([`Request::encode`]).
+//! * [`Status`] — the reply, encoded as the controller formats it and decoded tolerantly;
+//!   [`ReplyDecoder`] decodes a byte stream split anywhere.
+//! * [`server::ServerRequest`] — how the controller parses a request (`VAL` semantics).
+//! * [`ErrorCode`] — AS error numbers (−31088 ↔ `E1088`) with messages.
+//! * [`session`] — the timing and size rules as constants.
+//! * [`JointsDeg`] / [`JointsRad`] — joint vectors with the unit in the type.
+//!
+//! ```
+//! use fs020n_proto::{Command, JointsDeg, Request, ReplyDecoder};
+//! let bytes = Request::new(Command::SetSpeed { percent: 20.0 }).encode().unwrap();
+//! assert_eq!(bytes, "1040 3 1 20");
+//! let mut decoder = ReplyDecoder::new();
+//! decoder.push(b" 1040 0 -1 -1 0 -1 0     0.105     0.000     0.000   -90.000     0.000   -90.000     0.000 ").unwrap();
+//! let reply = decoder.next_reply().unwrap().expect("complete");
+//! assert_eq!(reply.status.joints, JointsDeg::new([0.0, 0.0, -90.0, 0.0, -90.0, 0.0]));
+//! ```
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod decoder;
+pub mod error;
+pub mod error_code;
 pub mod joints;
+pub mod number;
+pub mod reply;
+pub mod request;
+pub mod server;
+pub mod session;
 
+pub use decoder::{ReplyDecoder, ReplyFrame, MAX_BUFFERED};
+pub use error::{DecodeError, EncodeError};
+pub use error_code::{ErrorClass, ErrorCode};
 pub use joints::{JointsDeg, JointsRad, JOINT_COUNT};
+pub use reply::{Status, Timer, REPLY_FIELDS};
+pub use request::{Command, Request, StreamSample};
+pub use session::PROTOCOL_VERSION;

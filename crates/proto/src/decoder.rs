@@ -1,0 +1,253 @@
+//! Incremental reply decoder for a byte stream.
+//!
+//! There is no terminator in protocol 1040: a reply is complete when its 14 fields have arrived.
+//! Feed the decoder whatever the socket returns, split anywhere; it answers "need more"
+//! (`Ok(None)`) or yields one complete reply. Garbage gives an error quoting the offending
+//! bytes. The buffer is bounded by [`MAX_BUFFERED`]; the decoder never panics.
+//!
+//! ```
+//! use fs020n_proto::ReplyDecoder;
+//! let mut d = ReplyDecoder::new();
+//! d.push(b" 1040 0 -1 -1 0 -1 -1    12.500     0.000").unwrap();
+//! assert!(d.next_reply().unwrap().is_none());
+//! d.push(b"    30.000     0.000     0.000     0.000     0.000 ").unwrap();
+//! let reply = d.next_reply().unwrap().unwrap();
+//! assert_eq!(reply.status.joints[1], 30.0);
+//! assert!(d.is_empty());
+//! ```
+
+use crate::error::{excerpt, DecodeError};
+use crate::number::{parse_field, F10_OVERFLOW, F10_WIDTH};
+use crate::reply::{decode_fixed_layout, is_blank, is_reply_byte, Status, REPLY_FIELDS};
+
+/// Most bytes the decoder holds without a complete reply. A reply is about 100 bytes and the
+/// server never sends anything unsolicited, so more than this is a fault of the peer.
+pub const MAX_BUFFERED: usize = 1024;
+
+/// One decoded reply and the exact text it was decoded from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReplyFrame {
+    /// The decoded status.
+    pub status: Status,
+    /// The reply's text as received (including its blanks).
+    pub text: String,
+}
+
+/// Incremental decoder of replies from a byte stream.
+#[derive(Debug, Default, Clone)]
+pub struct ReplyDecoder {
+    buf: Vec<u8>,
+}
+
+impl ReplyDecoder {
+    /// An empty decoder.
+    pub fn new() -> ReplyDecoder {
+        ReplyDecoder {
+            buf: Vec::with_capacity(256),
+        }
+    }
+
+    /// Appends received bytes. Fails (and clears the buffer) when more than [`MAX_BUFFERED`]
+    /// bytes would be held; call [`next_reply`](Self::next_reply) after every push.
+    pub fn push(&mut self, bytes: &[u8]) -> Result<(), DecodeError> {
+        let len = self.buf.len() + bytes.len();
+        if len > MAX_BUFFERED {
+            self.buf.clear();
+            return Err(DecodeError::Overflow { len });
+        }
+        self.buf.extend_from_slice(bytes);
+        Ok(())
+    }
+
+    /// Bytes held that do not yet form a complete reply.
+    pub fn buffered(&self) -> &[u8] {
+        &self.buf
+    }
+
+    /// `true` when nothing is buffered except blanks.
+    pub fn is_empty(&self) -> bool {
+        self.buf.iter().all(|&b| is_blank(b))
+    }
+
+    /// Drops everything buffered.
+    pub fn clear(&mut self) {
+        self.buf.clear();
+    }
+
+    /// Yields the next complete reply, `Ok(None)` when more bytes are needed, or an error when
+    /// the bytes cannot be a reply. After an error the buffer is cleared: a text stream without
+    /// terminators cannot be resynchronised reliably, so the connection should be dropped.
+    pub fn next_reply(&mut self) -> Result<Option<ReplyFrame>, DecodeError> {
+        let end = match find_reply_end(&self.buf) {
+            Ok(Some(end)) => end,
+            Ok(None) => return Ok(None),
+            Err(e) => {
+                self.buf.clear();
+                return Err(e);
+            }
+        };
+        let text: String = self.buf.drain(..end).map(char::from).collect();
+        match Status::decode(&text) {
+            Ok(status) => Ok(Some(ReplyFrame { status, text })),
+            Err(e) => {
+                self.buf.clear();
+                Err(e)
+            }
+        }
+    }
+}
+
+/// Where the first complete reply in `b` ends (exclusive, including the one blank that ends
+/// it), `None` if it is not complete yet.
+///
+/// A reply ends at the end of a field (a non-blank followed by a blank, or the end of the
+/// buffer). Each such candidate, in order, is tried with the full tolerant decoder; the first
+/// that decodes is the reply. Errors are reported as soon as they are certain: a byte no reply
+/// contains, one of the six leading fields (always blank-separated) that is not a number, or 14
+/// blank-separated fields that still do not form a reply.
+fn find_reply_end(b: &[u8]) -> Result<Option<usize>, DecodeError> {
+    if let Some(pos) = b.iter().position(|&c| !is_reply_byte(c)) {
+        return Err(DecodeError::Garbage {
+            reason: "unexpected byte",
+            offset: pos,
+            excerpt: excerpt(b, pos),
+        });
+    }
+    let mut tokens = 0;
+    let mut first_bad: Option<usize> = None;
+    let mut i = 0;
+    while i < b.len() {
+        while i < b.len() && is_blank(b[i]) {
+            i += 1;
+        }
+        if i == b.len() {
+            break;
+        }
+        let start = i;
+        while i < b.len() && !is_blank(b[i]) {
+            i += 1;
+        }
+        let terminated = i < b.len();
+        if !terminated && b.len() - start < F10_WIDTH && tokens < 7 {
+            // A short unterminated token among the integers may go on.
+            return Ok(None);
+        }
+        let candidate = std::str::from_utf8(&b[..i]).unwrap_or_default();
+        // An unterminated last field may go on, unless the fixed 10-character layout says the
+        // reply is complete (the controller's format with its final blank still in flight).
+        let complete = if terminated {
+            Status::decode(candidate).is_ok()
+        } else {
+            decode_fixed_layout(candidate).is_ok()
+        };
+        if tokens + 1 >= 7 && complete {
+            return Ok(Some(if terminated { i + 1 } else { i }));
+        }
+        if !terminated {
+            return Ok(None);
+        }
+        let tok = std::str::from_utf8(&b[start..i]).unwrap_or_default();
+        let valid = tok == F10_OVERFLOW || parse_field(tok).is_some();
+        if !valid {
+            if tokens < 6 {
+                return Err(DecodeError::Garbage {
+                    reason: "field is not a number",
+                    offset: start,
+                    excerpt: excerpt(b, start),
+                });
+            }
+            first_bad.get_or_insert(start);
+        }
+        tokens += 1;
+        if tokens >= REPLY_FIELDS {
+            let at = first_bad.unwrap_or(0);
+            return Err(match first_bad {
+                Some(_) => DecodeError::Garbage {
+                    reason: "field is not a number",
+                    offset: at,
+                    excerpt: excerpt(b, at),
+                },
+                None => DecodeError::Garbage {
+                    reason: "14 fields that do not form a reply",
+                    offset: 0,
+                    excerpt: excerpt(b, 0),
+                },
+            });
+        }
+    }
+    Ok(None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const EXACT: &str =
+        " 1040 0 -1 -1 0 -1 -1    12.500     0.000    30.000     0.000     0.000     0.000     0.000 ";
+
+    #[test]
+    fn byte_by_byte() {
+        let mut d = ReplyDecoder::new();
+        let mut got = None;
+        for (k, b) in EXACT.bytes().enumerate() {
+            d.push(&[b]).unwrap();
+            if let Some(f) = d.next_reply().unwrap() {
+                got = Some((k, f));
+            }
+        }
+        let (k, f) = got.expect("a reply");
+        // Complete at the 70th character of the fixed-width block, before the final blank.
+        assert_eq!(k, EXACT.len() - 2);
+        assert_eq!(f.status.timer.seconds(), Some(12.5));
+        assert!(d.is_empty());
+    }
+
+    #[test]
+    fn two_replies_in_one_read() {
+        let mut d = ReplyDecoder::new();
+        d.push(format!("{EXACT}{EXACT}").as_bytes()).unwrap();
+        assert!(d.next_reply().unwrap().is_some());
+        assert!(d.next_reply().unwrap().is_some());
+        assert!(d.next_reply().unwrap().is_none());
+    }
+
+    #[test]
+    fn garbage_is_quoted() {
+        let mut d = ReplyDecoder::new();
+        d.push(b" 1040 0 -1 oops").unwrap();
+        match d.next_reply() {
+            Err(DecodeError::Garbage {
+                offset, excerpt, ..
+            }) => {
+                assert_eq!(offset, 11);
+                assert_eq!(excerpt, "oops");
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(d.buffered().is_empty());
+    }
+
+    #[test]
+    fn bounded_buffer() {
+        let mut d = ReplyDecoder::new();
+        let blanks = vec![b' '; MAX_BUFFERED];
+        d.push(&blanks).unwrap();
+        assert!(matches!(d.push(b" "), Err(DecodeError::Overflow { .. })));
+    }
+
+    #[test]
+    fn touching_fields_and_short_format() {
+        let mut d = ReplyDecoder::new();
+        d.push(b"1040 0 -1 -1 0 -1 -1 100000.000-12345.678     0.000     0.000     0.000     0.000     0.000").unwrap();
+        let f = d.next_reply().unwrap().unwrap();
+        assert_eq!(f.status.timer.seconds(), Some(100000.0));
+        assert_eq!(f.status.joints[0], -12345.678);
+        d.push(b"1040 0 0 0 0 0 0 1 2 3 4 5 6 7").unwrap();
+        assert!(
+            d.next_reply().unwrap().is_none(),
+            "the last field may go on"
+        );
+        d.push(b" ").unwrap();
+        assert_eq!(d.next_reply().unwrap().unwrap().status.joints[5], 7.0);
+    }
+}

@@ -1,0 +1,248 @@
+//! AS number formats: what the controller writes and reads.
+//!
+//! * [`as_val`] — the controller's `VAL` function, used by the server to read request tokens.
+//! * [`format_request_number`] — how a client must write a number in a request: fixed point,
+//!   at most [`REQUEST_DECIMALS`] decimals, never exponent notation.
+//! * [`format_f10_3`] — the `/F10.3` format of reply fields 8–14.
+//! * [`format_default_int`] — the AS default format of reply fields 1–7.
+
+use crate::error::EncodeError;
+
+/// Decimals written for each number of a request.
+///
+/// The controller stores reals as 32-bit floats (about 7 significant digits) and reports joint
+/// angles with 3 decimals, so more decimals carry no information but cost bytes of the
+/// 255-byte budget.
+pub const REQUEST_DECIMALS: usize = 3;
+
+/// Largest magnitude a request number may have.
+///
+/// Larger numbers cannot be represented by an AS real with a meaningful fractional part, and
+/// would eat the 255-byte budget; no real quantity of the protocol comes close.
+pub const REQUEST_NUMBER_LIMIT: f64 = 1.0e7;
+
+/// Width of an `/F10.3` field.
+pub const F10_WIDTH: usize = 10;
+
+/// What `/F10.3` prints when a value does not fit in 10 characters.
+pub const F10_OVERFLOW: &str = "**********";
+
+/// Converts text to a number exactly as the AS `VAL` function does.
+///
+/// Leading blanks are skipped; the number ends at the first character that cannot continue it
+/// (`"12abc"` is 12); text without a number is 0; exponent form (`1.2E-5`) is accepted. The
+/// result is rounded to an AS real (a 32-bit float), as the controller stores it.
+///
+/// ```
+/// use fs020n_proto::number::as_val;
+/// assert_eq!(as_val("12abc"), 12.0);
+/// assert_eq!(as_val(""), 0.0);
+/// assert_eq!(as_val("  -7.5"), -7.5);
+/// assert_eq!(as_val("1.5E2x"), 150.0);
+/// assert_eq!(as_val("E5"), 0.0);
+/// ```
+pub fn as_val(text: &str) -> f64 {
+    let s = text.trim_start_matches([' ', '\t']);
+    let end = numeric_prefix_len(s.as_bytes());
+    if end == 0 {
+        return 0.0;
+    }
+    match s[..end].parse::<f64>() {
+        Ok(v) if v.is_finite() => f64::from(v as f32),
+        // An overflowing exponent: the controller would report an error; 0 is the safe reading.
+        _ => 0.0,
+    }
+}
+
+/// Length of the longest prefix of `b` that forms a decimal number (sign, digits, point,
+/// digits, optional exponent with at least one digit). Returns 0 when no digit is present.
+pub(crate) fn numeric_prefix_len(b: &[u8]) -> usize {
+    let mut i = 0;
+    if i < b.len() && (b[i] == b'+' || b[i] == b'-') {
+        i += 1;
+    }
+    let int_start = i;
+    while i < b.len() && b[i].is_ascii_digit() {
+        i += 1;
+    }
+    let mut digits = i - int_start;
+    if i < b.len() && b[i] == b'.' {
+        let frac_start = i + 1;
+        let mut j = frac_start;
+        while j < b.len() && b[j].is_ascii_digit() {
+            j += 1;
+        }
+        digits += j - frac_start;
+        if digits > 0 {
+            i = j;
+        }
+    }
+    if digits == 0 {
+        return 0;
+    }
+    if i < b.len() && (b[i] == b'E' || b[i] == b'e') {
+        let mut j = i + 1;
+        if j < b.len() && (b[j] == b'+' || b[j] == b'-') {
+            j += 1;
+        }
+        let exp_start = j;
+        while j < b.len() && b[j].is_ascii_digit() {
+            j += 1;
+        }
+        if j > exp_start {
+            i = j;
+        }
+    }
+    i
+}
+
+/// Formats one request number: fixed point, at most [`REQUEST_DECIMALS`] decimals, trailing
+/// zeros dropped, never exponent notation, `-0` written as `0`.
+///
+/// `field` names the value in the error (e.g. `"JT3 target"`).
+///
+/// ```
+/// use fs020n_proto::number::format_request_number;
+/// assert_eq!(format_request_number(30.0, "x").unwrap(), "30");
+/// assert_eq!(format_request_number(-12.34567, "x").unwrap(), "-12.346");
+/// assert_eq!(format_request_number(1e-9, "x").unwrap(), "0");
+/// assert!(format_request_number(f64::NAN, "x").is_err());
+/// ```
+pub fn format_request_number(value: f64, field: &'static str) -> Result<String, EncodeError> {
+    if !value.is_finite() {
+        return Err(EncodeError::NonFinite { field, value });
+    }
+    if value.abs() >= REQUEST_NUMBER_LIMIT {
+        return Err(EncodeError::OutOfRange {
+            field,
+            value,
+            limit: REQUEST_NUMBER_LIMIT,
+        });
+    }
+    let mut s = format!("{value:.prec$}", prec = REQUEST_DECIMALS);
+    if s.contains('.') {
+        while s.ends_with('0') {
+            s.pop();
+        }
+        if s.ends_with('.') {
+            s.pop();
+        }
+    }
+    if s == "-0" {
+        s = "0".to_owned();
+    }
+    Ok(s)
+}
+
+/// Formats a value as AS `/F10.3`: 3 decimals, right-justified in exactly 10 characters, or
+/// ten asterisks when it does not fit. A value that rounds to zero prints as `0.000`
+/// (never `-0.000`).
+///
+/// ```
+/// use fs020n_proto::number::format_f10_3;
+/// assert_eq!(format_f10_3(12.5), "    12.500");
+/// assert_eq!(format_f10_3(-90.0), "   -90.000");
+/// assert_eq!(format_f10_3(1.0e6), "**********");
+/// ```
+pub fn format_f10_3(value: f64) -> String {
+    if !value.is_finite() {
+        return F10_OVERFLOW.to_owned();
+    }
+    let mut s = format!("{value:>10.3}");
+    if s.trim() == "-0.000" {
+        s = format!("{:>10}", "0.000");
+    }
+    if s.len() > F10_WIDTH {
+        F10_OVERFLOW.to_owned()
+    } else {
+        s
+    }
+}
+
+/// Formats an integer in the AS default format as it appears in `$ENCODE`: one blank, then the
+/// number without a decimal point.
+pub fn format_default_int(value: i64) -> String {
+    format!(" {value}")
+}
+
+/// Parses one reply field: a decimal number, optionally with an exponent. Returns `None` for
+/// anything else (including asterisks, which the caller handles).
+pub(crate) fn parse_field(token: &str) -> Option<f64> {
+    let b = token.as_bytes();
+    if b.is_empty() || numeric_prefix_len(b) != b.len() {
+        return None;
+    }
+    token.parse::<f64>().ok().filter(|v| v.is_finite())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn val_semantics() {
+        assert_eq!(as_val("1040"), 1040.0);
+        assert_eq!(as_val(" 1040"), 1040.0);
+        assert_eq!(as_val("6.5"), 6.5);
+        assert_eq!(as_val("abc"), 0.0);
+        assert_eq!(as_val("-"), 0.0);
+        assert_eq!(as_val("."), 0.0);
+        assert_eq!(as_val(".5"), 0.5);
+        assert_eq!(as_val("5."), 5.0);
+        assert_eq!(as_val("1.2E-5"), f64::from(1.2e-5f32));
+        assert_eq!(as_val("3e"), 3.0);
+        assert_eq!(as_val("3e+"), 3.0);
+        assert_eq!(as_val("+4"), 4.0);
+        assert_eq!(as_val("1e999"), 0.0);
+        // AS reals are 32-bit floats.
+        assert_eq!(as_val("0.1"), f64::from(0.1f32));
+    }
+
+    #[test]
+    fn request_numbers() {
+        assert_eq!(format_request_number(0.0, "x").unwrap(), "0");
+        assert_eq!(format_request_number(-0.0, "x").unwrap(), "0");
+        assert_eq!(format_request_number(-0.0004, "x").unwrap(), "0");
+        assert_eq!(format_request_number(1.5, "x").unwrap(), "1.5");
+        assert_eq!(format_request_number(-90.0, "x").unwrap(), "-90");
+        assert_eq!(
+            format_request_number(123456.7894, "x").unwrap(),
+            "123456.789"
+        );
+        assert_eq!(
+            format_request_number(1e20, "x").unwrap_err(),
+            EncodeError::OutOfRange {
+                field: "x",
+                value: 1e20,
+                limit: REQUEST_NUMBER_LIMIT
+            }
+        );
+        assert!(matches!(
+            format_request_number(f64::INFINITY, "y"),
+            Err(EncodeError::NonFinite { field: "y", .. })
+        ));
+    }
+
+    #[test]
+    fn f10_3() {
+        assert_eq!(format_f10_3(0.0), "     0.000");
+        assert_eq!(format_f10_3(-0.0001), "     0.000");
+        assert_eq!(format_f10_3(999999.999), "999999.999");
+        assert_eq!(format_f10_3(-99999.999), "-99999.999");
+        assert_eq!(format_f10_3(-999999.0), "**********");
+        assert_eq!(format_f10_3(f64::NAN), "**********");
+        assert_eq!(format_default_int(-31088), " -31088");
+    }
+
+    #[test]
+    fn field_parsing() {
+        assert_eq!(parse_field("12.500"), Some(12.5));
+        assert_eq!(parse_field("1.0E-03"), Some(0.001));
+        assert_eq!(parse_field("-1"), Some(-1.0));
+        assert_eq!(parse_field("12abc"), None);
+        assert_eq!(parse_field("**********"), None);
+        assert_eq!(parse_field(""), None);
+        assert_eq!(parse_field("inf"), None);
+        assert_eq!(parse_field("NaN"), None);
+    }
+}
