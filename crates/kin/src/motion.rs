@@ -92,7 +92,7 @@ impl JointMove {
         to: JointsDeg,
         speed_fraction: f64,
     ) -> Result<Self, MotionError> {
-        if !(speed_fraction > 0.0 && speed_fraction <= 1.0) {
+        if speed_fraction.is_nan() || speed_fraction <= 0.0 || speed_fraction > 1.0 {
             return Err(MotionError::SpeedFraction(speed_fraction));
         }
         for i in 0..JOINT_COUNT {
@@ -180,7 +180,7 @@ impl JointMove {
         if total <= 0.0 {
             return (1.0, 0.0, 0.0);
         }
-        if !(t > 0.0) {
+        if t.is_nan() || t <= 0.0 {
             // before the start, or NaN
             return (0.0, 0.0, 0.0);
         }

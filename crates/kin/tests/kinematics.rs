@@ -35,7 +35,10 @@ fn zero_pose_arm_straight_up() {
     assert!((v.x_mm - 150.0).abs() < 1e-9, "{v}");
     assert!(v.y_mm.abs() < 1e-9);
     assert!((v.z_mm - 2046.5).abs() < 1e-9);
-    assert!(v.a_deg.abs() < 1e-9, "tool Z = base Z at the zero pose: {v}");
+    assert!(
+        v.a_deg.abs() < 1e-9,
+        "tool Z = base Z at the zero pose: {v}"
+    );
     let z = m.forward(&JointsRad::ZERO).z_axis();
     assert!((z - Vector3::z()).norm() < 1e-12);
 }
@@ -61,11 +64,18 @@ fn home_pose_numbers() {
 fn joint_sign_conventions() {
     let m = RobotModel::fs020n();
     // JT1 positive: counter-clockwise seen from above, +X turns to +Y
-    let p = m.forward(&deg([90.0, 0.0, -90.0, 0.0, -90.0, 0.0])).to_xyzoat();
+    let p = m
+        .forward(&deg([90.0, 0.0, -90.0, 0.0, -90.0, 0.0]))
+        .to_xyzoat();
     assert!(p.x_mm.abs() < 1e-9 && (p.y_mm - 850.0).abs() < 1e-9, "{p}");
     // JT2 positive leans the upper arm forward (+X), lower
-    let p = m.forward(&deg([0.0, 30.0, 0.0, 0.0, 0.0, 0.0])).position_m();
-    assert!((p.x - (0.15 + 1.5965 * 0.5)).abs() < 1e-12 && p.z < 2.0, "{p:?}");
+    let p = m
+        .forward(&deg([0.0, 30.0, 0.0, 0.0, 0.0, 0.0]))
+        .position_m();
+    assert!(
+        (p.x - (0.15 + 1.5965 * 0.5)).abs() < 1e-12 && p.z < 2.0,
+        "{p:?}"
+    );
     // JT3 = -90 alone: forearm horizontal forward, tool along +X
     let f = m.forward(&deg([0.0, 0.0, -90.0, 0.0, 0.0, 0.0]));
     assert!((f.position_m() - Vector3::new(0.9465, 0.0, 1.25)).norm() < 1e-12);
@@ -88,7 +98,10 @@ fn tool_point_forward_and_inverse() {
     let tool = Pose::from_translation_m(0.0, 0.0, 0.2);
     let tcp = m.forward_tool(&m.home.to_rad(), &tool).to_xyzoat();
     // tool points down: 200 mm below the flange
-    assert!((tcp.z_mm - 953.5).abs() < 1e-9 && (tcp.x_mm - 850.0).abs() < 1e-9, "{tcp}");
+    assert!(
+        (tcp.z_mm - 953.5).abs() < 1e-9 && (tcp.x_mm - 850.0).abs() < 1e-9,
+        "{tcp}"
+    );
     let target = Pose::from_xyzoat(tcp);
     let q = m
         .inverse_tool_nearest(&target, &tool, &m.home.to_rad())
@@ -105,14 +118,16 @@ fn home_ik_all_branches() {
     let m = RobotModel::fs020n();
     let target = m.forward(&m.home.to_rad());
     let all = m.inverse_all(&target).unwrap();
-    assert!(!all.is_empty() && all.len() <= 48, "{} solutions", all.len());
+    assert!(
+        !all.is_empty() && all.len() <= 48,
+        "{} solutions",
+        all.len()
+    );
     for s in &all {
         assert_pose_eq(&m.forward(s), &target, 1e-9);
         assert!(m.within_limits(&s.to_deg()), "{}", s.to_deg());
     }
-    assert!(all
-        .iter()
-        .any(|s| s.to_deg().max_abs_diff(&m.home) < 1e-9));
+    assert!(all.iter().any(|s| s.to_deg().max_abs_diff(&m.home) < 1e-9));
     // elbow-down front solution exists (JT3 > 0)
     // Only the front elbow-up branch is in range here: elbow down would need |JT5| = 172.4 deg,
     // the back branches JT1 = 180 deg. Wrist flip: JT4 = +-180, JT5 = +90, JT6 = +-180.
@@ -120,9 +135,15 @@ fn home_ik_all_branches() {
     assert_eq!(all.len(), 3 + 4, "{all:?}");
     for s in &all {
         let d = s.to_deg();
-        assert!(d[0].abs() < 1e-9 && d[1].abs() < 1e-9 && (d[2] + 90.0).abs() < 1e-9, "{d}");
+        assert!(
+            d[0].abs() < 1e-9 && d[1].abs() < 1e-9 && (d[2] + 90.0).abs() < 1e-9,
+            "{d}"
+        );
     }
-    let n6 = all.iter().filter(|s| (s.to_deg()[4] + 90.0).abs() < 1e-9).count();
+    let n6 = all
+        .iter()
+        .filter(|s| (s.to_deg()[4] + 90.0).abs() < 1e-9)
+        .count();
     assert_eq!(n6, 3, "{all:?}");
     // no duplicates
     for (i, a) in all.iter().enumerate() {
@@ -156,10 +177,7 @@ fn stretched_arm_singularity() {
         assert_pose_eq(&m.forward(s), &target, 1e-9);
     }
     // the front branch has a single elbow solution: JT3 = 0
-    let front: Vec<_> = all
-        .iter()
-        .filter(|s| (s[0] - q[0]).abs() < 1e-9)
-        .collect();
+    let front: Vec<_> = all.iter().filter(|s| (s[0] - q[0]).abs() < 1e-9).collect();
     assert!(!front.is_empty());
     assert!(front.iter().all(|s| s[2].abs() < 1e-6), "{front:?}");
     let near = m.inverse_nearest(&target, &q).unwrap();
