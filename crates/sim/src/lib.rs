@@ -1,2 +1,22 @@
-//! Work in progress.
+//! # fs020n-sim
+//!
+//! An emulator of the Kawasaki FS020N controller running the protocol-1040 AS server program,
+//! rule for rule (docs/EMULATOR.md). The [`Controller`] is a deterministic state machine
+//! advanced by a clock it is given — virtual time in tests, real time for users.
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod controller;
+pub mod fault;
+pub mod motion;
+pub mod panel;
+pub mod server;
+
+pub use controller::{
+    Controller, ControllerConfig, Counters, Handled, PanelError, Refused, SessionEnd, SessionGone,
+    SessionId, TaskState, Timing, TICK,
+};
+pub use fault::{Fault, ReplyFault};
+pub use motion::MotionPhase;
+pub use panel::Panel;
+pub use server::{Emulator, TcpServer};

@@ -1,0 +1,386 @@
+//! The robot's motion: segments in progress, one planned motion, braking, HOLD, limits.
+//!
+//! Motions blend by superposition: each segment contributes its displacement (from the target of
+//! the motion before it to its own target) as a function of time, so a motion that starts while
+//! the previous one is still decelerating (continuous-path blending within ACCURACY) adds its
+//! acceleration to the other's deceleration, without a velocity jump. The commanded position is
+//! then limited to each joint's maximum speed and clamped into the joint ranges, so the robot can
+//! never leave its ranges or exceed its speeds, whatever the sum does.
+
+use fs020n_kin::{JointMove, Pose, RobotModel};
+use fs020n_proto::{JointsDeg, JOINT_COUNT};
+
+/// A straight-line (LMOVE) tool path, pre-sampled through inverse kinematics.
+#[derive(Debug, Clone)]
+pub struct LinearPath {
+    /// Joint configurations at equal path-parameter steps, first = start, last = target.
+    samples: Vec<JointsDeg>,
+    duration_s: f64,
+}
+
+impl LinearPath {
+    /// Plans a straight tool line from `from` to `to` (joint configurations), taking at least
+    /// `duration_s`, stretched when a joint would exceed its maximum speed. Fails when a point of
+    /// the line has no inverse-kinematics solution inside the joint ranges near the previous one
+    /// (the line crosses a singularity, leaves the workspace or the ranges).
+    pub fn plan(
+        model: &RobotModel,
+        from: JointsDeg,
+        to: JointsDeg,
+        duration_s: f64,
+        resolution_s: f64,
+    ) -> Option<LinearPath> {
+        let p0 = model.forward(&from.to_rad());
+        let p1 = model.forward(&to.to_rad());
+        let distance_mm = p0.distance_m(&p1) * 1000.0;
+        let angle = p0.angle_to_rad(&p1);
+        // One sample per controller tick of the nominal duration, at least every 5 mm / 2 deg.
+        let n = ((duration_s / resolution_s).ceil() as usize)
+            .max((distance_mm / 5.0).ceil() as usize)
+            .max((angle.to_degrees() / 2.0).ceil() as usize)
+            .clamp(1, 2000);
+        let mut samples = Vec::with_capacity(n + 1);
+        samples.push(from);
+        let mut seed = from.to_rad();
+        let rot0 = p0.rotation();
+        let rot1 = p1.rotation();
+        for k in 1..n {
+            let s = k as f64 / n as f64;
+            let pos = p0.position_m().lerp(&p1.position_m(), s);
+            let rot = rot0.slerp(&rot1, s);
+            let q = model.inverse_nearest(&Pose::new(pos, rot), &seed).ok()?;
+            let qd = q.to_deg();
+            // A jump of more than 30 deg between neighbouring samples is a configuration flip.
+            if qd.max_abs_diff(samples.last()?) > 30.0 {
+                return None;
+            }
+            samples.push(qd);
+            seed = q;
+        }
+        if to.max_abs_diff(samples.last()?) > 30.0 {
+            return None;
+        }
+        samples.push(to);
+        // The cycloidal profile peaks at twice the mean rate.
+        let mut needed = duration_s;
+        let speeds = model.max_speeds_deg_s();
+        for w in samples.windows(2) {
+            for (j, speed) in speeds.iter().enumerate() {
+                let d = (w[1][j] - w[0][j]).abs();
+                needed = needed.max(2.0 * d * n as f64 / speed);
+            }
+        }
+        Some(LinearPath {
+            samples,
+            duration_s: needed,
+        })
+    }
+
+    /// Duration, seconds.
+    pub fn duration_s(&self) -> f64 {
+        self.duration_s
+    }
+
+    fn position_at(&self, t: f64) -> JointsDeg {
+        let u = (t / self.duration_s).clamp(0.0, 1.0);
+        // Cycloidal profile: zero speed and acceleration at both ends.
+        let s = u - (2.0 * std::f64::consts::PI * u).sin() / (2.0 * std::f64::consts::PI);
+        let n = self.samples.len() - 1;
+        let x = s * n as f64;
+        let k = (x.floor() as usize).min(n - 1);
+        let f = x - k as f64;
+        self.samples[k].zip_with(&self.samples[k + 1], |a, b| a + (b - a) * f)
+    }
+}
+
+/// The shape of one motion.
+#[derive(Debug, Clone)]
+pub enum Shape {
+    /// Joint-interpolated (JMOVE).
+    Joint(JointMove),
+    /// Straight tool line (LMOVE).
+    Linear(LinearPath),
+}
+
+impl Shape {
+    fn duration_s(&self) -> f64 {
+        match self {
+            Shape::Joint(m) => m.duration_s(),
+            Shape::Linear(l) => l.duration_s(),
+        }
+    }
+
+    fn position_at(&self, t: f64) -> JointsDeg {
+        match self {
+            Shape::Joint(m) => m.position_at(t),
+            Shape::Linear(l) => l.position_at(t),
+        }
+    }
+}
+
+/// A motion: where it starts (the previous motion's target), where it ends, and its shape.
+#[derive(Debug, Clone)]
+pub struct Motion {
+    /// Start configuration (the target of the motion before it).
+    pub from: JointsDeg,
+    /// Target configuration.
+    pub to: JointsDeg,
+    /// Joint or linear.
+    pub shape: Shape,
+}
+
+#[derive(Debug, Clone)]
+struct Active {
+    motion: Motion,
+    /// Motion-clock time at which it started.
+    started: f64,
+}
+
+/// A stop with each joint decelerating at its maximum acceleration.
+#[derive(Debug, Clone)]
+struct Brake {
+    from: JointsDeg,
+    velocity: JointsDeg,
+    elapsed: f64,
+}
+
+/// What the robot is doing, for observers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MotionPhase {
+    /// Standing still.
+    Idle,
+    /// Executing one or more blended motions.
+    Moving,
+    /// Braking to a stop.
+    Braking,
+}
+
+/// The robot arm's motion state, advanced tick by tick.
+#[derive(Debug, Clone)]
+pub struct Robot {
+    joints: JointsDeg,
+    velocity: JointsDeg,
+    /// Position the finished segments have reached; the in-progress ones add to it.
+    anchor: JointsDeg,
+    /// Final target of everything in progress.
+    target: JointsDeg,
+    active: Vec<Active>,
+    planned: Option<Motion>,
+    brake: Option<Brake>,
+    /// Motion clock: advances with time scaled by the HOLD ramp.
+    clock: f64,
+    /// 1 = full speed, 0 = held.
+    hold_scale: f64,
+    held: bool,
+}
+
+/// Time for HOLD to bring the motion to a pause (and for RUN to resume it), seconds.
+pub const HOLD_RAMP_S: f64 = 0.2;
+
+impl Robot {
+    /// A robot standing at `joints`.
+    pub fn new(joints: JointsDeg) -> Robot {
+        Robot {
+            joints,
+            velocity: JointsDeg::ZERO,
+            anchor: joints,
+            target: joints,
+            active: Vec::new(),
+            planned: None,
+            brake: None,
+            clock: 0.0,
+            hold_scale: 1.0,
+            held: false,
+        }
+    }
+
+    /// Current joint angles (what the encoders read).
+    pub fn joints(&self) -> JointsDeg {
+        self.joints
+    }
+
+    /// Current joint velocities, deg/s.
+    pub fn velocity(&self) -> JointsDeg {
+        self.velocity
+    }
+
+    /// The final target of the motions in progress (the current joints when idle).
+    pub fn target(&self) -> JointsDeg {
+        self.target
+    }
+
+    /// `true` when a motion waits to blend in.
+    pub fn has_planned(&self) -> bool {
+        self.planned.is_some()
+    }
+
+    /// Number of motions in progress (blending ones included).
+    pub fn active_count(&self) -> usize {
+        self.active.len()
+    }
+
+    /// What the robot is doing.
+    pub fn phase(&self) -> MotionPhase {
+        if self.brake.is_some() {
+            MotionPhase::Braking
+        } else if self.active.is_empty() && self.velocity.iter().all(|v| v == 0.0) {
+            MotionPhase::Idle
+        } else {
+            MotionPhase::Moving
+        }
+    }
+
+    /// `true` when nothing moves and nothing will without a new command.
+    pub fn is_still(&self) -> bool {
+        self.phase() == MotionPhase::Idle && self.planned.is_none() && self.hold_scale_settled()
+    }
+
+    fn hold_scale_settled(&self) -> bool {
+        (self.held && self.hold_scale == 0.0) || (!self.held && self.hold_scale == 1.0)
+    }
+
+    /// Sets or releases HOLD: motion decelerates to a pause over [`HOLD_RAMP_S`] and resumes the
+    /// same way.
+    pub fn set_hold(&mut self, held: bool) {
+        self.held = held;
+    }
+
+    /// `true` when a new motion may start now: nothing in progress, or the tool is within
+    /// `accuracy_mm` of the current target (continuous-path blending).
+    pub fn ready_for_next(&self, model: &RobotModel, accuracy_mm: f64) -> bool {
+        if self.brake.is_some() {
+            return false;
+        }
+        if self.active.is_empty() {
+            return true;
+        }
+        let here = model.forward(&self.joints.to_rad());
+        let there = model.forward(&self.target.to_rad());
+        here.distance_m(&there) * 1000.0 <= accuracy_mm
+    }
+
+    /// Starts `motion` at once (its `from` must be [`target`](Self::target)).
+    pub fn start(&mut self, motion: Motion) {
+        self.target = motion.to;
+        self.brake = None;
+        self.active.push(Active {
+            motion,
+            started: self.clock,
+        });
+    }
+
+    /// Queues `motion` to blend in when the tool reaches ACCURACY of the current target.
+    pub fn plan(&mut self, motion: Motion) {
+        self.planned = Some(motion);
+    }
+
+    /// Takes the planned motion if it may start now.
+    pub fn take_planned_if_ready(
+        &mut self,
+        model: &RobotModel,
+        accuracy_mm: f64,
+    ) -> Option<Motion> {
+        if self.planned.is_some() && self.ready_for_next(model, accuracy_mm) {
+            self.planned.take()
+        } else {
+            None
+        }
+    }
+
+    /// BRAKE: stops the motion in progress with each joint decelerating at its maximum
+    /// acceleration, and drops the planned one. Braking again while braking changes nothing.
+    pub fn brake(&mut self) {
+        self.planned = None;
+        self.active.clear();
+        if self.brake.is_none() && self.velocity.iter().any(|v| v != 0.0) {
+            self.brake = Some(Brake {
+                from: self.joints,
+                velocity: self.velocity,
+                elapsed: 0.0,
+            });
+        }
+        self.anchor = self.joints;
+        self.target = self.joints;
+    }
+
+    /// Stops dead (motor power cut): no deceleration.
+    pub fn halt(&mut self) {
+        self.planned = None;
+        self.active.clear();
+        self.brake = None;
+        self.velocity = JointsDeg::ZERO;
+        self.anchor = self.joints;
+        self.target = self.joints;
+    }
+
+    /// Advances by `dt` seconds.
+    pub fn tick(&mut self, model: &RobotModel, dt: f64) {
+        let prev = self.joints;
+        // HOLD ramp.
+        let ramp = dt / HOLD_RAMP_S;
+        self.hold_scale = if self.held {
+            (self.hold_scale - ramp).max(0.0)
+        } else {
+            (self.hold_scale + ramp).min(1.0)
+        };
+        let desired = if let Some(b) = &mut self.brake {
+            b.elapsed += dt;
+            let mut q = b.from;
+            let mut done = true;
+            for (j, spec) in model.joints.iter().enumerate() {
+                let v = b.velocity[j];
+                let a = spec.max_accel_deg_s2;
+                let t_stop = v.abs() / a;
+                let t = b.elapsed.min(t_stop);
+                done &= b.elapsed >= t_stop;
+                q[j] = b.from[j] + v * t - 0.5 * v.signum() * a * t * t;
+            }
+            if done {
+                self.brake = None;
+            }
+            q
+        } else {
+            self.clock += dt * self.hold_scale;
+            let clock = self.clock;
+            let anchor = &mut self.anchor;
+            self.active.retain(|a| {
+                let t = clock - a.started;
+                if t >= a.motion.shape.duration_s() {
+                    for j in 0..JOINT_COUNT {
+                        anchor[j] += a.motion.to[j] - a.motion.from[j];
+                    }
+                    false
+                } else {
+                    true
+                }
+            });
+            let mut q = self.anchor;
+            for a in &self.active {
+                let p = a.motion.shape.position_at(clock - a.started);
+                for j in 0..JOINT_COUNT {
+                    q[j] += p[j] - a.motion.from[j];
+                }
+            }
+            if self.active.is_empty() {
+                // Settle exactly on the target (no rounding drift).
+                self.anchor = self.target;
+                q = self.target;
+            }
+            q
+        };
+        // Speed limit, then the joint ranges.
+        let speeds = model.max_speeds_deg_s();
+        let mut q = desired;
+        for (j, spec) in model.joints.iter().enumerate() {
+            let step = speeds[j] * dt;
+            q[j] = q[j].clamp(prev[j] - step, prev[j] + step);
+            q[j] = q[j].clamp(spec.min_deg, spec.max_deg);
+        }
+        self.joints = q;
+        self.velocity = q.zip_with(&prev, |a, b| (a - b) / dt);
+        if self.brake.is_none() && self.active.is_empty() && q == self.target {
+            self.velocity = JointsDeg::ZERO;
+        }
+    }
+}

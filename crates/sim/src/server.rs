@@ -1,0 +1,294 @@
+//! The emulator on a tokio runtime: the controller advanced by the runtime's clock, served over
+//! TCP (with the controller's listen windows) or over in-memory streams.
+//!
+//! Under `tokio::time::pause()` (or `#[tokio::test(start_paused = true)]`) the runtime's clock is
+//! virtual: the emulator and a client on in-memory streams then run thousands of times faster
+//! than real time and reproducibly, with every timeout behaving as on the real controller.
+
+use std::io;
+use std::net::SocketAddr;
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
+
+use fs020n_proto::session::SEND_TIMEOUT;
+use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt, DuplexStream};
+use tokio::net::TcpListener;
+use tokio::sync::watch;
+use tokio::task::JoinHandle;
+use tokio::time::Instant;
+
+use crate::controller::{Controller, ControllerConfig, SessionEnd, SessionId};
+use crate::fault::ReplyFault;
+
+/// Size of the in-memory pipe of [`Emulator::connect`] in each direction, bytes (small, like a
+/// socket buffer that fills when the peer stops reading).
+pub const PIPE_CAPACITY: usize = 4096;
+
+/// Bytes read by one receive call of the communication task.
+pub const RECEIVE_BUFFER: usize = 1024;
+
+struct Inner {
+    controller: Mutex<Controller>,
+    epoch: Instant,
+    /// Bumped whenever a `with` call changes the session or the reading pause.
+    changed: watch::Sender<u64>,
+}
+
+/// A running emulated controller, shared by its network tasks and its observers. Cheap to
+/// clone. Create it inside a tokio runtime: its clock is the runtime's.
+#[derive(Clone)]
+pub struct Emulator {
+    inner: Arc<Inner>,
+}
+
+impl std::fmt::Debug for Emulator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Emulator")
+            .field("elapsed", &self.elapsed())
+            .finish()
+    }
+}
+
+impl Emulator {
+    /// A controller started now.
+    pub fn new(config: ControllerConfig) -> Emulator {
+        let (changed, _) = watch::channel(0);
+        Emulator {
+            inner: Arc::new(Inner {
+                controller: Mutex::new(Controller::new(config)),
+                epoch: Instant::now(),
+                changed,
+            }),
+        }
+    }
+
+    /// Time since the emulator started, by the runtime's clock.
+    pub fn elapsed(&self) -> Duration {
+        self.inner.epoch.elapsed()
+    }
+
+    fn lock(&self) -> MutexGuard<'_, Controller> {
+        // A panic while holding the lock cannot leave the controller half-updated in a way that
+        // matters more than stopping; keep serving.
+        self.inner
+            .controller
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+
+    /// Brings the controller up to the current time, then runs `f` on it (pendant operations,
+    /// observations, fault injection).
+    pub fn with<R>(&self, f: impl FnOnce(&mut Controller) -> R) -> R {
+        let now = self.elapsed();
+        let (r, changed) = {
+            let mut c = self.lock();
+            c.advance_to(now);
+            let before = (c.session(), c.reading_paused_until());
+            let r = f(&mut c);
+            (r, before != (c.session(), c.reading_paused_until()))
+        };
+        if changed {
+            self.inner.changed.send_modify(|g| *g = g.wrapping_add(1));
+        }
+        r
+    }
+
+    fn instant_of(&self, t: Duration) -> Instant {
+        self.inner.epoch + t
+    }
+
+    /// Connects an in-memory client, as a TCP connect would: refused during a listen gap and
+    /// while a session is open.
+    pub fn connect(&self) -> io::Result<DuplexStream> {
+        let id = self
+            .with(|c| c.try_accept())
+            .map_err(|e| io::Error::new(io::ErrorKind::ConnectionRefused, e))?;
+        let (client, server) = tokio::io::duplex(PIPE_CAPACITY);
+        let this = self.clone();
+        tokio::spawn(async move { this.run_session(id, server).await });
+        Ok(client)
+    }
+
+    /// Serves the robot port on `addr` (e.g. `127.0.0.1:10050`; port 0 picks one) until the
+    /// returned task is aborted. Like the AS program, it listens in 3-second windows with a short
+    /// gap between them and not at all while a session is open, so connecting then is refused.
+    pub async fn serve_tcp(&self, addr: SocketAddr) -> io::Result<TcpServer> {
+        let listener = TcpListener::bind(addr).await?;
+        let local = listener.local_addr()?;
+        let this = self.clone();
+        let task = tokio::spawn(async move { this.accept_loop(local, Some(listener)).await });
+        Ok(TcpServer { addr: local, task })
+    }
+
+    async fn accept_loop(self, addr: SocketAddr, mut listener: Option<TcpListener>) {
+        let mut changes = self.inner.changed.subscribe();
+        loop {
+            let (listening, next_change) =
+                self.with(|c| (c.is_listening(), c.next_listen_change()));
+            if !listening {
+                listener = None;
+                match next_change {
+                    Some(t) => tokio::time::sleep_until(self.instant_of(t)).await,
+                    // A session is open: wait until it ends.
+                    None => {
+                        if changes.changed().await.is_err() {
+                            return;
+                        }
+                    }
+                }
+                continue;
+            }
+            let l = match listener.take() {
+                Some(l) => l,
+                None => match TcpListener::bind(addr).await {
+                    Ok(l) => l,
+                    Err(e) => {
+                        tracing::warn!(%addr, error = %e, "cannot listen; retrying");
+                        tokio::time::sleep(Duration::from_millis(100)).await;
+                        continue;
+                    }
+                },
+            };
+            let window_end = next_change.map(|t| self.instant_of(t));
+            tokio::select! {
+                accepted = l.accept() => {
+                    let Ok((stream, peer)) = accepted else { continue };
+                    match self.with(|c| c.try_accept()) {
+                        Ok(id) => {
+                            drop(l);
+                            let _ = stream.set_nodelay(true);
+                            tracing::info!(%peer, session = id.0, "client connected");
+                            self.run_session(id, stream).await;
+                        }
+                        Err(e) => {
+                            tracing::info!(%peer, "{e}");
+                            listener = Some(l);
+                        }
+                    }
+                }
+                _ = sleep_until_opt(window_end) => {
+                    drop(l);
+                }
+            }
+        }
+    }
+
+    /// Runs the communication task's session loop on `stream` until the session ends.
+    pub async fn run_session<S>(&self, id: SessionId, stream: S)
+    where
+        S: AsyncRead + AsyncWrite + Unpin,
+    {
+        let (mut rd, mut wr) = tokio::io::split(stream);
+        let mut changes = self.inner.changed.subscribe();
+        let mut buf = vec![0u8; RECEIVE_BUFFER];
+        loop {
+            let (open, deadline, paused) = self.with(|c| {
+                (
+                    c.is_session_open(id),
+                    c.receive_deadline(),
+                    c.reading_paused_until(),
+                )
+            });
+            let (true, Some(deadline)) = (open, deadline) else {
+                break;
+            };
+            if let Some(until) = paused {
+                tokio::select! {
+                    _ = tokio::time::sleep_until(self.instant_of(until.min(deadline))) => {}
+                    _ = changes.changed() => {}
+                }
+                continue;
+            }
+            let n = tokio::select! {
+                r = rd.read(&mut buf) => r,
+                _ = tokio::time::sleep_until(self.instant_of(deadline)) => continue,
+                _ = changes.changed() => continue,
+            };
+            let n = match n {
+                Ok(0) | Err(_) => {
+                    self.with(|c| c.end_session_of(id, SessionEnd::Disconnected));
+                    break;
+                }
+                Ok(n) => n,
+            };
+            let Ok(handled) = self.with(|c| c.handle_request(id, &buf[..n])) else {
+                break;
+            };
+            let sent = match handled.fault {
+                None => send(&mut wr, &handled.reply).await,
+                Some(ReplyFault::Withhold) => Ok(()),
+                Some(ReplyFault::Delay(d)) => {
+                    tokio::time::sleep(d).await;
+                    send(&mut wr, &handled.reply).await
+                }
+                Some(ReplyFault::Garbage(bytes)) => send(&mut wr, &bytes).await,
+                Some(ReplyFault::Split { parts, gap }) => {
+                    send_split(&mut wr, &handled.reply, parts, gap).await
+                }
+            };
+            if let Err(why) = sent {
+                self.with(|c| c.end_session_of(id, why));
+                break;
+            }
+            if handled.close {
+                break;
+            }
+        }
+        let _ = wr.shutdown().await;
+    }
+}
+
+async fn sleep_until_opt(t: Option<Instant>) {
+    match t {
+        Some(t) => tokio::time::sleep_until(t).await,
+        None => std::future::pending().await,
+    }
+}
+
+async fn send<W: AsyncWrite + Unpin>(wr: &mut W, bytes: &[u8]) -> Result<(), SessionEnd> {
+    match tokio::time::timeout(SEND_TIMEOUT, async {
+        wr.write_all(bytes).await?;
+        wr.flush().await
+    })
+    .await
+    {
+        Ok(Ok(())) => Ok(()),
+        Ok(Err(_)) => Err(SessionEnd::Disconnected),
+        Err(_) => Err(SessionEnd::SendTimeout),
+    }
+}
+
+async fn send_split<W: AsyncWrite + Unpin>(
+    wr: &mut W,
+    bytes: &[u8],
+    parts: usize,
+    gap: Duration,
+) -> Result<(), SessionEnd> {
+    let size = bytes.len().div_ceil(parts.max(1)).max(1);
+    for (k, chunk) in bytes.chunks(size).enumerate() {
+        if k > 0 {
+            tokio::time::sleep(gap).await;
+        }
+        send(wr, chunk).await?;
+    }
+    Ok(())
+}
+
+/// A running TCP robot port. Dropping it does not stop it; call [`TcpServer::stop`].
+#[derive(Debug)]
+pub struct TcpServer {
+    addr: SocketAddr,
+    task: JoinHandle<()>,
+}
+
+impl TcpServer {
+    /// The bound address (useful with port 0).
+    pub fn local_addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// Stops serving (an open session is dropped with the task).
+    pub fn stop(self) {
+        self.task.abort();
+    }
+}
