@@ -97,12 +97,23 @@ impl ReplyDecoder {
     }
 }
 
+/// `true` when a decoding attempt found all 14 fields: either it succeeded or it failed only
+/// on their values (asterisks in a joint, a non-integer in fields 1–7). Such a reply is
+/// complete and must be reported (as an error), not waited on: more bytes cannot repair it.
+fn structurally_complete(result: &Result<Status, DecodeError>) -> bool {
+    matches!(
+        result,
+        Ok(_) | Err(DecodeError::JointOverflow { .. } | DecodeError::NotInteger { .. })
+    )
+}
+
 /// Where the first complete reply in `b` ends (exclusive, including the one blank that ends
 /// it), `None` if it is not complete yet.
 ///
 /// A reply ends at the end of a field (a non-blank followed by a blank, or the end of the
 /// buffer). Each such candidate, in order, is tried with the full tolerant decoder; the first
-/// that decodes is the reply. Errors are reported as soon as they are certain: a byte no reply
+/// that decodes — or holds 14 fields whose values are invalid (asterisks in a joint, a
+/// non-integer in fields 1–7) — is the reply. Errors are reported as soon as they are certain: a byte no reply
 /// contains, one of the six leading fields (always blank-separated) that is not a number, or 14
 /// blank-separated fields that still do not form a reply.
 fn find_reply_end(b: &[u8]) -> Result<Option<usize>, DecodeError> {
@@ -135,11 +146,11 @@ fn find_reply_end(b: &[u8]) -> Result<Option<usize>, DecodeError> {
         let candidate = std::str::from_utf8(&b[..i]).unwrap_or_default();
         // An unterminated last field may go on, unless the fixed 10-character layout says the
         // reply is complete (the controller's format with its final blank still in flight).
-        let complete = if terminated {
-            Status::decode(candidate).is_ok()
+        let complete = structurally_complete(&if terminated {
+            Status::decode(candidate)
         } else {
-            decode_fixed_layout(candidate).is_ok()
-        };
+            decode_fixed_layout(candidate)
+        });
         if tokens + 1 >= 7 && complete {
             return Ok(Some(if terminated { i + 1 } else { i }));
         }

@@ -47,9 +47,10 @@ pub fn as_val(text: &str) -> f64 {
     if end == 0 {
         return 0.0;
     }
-    match s[..end].parse::<f64>() {
-        Ok(v) if v.is_finite() => f64::from(v as f32),
-        // An overflowing exponent: the controller would report an error; 0 is the safe reading.
+    // A number beyond the range of an AS real (a 32-bit float, about ±3.4E38), e.g. an
+    // overflowing exponent: the controller would report an error; 0 is the safe reading.
+    match s[..end].parse::<f64>().map(|v| v as f32) {
+        Ok(v) if v.is_finite() => f64::from(v),
         _ => 0.0,
     }
 }
@@ -194,6 +195,10 @@ mod tests {
         assert_eq!(as_val("3e+"), 3.0);
         assert_eq!(as_val("+4"), 4.0);
         assert_eq!(as_val("1e999"), 0.0);
+        // Finite as a double but beyond an AS real: the same safe reading, never infinity.
+        assert_eq!(as_val("3.5e38"), 0.0);
+        assert_eq!(as_val("-1e39"), 0.0);
+        assert_eq!(as_val("3.4e38"), f64::from(3.4e38f32));
         // AS reals are 32-bit floats.
         assert_eq!(as_val("0.1"), f64::from(0.1f32));
     }
