@@ -1,2 +1,70 @@
+//! `fs020n`: the command-line tool for the Kawasaki FS020N over protocol 1040.
 #![forbid(unsafe_code)]
-fn main() {}
+
+mod args;
+mod error;
+mod offline;
+mod output;
+mod trajectory_file;
+
+use std::process::ExitCode;
+
+use clap::{CommandFactory, Parser};
+use fs020n_kin::RobotModel;
+
+use crate::args::{Cli, Cmd};
+use crate::error::{CliError, CliResult};
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    init_logging(cli.verbose);
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(e.exit as u8)
+        }
+    }
+}
+
+fn init_logging(verbose: u8) {
+    let default = match verbose {
+        0 => "warn",
+        1 => "info",
+        2 => "debug",
+        _ => "trace",
+    };
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .try_init();
+}
+
+fn load_model(cli: &Cli) -> CliResult<RobotModel> {
+    match &cli.model {
+        None => Ok(RobotModel::fs020n()),
+        Some(path) => RobotModel::from_file(path)
+            .map_err(|e| CliError::input(format!("robot model {}: {e}", path.display()))),
+    }
+}
+
+fn run(cli: Cli) -> CliResult {
+    let model = load_model(&cli)?;
+    match &cli.command {
+        Cmd::Decode(args) => offline::decode(args, cli.json),
+        Cmd::Fk { joints } => offline::fk(&model, joints, cli.json),
+        Cmd::Ik { pose, near } => offline::ik(&model, pose, near.as_deref(), cli.json),
+        Cmd::Completions { shell } => {
+            clap_complete::generate(
+                *shell,
+                &mut Cli::command(),
+                "fs020n",
+                &mut std::io::stdout(),
+            );
+            Ok(())
+        }
+        _ => Err(CliError::failure("not implemented yet")),
+    }
+}
