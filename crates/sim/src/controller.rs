@@ -27,6 +27,9 @@ pub struct Timing {
     pub pass: Duration,
     /// Gap between two 3-second listen windows, during which connections are refused.
     pub listen_gap: Duration,
+    /// Length of one listen window (`TCP_ACCEPT` timeout: 3 s). Only tests that must see a
+    /// listen gap over real TCP quickly should shorten it.
+    pub accept_window: Duration,
 }
 
 /// Controller tick: motion is integrated every 2 ms.
@@ -42,6 +45,7 @@ impl Default for Timing {
             tick: TICK,
             pass: PASS_TIME,
             listen_gap: LISTEN_GAP,
+            accept_window: ACCEPT_WINDOW,
         }
     }
 }
@@ -166,6 +170,48 @@ pub struct Counters {
     pub starts_ignored: u64,
 }
 
+/// What one pass of the motion program decided (for observers and tests).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PassInfo {
+    /// Controller time at the start of the pass.
+    #[serde(serialize_with = "ser_duration_s")]
+    pub at: Duration,
+    /// The server clock `tm` the pass used (TIMER(2), seconds since accept, 1 ms resolution).
+    pub tm_s: f64,
+    /// `step` as the pass used it (before this pass updated it), seconds.
+    pub step_s: f64,
+    /// The command number the pass read (0 right after accept).
+    pub command: f64,
+    /// The motion the pass issued, if any.
+    pub motion: Option<PassMotion>,
+}
+
+/// A motion issued by a pass.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PassMotion {
+    /// The target, degrees (for command 7: the extrapolated point `pt`).
+    pub target: JointsDeg,
+    /// JMOVE (`joint`) or LMOVE (`linear`).
+    pub kind: MoveKind,
+    /// For a JMOVE, the effective speed in percent of the joints' maximum speeds; for an
+    /// LMOVE, the planned duration in seconds before stretching to respect joint speeds.
+    pub speed: f64,
+}
+
+/// Interpolation of a motion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MoveKind {
+    /// Joint-interpolated (JMOVE).
+    Joint,
+    /// Straight tool line (LMOVE).
+    Linear,
+}
+
+fn ser_duration_s<S: serde::Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_f64(d.as_secs_f64())
+}
+
 #[derive(Debug, Clone)]
 struct Session {
     id: SessionId,
@@ -206,6 +252,7 @@ pub struct Controller {
     stop_reading_until: Option<Duration>,
     faults: FaultQueue,
     counters: Counters,
+    last_pass: Option<PassInfo>,
 }
 
 fn as_seconds_ms(d: Duration) -> f64 {
@@ -243,6 +290,7 @@ impl Controller {
             stop_reading_until: None,
             faults: FaultQueue::default(),
             counters: Counters::default(),
+            last_pass: None,
         }
     }
 
@@ -364,6 +412,16 @@ impl Controller {
         self.counters
     }
 
+    /// What the latest pass of the motion program decided.
+    pub fn last_pass(&self) -> Option<PassInfo> {
+        self.last_pass
+    }
+
+    /// A serializable picture of the whole state now.
+    pub fn snapshot(&self) -> crate::snapshot::Snapshot {
+        crate::snapshot::Snapshot::of(self)
+    }
+
     /// Reply faults waiting.
     pub fn pending_faults(&self) -> usize {
         self.faults.pending()
@@ -386,11 +444,11 @@ impl Controller {
 
     /// `true` while connections are accepted now.
     pub fn is_listening(&self) -> bool {
-        self.session.is_none() && self.listen_phase() < ACCEPT_WINDOW
+        self.session.is_none() && self.listen_phase() < self.timing.accept_window
     }
 
     fn listen_phase(&self) -> Duration {
-        let cycle = ACCEPT_WINDOW + self.timing.listen_gap;
+        let cycle = self.timing.accept_window + self.timing.listen_gap;
         let since = self.now.saturating_sub(self.listen_since);
         Duration::from_nanos((since.as_nanos() % cycle.as_nanos()) as u64)
     }
@@ -401,10 +459,11 @@ impl Controller {
             return None;
         }
         let phase = self.listen_phase();
-        let rest = if phase < ACCEPT_WINDOW {
-            ACCEPT_WINDOW - phase
+        let window = self.timing.accept_window;
+        let rest = if phase < window {
+            window - phase
         } else {
-            ACCEPT_WINDOW + self.timing.listen_gap - phase
+            window + self.timing.listen_gap - phase
         };
         Some(self.now + rest)
     }
@@ -568,6 +627,24 @@ impl Controller {
             }
             _ => None,
         };
+        self.last_pass = Some(PassInfo {
+            at: t,
+            tm_s: tm,
+            step_s: step,
+            command: newest.as_ref().map_or(0.0, Command::number),
+            motion: motion.map(|(target, kind)| match kind {
+                Kind::Joint(f) => PassMotion {
+                    target,
+                    kind: MoveKind::Joint,
+                    speed: f * 100.0,
+                },
+                Kind::Linear(d) => PassMotion {
+                    target,
+                    kind: MoveKind::Linear,
+                    speed: d,
+                },
+            }),
+        });
         let Some((target, kind)) = motion else {
             self.finish_pass(t, t);
             return;
@@ -633,7 +710,7 @@ impl Controller {
         if self.program.take().is_some() {
             tracing::info!("motion program ros_move ended");
         }
-        self.robot.brake();
+        self.robot.brake(&self.model);
     }
 
     fn raise(&mut self, code: ErrorCode) {
@@ -711,6 +788,7 @@ impl Controller {
         if req.version_matches() {
             self.counters.effective_requests += 1;
             let command = req.command();
+            let previous_was_cancel = matches!(session.ring[session.newest], Command::CancelMotion);
             let slot = (session.newest + 1) % COMMAND_RING_LEN;
             session.ring[slot] = command.clone();
             match command {
@@ -722,8 +800,10 @@ impl Controller {
                     }
                     self.abs_speed = true;
                 }
+                // BRAKE, unless the previous accepted command was also 5.
+                Command::CancelMotion if previous_was_cancel => {}
                 Command::CancelMotion => {
-                    self.robot.brake();
+                    self.robot.brake(&self.model);
                     if let Some(run) = &self.program {
                         if let Some(since) = run.blocked_since {
                             let t = self.tick_time;
@@ -821,6 +901,33 @@ impl Controller {
         Ok(())
     }
 
+    /// Changes several panel switches at once (absent ones stay). Nothing changes when one of
+    /// them is refused (power ON while the emergency stop is pressed).
+    pub fn apply_panel(&mut self, change: PanelChange) -> Result<(), PanelError> {
+        if change.power == Some(true) && self.panel.estop {
+            return Err(PanelError::EstopPressed);
+        }
+        if let Some(on) = change.power {
+            self.set_power(on)?;
+        }
+        if let Some(repeat) = change.repeat {
+            self.set_repeat(repeat);
+        }
+        if let Some(on) = change.teach_lock {
+            self.set_teach_lock(on);
+        }
+        if let Some(run) = change.run {
+            self.set_run(run);
+        }
+        Ok(())
+    }
+
+    /// Drops the reply faults that wait (and a reading pause).
+    pub fn clear_faults(&mut self) {
+        self.faults.clear();
+        self.stop_reading_until = None;
+    }
+
     /// Injects a fault (see [`Fault`]).
     pub fn inject(&mut self, fault: Fault) {
         tracing::info!(?fault, "fault injected");
@@ -839,6 +946,20 @@ impl Controller {
 enum Kind {
     Joint(f64),
     Linear(f64),
+}
+
+/// Panel switches to change at once ([`Controller::apply_panel`]); `None` leaves one as it is.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PanelChange {
+    /// Motor power.
+    pub power: Option<bool>,
+    /// RUN (true) / HOLD (false).
+    pub run: Option<bool>,
+    /// REPEAT (true) / TEACH (false).
+    pub repeat: Option<bool>,
+    /// TEACH LOCK.
+    pub teach_lock: Option<bool>,
 }
 
 /// A pendant operation that the controller refuses.

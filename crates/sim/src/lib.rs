@@ -10,13 +10,19 @@ pub mod controller;
 pub mod fault;
 pub mod motion;
 pub mod panel;
+pub mod pendant;
+pub mod run;
 pub mod server;
+pub mod snapshot;
 
 pub use controller::{
-    Controller, ControllerConfig, Counters, Handled, PanelError, Refused, SessionEnd, SessionGone,
-    SessionId, TaskState, Timing, TICK,
+    Controller, ControllerConfig, Counters, Handled, MoveKind, PanelChange, PanelError, PassInfo,
+    PassMotion, Refused, SessionEnd, SessionGone, SessionId, TaskState, Timing, TICK,
 };
 pub use fault::{Fault, ReplyFault};
 pub use motion::MotionPhase;
 pub use panel::Panel;
+pub use pendant::{pendant_router, serve_pendant, PendantServer};
+pub use run::{run_robot, RunningRobot, SimOptions};
 pub use server::{Emulator, TcpServer};
+pub use snapshot::{CommandInfo, ErrorInfo, LastEnd, SessionInfo, Snapshot, ToolPose};

@@ -144,6 +144,29 @@ struct Brake {
     elapsed: f64,
 }
 
+impl Brake {
+    /// Position of joint `j` after `t` seconds of braking (constant deceleration at the joint's
+    /// maximum acceleration until it stands).
+    fn position(&self, model: &RobotModel, t: f64) -> (JointsDeg, bool) {
+        let mut q = self.from;
+        let mut done = true;
+        for (j, spec) in model.joints.iter().enumerate() {
+            let v = self.velocity[j];
+            let a = spec.max_accel_deg_s2;
+            let t_stop = v.abs() / a;
+            let t = t.min(t_stop);
+            done &= t >= t_stop;
+            q[j] = (self.from[j] + v * t - 0.5 * v.signum() * a * t * t)
+                .clamp(spec.min_deg, spec.max_deg);
+        }
+        (q, done)
+    }
+
+    fn stop_position(&self, model: &RobotModel) -> JointsDeg {
+        self.position(model, f64::INFINITY).0
+    }
+}
+
 /// What the robot is doing, for observers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -290,7 +313,7 @@ impl Robot {
 
     /// BRAKE: stops the motion in progress with each joint decelerating at its maximum
     /// acceleration, and drops the planned one. Braking again while braking changes nothing.
-    pub fn brake(&mut self) {
+    pub fn brake(&mut self, model: &RobotModel) {
         self.planned = None;
         self.active.clear();
         if self.brake.is_none() && self.velocity.iter().any(|v| v != 0.0) {
@@ -300,8 +323,14 @@ impl Robot {
                 elapsed: 0.0,
             });
         }
-        self.anchor = self.joints;
-        self.target = self.joints;
+        // Where the robot comes to rest: the end of the braking curve (inside the ranges). Any
+        // motion planned from now on starts there, and the robot settles there.
+        let rest = match &self.brake {
+            Some(b) => b.stop_position(model),
+            None => self.joints,
+        };
+        self.anchor = rest;
+        self.target = rest;
     }
 
     /// Stops dead (motor power cut): no deceleration.
@@ -326,20 +355,15 @@ impl Robot {
         };
         let desired = if let Some(b) = &mut self.brake {
             b.elapsed += dt;
-            let mut q = b.from;
-            let mut done = true;
-            for (j, spec) in model.joints.iter().enumerate() {
-                let v = b.velocity[j];
-                let a = spec.max_accel_deg_s2;
-                let t_stop = v.abs() / a;
-                let t = b.elapsed.min(t_stop);
-                done &= b.elapsed >= t_stop;
-                q[j] = b.from[j] + v * t - 0.5 * v.signum() * a * t * t;
-            }
+            let (q, done) = b.position(model, b.elapsed);
             if done {
                 self.brake = None;
+                // Exactly the rest position announced by `brake` (no rounding drift).
+                self.anchor = self.target;
+                self.target
+            } else {
+                q
             }
-            q
         } else {
             self.clock += dt * self.hold_scale;
             let clock = self.clock;

@@ -93,6 +93,11 @@ impl Emulator {
         r
     }
 
+    /// A serializable picture of the controller now.
+    pub fn snapshot(&self) -> crate::snapshot::Snapshot {
+        self.with(|c| c.snapshot())
+    }
+
     fn instant_of(&self, t: Duration) -> Instant {
         self.inner.epoch + t
     }

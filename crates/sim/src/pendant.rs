@@ -1,0 +1,325 @@
+//! The pendant API: HTTP + JSON on its own port, to watch the emulated controller and to do
+//! what an operator does at the panel and teach pendant (switches, emergency stop, error reset,
+//! monitor speed) — plus fault injection.
+//!
+//! Every endpoint is documented with curl examples in docs/EMULATOR.md. Errors are JSON
+//! `{ "error": "...", "remedy": "..." }` with a fitting status code.
+//!
+//! Security: bound to a loopback address by default. Bound to any other address it requires a
+//! bearer token (`Authorization: Bearer <token>`) and refuses to start without one; a token given
+//! on loopback is required too.
+
+use std::io;
+use std::net::SocketAddr;
+use std::sync::Arc;
+
+use axum::extract::rejection::JsonRejection;
+use axum::extract::{Request, State};
+use axum::http::{header, StatusCode};
+use axum::middleware::{self, Next};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{get, post};
+use axum::{Json, Router};
+use fs020n_proto::ErrorCode;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use tokio::task::JoinHandle;
+
+use crate::controller::{PanelChange, PanelError};
+use crate::fault::Fault;
+use crate::server::Emulator;
+use crate::snapshot::Snapshot;
+
+/// An API error: HTTP status, what went wrong, and what to do about it.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct ApiError {
+    /// HTTP status.
+    #[serde(skip)]
+    pub status: StatusCode,
+    /// What went wrong.
+    pub error: String,
+    /// How to fix it.
+    pub remedy: String,
+}
+
+impl ApiError {
+    fn new(status: StatusCode, error: impl Into<String>, remedy: impl Into<String>) -> ApiError {
+        ApiError {
+            status,
+            error: error.into(),
+            remedy: remedy.into(),
+        }
+    }
+}
+
+impl IntoResponse for ApiError {
+    fn into_response(self) -> Response {
+        (self.status, Json(&self)).into_response()
+    }
+}
+
+impl From<PanelError> for ApiError {
+    fn from(e: PanelError) -> ApiError {
+        match e {
+            PanelError::EstopPressed => ApiError::new(
+                StatusCode::CONFLICT,
+                e.to_string(),
+                "release the emergency stop first: POST /estop/release",
+            ),
+            PanelError::Speed(_) => ApiError::new(
+                StatusCode::UNPROCESSABLE_ENTITY,
+                e.to_string(),
+                "send a monitor speed greater than 0 and at most 100, e.g. {\"percent\": 10}",
+            ),
+        }
+    }
+}
+
+fn bad_json(rejection: JsonRejection, example: &str) -> ApiError {
+    ApiError::new(
+        rejection.status(),
+        format!("bad request body: {}", rejection.body_text()),
+        format!("send a JSON body with Content-Type: application/json, e.g. {example}"),
+    )
+}
+
+#[derive(Clone)]
+struct AppState {
+    emulator: Emulator,
+    token: Option<Arc<str>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SpeedBody {
+    percent: f64,
+}
+
+/// The pendant API as an axum router (for embedding it in another server). `token`, when
+/// given, is required on every request.
+pub fn pendant_router(emulator: Emulator, token: Option<String>) -> Router {
+    let state = AppState {
+        emulator,
+        token: token.map(Arc::from),
+    };
+    Router::new()
+        .route("/", get(index))
+        .route("/state", get(state_handler))
+        .route("/model", get(model))
+        .route("/panel", get(panel_get).post(panel_post))
+        .route("/estop/press", post(estop_press))
+        .route("/estop/release", post(estop_release))
+        .route("/reset", post(reset))
+        .route("/speed", post(speed))
+        .route("/faults", post(faults_post).delete(faults_delete))
+        .fallback(not_found)
+        .method_not_allowed_fallback(method_not_allowed)
+        .layer(middleware::from_fn_with_state(state.clone(), auth))
+        .with_state(state)
+}
+
+async fn auth(State(st): State<AppState>, req: Request, next: Next) -> Response {
+    if let Some(token) = &st.token {
+        let given = req
+            .headers()
+            .get(header::AUTHORIZATION)
+            .and_then(|v| v.to_str().ok())
+            .and_then(|v| v.strip_prefix("Bearer "));
+        let ok = given.is_some_and(|g| constant_time_eq(g.as_bytes(), token.as_bytes()));
+        if !ok {
+            let mut r = ApiError::new(
+                StatusCode::UNAUTHORIZED,
+                if given.is_some() {
+                    "wrong pendant token"
+                } else {
+                    "this pendant API requires a token"
+                },
+                "send the header `Authorization: Bearer <token>` with the token the emulator was started with",
+            )
+            .into_response();
+            r.headers_mut()
+                .insert(header::WWW_AUTHENTICATE, "Bearer".parse().expect("valid"));
+            return r;
+        }
+    }
+    next.run(req).await
+}
+
+fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
+    if a.len() != b.len() {
+        return false;
+    }
+    a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
+}
+
+async fn index() -> Json<Value> {
+    Json(serde_json::json!({
+        "service": "fs020n emulator pendant API",
+        "endpoints": [
+            "GET /state", "GET /model", "GET /panel", "POST /panel",
+            "POST /estop/press", "POST /estop/release", "POST /reset", "POST /speed",
+            "POST /faults", "DELETE /faults"
+        ],
+        "docs": "docs/EMULATOR.md"
+    }))
+}
+
+async fn not_found(uri: axum::http::Uri) -> ApiError {
+    ApiError::new(
+        StatusCode::NOT_FOUND,
+        format!("no such endpoint: {}", uri.path()),
+        "GET / lists the endpoints; docs/EMULATOR.md describes them",
+    )
+}
+
+async fn method_not_allowed(method: axum::http::Method, uri: axum::http::Uri) -> ApiError {
+    ApiError::new(
+        StatusCode::METHOD_NOT_ALLOWED,
+        format!("{method} is not allowed on {}", uri.path()),
+        "GET / lists the endpoints with their methods",
+    )
+}
+
+async fn state_handler(State(st): State<AppState>) -> Json<Snapshot> {
+    Json(st.emulator.snapshot())
+}
+
+async fn model(State(st): State<AppState>) -> Json<Value> {
+    let v = st
+        .emulator
+        .with(|c| serde_json::to_value(c.model()).unwrap_or(Value::Null));
+    Json(v)
+}
+
+async fn panel_get(State(st): State<AppState>) -> Json<Value> {
+    Json(st.emulator.with(|c| serde_json::json!(c.panel())))
+}
+
+async fn panel_post(
+    State(st): State<AppState>,
+    body: Result<Json<PanelChange>, JsonRejection>,
+) -> Result<Json<Snapshot>, ApiError> {
+    let Json(change) =
+        body.map_err(|e| bad_json(e, r#"{"run": false} or {"power": true, "repeat": true}"#))?;
+    st.emulator.with(|c| c.apply_panel(change))?;
+    Ok(Json(st.emulator.snapshot()))
+}
+
+async fn estop_press(State(st): State<AppState>) -> Json<Snapshot> {
+    st.emulator.with(|c| c.press_estop());
+    Json(st.emulator.snapshot())
+}
+
+async fn estop_release(State(st): State<AppState>) -> Json<Snapshot> {
+    st.emulator.with(|c| c.release_estop());
+    Json(st.emulator.snapshot())
+}
+
+async fn reset(State(st): State<AppState>) -> Result<Json<Snapshot>, ApiError> {
+    st.emulator.with(|c| c.reset_error())?;
+    Ok(Json(st.emulator.snapshot()))
+}
+
+async fn speed(
+    State(st): State<AppState>,
+    body: Result<Json<SpeedBody>, JsonRejection>,
+) -> Result<Json<Snapshot>, ApiError> {
+    let Json(b) = body.map_err(|e| bad_json(e, r#"{"percent": 50}"#))?;
+    st.emulator.with(|c| c.set_monitor_speed(b.percent))?;
+    Ok(Json(st.emulator.snapshot()))
+}
+
+/// Parses a fault, also accepting an error name (`"E1088"`) for `raise_error`'s code.
+pub fn parse_fault(mut v: Value) -> Result<Fault, String> {
+    if let Some(code) = v.get_mut("code") {
+        if let Some(name) = code.as_str() {
+            let parsed: ErrorCode = name.parse().map_err(|e| format!("{e}"))?;
+            *code = Value::from(parsed.raw());
+        }
+    }
+    serde_json::from_value(v).map_err(|e| e.to_string())
+}
+
+async fn faults_post(
+    State(st): State<AppState>,
+    body: Result<Json<Value>, JsonRejection>,
+) -> Result<Json<Snapshot>, ApiError> {
+    const EXAMPLE: &str = r#"{"kind": "delay_replies", "count": 3, "delay_ms": 1500}"#;
+    let Json(v) = body.map_err(|e| bad_json(e, EXAMPLE))?;
+    let fault = parse_fault(v).map_err(|e| {
+        ApiError::new(
+            StatusCode::UNPROCESSABLE_ENTITY,
+            format!("not a fault: {e}"),
+            format!(
+                "kinds: delay_replies {{count, delay_ms}}, withhold_replies {{count}}, garbage_reply {{text}}, \
+                 split_reply {{parts, gap_ms}}, close_connection, stop_reading {{duration_ms}}, \
+                 raise_error {{code: \"E1130\" or -31130}}; e.g. {EXAMPLE}"
+            ),
+        )
+    })?;
+    if let Fault::RaiseError { code } = fault {
+        if code.is_none() {
+            return Err(ApiError::new(
+                StatusCode::UNPROCESSABLE_ENTITY,
+                "raise_error needs a non-zero code",
+                "give a code such as \"E1130\" (or -31130); to clear an error use POST /reset",
+            ));
+        }
+    }
+    st.emulator.with(|c| c.inject(fault));
+    Ok(Json(st.emulator.snapshot()))
+}
+
+async fn faults_delete(State(st): State<AppState>) -> Json<Snapshot> {
+    st.emulator.with(|c| c.clear_faults());
+    Json(st.emulator.snapshot())
+}
+
+/// A running pendant API server. Dropping it does not stop it; call [`PendantServer::stop`].
+#[derive(Debug)]
+pub struct PendantServer {
+    addr: SocketAddr,
+    task: JoinHandle<()>,
+}
+
+impl PendantServer {
+    /// The bound address (useful with port 0).
+    pub fn local_addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// Stops serving.
+    pub fn stop(self) {
+        self.task.abort();
+    }
+}
+
+/// Serves the pendant API of `emulator` on `addr`. Off loopback a `token` is mandatory
+/// (`InvalidInput` otherwise); with a token every request must carry
+/// `Authorization: Bearer <token>`.
+pub async fn serve_pendant(
+    emulator: Emulator,
+    addr: SocketAddr,
+    token: Option<String>,
+) -> io::Result<PendantServer> {
+    let token = token.filter(|t| !t.is_empty());
+    if !addr.ip().is_loopback() && token.is_none() {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!(
+                "refusing to serve the pendant API on {addr} without a token: it can move the \
+                 panel switches and inject faults; bind it to 127.0.0.1 or give a token"
+            ),
+        ));
+    }
+    let listener = tokio::net::TcpListener::bind(addr).await?;
+    let local = listener.local_addr()?;
+    let app = pendant_router(emulator, token);
+    tracing::info!(addr = %local, "pendant API listening");
+    let task = tokio::spawn(async move {
+        if let Err(e) = axum::serve(listener, app).await {
+            tracing::warn!(error = %e, "pendant API stopped");
+        }
+    });
+    Ok(PendantServer { addr: local, task })
+}

@@ -1,0 +1,227 @@
+//! Starting a whole emulated robot (robot port + optional pendant API) from options a command
+//! line maps to. Several robots in one process: several [`run_robot`] calls with different ports.
+
+use std::io;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+
+use fs020n_kin::RobotModel;
+use fs020n_proto::session::DEFAULT_PORT;
+use fs020n_proto::{ErrorCode, JointsDeg};
+
+use crate::controller::ControllerConfig;
+use crate::panel::Panel;
+use crate::pendant::{serve_pendant, PendantServer};
+use crate::server::{Emulator, TcpServer};
+
+/// Everything needed to start one emulated robot. `SimOptions::default()` is a ready-to-run
+/// FS020N on `127.0.0.1:10050`, monitor speed from the model (10 %), at the model's home pose,
+/// no pendant API.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimOptions {
+    /// Robot (protocol) port address. Default `127.0.0.1:10050`; port 0 picks a free one.
+    pub listen: SocketAddr,
+    /// Pendant API address (`None`: no pendant API).
+    pub pendant: Option<SocketAddr>,
+    /// Bearer token of the pendant API (mandatory when it is bound off loopback).
+    pub pendant_token: Option<String>,
+    /// Robot-model file (TOML, see fs020n-kin); `None`: the built-in FS020N model.
+    pub model_file: Option<PathBuf>,
+    /// A model given directly (takes precedence over `model_file`).
+    pub model: Option<RobotModel>,
+    /// Initial panel switches.
+    pub panel: Panel,
+    /// Initial monitor speed, percent (`None`: the model's default).
+    pub monitor_speed_percent: Option<f64>,
+    /// Initial joints, degrees (`None`: the model's home pose).
+    pub joints: Option<JointsDeg>,
+    /// Initial error (default none).
+    pub error: ErrorCode,
+}
+
+impl Default for SimOptions {
+    fn default() -> Self {
+        SimOptions {
+            listen: SocketAddr::from(([127, 0, 0, 1], DEFAULT_PORT)),
+            pendant: None,
+            pendant_token: None,
+            model_file: None,
+            model: None,
+            panel: Panel::default(),
+            monitor_speed_percent: None,
+            joints: None,
+            error: ErrorCode::NONE,
+        }
+    }
+}
+
+impl SimOptions {
+    /// Sets the robot port address.
+    pub fn listen(mut self, addr: SocketAddr) -> Self {
+        self.listen = addr;
+        self
+    }
+
+    /// Serves the pendant API on `addr`.
+    pub fn pendant(mut self, addr: SocketAddr) -> Self {
+        self.pendant = Some(addr);
+        self
+    }
+
+    /// Sets the pendant API token.
+    pub fn pendant_token(mut self, token: impl Into<String>) -> Self {
+        self.pendant_token = Some(token.into());
+        self
+    }
+
+    /// Loads the robot model from this file.
+    pub fn model_file(mut self, path: impl Into<PathBuf>) -> Self {
+        self.model_file = Some(path.into());
+        self
+    }
+
+    /// Sets the initial panel.
+    pub fn panel(mut self, panel: Panel) -> Self {
+        self.panel = panel;
+        self
+    }
+
+    /// Sets the initial monitor speed, percent.
+    pub fn monitor_speed(mut self, percent: f64) -> Self {
+        self.monitor_speed_percent = Some(percent);
+        self
+    }
+
+    /// Sets the initial joints, degrees.
+    pub fn joints(mut self, joints: JointsDeg) -> Self {
+        self.joints = Some(joints);
+        self
+    }
+
+    /// Sets the initial error.
+    pub fn error(mut self, error: ErrorCode) -> Self {
+        self.error = error;
+        self
+    }
+
+    /// The controller configuration these options describe: loads the model file and checks
+    /// the initial monitor speed (0 < % ≤ 100) and joints (finite, inside the joint ranges).
+    /// Errors are `InvalidInput`/`InvalidData`/`NotFound` with a message saying what to fix.
+    pub fn controller_config(&self) -> io::Result<ControllerConfig> {
+        let model = match (&self.model, &self.model_file) {
+            (Some(m), _) => m.clone(),
+            (None, Some(path)) => RobotModel::from_file(path).map_err(|e| {
+                let kind = if path.exists() {
+                    io::ErrorKind::InvalidData
+                } else {
+                    io::ErrorKind::NotFound
+                };
+                io::Error::new(kind, format!("robot model {}: {e}", path.display()))
+            })?,
+            (None, None) => RobotModel::fs020n(),
+        };
+        let mut config = ControllerConfig::new(model);
+        config.panel = self.panel;
+        config.error = self.error;
+        if let Some(p) = self.monitor_speed_percent {
+            if !(p.is_finite() && p > 0.0 && p <= 100.0) {
+                return Err(io::Error::new(
+                    io::ErrorKind::InvalidInput,
+                    format!("monitor speed {p} % is outside 0 < speed <= 100"),
+                ));
+            }
+            config.monitor_speed_percent = p;
+        }
+        if let Some(j) = self.joints {
+            if !j.is_finite() {
+                return Err(io::Error::new(
+                    io::ErrorKind::InvalidInput,
+                    format!("initial joints {j} are not all finite numbers"),
+                ));
+            }
+            config.model.check_limits(&j).map_err(|e| {
+                io::Error::new(
+                    io::ErrorKind::InvalidInput,
+                    format!("initial joints {j}: {e}"),
+                )
+            })?;
+            config.joints = j;
+        }
+        Ok(config)
+    }
+}
+
+/// One running emulated robot: its emulator, robot port and (optional) pendant API.
+#[derive(Debug)]
+pub struct RunningRobot {
+    emulator: Emulator,
+    robot: TcpServer,
+    pendant: Option<PendantServer>,
+}
+
+impl RunningRobot {
+    /// The emulator (observe it, operate the pendant, inject faults).
+    pub fn emulator(&self) -> &Emulator {
+        &self.emulator
+    }
+
+    /// The bound robot (protocol) port address.
+    pub fn robot_addr(&self) -> SocketAddr {
+        self.robot.local_addr()
+    }
+
+    /// The bound pendant API address, if served.
+    pub fn pendant_addr(&self) -> Option<SocketAddr> {
+        self.pendant.as_ref().map(PendantServer::local_addr)
+    }
+
+    /// Stops both servers (an open session is dropped).
+    pub fn stop(self) {
+        self.robot.stop();
+        if let Some(p) = self.pendant {
+            p.stop();
+        }
+    }
+}
+
+/// Starts one emulated robot: checks the options, binds the robot port (listening in 3-second
+/// windows as the controller does) and, if asked, the pendant API. Must run inside a tokio
+/// runtime; the servers run until [`RunningRobot::stop`].
+pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
+    let config = opts.controller_config()?;
+    if let Some(addr) = opts.pendant {
+        if !addr.ip().is_loopback() && opts.pendant_token.as_deref().unwrap_or("").is_empty() {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                format!("the pendant API on {addr} (off loopback) needs a token"),
+            ));
+        }
+    }
+    let emulator = Emulator::new(config);
+    let robot = emulator.serve_tcp(opts.listen).await.map_err(|e| {
+        io::Error::new(
+            e.kind(),
+            format!("cannot listen on robot port {}: {e}", opts.listen),
+        )
+    })?;
+    let pendant = match opts.pendant {
+        Some(addr) => match serve_pendant(emulator.clone(), addr, opts.pendant_token.clone()).await
+        {
+            Ok(p) => Some(p),
+            Err(e) => {
+                robot.stop();
+                return Err(io::Error::new(
+                    e.kind(),
+                    format!("cannot serve the pendant API on {addr}: {e}"),
+                ));
+            }
+        },
+        None => None,
+    };
+    tracing::info!(robot = %robot.local_addr(), pendant = ?pendant.as_ref().map(|p| p.local_addr()), "emulated robot running");
+    Ok(RunningRobot {
+        emulator,
+        robot,
+        pendant,
+    })
+}
