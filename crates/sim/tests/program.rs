@@ -1,6 +1,8 @@
 //! The motion program `ros_move`, the panel and the controller's motion behaviour (spec §2.1,
 //! §2.2, §2.4, §4) on the deterministic core, virtual time.
 
+#![allow(clippy::field_reassign_with_default)]
+
 mod common;
 
 use std::time::Duration;
@@ -386,10 +388,10 @@ fn command_7_extrapolates_exactly_as_the_formula_says() {
         if c.counters().passes > before {
             let pass = c.last_pass().unwrap();
             assert_eq!(pass.command, 7.0);
+            let ms_count = pass.tm_s * 1000.0;
             assert!(
-                (pass.tm_s * 1000.0).fract() == 0.0
-                    || (pass.tm_s * 1000.0).fract() > 0.999
-                    || (pass.tm_s * 1000.0).fract() < 1e-6
+                (ms_count - ms_count.round()).abs() < 1e-6,
+                "TIMER: 1 ms resolution"
             );
             // the sample as the controller parsed it (3 decimals on the wire, AS reals)
             let Some(Command::StreamedMove(parsed)) = c.newest_command().cloned() else {
@@ -411,8 +413,7 @@ fn command_7_extrapolates_exactly_as_the_formula_says() {
     assert!(checked > 20, "checked {checked} passes");
     // step starts at 0 and follows 0.9 step + 0.1 duration: it grows towards the pass duration
     assert_eq!(steps[0], 0.0);
-    assert!(steps.windows(2).all(|w| w[1] >= w[0] - 1e-12) || c.step_s() > 0.009);
-    assert!(c.step_s() >= 0.01 * (1.0 - 0.9f64.powi(checked as i32)) - 1e-9);
+    assert!(c.step_s() >= 0.01 * (1.0 - 0.9f64.powi(checked)) - 1e-9);
     assert!(c.error().is_none());
 }
 

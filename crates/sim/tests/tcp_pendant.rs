@@ -1,0 +1,385 @@
+//! End-to-end over real loopback TCP: the robot port (listen windows, one client, 255) and the
+//! pendant HTTP API, and `run_robot`. Fast: no test waits for a 3-second window in real time.
+
+use std::net::SocketAddr;
+use std::time::Duration;
+
+use fs020n_proto::{ReplyDecoder, Status};
+use fs020n_sim::controller::Timing;
+use fs020n_sim::{
+    run_robot, serve_pendant, ControllerConfig, Emulator, Panel, SimOptions, TaskState,
+};
+use serde_json::Value;
+use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
+use tokio::net::TcpStream;
+
+async fn roundtrip<S: AsyncRead + AsyncWrite + Unpin>(s: &mut S, req: &str) -> Status {
+    s.write_all(req.as_bytes()).await.unwrap();
+    let mut d = ReplyDecoder::new();
+    let mut buf = [0u8; 256];
+    loop {
+        let n = s.read(&mut buf).await.unwrap();
+        assert!(n > 0, "eof");
+        d.push(&buf[..n]).unwrap();
+        if let Some(f) = d.next_reply().unwrap() {
+            return f.status;
+        }
+    }
+}
+
+/// A minimal HTTP/1.1 client: returns (status, JSON body).
+async fn http(
+    addr: SocketAddr,
+    method: &str,
+    path: &str,
+    body: Option<&str>,
+    token: Option<&str>,
+) -> (u16, Value) {
+    let mut s = TcpStream::connect(addr).await.unwrap();
+    let mut req = format!("{method} {path} HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n");
+    if let Some(t) = token {
+        req.push_str(&format!("Authorization: Bearer {t}\r\n"));
+    }
+    if let Some(b) = body {
+        req.push_str(&format!(
+            "Content-Type: application/json\r\nContent-Length: {}\r\n\r\n{b}",
+            b.len()
+        ));
+    } else {
+        req.push_str("Content-Length: 0\r\n\r\n");
+    }
+    s.write_all(req.as_bytes()).await.unwrap();
+    let mut out = Vec::new();
+    s.read_to_end(&mut out).await.unwrap();
+    let text = String::from_utf8(out).unwrap();
+    let status: u16 = text[9..12].parse().unwrap();
+    let (head, body) = text.split_once("\r\n\r\n").unwrap();
+    let body = if head
+        .to_ascii_lowercase()
+        .contains("transfer-encoding: chunked")
+    {
+        dechunk(body)
+    } else {
+        body.to_owned()
+    };
+    let v = if body.is_empty() {
+        Value::Null
+    } else {
+        serde_json::from_str(&body).unwrap()
+    };
+    (status, v)
+}
+
+fn dechunk(mut s: &str) -> String {
+    let mut out = String::new();
+    loop {
+        let (len, rest) = s.split_once("\r\n").unwrap();
+        let n = usize::from_str_radix(len.trim(), 16).unwrap();
+        if n == 0 {
+            return out;
+        }
+        out.push_str(&rest[..n]);
+        s = &rest[n + 2..];
+    }
+}
+
+fn local() -> SocketAddr {
+    "127.0.0.1:0".parse().unwrap()
+}
+
+#[tokio::test]
+async fn tcp_session_one_client_255_and_relisten() {
+    let emu = Emulator::new(ControllerConfig::default());
+    let server = emu.serve_tcp(local()).await.unwrap();
+    let mut s = TcpStream::connect(server.local_addr()).await.unwrap();
+    s.set_nodelay(true).unwrap();
+    let st = roundtrip(&mut s, "1040 1 0").await;
+    assert!(st.task_running);
+    // one client: the port does not even listen during a session
+    tokio::time::sleep(Duration::from_millis(20)).await;
+    assert!(TcpStream::connect(server.local_addr()).await.is_err());
+    let st = roundtrip(&mut s, "1040 6 9 0 0 0 5 0 -90 0 -90 0").await;
+    assert_eq!(st.version, 1040);
+    let st = roundtrip(&mut s, "1040 255 0").await;
+    assert!(st.task_running, "reply to 255 is still sent");
+    let mut buf = [0u8; 16];
+    assert_eq!(s.read(&mut buf).await.unwrap(), 0, "then the socket closes");
+    assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
+    let mut again = None;
+    for _ in 0..100 {
+        if let Ok(c) = TcpStream::connect(server.local_addr()).await {
+            again = Some(c);
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+    let mut s2 = again.expect("listening again");
+    let st = roundtrip(&mut s2, "0 0 0").await;
+    assert!(st.timer.seconds().unwrap() < 0.5);
+    server.stop();
+}
+
+#[tokio::test]
+async fn tcp_listen_gap_refuses_connections() {
+    // Shortened windows (a test-only knob) to see a gap over real TCP quickly.
+    let cfg = ControllerConfig {
+        timing: Timing {
+            accept_window: Duration::from_millis(150),
+            listen_gap: Duration::from_millis(300),
+            ..Timing::default()
+        },
+        ..ControllerConfig::default()
+    };
+    let emu = Emulator::new(cfg);
+    let server = emu.serve_tcp(local()).await.unwrap();
+    // wait for the gap, and a little more for the accept loop to close the port
+    let mut waited = 0;
+    while emu.with(|c| c.is_listening()) {
+        tokio::time::sleep(Duration::from_millis(5)).await;
+        waited += 1;
+        assert!(waited < 200);
+    }
+    tokio::time::sleep(Duration::from_millis(50)).await;
+    assert!(!emu.with(|c| c.is_listening()));
+    let refused = TcpStream::connect(server.local_addr()).await;
+    assert!(refused.is_err(), "refused during the gap");
+    // a client that retries gets in with the next window
+    let mut ok = None;
+    for _ in 0..200 {
+        if let Ok(s) = TcpStream::connect(server.local_addr()).await {
+            ok = Some(s);
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    let mut s = ok.expect("connected in the next window");
+    roundtrip(&mut s, "0 0 0").await;
+    assert!(emu.with(|c| c.counters().sessions) == 1);
+    server.stop();
+}
+
+#[tokio::test]
+async fn pendant_api_end_to_end() {
+    let emu = Emulator::new(ControllerConfig::default());
+    let robot = emu.serve_tcp(local()).await.unwrap();
+    let pendant = serve_pendant(emu.clone(), local(), None).await.unwrap();
+    let p = pendant.local_addr();
+    let mut s = TcpStream::connect(robot.local_addr()).await.unwrap();
+    roundtrip(&mut s, "1040 1 0").await;
+
+    let (code, v) = http(p, "GET", "/state", None, None).await;
+    assert_eq!(code, 200);
+    assert_eq!(v["panel"]["power"], true);
+    assert_eq!(v["task"], "running");
+    assert_eq!(v["monitor_speed_percent"], 10.0);
+    assert_eq!(v["session"]["open"], true);
+    assert_eq!(v["session"]["newest_command"]["number"], 1.0);
+    assert_eq!(v["session"]["newest_index"], 1);
+    assert_eq!(v["error"]["code"], 0);
+    assert_eq!(v["joints_deg"][2], -90.0);
+    assert!((v["tool"]["x_mm"].as_f64().unwrap() - 850.0).abs() < 1e-6);
+    assert!((v["tool"]["z_mm"].as_f64().unwrap() - 1153.5).abs() < 1e-6);
+    assert!((v["tool"]["a_deg"].as_f64().unwrap() - 180.0).abs() < 1e-6);
+    assert_eq!(v["motion"], "idle");
+
+    let (code, v) = http(p, "GET", "/model", None, None).await;
+    assert_eq!(code, 200);
+    assert_eq!(v["joints"][0]["max_deg"], 160.0);
+
+    // HOLD from the pendant shows in the protocol reply
+    let (code, v) = http(p, "POST", "/panel", Some(r#"{"run": false}"#), None).await;
+    assert_eq!(code, 200);
+    assert_eq!(v["task"], "paused");
+    let st = roundtrip(&mut s, "0 0 0").await;
+    assert!(!st.run && !st.task_running);
+    http(p, "POST", "/panel", Some(r#"{"run": true}"#), None).await;
+
+    let (code, v) = http(p, "POST", "/speed", Some(r#"{"percent": 55}"#), None).await;
+    assert_eq!(code, 200);
+    assert_eq!(v["monitor_speed_percent"], 55.0);
+    let (code, v) = http(p, "POST", "/speed", Some(r#"{"percent": 0}"#), None).await;
+    assert_eq!(code, 422);
+    assert!(v["error"].as_str().unwrap().contains("monitor speed"));
+    assert!(v["remedy"].is_string());
+
+    // e-stop: power cut, E3808; power on and reset refused while pressed
+    let (_, v) = http(p, "POST", "/estop/press", None, None).await;
+    assert_eq!(v["error"]["name"], "E3808");
+    assert_eq!(v["panel"]["power"], false);
+    assert_eq!(v["task"], "not_running");
+    let (code, v) = http(p, "POST", "/panel", Some(r#"{"power": true}"#), None).await;
+    assert_eq!(code, 409);
+    assert!(v["remedy"].as_str().unwrap().contains("/estop/release"));
+    let (code, _) = http(p, "POST", "/reset", None, None).await;
+    assert_eq!(code, 409);
+    http(p, "POST", "/estop/release", None, None).await;
+    let (code, v) = http(p, "POST", "/reset", None, None).await;
+    assert_eq!(code, 200);
+    assert_eq!(v["error"]["code"], 0);
+    let (_, v) = http(p, "POST", "/panel", Some(r#"{"power": true}"#), None).await;
+    assert_eq!(v["panel"]["power"], true);
+    let st = roundtrip(&mut s, "0 0 0").await;
+    assert!(st.power && st.error.is_none());
+
+    // faults: by name, and JSON errors
+    let (code, v) = http(
+        p,
+        "POST",
+        "/faults",
+        Some(r#"{"kind": "raise_error", "code": "E1130"}"#),
+        None,
+    )
+    .await;
+    assert_eq!(code, 200);
+    assert_eq!(v["error"]["code"], -31130);
+    http(p, "POST", "/reset", None, None).await;
+    let (code, v) = http(
+        p,
+        "POST",
+        "/faults",
+        Some(r#"{"kind": "garbage_reply", "text": "xx"}"#),
+        None,
+    )
+    .await;
+    assert_eq!(code, 200);
+    assert_eq!(v["pending_faults"], 1);
+    let (_, v) = http(p, "DELETE", "/faults", None, None).await;
+    assert_eq!(v["pending_faults"], 0);
+    let (code, v) = http(p, "POST", "/faults", Some(r#"{"kind": "explode"}"#), None).await;
+    assert_eq!(code, 422);
+    assert!(v["remedy"].as_str().unwrap().contains("delay_replies"));
+    let (code, v) = http(p, "POST", "/faults", Some("{not json"), None).await;
+    assert_eq!(code, 400);
+    assert!(v["error"].is_string());
+    let (code, v) = http(p, "POST", "/panel", Some(r#"{"runn": true}"#), None).await;
+    assert_eq!(code, 422, "unknown switch: {v}");
+    let (code, v) = http(p, "GET", "/nope", None, None).await;
+    assert_eq!(code, 404);
+    assert!(v["remedy"].is_string());
+    let (code, v) = http(p, "DELETE", "/state", None, None).await;
+    assert_eq!(code, 405);
+    assert!(v["error"].is_string());
+    let (code, v) = http(
+        p,
+        "POST",
+        "/faults",
+        Some(r#"{"kind": "close_connection"}"#),
+        None,
+    )
+    .await;
+    assert_eq!(code, 200);
+    assert_eq!(v["session"]["last_end"]["reason"], "fault");
+    let mut buf = [0u8; 8];
+    assert_eq!(s.read(&mut buf).await.unwrap(), 0);
+    pendant.stop();
+    robot.stop();
+}
+
+#[tokio::test]
+async fn pendant_token_rules() {
+    let emu = Emulator::new(ControllerConfig::default());
+    let e = serve_pendant(emu.clone(), "0.0.0.0:0".parse().unwrap(), None)
+        .await
+        .unwrap_err();
+    assert_eq!(e.kind(), std::io::ErrorKind::InvalidInput);
+    let e = serve_pendant(
+        emu.clone(),
+        "0.0.0.0:0".parse().unwrap(),
+        Some(String::new()),
+    )
+    .await
+    .unwrap_err();
+    assert_eq!(
+        e.kind(),
+        std::io::ErrorKind::InvalidInput,
+        "an empty token is no token"
+    );
+    // off loopback with a token (we talk to it through loopback)
+    let server = serve_pendant(
+        emu.clone(),
+        "0.0.0.0:0".parse().unwrap(),
+        Some("s3cret".into()),
+    )
+    .await
+    .unwrap();
+    let addr = SocketAddr::from(([127, 0, 0, 1], server.local_addr().port()));
+    let (code, v) = http(addr, "GET", "/state", None, None).await;
+    assert_eq!(code, 401);
+    assert!(v["remedy"]
+        .as_str()
+        .unwrap()
+        .contains("Authorization: Bearer"));
+    let (code, _) = http(addr, "GET", "/state", None, Some("wrong")).await;
+    assert_eq!(code, 401);
+    let (code, v) = http(addr, "GET", "/state", None, Some("s3cret")).await;
+    assert_eq!(code, 200);
+    assert_eq!(v["task"], "not_running");
+    server.stop();
+}
+
+#[tokio::test]
+async fn run_robot_starts_both_servers_and_several_robots_coexist() {
+    let a = run_robot(
+        SimOptions::default()
+            .listen(local())
+            .pendant(local())
+            .monitor_speed(40.0)
+            .panel(Panel {
+                teach_lock: true,
+                ..Panel::default()
+            }),
+    )
+    .await
+    .unwrap();
+    let b = run_robot(SimOptions::default().listen(local()))
+        .await
+        .unwrap();
+    assert_ne!(a.robot_addr(), b.robot_addr());
+    assert!(b.pendant_addr().is_none());
+    let mut sa = TcpStream::connect(a.robot_addr()).await.unwrap();
+    let mut sb = TcpStream::connect(b.robot_addr()).await.unwrap();
+    let st = roundtrip(&mut sa, "1040 1 0").await;
+    assert!(
+        st.teach_lock && !st.task_running,
+        "lock ON: command 1 ignored"
+    );
+    let st = roundtrip(&mut sb, "1040 1 0").await;
+    assert!(!st.teach_lock && st.task_running);
+    let (code, v) = http(a.pendant_addr().unwrap(), "GET", "/state", None, None).await;
+    assert_eq!(code, 200);
+    assert_eq!(v["monitor_speed_percent"], 40.0);
+    assert_eq!(a.emulator().snapshot().monitor_speed_percent, 40.0);
+    a.stop();
+    b.stop();
+    // bad options are refused with a message
+    let e = run_robot(SimOptions::default().listen(local()).monitor_speed(0.0))
+        .await
+        .unwrap_err();
+    assert!(e.to_string().contains("monitor speed"));
+    let e = run_robot(
+        SimOptions::default()
+            .listen(local())
+            .joints(fs020n_proto::JointsDeg::new([
+                0.0, 0.0, -90.0, 0.0, -170.0, 0.0,
+            ])),
+    )
+    .await
+    .unwrap_err();
+    assert!(e.to_string().contains("JT5"), "{e}");
+    let e = run_robot(
+        SimOptions::default()
+            .listen(local())
+            .model_file("/nonexistent/model.toml"),
+    )
+    .await
+    .unwrap_err();
+    assert_eq!(e.kind(), std::io::ErrorKind::NotFound);
+    let e = run_robot(
+        SimOptions::default()
+            .listen(local())
+            .pendant("0.0.0.0:0".parse().unwrap()),
+    )
+    .await
+    .unwrap_err();
+    assert!(e.to_string().contains("token"));
+}
