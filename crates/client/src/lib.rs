@@ -1,2 +1,56 @@
-//! Work in progress.
+//! # fs020n-client
+//!
+//! The PC side of protocol 1040: drives a Kawasaki FS020N arm through the AS server program on
+//! its controller. It **fails closed**: nothing is sent that the user did not ask for, every
+//! value is checked before it is sent, and every fault is reported with what to do about it.
+//!
+//! * [`Robot`] — the asynchronous (tokio) API; [`blocking::Robot`] — the same, blocking.
+//! * One session task owns the connection: one write per request, strict lock-step, a reply
+//!   deadline per request, keep-alive polls with a mismatched version (`0 0 0`) so the status
+//!   is always fresh ([`Robot::status`], [`Robot::subscribe`]) and the controller's 5 s receive
+//!   timeout is never hit.
+//! * A lost link kills the handle with a typed error ([`ClientError::LinkLost`]); reconnecting
+//!   is explicit ([`Robot::reconnect`]) and never resumes motion.
+//! * Motion: [`Robot::move_joints`] / [`Robot::move_pose`] return a [`MoveHandle`] to wait for
+//!   ([`Completion`]), watch or cancel; [`Robot::stream`] streams a [`Trajectory`] with
+//!   command 7 stamped by the estimated server clock ([`ServerClock`]) or with command 6.
+//! * Safety: [`Robot::preflight`] lists every [`Blocker`] with its remedy; targets are checked
+//!   against the robot model, speeds against 1–100 %, requests against 255 bytes.
+//! * Diagnostics: [`Robot::stats`] (round trips min/mean/p99/max, late replies, reconnects,
+//!   underruns) and an optional recording of every request and reply ([`Recording`]).
+//!
+//! Architecture, clock estimation, error → remedy table and recording format:
+//! `docs/CLIENT.md`.
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod blocking;
+pub mod clock;
+mod config;
+mod error;
+mod motion;
+mod record;
+mod robot;
+mod safety;
+mod session;
+mod stats;
+mod stream;
+mod trajectory;
+mod transport;
+
+pub use clock::{ClockFit, ServerClock};
+pub use config::{ClientConfig, RecordFormat, Recording};
+pub use error::{ClientError, LinkError};
+pub use motion::{Completion, MoveHandle, MoveProgress, MoveReport};
+pub use robot::Robot;
+pub use safety::{blockers, Blocker, ESTOP_REMEDY};
+pub use session::StatusSnapshot;
+pub use stats::{RttStats, Stats, RTT_WINDOW};
+pub use stream::{
+    StreamHandle, StreamMode, StreamOptions, StreamOutcome, StreamProgress, StreamReport,
+};
+pub use trajectory::{Trajectory, TrajectoryError, TrajectoryPoint, TrajectorySample};
+pub use transport::{AsyncReadWrite, BoxedStream, ConnectFuture, Connector, TcpConnector};
+
+pub use fs020n_kin::{Pose, Xyzoat};
+pub use fs020n_proto::{ErrorCode, JointsDeg, ReplyFrame, Status};

@@ -1,0 +1,397 @@
+//! The asynchronous robot handle.
+
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+
+use fs020n_kin::{Pose, RobotModel};
+use fs020n_proto::server::ServerRequest;
+use fs020n_proto::session::MAX_REQUEST_BYTES;
+use fs020n_proto::{Command, JointsDeg, ReplyFrame, Request, Status};
+use tokio::sync::watch;
+use tokio::time::Instant;
+
+use crate::clock::ClockFit;
+use crate::config::ClientConfig;
+use crate::error::ClientError;
+use crate::motion::MoveHandle;
+use crate::safety::{blockers, check_speed, check_target};
+use crate::session::{establish, lock, Common, Kind, Link, StatusSnapshot};
+use crate::stats::Stats;
+use crate::stream::{StreamHandle, StreamOptions};
+use crate::trajectory::Trajectory;
+use crate::transport::{Connector, TcpConnector};
+
+/// A connection to an FS020N controller (asynchronous API; see
+/// [`blocking::Robot`](crate::blocking::Robot) for the blocking one).
+///
+/// All methods take `&self`: the handle can be shared (e.g. in an `Arc`) between a task that
+/// moves the robot and one that watches it. Every request goes through one session task that
+/// owns the socket (strict lock-step) and keeps the session alive with `0 0 0` polls.
+///
+/// ```no_run
+/// use fs020n_client::{ClientConfig, Completion, Robot};
+/// use fs020n_proto::JointsDeg;
+/// # async fn demo() -> Result<(), fs020n_client::ClientError> {
+/// let robot = Robot::connect("192.168.0.2:10050", ClientConfig::default()).await?;
+/// robot.preflight().await?;           // every blocking switch, with its remedy
+/// robot.set_speed(20.0).await?;
+/// robot.start().await?;               // command 1, confirmed by reply field 7
+/// let mv = robot.move_joints(JointsDeg::new([10.0, 0.0, -90.0, 0.0, -90.0, 0.0])).await?;
+/// mv.wait(Completion::default()).await?;
+/// robot.close().await?;
+/// # Ok(()) }
+/// ```
+pub struct Robot {
+    connector: Arc<dyn Connector>,
+    common: Arc<Common>,
+    link: Link,
+}
+
+impl std::fmt::Debug for Robot {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Robot")
+            .field("target", &self.connector.describe())
+            .field("session", &self.link.shared.id)
+            .field("connected", &self.is_connected())
+            .finish()
+    }
+}
+
+impl Robot {
+    /// Connects over TCP to `addr` (`"host:port"`, or `"host"` for port 10050), retrying
+    /// across the server's listen gaps for `config.connect_timeout`, and checks the peer with a
+    /// first status poll.
+    pub async fn connect(addr: &str, config: ClientConfig) -> Result<Robot, ClientError> {
+        Robot::connect_with(TcpConnector::new(addr), config).await
+    }
+
+    /// Connects through any [`Connector`] (e.g. an in-memory emulator in tests).
+    pub async fn connect_with(
+        connector: impl Connector,
+        config: ClientConfig,
+    ) -> Result<Robot, ClientError> {
+        let common = Arc::new(Common::new(config)?);
+        let connector: Arc<dyn Connector> = Arc::new(connector);
+        let link = establish(connector.as_ref(), &common).await?;
+        Ok(Robot {
+            connector,
+            common,
+            link,
+        })
+    }
+
+    /// Starts a new session with the same connector and configuration, after the previous one
+    /// was lost or closed (if it is still open, it is closed first with 255, which stops the
+    /// robot). The new session starts from a stopped robot with the program not running:
+    /// nothing is resumed; call [`start`](Self::start) again. Statistics and the recording go
+    /// on; status subscribers must [`subscribe`](Self::subscribe) again.
+    pub async fn reconnect(&mut self) -> Result<(), ClientError> {
+        if !self.link.shared.is_dead() {
+            let _ = self.link.close().await;
+        }
+        let link = establish(self.connector.as_ref(), &self.common).await?;
+        self.link = link;
+        lock(&self.common.stats).stats.reconnects += 1;
+        Ok(())
+    }
+
+    /// `true` while the session is open.
+    pub fn is_connected(&self) -> bool {
+        !self.link.shared.is_dead()
+    }
+
+    /// Why the session ended (`None` while it is open).
+    pub fn link_error(&self) -> Option<ClientError> {
+        self.link
+            .shared
+            .is_dead()
+            .then(|| self.link.shared.death())
+    }
+
+    /// The latest status with its age, without waiting. Fresh to within the keep-alive period
+    /// while the session is open; `None` only before the first reply (never, after connect).
+    pub fn status(&self) -> Option<StatusSnapshot> {
+        self.link.latest()
+    }
+
+    /// A receiver of every new status. `changed()` fails when the session ends.
+    pub fn subscribe(&self) -> watch::Receiver<Option<StatusSnapshot>> {
+        self.link.status.clone()
+    }
+
+    /// A fresh round trip (`0 0 0`): the status right now.
+    pub async fn poll(&self) -> Result<Status, ClientError> {
+        Ok(self.link.poll().await?.frame.status)
+    }
+
+    /// Checks, with a fresh poll, every condition that blocks starting the program or moving:
+    /// `Err(ClientError::Blocked(list))` names each with its remedy.
+    pub async fn preflight(&self) -> Result<(), ClientError> {
+        let status = self.poll().await?;
+        let b = blockers(&status, false);
+        if b.is_empty() {
+            Ok(())
+        } else {
+            Err(ClientError::Blocked(b))
+        }
+    }
+
+    fn not_streaming(&self) -> Result<(), ClientError> {
+        if self.link.shared.streaming.load(Ordering::SeqCst) {
+            self.common.refused();
+            return Err(ClientError::Busy(
+                "a stream is running; cancel it (StreamHandle::cancel or Robot::cancel) first",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Starts the motion program: preflight, command 1, then waits (up to
+    /// `config.start_timeout`) for reply field 7 to show the program running. Does nothing if it
+    /// is running already (a second 1 would only make the robot pause after its motion).
+    pub async fn start(&self) -> Result<(), ClientError> {
+        self.not_streaming()?;
+        let status = self.poll().await?;
+        let b = blockers(&status, false);
+        if !b.is_empty() {
+            return Err(ClientError::Blocked(b));
+        }
+        if status.task_running {
+            return Ok(());
+        }
+        let started = Instant::now();
+        let ex = self.link.command(&Request::new(Command::StartProgram)).await?;
+        if ex.frame.status.task_running {
+            return Ok(());
+        }
+        let deadline = started + self.common.config.start_timeout;
+        let mut rx = self.link.status.clone();
+        loop {
+            if let Some(s) = rx.borrow_and_update().as_ref() {
+                if s.received_at > ex.sent_at && s.status.task_running {
+                    return Ok(());
+                }
+            }
+            tokio::select! {
+                r = rx.changed() => if r.is_err() { return Err(self.link.shared.death()) },
+                _ = tokio::time::sleep_until(deadline) => {
+                    let last = self.poll().await?;
+                    if last.task_running {
+                        return Ok(());
+                    }
+                    return Err(ClientError::StartFailed {
+                        waited: started.elapsed(),
+                        blockers: blockers(&last, false),
+                    });
+                }
+            }
+        }
+    }
+
+    /// Stops the motion program (command 2): the robot stops at once and the program ends;
+    /// a running stream is cancelled. Returns the reply's status.
+    pub async fn stop_program(&self) -> Result<Status, ClientError> {
+        self.link.shared.bump_epoch();
+        Ok(self
+            .link
+            .command(&Request::new(Command::StopProgram))
+            .await?
+            .frame
+            .status)
+    }
+
+    /// Sets the monitor speed (command 3), 1–100 %. It applies from the next planned motion.
+    pub async fn set_speed(&self, percent: f64) -> Result<Status, ClientError> {
+        check_speed(percent).inspect_err(|_| self.common.refused())?;
+        self.not_streaming()?;
+        let ex = self
+            .link
+            .command(&Request::new(Command::SetSpeed { percent }))
+            .await?;
+        self.link.shared.set_speed_percent(percent);
+        Ok(ex.frame.status)
+    }
+
+    /// Cancels the current motion (command 5): the robot brakes to a stop, the program keeps
+    /// running. A running stream is cancelled and no motion command queued before this call
+    /// is sent.
+    pub async fn cancel(&self) -> Result<Status, ClientError> {
+        self.link.shared.bump_epoch();
+        Ok(self
+            .link
+            .command(&Request::new(Command::CancelMotion))
+            .await?
+            .frame
+            .status)
+    }
+
+    /// Ends the session: 255 (the controller stops the robot and ends the program), then waits
+    /// for the server to close the connection. Later calls fail with [`ClientError::Closed`]
+    /// until [`reconnect`](Self::reconnect). Closing a session that is already gone is not an
+    /// error.
+    pub async fn close(&self) -> Result<(), ClientError> {
+        if self.link.shared.is_dead() {
+            return Ok(());
+        }
+        match self.link.close().await {
+            Ok(_) | Err(ClientError::Closed) => Ok(()),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// Starts a joint move (command 6) to `target`, after checking it (finite, inside the
+    /// model's ranges) and the latest status (no error, RUN, REPEAT, lock off, power on,
+    /// program running). Returns at once with a handle to wait for, watch or cancel the move.
+    pub async fn move_joints(&self, target: JointsDeg) -> Result<MoveHandle, ClientError> {
+        check_target(&self.common.config.model, &target).inspect_err(|_| self.common.refused())?;
+        self.not_streaming()?;
+        let text = Request::new(Command::JointMove { target })
+            .encode()
+            .inspect_err(|_| self.common.refused())?;
+        let from = self.link.latest().map(|s| s.status.joints).unwrap_or(target);
+        let tag = self.link.shared.motion_tag();
+        let ex = self.link.exchange(text, Kind::Motion, Some(tag)).await?;
+        let speed = self
+            .link
+            .shared
+            .speed_percent()
+            .unwrap_or(self.common.config.assumed_speed_percent);
+        Ok(MoveHandle::new(
+            self.link.clone(),
+            self.common.config.model.clone(),
+            from,
+            target,
+            tag,
+            ex.sent_at,
+            speed,
+        ))
+    }
+
+    /// Moves the tool flange to a pose (`Pose`, or AS `Xyzoat` in mm/deg) with a joint move to
+    /// the inverse-kinematics solution nearest to the current joints (from a fresh poll).
+    pub async fn move_pose(&self, target: impl Into<Pose>) -> Result<MoveHandle, ClientError> {
+        let pose: Pose = target.into();
+        if !pose.is_finite() {
+            self.common.refused();
+            return Err(ClientError::NonFinite {
+                what: "target pose".into(),
+            });
+        }
+        let now = self.poll().await?;
+        let q = self
+            .common
+            .config
+            .model
+            .inverse_nearest(&pose, &now.joints.to_rad())
+            .inspect_err(|_| self.common.refused())?;
+        self.move_joints(q.to_deg()).await
+    }
+
+    /// Streams a trajectory (commands 7 or 6, see [`StreamOptions`]) from a background task.
+    /// Everything is checked before the first sample: the trajectory against the model (ranges,
+    /// speeds, per-cycle step), its start against the current joints, and the latest status.
+    pub async fn stream(
+        &self,
+        trajectory: Trajectory,
+        options: StreamOptions,
+    ) -> Result<StreamHandle, ClientError> {
+        self.not_streaming()?;
+        let current = self.poll().await?;
+        let b = blockers(&current, true);
+        if !b.is_empty() {
+            return Err(ClientError::Blocked(b));
+        }
+        crate::stream::check(&self.common.config.model, &trajectory, &options, &current.joints)
+            .inspect_err(|_| self.common.refused())?;
+        StreamHandle::spawn(
+            self.link.clone(),
+            self.common.config.model.clone(),
+            trajectory,
+            options,
+        )
+    }
+
+    /// Sends a request as typed (for a CLI `raw` command) and returns the reply. Refused:
+    /// non-ASCII or control characters, empty text, more than 255 bytes, and — unless
+    /// `allow_motion` — anything the controller would execute as a motion (1040 6 / 1040 7,
+    /// read with the controller's own parsing). Allowed motions get the same checks as typed
+    /// ones (ranges, status). An effective 255 ends the session as [`close`](Self::close) does.
+    pub async fn send_raw(&self, text: &str, allow_motion: bool) -> Result<ReplyFrame, ClientError> {
+        let refuse = |reason: String| {
+            self.common.refused();
+            Err(ClientError::RawRefused { reason })
+        };
+        if text.is_empty() {
+            return refuse("the request is empty".into());
+        }
+        if text.len() > MAX_REQUEST_BYTES {
+            return refuse(format!(
+                "the request is {} bytes; the controller reads only the first {MAX_REQUEST_BYTES}",
+                text.len()
+            ));
+        }
+        if !text.bytes().all(|b| b.is_ascii_graphic() || b == b' ') {
+            return refuse(
+                "only printable ASCII and blanks are allowed (the protocol has no terminator)"
+                    .into(),
+            );
+        }
+        let parsed = ServerRequest::parse(text.as_bytes());
+        let effective = parsed.version_matches();
+        let command = parsed.command();
+        let mut motion = None;
+        let mut kind = Kind::Raw;
+        if effective {
+            match &command {
+                Command::JointMove { target }
+                | Command::StreamedMove(fs020n_proto::StreamSample {
+                    position: target, ..
+                }) => {
+                    if !allow_motion {
+                        return refuse(format!(
+                            "{text:?} is a motion command (the controller would move the robot); \
+                             pass allow_motion to send it"
+                        ));
+                    }
+                    check_target(&self.common.config.model, target)
+                        .inspect_err(|_| self.common.refused())?;
+                    self.not_streaming()?;
+                    motion = Some(self.link.shared.motion_tag());
+                    kind = Kind::Motion;
+                }
+                Command::StopProgram | Command::CancelMotion => self.link.shared.bump_epoch(),
+                Command::EndSession => {
+                    let ex = self.link.close().await?;
+                    return Ok(ex.frame);
+                }
+                Command::StartProgram | Command::SetSpeed { .. } => self.not_streaming()?,
+                _ => {}
+            }
+        }
+        Ok(self
+            .link
+            .exchange(text.to_owned(), kind, motion)
+            .await?
+            .frame)
+    }
+
+    /// Round-trip statistics and counters (kept across reconnects).
+    pub fn stats(&self) -> Stats {
+        lock(&self.common.stats).snapshot()
+    }
+
+    /// The current estimate of the controller's clock (TIMER(1)) against the local clock.
+    pub fn server_clock(&self) -> Option<ClockFit> {
+        lock(&self.link.shared.clock).fit()
+    }
+
+    /// The robot model used for the checks.
+    pub fn model(&self) -> &RobotModel {
+        &self.common.config.model
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &ClientConfig {
+        &self.common.config
+    }
+}

@@ -1,0 +1,671 @@
+//! The session task: the single owner of the connection.
+//!
+//! Every request goes through one task that writes it in one `write`, waits for the complete
+//! reply (strict lock-step, deadline per request), publishes the status, feeds the clock
+//! estimator, the statistics and the recording, and sends keep-alive polls (`0 0 0`) whenever
+//! no request was made for a keep-alive period. The first failure of the link kills the
+//! session: the cause is stored, every waiter gets it, and the task ends (dropping the
+//! connection). Nothing is ever retried or resumed.
+
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
+
+use fs020n_proto::{ReplyDecoder, ReplyFrame, Request, Status, PROTOCOL_VERSION};
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::sync::{mpsc, oneshot, watch};
+use tokio::time::{sleep_until, timeout, timeout_at, Instant};
+
+use crate::clock::ServerClock;
+use crate::config::ClientConfig;
+use crate::error::{ClientError, LinkError};
+use crate::record::{Dir, Recorder};
+use crate::safety::blockers;
+use crate::stats::StatsInner;
+use crate::transport::{BoxedStream, Connector};
+
+/// The status poll: a mismatched version, so the server changes nothing.
+pub(crate) const POLL: &str = "0 0 0";
+
+/// Locks a mutex, ignoring poisoning (the data are counters and estimates: a panic elsewhere
+/// cannot leave them dangerous).
+pub(crate) fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// The latest status with when it arrived.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StatusSnapshot {
+    /// The decoded reply.
+    pub status: Status,
+    /// When the reply was complete (tokio's clock: virtual under a paused test runtime).
+    pub received_at: Instant,
+    /// Round trip of the request it answered.
+    pub rtt: Duration,
+    /// Number of replies in this session before this one (0 for the first).
+    pub seq: u64,
+}
+
+impl StatusSnapshot {
+    /// Time since the reply arrived.
+    pub fn age(&self) -> Duration {
+        self.received_at.elapsed()
+    }
+}
+
+/// What a request is, for statistics, recording and the checks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Kind {
+    /// A status poll asked for by the user.
+    Poll,
+    /// A keep-alive poll of the session task.
+    KeepAlive,
+    /// A command without motion (1, 2, 3, 5, ...).
+    Command,
+    /// A motion command (6/7): checked against the latest status and the motion epoch.
+    Motion,
+    /// A raw request without motion.
+    Raw,
+    /// 255: end the session, then wait for the server to close.
+    Close,
+}
+
+impl Kind {
+    fn as_str(self) -> &'static str {
+        match self {
+            Kind::Poll => "poll",
+            Kind::KeepAlive => "keepalive",
+            Kind::Command => "command",
+            Kind::Motion => "motion",
+            Kind::Raw => "raw",
+            Kind::Close => "close",
+        }
+    }
+}
+
+/// Identifies a motion command: the motion epoch it was validated in (bumped by every cancel
+/// and stop) and its own id.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct MotionTag {
+    pub(crate) epoch: u64,
+    pub(crate) id: u64,
+}
+
+/// One completed round trip.
+#[derive(Debug, Clone)]
+pub(crate) struct Exchange {
+    pub(crate) frame: ReplyFrame,
+    pub(crate) sent_at: Instant,
+    pub(crate) received_at: Instant,
+}
+
+impl Exchange {
+    pub(crate) fn rtt(&self) -> Duration {
+        self.received_at.duration_since(self.sent_at)
+    }
+}
+
+struct Op {
+    text: String,
+    kind: Kind,
+    motion: Option<MotionTag>,
+    reply: oneshot::Sender<Result<Exchange, ClientError>>,
+}
+
+/// State that outlives sessions: configuration, statistics, recording.
+#[derive(Debug)]
+pub(crate) struct Common {
+    pub(crate) config: ClientConfig,
+    pub(crate) stats: Mutex<StatsInner>,
+    pub(crate) recorder: Option<Mutex<Recorder>>,
+    pub(crate) sessions: AtomicU64,
+}
+
+impl Common {
+    pub(crate) fn new(config: ClientConfig) -> Result<Common, ClientError> {
+        config.validate()?;
+        let recorder = match &config.record {
+            Some(r) => Some(Mutex::new(Recorder::open(r)?)),
+            None => None,
+        };
+        Ok(Common {
+            config,
+            stats: Mutex::new(StatsInner::default()),
+            recorder,
+            sessions: AtomicU64::new(0),
+        })
+    }
+
+    pub(crate) fn record(
+        &self,
+        at: Instant,
+        session: u64,
+        dir: Dir,
+        kind: &str,
+        rtt: Option<Duration>,
+        text: &str,
+    ) {
+        if let Some(r) = &self.recorder {
+            if let Err(e) = lock(r).line(at, session, dir, kind, rtt, text) {
+                lock(&self.stats).stats.record_errors += 1;
+                tracing::warn!(error = %e, "cannot write the recording");
+            }
+        }
+    }
+
+    pub(crate) fn refused(&self) {
+        lock(&self.stats).stats.refused_before_sending += 1;
+    }
+}
+
+/// State of one session shared between the task and the handles.
+#[derive(Debug)]
+pub(crate) struct SessionShared {
+    pub(crate) id: u64,
+    pub(crate) common: Arc<Common>,
+    dead: Mutex<Option<ClientError>>,
+    pub(crate) clock: Mutex<ServerClock>,
+    /// Bumped by every cancel/stop/close: motion validated in an older epoch is not sent.
+    pub(crate) epoch: watch::Sender<u64>,
+    next_motion_id: AtomicU64,
+    /// Id of the last motion command written.
+    pub(crate) last_motion: AtomicU64,
+    /// A stream is running on this session.
+    pub(crate) streaming: AtomicBool,
+    /// The monitor speed last set by this client, percent (`f64` bits; NaN = unknown).
+    speed_bits: AtomicU64,
+}
+
+impl SessionShared {
+    pub(crate) fn death(&self) -> ClientError {
+        lock(&self.dead)
+            .clone()
+            .unwrap_or(ClientError::LinkLost(LinkError::SessionEnded))
+    }
+
+    fn set_dead(&self, e: ClientError) {
+        lock(&self.dead).get_or_insert(e);
+    }
+
+    pub(crate) fn is_dead(&self) -> bool {
+        lock(&self.dead).is_some()
+    }
+
+    pub(crate) fn current_epoch(&self) -> u64 {
+        *self.epoch.borrow()
+    }
+
+    /// Invalidates every motion validated so far (queued commands 6/7 are not sent).
+    pub(crate) fn bump_epoch(&self) {
+        self.epoch.send_modify(|e| *e += 1);
+    }
+
+    pub(crate) fn motion_tag(&self) -> MotionTag {
+        MotionTag {
+            epoch: self.current_epoch(),
+            id: self.next_motion_id.fetch_add(1, Ordering::Relaxed) + 1,
+        }
+    }
+
+    pub(crate) fn speed_percent(&self) -> Option<f64> {
+        let v = f64::from_bits(self.speed_bits.load(Ordering::Relaxed));
+        (!v.is_nan()).then_some(v)
+    }
+
+    pub(crate) fn set_speed_percent(&self, p: f64) {
+        self.speed_bits.store(p.to_bits(), Ordering::Relaxed);
+    }
+}
+
+/// A handle on a session: cheap to clone.
+#[derive(Debug, Clone)]
+pub(crate) struct Link {
+    tx: mpsc::Sender<Op>,
+    pub(crate) status: watch::Receiver<Option<StatusSnapshot>>,
+    pub(crate) shared: Arc<SessionShared>,
+}
+
+impl Link {
+    /// One round trip through the session task.
+    pub(crate) async fn exchange(
+        &self,
+        text: String,
+        kind: Kind,
+        motion: Option<MotionTag>,
+    ) -> Result<Exchange, ClientError> {
+        let (reply, rx) = oneshot::channel();
+        self.tx
+            .send(Op {
+                text,
+                kind,
+                motion,
+                reply,
+            })
+            .await
+            .map_err(|_| self.shared.death())?;
+        rx.await.map_err(|_| self.shared.death())?
+    }
+
+    /// A fresh status poll.
+    pub(crate) async fn poll(&self) -> Result<Exchange, ClientError> {
+        self.exchange(POLL.to_owned(), Kind::Poll, None).await
+    }
+
+    /// Encodes and sends a non-motion command.
+    pub(crate) async fn command(&self, request: &Request) -> Result<Exchange, ClientError> {
+        let text = request.encode().inspect_err(|_| self.shared.common.refused())?;
+        self.exchange(text, Kind::Command, None).await
+    }
+
+    pub(crate) fn latest(&self) -> Option<StatusSnapshot> {
+        self.status.borrow().clone()
+    }
+
+    pub(crate) async fn close(&self) -> Result<Exchange, ClientError> {
+        self.shared.bump_epoch();
+        let text = Request::new(fs020n_proto::Command::EndSession).encode()?;
+        self.exchange(text, Kind::Close, None).await
+    }
+}
+
+/// The connection with its decoder.
+struct Conn {
+    stream: BoxedStream,
+    decoder: ReplyDecoder,
+    buf: Vec<u8>,
+}
+
+impl Conn {
+    fn new(stream: BoxedStream) -> Conn {
+        Conn {
+            stream,
+            decoder: ReplyDecoder::new(),
+            buf: vec![0; 1024],
+        }
+    }
+
+    fn unsolicited(&self) -> Option<LinkError> {
+        (!self.decoder.is_empty()).then(|| LinkError::Unsolicited {
+            excerpt: String::from_utf8_lossy(
+                &self.decoder.buffered()[..self.decoder.buffered().len().min(40)],
+            )
+            .into_owned(),
+        })
+    }
+
+    /// Writes `text` in one write and reads its complete reply before `reply_timeout`.
+    async fn exchange(
+        &mut self,
+        text: &str,
+        write_timeout: Duration,
+        reply_timeout: Duration,
+    ) -> Result<Exchange, LinkError> {
+        if let Some(e) = self.unsolicited() {
+            return Err(e);
+        }
+        let sent_at = Instant::now();
+        let deadline = sent_at + reply_timeout;
+        let write = async {
+            self.stream.write_all(text.as_bytes()).await?;
+            self.stream.flush().await
+        };
+        match timeout(write_timeout, write).await {
+            Err(_) => {
+                return Err(LinkError::WriteTimeout {
+                    request: text.to_owned(),
+                    deadline: write_timeout,
+                })
+            }
+            Ok(Err(e)) => return Err(LinkError::io(&e)),
+            Ok(Ok(())) => {}
+        }
+        loop {
+            match self.decoder.next_reply() {
+                Err(e) => return Err(LinkError::Undecodable(e)),
+                Ok(Some(frame)) => {
+                    let received_at = Instant::now();
+                    if let Some(e) = self.unsolicited() {
+                        return Err(e);
+                    }
+                    if frame.status.version != PROTOCOL_VERSION {
+                        return Err(LinkError::NotAController {
+                            version: frame.status.version,
+                        });
+                    }
+                    return Ok(Exchange {
+                        frame,
+                        sent_at,
+                        received_at,
+                    });
+                }
+                Ok(None) => {}
+            }
+            let n = match timeout_at(deadline, self.stream.read(&mut self.buf)).await {
+                Err(_) => {
+                    return Err(LinkError::ReplyTimeout {
+                        request: text.to_owned(),
+                        deadline: reply_timeout,
+                    })
+                }
+                Ok(Err(e)) => return Err(LinkError::io(&e)),
+                Ok(Ok(0)) => return Err(LinkError::Closed),
+                Ok(Ok(n)) => n,
+            };
+            self.decoder
+                .push(&self.buf[..n])
+                .map_err(LinkError::Undecodable)?;
+        }
+    }
+
+    /// Bytes that arrived while no request was outstanding.
+    fn idle_bytes(&mut self, n: usize) -> Result<(), LinkError> {
+        if n == 0 {
+            return Err(LinkError::Closed);
+        }
+        self.decoder
+            .push(&self.buf[..n])
+            .map_err(LinkError::Undecodable)?;
+        match self.unsolicited() {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+}
+
+/// Connects (retrying across listen gaps until the connect timeout), checks the peer with a
+/// first status poll and starts the session task.
+pub(crate) async fn establish(
+    connector: &dyn Connector,
+    common: &Arc<Common>,
+) -> Result<Link, ClientError> {
+    let cfg = &common.config;
+    let started = Instant::now();
+    let deadline = started + cfg.connect_timeout;
+    let mut attempts = 0u32;
+    let mut last: String;
+    loop {
+        attempts += 1;
+        match timeout_at(deadline, connector.connect()).await {
+            Err(_) => {
+                last = "the connection attempt did not complete in time".into();
+                break;
+            }
+            Ok(Err(e)) => last = e.to_string(),
+            Ok(Ok(stream)) => {
+                let mut conn = Conn::new(stream);
+                let reply_timeout = cfg.reply_timeout.min(
+                    deadline
+                        .saturating_duration_since(Instant::now())
+                        .max(Duration::from_millis(1)),
+                );
+                match conn.exchange(POLL, cfg.write_timeout, reply_timeout).await {
+                    Ok(ex) => return Ok(spawn(conn, ex, common.clone(), connector.describe())),
+                    Err(e @ LinkError::NotAController { .. }) => {
+                        return Err(ClientError::LinkLost(e))
+                    }
+                    // Accepted by the kernel but dropped by the server (another session,
+                    // listen gap), or silent: try again.
+                    Err(e) => last = format!("connected, but the first status poll failed: {e}"),
+                }
+            }
+        }
+        let now = Instant::now();
+        if now + cfg.connect_retry_interval >= deadline {
+            break;
+        }
+        tokio::time::sleep(cfg.connect_retry_interval).await;
+    }
+    Err(ClientError::Connect {
+        target: connector.describe(),
+        attempts,
+        waited: started.elapsed(),
+        last,
+    })
+}
+
+fn spawn(conn: Conn, first: Exchange, common: Arc<Common>, target: String) -> Link {
+    let id = common.sessions.fetch_add(1, Ordering::Relaxed) + 1;
+    let mut clock = ServerClock::new(first.sent_at);
+    if let Some(t) = first.frame.status.timer.seconds() {
+        clock.add(first.sent_at, first.received_at, t);
+    }
+    let snapshot = StatusSnapshot {
+        status: first.frame.status.clone(),
+        received_at: first.received_at,
+        rtt: first.rtt(),
+        seq: 0,
+    };
+    let (status_tx, status_rx) = watch::channel(Some(snapshot));
+    let (epoch, _) = watch::channel(0);
+    let shared = Arc::new(SessionShared {
+        id,
+        common: common.clone(),
+        dead: Mutex::new(None),
+        clock: Mutex::new(clock),
+        epoch,
+        next_motion_id: AtomicU64::new(0),
+        last_motion: AtomicU64::new(0),
+        streaming: AtomicBool::new(false),
+        speed_bits: AtomicU64::new(f64::NAN.to_bits()),
+    });
+    {
+        let late = first.rtt() > common.config.late_reply_after;
+        let mut st = lock(&common.stats);
+        st.stats.requests += 1;
+        st.record_rtt(first.rtt(), late);
+    }
+    common.record(first.sent_at, id, Dir::Event, "connect", None, &target);
+    common.record(first.sent_at, id, Dir::Tx, "poll", None, POLL);
+    common.record(
+        first.received_at,
+        id,
+        Dir::Rx,
+        "poll",
+        Some(first.rtt()),
+        &first.frame.text,
+    );
+    tracing::info!(session = id, %target, "connected");
+    let (tx, rx) = mpsc::channel(32);
+    let task = Task {
+        conn,
+        rx,
+        status_tx,
+        shared: shared.clone(),
+        last_exchange: first.received_at,
+        seq: 0,
+    };
+    tokio::spawn(task.run());
+    Link {
+        tx,
+        status: status_rx,
+        shared,
+    }
+}
+
+struct Task {
+    conn: Conn,
+    rx: mpsc::Receiver<Op>,
+    status_tx: watch::Sender<Option<StatusSnapshot>>,
+    shared: Arc<SessionShared>,
+    last_exchange: Instant,
+    seq: u64,
+}
+
+enum Event {
+    Read(std::io::Result<usize>),
+    Op(Option<Op>),
+    KeepAlive,
+}
+
+impl Task {
+    async fn run(mut self) {
+        let cfg = self.shared.common.config.clone();
+        let end = loop {
+            let next_poll = self.last_exchange + cfg.keepalive_period;
+            let event = tokio::select! {
+                biased;
+                r = self.conn.stream.read(&mut self.conn.buf) => Event::Read(r),
+                op = self.rx.recv() => Event::Op(op),
+                _ = sleep_until(next_poll) => Event::KeepAlive,
+            };
+            match event {
+                Event::Read(Ok(n)) => {
+                    if let Err(e) = self.conn.idle_bytes(n) {
+                        break ClientError::LinkLost(e);
+                    }
+                }
+                Event::Read(Err(e)) => break ClientError::LinkLost(LinkError::io(&e)),
+                Event::KeepAlive => {
+                    lock(&self.shared.common.stats).stats.keepalive_polls += 1;
+                    if let Err(e) = self.round_trip(POLL, Kind::KeepAlive, &cfg).await {
+                        break e;
+                    }
+                }
+                Event::Op(None) => {
+                    // Every handle is gone: end the session politely.
+                    let text = "1040 255 0";
+                    let _ = self.round_trip(text, Kind::Close, &cfg).await;
+                    break ClientError::Closed;
+                }
+                Event::Op(Some(op)) => {
+                    if let Some(stop) = self.handle(op, &cfg).await {
+                        break stop;
+                    }
+                }
+            }
+        };
+        self.finish(end);
+    }
+
+    /// Handles one request; `Some(cause)` ends the session.
+    async fn handle(&mut self, op: Op, cfg: &ClientConfig) -> Option<ClientError> {
+        if let Some(tag) = op.motion {
+            if let Err(e) = self.check_motion(tag) {
+                self.shared.common.refused();
+                let _ = op.reply.send(Err(e));
+                return None;
+            }
+        }
+        match self.round_trip(&op.text, op.kind, cfg).await {
+            Ok(ex) => {
+                if let Some(tag) = op.motion {
+                    self.shared.last_motion.store(tag.id, Ordering::Relaxed);
+                }
+                if op.kind == Kind::Close {
+                    let waited = self.await_close(cfg.close_timeout).await;
+                    let _ = op.reply.send(Ok(ex));
+                    if let Err(e) = waited {
+                        tracing::warn!(error = %e, "the controller did not close the connection after 255");
+                    }
+                    return Some(ClientError::Closed);
+                }
+                let _ = op.reply.send(Ok(ex));
+                None
+            }
+            Err(e) => {
+                let _ = op.reply.send(Err(e.clone()));
+                Some(e)
+            }
+        }
+    }
+
+    /// A motion is sent only if no cancel/stop came after it was validated and the latest
+    /// status allows motion.
+    fn check_motion(&self, tag: MotionTag) -> Result<(), ClientError> {
+        if tag.epoch != self.shared.current_epoch() {
+            return Err(ClientError::Cancelled(
+                "motion not sent: a cancel or stop was requested after it",
+            ));
+        }
+        let latest = self.status_tx.borrow();
+        let Some(s) = latest.as_ref() else {
+            return Err(ClientError::LinkLost(LinkError::SessionEnded));
+        };
+        let b = blockers(&s.status, true);
+        if b.is_empty() {
+            Ok(())
+        } else {
+            Err(ClientError::Blocked(b))
+        }
+    }
+
+    async fn round_trip(
+        &mut self,
+        text: &str,
+        kind: Kind,
+        cfg: &ClientConfig,
+    ) -> Result<Exchange, ClientError> {
+        let common = &self.shared.common;
+        let id = self.shared.id;
+        common.record(Instant::now(), id, Dir::Tx, kind.as_str(), None, text);
+        lock(&common.stats).stats.requests += 1;
+        let r = self
+            .conn
+            .exchange(text, cfg.write_timeout, cfg.reply_timeout)
+            .await;
+        match r {
+            Ok(ex) => {
+                let rtt = ex.rtt();
+                common.record(
+                    ex.received_at,
+                    id,
+                    Dir::Rx,
+                    kind.as_str(),
+                    Some(rtt),
+                    &ex.frame.text,
+                );
+                lock(&common.stats).record_rtt(rtt, rtt > cfg.late_reply_after);
+                if let Some(t) = ex.frame.status.timer.seconds() {
+                    lock(&self.shared.clock).add(ex.sent_at, ex.received_at, t);
+                }
+                self.seq += 1;
+                self.status_tx.send_replace(Some(StatusSnapshot {
+                    status: ex.frame.status.clone(),
+                    received_at: ex.received_at,
+                    rtt,
+                    seq: self.seq,
+                }));
+                self.last_exchange = ex.received_at;
+                Ok(ex)
+            }
+            Err(e) => Err(ClientError::LinkLost(e)),
+        }
+    }
+
+    /// After 255: waits for the server to close the connection.
+    async fn await_close(&mut self, limit: Duration) -> Result<(), LinkError> {
+        let deadline = Instant::now() + limit;
+        loop {
+            match timeout_at(deadline, self.conn.stream.read(&mut self.conn.buf)).await {
+                Err(_) => {
+                    return Err(LinkError::ReplyTimeout {
+                        request: "end of stream after 255".into(),
+                        deadline: limit,
+                    })
+                }
+                Ok(Ok(0)) => return Ok(()),
+                Ok(Ok(_)) => {}
+                Ok(Err(e)) => return Err(LinkError::io(&e)),
+            }
+        }
+    }
+
+    fn finish(mut self, end: ClientError) {
+        let common = self.shared.common.clone();
+        let now = Instant::now();
+        if end != ClientError::Closed {
+            lock(&common.stats).stats.links_lost += 1;
+            tracing::warn!(session = self.shared.id, error = %end, "link lost");
+        } else {
+            tracing::info!(session = self.shared.id, "session closed");
+        }
+        common.record(now, self.shared.id, Dir::Event, "end", None, &end.to_string());
+        // Record the cause before the queued requests see their channels close.
+        self.shared.set_dead(end.clone());
+        self.rx.close();
+        while let Ok(op) = self.rx.try_recv() {
+            let _ = op.reply.send(Err(end.clone()));
+        }
+        // Dropping `self` drops the connection and the status sender: subscribers see the end.
+    }
+}

@@ -1,0 +1,601 @@
+//! Streaming a trajectory: command 7 samples stamped with the estimated server clock (default),
+//! or command 6 waypoints at a fixed rate.
+
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use std::time::Duration;
+
+use fs020n_kin::RobotModel;
+use fs020n_proto::{Command, JointsDeg, Request, StreamSample, JOINT_COUNT};
+use serde::Serialize;
+use tokio::sync::watch;
+use tokio::task::JoinHandle;
+use tokio::time::Instant;
+
+use crate::clock::ClockFit;
+use crate::error::ClientError;
+use crate::safety::{blockers, check_target};
+use crate::session::{lock, Exchange, Kind, Link, SessionShared};
+use crate::trajectory::{Trajectory, TrajectoryError, TrajectorySample};
+
+/// How samples are sent.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub enum StreamMode {
+    /// Command 7: position, velocity and acceleration stamped with the server time at which
+    /// they hold; the controller extrapolates to its own "now" plus `lookahead_passes` passes
+    /// of its motion loop (at most 0.5 s of stamp error is absorbed).
+    Extrapolated {
+        /// ARG2 of command 7, in passes of the motion program. Default 2.
+        lookahead_passes: f64,
+    },
+    /// Command 6: the trajectory's position as a joint-move target every period. Simple and
+    /// robust, but each target is a JMOVE at the monitor speed (the robot stops and starts if
+    /// the period is long).
+    Waypoints,
+}
+
+/// Options of [`Robot::stream`](crate::Robot::stream).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct StreamOptions {
+    /// Command 7 (default) or command 6.
+    pub mode: StreamMode,
+    /// Time between samples (lock-step: a sample is sent at the earliest when the previous
+    /// reply arrived). Default 20 ms (50 Hz).
+    pub period: Duration,
+    /// Largest change of any joint between two consecutive samples, degrees (checked on the
+    /// whole trajectory at `period` before sending, and on every sample). Default 2°.
+    pub max_step_deg: f64,
+    /// Largest distance of the trajectory's first point from the current joints, degrees.
+    /// Default 1°.
+    pub start_tolerance_deg: f64,
+    /// Longest gap between two samples before the stream is cancelled as an underrun (keep it
+    /// below the 0.5 s the controller extrapolates at most). Default 250 ms.
+    pub max_gap: Duration,
+    /// After the last sample, wait until every joint is this close to the last point,
+    /// degrees. Default 0.5°.
+    pub end_tolerance_deg: f64,
+    /// ...for at most this long (not an error: the report gives the final error). Default 3 s.
+    pub end_timeout: Duration,
+}
+
+impl Default for StreamOptions {
+    fn default() -> Self {
+        StreamOptions {
+            mode: StreamMode::Extrapolated {
+                lookahead_passes: 2.0,
+            },
+            period: Duration::from_millis(20),
+            max_step_deg: 2.0,
+            start_tolerance_deg: 1.0,
+            max_gap: Duration::from_millis(250),
+            end_tolerance_deg: 0.5,
+            end_timeout: Duration::from_secs(3),
+        }
+    }
+}
+
+/// Progress of a stream.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct StreamProgress {
+    /// Samples sent.
+    pub index: u64,
+    /// Trajectory time of the last sample, seconds.
+    pub time_s: f64,
+    /// Fraction of the trajectory's duration streamed, [0, 1].
+    pub fraction: f64,
+    /// Replies slower than the period so far.
+    pub late_replies: u64,
+    /// Cycles that started more than one period late so far.
+    pub underruns: u64,
+    /// Largest tracking error so far, degrees.
+    pub tracking_error_max_deg: f64,
+    /// All samples sent (the robot may still be settling).
+    pub done: bool,
+}
+
+/// How a stream ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StreamOutcome {
+    /// Every sample was sent.
+    Completed,
+    /// Cancelled by the user (command 5 sent).
+    Cancelled,
+}
+
+/// The final report of a stream.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StreamReport {
+    /// Completed or cancelled.
+    pub outcome: StreamOutcome,
+    /// Samples sent.
+    pub samples_sent: u64,
+    /// Replies slower than the period.
+    pub late_replies: u64,
+    /// Cycles that started more than one period late.
+    pub underruns: u64,
+    /// Largest tracking error, degrees: the largest per-joint difference between the joints in
+    /// a reply and the trajectory at the same server time (TIMER(1) of that reply).
+    pub tracking_error_max_deg: f64,
+    /// Root mean square of those per-reply tracking errors, degrees.
+    pub tracking_error_rms_deg: f64,
+    /// Replies the tracking error was computed from.
+    pub tracking_samples: u64,
+    /// Largest per-joint distance to the last point at the end, degrees.
+    pub final_error_deg: f64,
+    /// The robot came within `end_tolerance_deg` of the last point before `end_timeout`.
+    pub settled: bool,
+    /// Time from the first sample to the end of the report.
+    pub duration: Duration,
+    /// Round trips of the samples: mean.
+    pub rtt_mean: Duration,
+    /// Round trips of the samples: slowest.
+    pub rtt_max: Duration,
+    /// The server-clock estimate at the end (command 7 only).
+    #[serde(skip)]
+    pub clock: Option<ClockFit>,
+}
+
+/// Checks done before anything is sent.
+pub(crate) fn check(
+    model: &RobotModel,
+    trajectory: &Trajectory,
+    options: &StreamOptions,
+    current: &JointsDeg,
+) -> Result<(), ClientError> {
+    let opt = |m: String| Err(ClientError::Trajectory(TrajectoryError::Options(m)));
+    let period = options.period.as_secs_f64();
+    if !(0.001..=1.0).contains(&period) {
+        return opt(format!("period {:?} must be from 1 ms to 1 s", options.period));
+    }
+    if let StreamMode::Extrapolated { lookahead_passes } = options.mode {
+        if !(lookahead_passes.is_finite() && (0.0..=50.0).contains(&lookahead_passes)) {
+            return opt(format!("lookahead_passes {lookahead_passes} must be from 0 to 50"));
+        }
+    }
+    if options.max_gap < options.period * 2 || options.max_gap > Duration::from_millis(500) {
+        return opt(format!(
+            "max_gap {:?} must be at least two periods and at most 500 ms",
+            options.max_gap
+        ));
+    }
+    for (name, v) in [
+        ("start_tolerance_deg", options.start_tolerance_deg),
+        ("end_tolerance_deg", options.end_tolerance_deg),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            return opt(format!("{name} {v} must be above 0"));
+        }
+    }
+    trajectory.validate(model, period, options.max_step_deg)?;
+    let first = trajectory.first();
+    let (joint, distance) = (0..JOINT_COUNT)
+        .map(|j| (j + 1, (first[j] - current[j]).abs()))
+        .fold((1, 0.0), |a, b| if b.1 > a.1 { b } else { a });
+    if distance > options.start_tolerance_deg {
+        return Err(TrajectoryError::StartTooFar {
+            joint,
+            distance_deg: distance,
+            tolerance_deg: options.start_tolerance_deg,
+        }
+        .into());
+    }
+    Ok(())
+}
+
+/// A running stream. Dropping the handle cancels the stream (command 5).
+#[derive(Debug)]
+pub struct StreamHandle {
+    progress: watch::Receiver<StreamProgress>,
+    shared: Arc<SessionShared>,
+    epoch: u64,
+    task: Option<JoinHandle<Result<StreamReport, ClientError>>>,
+}
+
+impl StreamHandle {
+    pub(crate) fn spawn(
+        link: Link,
+        model: RobotModel,
+        trajectory: Trajectory,
+        options: StreamOptions,
+    ) -> Result<StreamHandle, ClientError> {
+        let shared = link.shared.clone();
+        if shared.streaming.swap(true, Ordering::SeqCst) {
+            return Err(ClientError::Busy("a stream is already running"));
+        }
+        let epoch = shared.current_epoch();
+        let (tx, progress) = watch::channel(StreamProgress::default());
+        let guard = StreamingGuard(shared.clone());
+        let task = tokio::spawn(async move {
+            let _guard = guard;
+            Streamer {
+                link,
+                model,
+                trajectory,
+                options,
+                progress: tx,
+                epoch,
+            }
+            .run()
+            .await
+        });
+        Ok(StreamHandle {
+            progress,
+            shared,
+            epoch,
+            task: Some(task),
+        })
+    }
+
+    /// The latest progress.
+    pub fn progress(&self) -> StreamProgress {
+        *self.progress.borrow()
+    }
+
+    /// A receiver of progress updates (one per sample).
+    pub fn subscribe(&self) -> watch::Receiver<StreamProgress> {
+        self.progress.clone()
+    }
+
+    /// Cancels the stream: no further sample is sent and command 5 brakes the robot.
+    /// [`wait`](Self::wait) then returns a report with [`StreamOutcome::Cancelled`].
+    pub fn cancel(&self) {
+        if self.shared.current_epoch() == self.epoch {
+            self.shared.bump_epoch();
+        }
+    }
+
+    /// `true` once the stream task has ended.
+    pub fn is_finished(&self) -> bool {
+        self.task.as_ref().map_or(true, |t| t.is_finished())
+    }
+
+    /// Waits for the end of the stream and its report.
+    pub async fn wait(mut self) -> Result<StreamReport, ClientError> {
+        let Some(task) = self.task.take() else {
+            return Err(ClientError::Cancelled("the stream was already waited for"));
+        };
+        match task.await {
+            Ok(r) => r,
+            Err(_) => Err(ClientError::LinkLost(crate::error::LinkError::SessionEnded)),
+        }
+    }
+}
+
+impl Drop for StreamHandle {
+    fn drop(&mut self) {
+        if self.task.as_ref().is_some_and(|t| !t.is_finished()) {
+            self.cancel();
+        }
+    }
+}
+
+struct StreamingGuard(Arc<SessionShared>);
+
+impl Drop for StreamingGuard {
+    fn drop(&mut self) {
+        self.0.streaming.store(false, Ordering::SeqCst);
+    }
+}
+
+struct Streamer {
+    link: Link,
+    model: RobotModel,
+    trajectory: Trajectory,
+    options: StreamOptions,
+    progress: watch::Sender<StreamProgress>,
+    epoch: u64,
+}
+
+#[derive(Default)]
+struct Tally {
+    samples: u64,
+    late: u64,
+    underruns: u64,
+    track_max: f64,
+    track_sq: f64,
+    track_n: u64,
+    rtt_sum: Duration,
+    rtt_max: Duration,
+}
+
+enum End {
+    Done,
+    Cancelled,
+}
+
+impl Streamer {
+    fn cancelled(&self) -> bool {
+        self.link.shared.current_epoch() != self.epoch
+    }
+
+    fn server_time(&self, at: Instant) -> Option<f64> {
+        lock(&self.link.shared.clock).server_time(at)
+    }
+
+    /// Sends command 5 (best effort: the error that ended the stream is what gets reported).
+    async fn brake(&self) {
+        if let Err(e) = self
+            .link
+            .command(&Request::new(Command::CancelMotion))
+            .await
+        {
+            tracing::warn!(error = %e, "could not send the cancel at the end of a stream");
+        }
+    }
+
+    async fn run(self) -> Result<StreamReport, ClientError> {
+        let mut tally = Tally::default();
+        let started = Instant::now();
+        let r = self.send_all(&mut tally).await;
+        let end = match r {
+            Ok(end) => end,
+            Err(e) => {
+                if !e.is_link_dead() {
+                    self.brake().await;
+                }
+                return Err(e);
+            }
+        };
+        let (outcome, final_error_deg, settled) = match end {
+            End::Cancelled => {
+                self.brake().await;
+                let err = self
+                    .link
+                    .latest()
+                    .map_or(f64::NAN, |s| s.status.joints.max_abs_diff(&self.trajectory.last()));
+                (StreamOutcome::Cancelled, err, false)
+            }
+            End::Done => match self.settle().await {
+                Ok((e, s)) => (StreamOutcome::Completed, e, s),
+                Err(e) => {
+                    if !e.is_link_dead() {
+                        self.brake().await;
+                    }
+                    return Err(e);
+                }
+            },
+        };
+        let rtt_mean = if tally.samples > 0 {
+            tally.rtt_sum / u32::try_from(tally.samples).unwrap_or(u32::MAX)
+        } else {
+            Duration::ZERO
+        };
+        Ok(StreamReport {
+            outcome,
+            samples_sent: tally.samples,
+            late_replies: tally.late,
+            underruns: tally.underruns,
+            tracking_error_max_deg: tally.track_max,
+            tracking_error_rms_deg: if tally.track_n > 0 {
+                (tally.track_sq / tally.track_n as f64).sqrt()
+            } else {
+                0.0
+            },
+            tracking_samples: tally.track_n,
+            final_error_deg,
+            settled,
+            duration: started.elapsed(),
+            rtt_mean,
+            rtt_max: tally.rtt_max,
+            clock: lock(&self.link.shared.clock).fit(),
+        })
+    }
+
+    fn command_for(
+        &self,
+        s: &TrajectorySample,
+        t0_s: Option<f64>,
+    ) -> Result<Command, ClientError> {
+        check_target(&self.model, &s.position)?;
+        Ok(match self.options.mode {
+            StreamMode::Extrapolated { lookahead_passes } => {
+                let t0_s = t0_s.ok_or(ClientError::Cancelled(
+                    "no server-clock estimate: no reply carried TIMER(1)",
+                ))?;
+                Command::StreamedMove(StreamSample {
+                    t0_s,
+                    lookahead_passes,
+                    position: s.position,
+                    velocity: s.velocity,
+                    acceleration: s.acceleration,
+                })
+            }
+            StreamMode::Waypoints => Command::JointMove { target: s.position },
+        })
+    }
+
+    async fn send_all(&self, tally: &mut Tally) -> Result<End, ClientError> {
+        let period = self.options.period;
+        let period_s = period.as_secs_f64();
+        let (t_begin, t_end) = (self.trajectory.start_s(), self.trajectory.duration_s());
+        let span = (t_end - t_begin).max(0.0);
+        let mut epoch_rx = self.link.shared.epoch.subscribe();
+        let local_start = Instant::now();
+        let mut last_sent: Option<Instant> = None;
+        let mut prev_pos = self.trajectory.first();
+        let mut rtt_est = self
+            .link
+            .latest()
+            .map_or(Duration::ZERO, |s| s.rtt);
+        loop {
+            if self.cancelled() {
+                return Ok(End::Cancelled);
+            }
+            let now = Instant::now();
+            let mut allowed_step = self.options.max_step_deg;
+            if let Some(prev) = last_sent {
+                let gap = now.duration_since(prev);
+                if gap > self.options.max_gap {
+                    lock(&self.link.shared.common.stats).stats.stream_underruns += 1;
+                    return Err(ClientError::StreamUnderrun {
+                        gap,
+                        allowed: self.options.max_gap,
+                    });
+                }
+                if gap > period * 2 {
+                    tally.underruns += 1;
+                    lock(&self.link.shared.common.stats).stats.stream_underruns += 1;
+                }
+                allowed_step *= (gap.as_secs_f64() / period_s).max(1.0);
+            }
+            // The sample the controller should act on: where the trajectory is when the request
+            // arrives (half a round trip from now).
+            let elapsed = now.duration_since(local_start) + rtt_est / 2;
+            let tau = (t_begin + elapsed.as_secs_f64()).min(t_end);
+            let last = tau >= t_end;
+            let sample = if last {
+                TrajectorySample {
+                    position: self.trajectory.last(),
+                    velocity: JointsDeg::ZERO,
+                    acceleration: JointsDeg::ZERO,
+                }
+            } else {
+                self.trajectory.sample(tau)
+            };
+            let step = sample.position.max_abs_diff(&prev_pos);
+            if step > allowed_step + 1e-9 {
+                let joint = (0..JOINT_COUNT)
+                    .max_by(|&a, &b| {
+                        let da = (sample.position[a] - prev_pos[a]).abs();
+                        let db = (sample.position[b] - prev_pos[b]).abs();
+                        da.total_cmp(&db)
+                    })
+                    .unwrap_or(0);
+                return Err(TrajectoryError::StepTooLarge {
+                    time_s: tau,
+                    joint: joint + 1,
+                    step_deg: step,
+                    max_deg: allowed_step,
+                }
+                .into());
+            }
+            let at = local_start + Duration::from_secs_f64((tau - t_begin).max(0.0));
+            let command = self.command_for(&sample, self.server_time(at))?;
+            let text = Request::new(command).encode()?;
+            let tag = self.link.shared.motion_tag();
+            if tag.epoch != self.epoch {
+                return Ok(End::Cancelled);
+            }
+            let tag = crate::session::MotionTag {
+                epoch: self.epoch,
+                id: tag.id,
+            };
+            let ex = match self.link.exchange(text, Kind::Motion, Some(tag)).await {
+                Ok(ex) => ex,
+                Err(ClientError::Cancelled(_)) => return Ok(End::Cancelled),
+                Err(ClientError::Blocked(b)) => {
+                    return Err(ClientError::Aborted {
+                        during: "stream",
+                        blockers: b,
+                    })
+                }
+                Err(e) => return Err(e),
+            };
+            tally.samples += 1;
+            lock(&self.link.shared.common.stats).stats.stream_samples += 1;
+            let rtt = ex.rtt();
+            rtt_est = if tally.samples == 1 {
+                rtt
+            } else {
+                (rtt_est * 7 + rtt) / 8
+            };
+            tally.rtt_sum += rtt;
+            tally.rtt_max = tally.rtt_max.max(rtt);
+            if rtt > period {
+                tally.late += 1;
+                lock(&self.link.shared.common.stats).stats.stream_late_replies += 1;
+            }
+            last_sent = Some(ex.sent_at);
+            prev_pos = sample.position;
+            self.track(&ex, local_start, t_begin, t_end, tally);
+            let b = blockers(&ex.frame.status, true);
+            if !b.is_empty() {
+                return Err(ClientError::Aborted {
+                    during: "stream",
+                    blockers: b,
+                });
+            }
+            self.progress.send_replace(StreamProgress {
+                index: tally.samples,
+                time_s: tau,
+                fraction: if span > 0.0 {
+                    ((tau - t_begin) / span).clamp(0.0, 1.0)
+                } else {
+                    1.0
+                },
+                late_replies: tally.late,
+                underruns: tally.underruns,
+                tracking_error_max_deg: tally.track_max,
+                done: last,
+            });
+            if last {
+                return Ok(End::Done);
+            }
+            let next = ex.sent_at + period;
+            tokio::select! {
+                _ = tokio::time::sleep_until(next) => {}
+                _ = epoch_rx.changed() => {}
+            }
+        }
+    }
+
+    /// Tracking error of one reply: its joints against the trajectory at the reply's server
+    /// time.
+    fn track(&self, ex: &Exchange, local_start: Instant, t_begin: f64, t_end: f64, tally: &mut Tally) {
+        let Some(server_s) = ex.frame.status.timer.seconds() else {
+            return;
+        };
+        let Some(local) = lock(&self.link.shared.clock).local_instant(server_s) else {
+            return;
+        };
+        if local < local_start {
+            return;
+        }
+        let tau = t_begin + local.duration_since(local_start).as_secs_f64();
+        if tau > t_end {
+            return;
+        }
+        let e = self
+            .trajectory
+            .sample(tau)
+            .position
+            .max_abs_diff(&ex.frame.status.joints);
+        tally.track_max = tally.track_max.max(e);
+        tally.track_sq += e * e;
+        tally.track_n += 1;
+    }
+
+    /// After the last sample: waits (on the keep-alive statuses) until the robot is at the last
+    /// point, or the end timeout.
+    async fn settle(&self) -> Result<(f64, bool), ClientError> {
+        let target = self.trajectory.last();
+        let deadline = Instant::now() + self.options.end_timeout;
+        let mut rx = self.link.status.clone();
+        let mut epoch_rx = self.link.shared.epoch.subscribe();
+        let mut err = f64::NAN;
+        loop {
+            if let Some(s) = rx.borrow_and_update().as_ref() {
+                let b = blockers(&s.status, true);
+                if !b.is_empty() {
+                    return Err(ClientError::Aborted {
+                        during: "stream",
+                        blockers: b,
+                    });
+                }
+                err = s.status.joints.max_abs_diff(&target);
+                if err <= self.options.end_tolerance_deg {
+                    return Ok((err, true));
+                }
+            }
+            if self.cancelled() {
+                return Ok((err, false));
+            }
+            tokio::select! {
+                r = rx.changed() => if r.is_err() { return Err(self.link.shared.death()) },
+                _ = epoch_rx.changed() => {}
+                _ = tokio::time::sleep_until(deadline) => return Ok((err, false)),
+            }
+        }
+    }
+}
