@@ -202,6 +202,11 @@ impl Robot {
         self.r().server_clock()
     }
 
+    /// See [`crate::Robot::server_time_now`].
+    pub fn server_time_now(&self) -> Option<f64> {
+        self.r().server_time_now()
+    }
+
     /// See [`crate::Robot::model`].
     pub fn model(&self) -> &RobotModel {
         self.r().model()

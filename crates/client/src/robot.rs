@@ -385,6 +385,12 @@ impl Robot {
         lock(&self.link.shared.clock).fit()
     }
 
+    /// The estimated controller clock (TIMER(1), seconds since the session was accepted) at
+    /// this instant; `None` before the first reply with a timer.
+    pub fn server_time_now(&self) -> Option<f64> {
+        lock(&self.link.shared.clock).server_time(Instant::now())
+    }
+
     /// The robot model used for the checks.
     pub fn model(&self) -> &RobotModel {
         &self.common.config.model
