@@ -11,66 +11,117 @@ use fs020n_kin::{JointMove, Pose, RobotModel};
 use fs020n_proto::{JointsDeg, JOINT_COUNT};
 
 /// A straight-line (LMOVE) tool path, pre-sampled through inverse kinematics.
+///
+/// Sampling is adaptive: the line is first cut every [`LINEAR_SAMPLE_MM`] of tool travel and
+/// every [`LINEAR_SAMPLE_DEG`] of tool rotation, then any piece across which a joint turns more
+/// than [`LINEAR_MAX_JOINT_STEP_DEG`] is halved (through IK) until it does not. Between samples
+/// the joints are interpolated linearly, which keeps the tool within a few micrometres of the
+/// line for such short pieces; far from singularities a 0.1 s stream segment needs only a few
+/// IK solutions (the emulator's hot path), near them the sampling densifies by itself.
 #[derive(Debug, Clone)]
 pub struct LinearPath {
-    /// Joint configurations at equal path-parameter steps, first = start, last = target.
+    /// Path parameters (0 = start, 1 = target), increasing.
+    params: Vec<f64>,
+    /// Joint configurations at `params`, first = start, last = target.
     samples: Vec<JointsDeg>,
     duration_s: f64,
 }
+
+/// Longest tool travel between two IK samples of a straight line, millimetres.
+pub const LINEAR_SAMPLE_MM: f64 = 5.0;
+/// Largest tool rotation between two IK samples of a straight line, degrees.
+pub const LINEAR_SAMPLE_DEG: f64 = 2.0;
+/// Largest joint step between two IK samples of a straight line, degrees (finer pieces are
+/// halved).
+pub const LINEAR_MAX_JOINT_STEP_DEG: f64 = 2.0;
+/// A joint step that does not shrink when a piece is halved many times is a configuration
+/// flip (no continuous IK path): above this many degrees the line is refused.
+const FLIP_DEG: f64 = 30.0;
+/// Most halvings of one piece.
+const MAX_HALVINGS: u32 = 12;
+/// Most samples of one path.
+const MAX_SAMPLES: usize = 20_000;
 
 impl LinearPath {
     /// Plans a straight tool line from `from` to `to` (joint configurations), taking at least
     /// `duration_s`, stretched when a joint would exceed its maximum speed. Fails when a point of
     /// the line has no inverse-kinematics solution inside the joint ranges near the previous one
     /// (the line crosses a singularity, leaves the workspace or the ranges).
+    ///
+    /// `_resolution_s` (the controller tick) is kept for compatibility; the sampling no longer
+    /// depends on time (the profile is evaluated exactly, only the geometry is sampled).
     pub fn plan(
         model: &RobotModel,
         from: JointsDeg,
         to: JointsDeg,
         duration_s: f64,
-        resolution_s: f64,
+        _resolution_s: f64,
     ) -> Option<LinearPath> {
         let p0 = model.forward(&from.to_rad());
         let p1 = model.forward(&to.to_rad());
         let distance_mm = p0.distance_m(&p1) * 1000.0;
-        let angle = p0.angle_to_rad(&p1);
-        // One sample per controller tick of the nominal duration, at least every 5 mm / 2 deg.
-        let n = ((duration_s / resolution_s).ceil() as usize)
-            .max((distance_mm / 5.0).ceil() as usize)
-            .max((angle.to_degrees() / 2.0).ceil() as usize)
-            .clamp(1, 2000);
-        let mut samples = Vec::with_capacity(n + 1);
-        samples.push(from);
-        let mut seed = from.to_rad();
-        let rot0 = p0.rotation();
-        let rot1 = p1.rotation();
-        for k in 1..n {
-            let s = k as f64 / n as f64;
-            let pos = p0.position_m().lerp(&p1.position_m(), s);
-            let rot = rot0.slerp(&rot1, s);
-            let q = model.inverse_nearest(&Pose::new(pos, rot), &seed).ok()?;
-            let qd = q.to_deg();
-            // A jump of more than 30 deg between neighbouring samples is a configuration flip.
-            if qd.max_abs_diff(samples.last()?) > 30.0 {
-                return None;
+        let angle_deg = p0.angle_to_rad(&p1).to_degrees();
+        let n = ((distance_mm / LINEAR_SAMPLE_MM).ceil() as usize)
+            .max((angle_deg / LINEAR_SAMPLE_DEG).ceil() as usize)
+            .clamp(1, MAX_SAMPLES);
+        let (pos0, pos1) = (p0.position_m(), p1.position_m());
+        let (rot0, rot1) = (p0.rotation(), p1.rotation());
+        let solve = |s: f64, seed: &JointsDeg| -> Option<JointsDeg> {
+            if s >= 1.0 {
+                return Some(to);
             }
-            samples.push(qd);
-            seed = q;
+            let pose = Pose::new(pos0.lerp(&pos1, s), rot0.slerp(&rot1, s));
+            model
+                .inverse_nearest(&pose, &seed.to_rad())
+                .ok()
+                .map(|q| q.to_deg())
+        };
+        let mut params = Vec::with_capacity(n + 1);
+        let mut samples = Vec::with_capacity(n + 1);
+        params.push(0.0);
+        samples.push(from);
+        for k in 1..=n {
+            let s1 = k as f64 / n as f64;
+            let q1 = solve(s1, samples.last()?)?;
+            // Refine the piece (s0, s1] by halving until no joint steps more than the limit.
+            let mut stack = vec![(s1, q1, 0u32)];
+            while let Some((sb, qb, depth)) = stack.pop() {
+                let sa = *params.last()?;
+                let qa = *samples.last()?;
+                let step = qb.max_abs_diff(&qa);
+                if step <= LINEAR_MAX_JOINT_STEP_DEG || depth >= MAX_HALVINGS {
+                    if step > FLIP_DEG {
+                        return None;
+                    }
+                    params.push(sb);
+                    samples.push(qb);
+                    if samples.len() > MAX_SAMPLES {
+                        return None;
+                    }
+                } else {
+                    let sm = 0.5 * (sa + sb);
+                    let qm = solve(sm, &qa)?;
+                    stack.push((sb, qb, depth + 1));
+                    stack.push((sm, qm, depth + 1));
+                }
+            }
         }
-        if to.max_abs_diff(samples.last()?) > 30.0 {
-            return None;
-        }
-        samples.push(to);
-        // The cycloidal profile peaks at twice the mean rate.
+        // The cycloidal profile peaks at twice the mean rate: a piece of Δs along which joint j
+        // turns d needs T ≥ 2 d / (Δs · v_max).
         let mut needed = duration_s;
         let speeds = model.max_speeds_deg_s();
-        for w in samples.windows(2) {
+        for (w, ds) in samples.windows(2).zip(params.windows(2)) {
+            let ds = ds[1] - ds[0];
+            if ds <= 0.0 {
+                continue;
+            }
             for (j, speed) in speeds.iter().enumerate() {
                 let d = (w[1][j] - w[0][j]).abs();
-                needed = needed.max(2.0 * d * n as f64 / speed);
+                needed = needed.max(2.0 * d / (ds * speed));
             }
         }
         Some(LinearPath {
+            params,
             samples,
             duration_s: needed,
         })
@@ -81,15 +132,32 @@ impl LinearPath {
         self.duration_s
     }
 
+    /// Number of IK samples along the line (start and target included).
+    pub fn sample_count(&self) -> usize {
+        self.samples.len()
+    }
+
     fn position_at(&self, t: f64) -> JointsDeg {
         let u = (t / self.duration_s).clamp(0.0, 1.0);
         // Cycloidal profile: zero speed and acceleration at both ends.
         let s = u - (2.0 * std::f64::consts::PI * u).sin() / (2.0 * std::f64::consts::PI);
-        let n = self.samples.len() - 1;
-        let x = s * n as f64;
-        let k = (x.floor() as usize).min(n - 1);
-        let f = x - k as f64;
-        self.samples[k].zip_with(&self.samples[k + 1], |a, b| a + (b - a) * f)
+        let last = self.samples.len() - 1;
+        if s >= 1.0 || last == 0 {
+            return self.samples[last];
+        }
+        // The piece [params[k], params[k+1]] holding s.
+        let k = self
+            .params
+            .partition_point(|&p| p <= s)
+            .saturating_sub(1)
+            .min(last - 1);
+        let (a, b) = (self.params[k], self.params[k + 1]);
+        let f = if b > a {
+            ((s - a) / (b - a)).clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
+        self.samples[k].zip_with(&self.samples[k + 1], |x, y| x + (y - x) * f)
     }
 }
 

@@ -660,3 +660,45 @@ fn an_injected_error_stops_the_program_and_brakes() {
     let s = raw(&mut c, id, "0 0 0");
     assert_eq!(s.error.raw(), -31130);
 }
+
+#[test]
+fn long_straight_lines_stay_on_the_line_with_adaptive_sampling() {
+    use fs020n_sim::motion::LinearPath;
+    let model = RobotModel::fs020n();
+    let from = JointsDeg::new([-20.0, 10.0, -80.0, 30.0, -60.0, 0.0]);
+    let to = JointsDeg::new([25.0, 30.0, -70.0, -20.0, -40.0, 45.0]);
+    let path = LinearPath::plan(&model, from, to, 0.1, 0.002).expect("reachable");
+    let a = model.forward(&from.to_rad());
+    let b = model.forward(&to.to_rad());
+    let len_mm = a.distance_m(&b) * 1000.0;
+    assert!(len_mm > 300.0, "{len_mm}");
+    assert!(path.sample_count() >= (len_mm / 5.0) as usize);
+    // follow it through the robot at fine time steps
+    let mut cfg = ControllerConfig::default();
+    cfg.joints = from;
+    let mut c = Controller::new(cfg);
+    let id = c.try_accept().unwrap();
+    raw(&mut c, id, "1040 1 0");
+    raw(&mut c, id, "1040 3 1 100");
+    stream_to(&mut c, id, to.values());
+    let (pa, pb) = (a.position_m(), b.position_m());
+    let dir = (pb - pa).normalize();
+    let mut worst = 0.0_f64;
+    let took = until(&mut c, Duration::from_secs(10), |c| {
+        let q = model.forward(&c.joints().to_rad()).position_m() - pa;
+        worst = worst.max((q - dir * q.dot(&dir)).norm());
+        c.joints() == to
+    });
+    assert!(
+        worst * 1000.0 < 0.1,
+        "left the line by {} mm",
+        worst * 1000.0
+    );
+    // stretched beyond 0.1 s so that no joint exceeds its maximum speed
+    assert!(
+        (took.as_secs_f64() - path.duration_s()).abs() < 0.02,
+        "{took:?} vs {}",
+        path.duration_s()
+    );
+    assert!(path.duration_s() > 0.1);
+}

@@ -94,7 +94,7 @@ async fn send_timeout_ends_the_session_when_the_client_does_not_read() {
     let emu = emulator();
     let mut s = emu.connect().unwrap();
     roundtrip(&mut s, "1040 1 0").await;
-    // Requests, never reading the replies: the 4096-byte pipe fills after ~43 replies of 95
+    // Requests, never reading the replies: the 4096-byte pipe fills after ~45 replies of 91
     // bytes, the next send blocks, and 2 s later the controller gives up.
     let start = Instant::now();
     let mut last_count = 0;
