@@ -43,14 +43,21 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
     robot.set_speed(speed).await?;
     robot.start().await?;
     let mv = robot.move_joints(target).await?;
-    println!("moving to {target} at {speed} % (about {:?})", mv.planned_duration());
+    println!(
+        "moving to {target} at {speed} % (about {:?})",
+        mv.planned_duration()
+    );
 
     let progress = mv.clone();
     let bar = tokio::spawn(async move {
         let mut rx = progress.subscribe();
         while rx.changed().await.is_ok() {
             if let Some(p) = progress.progress() {
-                print!("\r{:5.1} %  {:8.3} deg to go", p.fraction * 100.0, p.remaining_deg);
+                print!(
+                    "\r{:5.1} %  {:8.3} deg to go",
+                    p.fraction * 100.0,
+                    p.remaining_deg
+                );
                 let _ = std::io::stdout().flush();
             }
         }
@@ -59,7 +66,10 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
     bar.abort();
     println!();
     match result {
-        Ok(r) => println!("done in {:?}, final error {:.3} deg", r.elapsed, r.error_deg),
+        Ok(r) => println!(
+            "done in {:?}, final error {:.3} deg",
+            r.elapsed, r.error_deg
+        ),
         Err(e) => eprintln!("move failed: {e}"),
     }
     robot.close().await?;

@@ -26,7 +26,10 @@ async fn main() -> Result<(), ClientError> {
     println!("REPEAT     {}", sw(s.repeat, "REPEAT", "TEACH"));
     println!("TEACH LOCK {}", sw(s.teach_lock, "ON", "OFF"));
     println!("power      {}", sw(s.power, "ON", "OFF"));
-    println!("program    {}", sw(s.task_running, "running", "not running"));
+    println!(
+        "program    {}",
+        sw(s.task_running, "running", "not running")
+    );
     println!("timer      {:?} s", s.timer.seconds());
     println!("joints     {}", s.joints);
     match robot.preflight().await {

@@ -5,9 +5,7 @@
 //! cargo run -p fs020n-client --example stream_circle -- --robot 127.0.0.1:10050
 //! ```
 
-use fs020n_client::{
-    ClientConfig, Pose, Robot, StreamOptions, Trajectory, TrajectoryPoint,
-};
+use fs020n_client::{ClientConfig, Pose, Robot, StreamOptions, Trajectory, TrajectoryPoint};
 
 fn robot_arg() -> String {
     let args: Vec<String> = std::env::args().collect();

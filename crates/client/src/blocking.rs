@@ -84,7 +84,9 @@ impl Robot {
     fn r(&self) -> &crate::Robot {
         // Only `Drop` takes it out.
         #[allow(clippy::expect_used)]
-        self.inner.as_ref().expect("the robot handle is present until drop")
+        self.inner
+            .as_ref()
+            .expect("the robot handle is present until drop")
     }
 
     /// The asynchronous handle and its runtime, for mixing both styles.

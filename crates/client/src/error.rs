@@ -54,7 +54,9 @@ pub enum LinkError {
         excerpt: String,
     },
     /// The peer answers, but not as a protocol-1040 server.
-    #[error("the peer replied with protocol version {version}, not 1040: is this the robot's port?")]
+    #[error(
+        "the peer replied with protocol version {version}, not 1040: is this the robot's port?"
+    )]
     NotAController {
         /// Field 1 of its reply.
         version: i64,

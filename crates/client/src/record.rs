@@ -111,13 +111,24 @@ mod tests {
         .unwrap();
         let t = Instant::now();
         r.line(t, 1, Dir::Tx, "poll", None, "0 0 0").unwrap();
-        r.line(t, 1, Dir::Rx, "poll", Some(Duration::from_micros(1500)), " 1040 \"x\"")
-            .unwrap();
+        r.line(
+            t,
+            1,
+            Dir::Rx,
+            "poll",
+            Some(Duration::from_micros(1500)),
+            " 1040 \"x\"",
+        )
+        .unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines[0], "t_s,session,dir,kind,rtt_ms,text");
         assert!(lines[1].ends_with(",1,tx,poll,,\"0 0 0\""), "{}", lines[1]);
-        assert!(lines[2].ends_with(",1,rx,poll,1.500,\" 1040 \"\"x\"\"\""), "{}", lines[2]);
+        assert!(
+            lines[2].ends_with(",1,rx,poll,1.500,\" 1040 \"\"x\"\"\""),
+            "{}",
+            lines[2]
+        );
 
         let path = dir.path().join("r.jsonl");
         let mut r = Recorder::open(&Recording {

@@ -102,10 +102,7 @@ impl Robot {
 
     /// Why the session ended (`None` while it is open).
     pub fn link_error(&self) -> Option<ClientError> {
-        self.link
-            .shared
-            .is_dead()
-            .then(|| self.link.shared.death())
+        self.link.shared.is_dead().then(|| self.link.shared.death())
     }
 
     /// The latest status with its age, without waiting. Fresh to within the keep-alive period
@@ -160,7 +157,10 @@ impl Robot {
             return Ok(());
         }
         let started = Instant::now();
-        let ex = self.link.command(&Request::new(Command::StartProgram)).await?;
+        let ex = self
+            .link
+            .command(&Request::new(Command::StartProgram))
+            .await?;
         if ex.frame.status.task_running {
             return Ok(());
         }
@@ -248,7 +248,11 @@ impl Robot {
         let text = Request::new(Command::JointMove { target })
             .encode()
             .inspect_err(|_| self.common.refused())?;
-        let from = self.link.latest().map(|s| s.status.joints).unwrap_or(target);
+        let from = self
+            .link
+            .latest()
+            .map(|s| s.status.joints)
+            .unwrap_or(target);
         let tag = self.link.shared.motion_tag();
         let ex = self.link.exchange(text, Kind::Motion, Some(tag)).await?;
         let speed = self
@@ -301,8 +305,13 @@ impl Robot {
         if !b.is_empty() {
             return Err(ClientError::Blocked(b));
         }
-        crate::stream::check(&self.common.config.model, &trajectory, &options, &current.joints)
-            .inspect_err(|_| self.common.refused())?;
+        crate::stream::check(
+            &self.common.config.model,
+            &trajectory,
+            &options,
+            &current.joints,
+        )
+        .inspect_err(|_| self.common.refused())?;
         StreamHandle::spawn(
             self.link.clone(),
             self.common.config.model.clone(),
@@ -316,7 +325,11 @@ impl Robot {
     /// `allow_motion` — anything the controller would execute as a motion (1040 6 / 1040 7,
     /// read with the controller's own parsing). Allowed motions get the same checks as typed
     /// ones (ranges, status). An effective 255 ends the session as [`close`](Self::close) does.
-    pub async fn send_raw(&self, text: &str, allow_motion: bool) -> Result<ReplyFrame, ClientError> {
+    pub async fn send_raw(
+        &self,
+        text: &str,
+        allow_motion: bool,
+    ) -> Result<ReplyFrame, ClientError> {
         let refuse = |reason: String| {
             self.common.refused();
             Err(ClientError::RawRefused { reason })

@@ -253,7 +253,9 @@ impl Link {
 
     /// Encodes and sends a non-motion command.
     pub(crate) async fn command(&self, request: &Request) -> Result<Exchange, ClientError> {
-        let text = request.encode().inspect_err(|_| self.shared.common.refused())?;
+        let text = request
+            .encode()
+            .inspect_err(|_| self.shared.common.refused())?;
         self.exchange(text, Kind::Command, None).await
     }
 
@@ -500,13 +502,14 @@ enum Event {
 impl Task {
     async fn run(mut self) {
         let cfg = self.shared.common.config.clone();
+        let keepalive = sleep_until(self.last_exchange + cfg.keepalive_period);
+        tokio::pin!(keepalive);
         let end = loop {
-            let next_poll = self.last_exchange + cfg.keepalive_period;
             let event = tokio::select! {
                 biased;
                 r = self.conn.stream.read(&mut self.conn.buf) => Event::Read(r),
                 op = self.rx.recv() => Event::Op(op),
-                _ = sleep_until(next_poll) => Event::KeepAlive,
+                _ = &mut keepalive => Event::KeepAlive,
             };
             match event {
                 Event::Read(Ok(n)) => {
@@ -516,10 +519,19 @@ impl Task {
                 }
                 Event::Read(Err(e)) => break ClientError::LinkLost(LinkError::io(&e)),
                 Event::KeepAlive => {
-                    lock(&self.shared.common.stats).stats.keepalive_polls += 1;
+                    // The timer is re-armed only when it fires (cheaper than on every request):
+                    // poll only if nothing was exchanged for a whole period.
+                    let due = self.last_exchange + cfg.keepalive_period;
+                    if Instant::now() < due {
+                        keepalive.as_mut().reset(due);
+                        continue;
+                    }
                     if let Err(e) = self.round_trip(POLL, Kind::KeepAlive, &cfg).await {
                         break e;
                     }
+                    keepalive
+                        .as_mut()
+                        .reset(self.last_exchange + cfg.keepalive_period);
                 }
                 Event::Op(None) => {
                     // Every handle is gone: end the session politely.
@@ -598,7 +610,6 @@ impl Task {
         let common = &self.shared.common;
         let id = self.shared.id;
         common.record(Instant::now(), id, Dir::Tx, kind.as_str(), None, text);
-        lock(&common.stats).stats.requests += 1;
         let r = self
             .conn
             .exchange(text, cfg.write_timeout, cfg.reply_timeout)
@@ -614,7 +625,14 @@ impl Task {
                     Some(rtt),
                     &ex.frame.text,
                 );
-                lock(&common.stats).record_rtt(rtt, rtt > cfg.late_reply_after);
+                {
+                    let mut st = lock(&common.stats);
+                    st.stats.requests += 1;
+                    if kind == Kind::KeepAlive {
+                        st.stats.keepalive_polls += 1;
+                    }
+                    st.record_rtt(rtt, rtt > cfg.late_reply_after);
+                }
                 if let Some(t) = ex.frame.status.timer.seconds() {
                     lock(&self.shared.clock).add(ex.sent_at, ex.received_at, t);
                 }
@@ -628,7 +646,10 @@ impl Task {
                 self.last_exchange = ex.received_at;
                 Ok(ex)
             }
-            Err(e) => Err(ClientError::LinkLost(e)),
+            Err(e) => {
+                lock(&common.stats).stats.requests += 1;
+                Err(ClientError::LinkLost(e))
+            }
         }
     }
 
@@ -659,7 +680,14 @@ impl Task {
         } else {
             tracing::info!(session = self.shared.id, "session closed");
         }
-        common.record(now, self.shared.id, Dir::Event, "end", None, &end.to_string());
+        common.record(
+            now,
+            self.shared.id,
+            Dir::Event,
+            "end",
+            None,
+            &end.to_string(),
+        );
         // Record the cause before the queued requests see their channels close.
         self.shared.set_dead(end.clone());
         self.rx.close();

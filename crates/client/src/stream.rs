@@ -146,11 +146,16 @@ pub(crate) fn check(
     let opt = |m: String| Err(ClientError::Trajectory(TrajectoryError::Options(m)));
     let period = options.period.as_secs_f64();
     if !(0.001..=1.0).contains(&period) {
-        return opt(format!("period {:?} must be from 1 ms to 1 s", options.period));
+        return opt(format!(
+            "period {:?} must be from 1 ms to 1 s",
+            options.period
+        ));
     }
     if let StreamMode::Extrapolated { lookahead_passes } = options.mode {
         if !(lookahead_passes.is_finite() && (0.0..=50.0).contains(&lookahead_passes)) {
-            return opt(format!("lookahead_passes {lookahead_passes} must be from 0 to 50"));
+            return opt(format!(
+                "lookahead_passes {lookahead_passes} must be from 0 to 50"
+            ));
         }
     }
     if options.max_gap < options.period * 2 || options.max_gap > Duration::from_millis(500) {
@@ -340,10 +345,9 @@ impl Streamer {
         let (outcome, final_error_deg, settled) = match end {
             End::Cancelled => {
                 self.brake().await;
-                let err = self
-                    .link
-                    .latest()
-                    .map_or(f64::NAN, |s| s.status.joints.max_abs_diff(&self.trajectory.last()));
+                let err = self.link.latest().map_or(f64::NAN, |s| {
+                    s.status.joints.max_abs_diff(&self.trajectory.last())
+                });
                 (StreamOutcome::Cancelled, err, false)
             }
             End::Done => match self.settle().await {
@@ -382,11 +386,7 @@ impl Streamer {
         })
     }
 
-    fn command_for(
-        &self,
-        s: &TrajectorySample,
-        t0_s: Option<f64>,
-    ) -> Result<Command, ClientError> {
+    fn command_for(&self, s: &TrajectorySample, t0_s: Option<f64>) -> Result<Command, ClientError> {
         check_target(&self.model, &s.position)?;
         Ok(match self.options.mode {
             StreamMode::Extrapolated { lookahead_passes } => {
@@ -414,10 +414,7 @@ impl Streamer {
         let local_start = Instant::now();
         let mut last_sent: Option<Instant> = None;
         let mut prev_pos = self.trajectory.first();
-        let mut rtt_est = self
-            .link
-            .latest()
-            .map_or(Duration::ZERO, |s| s.rtt);
+        let mut rtt_est = self.link.latest().map_or(Duration::ZERO, |s| s.rtt);
         loop {
             if self.cancelled() {
                 return Ok(End::Cancelled);
@@ -504,7 +501,9 @@ impl Streamer {
             tally.rtt_max = tally.rtt_max.max(rtt);
             if rtt > period {
                 tally.late += 1;
-                lock(&self.link.shared.common.stats).stats.stream_late_replies += 1;
+                lock(&self.link.shared.common.stats)
+                    .stats
+                    .stream_late_replies += 1;
             }
             last_sent = Some(ex.sent_at);
             prev_pos = sample.position;
@@ -542,7 +541,14 @@ impl Streamer {
 
     /// Tracking error of one reply: its joints against the trajectory at the reply's server
     /// time.
-    fn track(&self, ex: &Exchange, local_start: Instant, t_begin: f64, t_end: f64, tally: &mut Tally) {
+    fn track(
+        &self,
+        ex: &Exchange,
+        local_start: Instant,
+        t_begin: f64,
+        t_end: f64,
+        tally: &mut Tally,
+    ) {
         let Some(server_s) = ex.frame.status.timer.seconds() else {
             return;
         };

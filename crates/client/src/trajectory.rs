@@ -375,7 +375,10 @@ mod tests {
         p.position[3] = f64::NAN;
         assert!(matches!(
             Trajectory::new(vec![p]),
-            Err(TrajectoryError::NonFinite { index: 0, field: "position" })
+            Err(TrajectoryError::NonFinite {
+                index: 0,
+                field: "position"
+            })
         ));
         assert!(matches!(
             Trajectory::new(vec![TrajectoryPoint::new(-1.0, home())]),

@@ -68,7 +68,11 @@ impl TcpConnector {
         if let Ok(sa) = t.parse::<SocketAddr>() {
             return Ok(vec![sa]);
         }
-        if let Ok(ip) = t.trim_start_matches('[').trim_end_matches(']').parse::<IpAddr>() {
+        if let Ok(ip) = t
+            .trim_start_matches('[')
+            .trim_end_matches(']')
+            .parse::<IpAddr>()
+        {
             return Ok(vec![SocketAddr::new(ip, DEFAULT_PORT)]);
         }
         let addrs: Vec<SocketAddr> = match t.rsplit_once(':') {
@@ -116,7 +120,10 @@ mod tests {
     #[tokio::test]
     async fn resolves_forms_of_addresses() {
         let c = TcpConnector::new("127.0.0.1:1234");
-        assert_eq!(c.resolve().await.unwrap(), vec!["127.0.0.1:1234".parse().unwrap()]);
+        assert_eq!(
+            c.resolve().await.unwrap(),
+            vec!["127.0.0.1:1234".parse().unwrap()]
+        );
         let c = TcpConnector::new("127.0.0.1");
         assert_eq!(c.resolve().await.unwrap()[0].port(), DEFAULT_PORT);
         let c = TcpConnector::new("[::1]");

@@ -35,9 +35,16 @@ async fn connects_across_a_listen_gap() {
     let emu = emulator();
     // The first accept window is 3 s, then a 100 ms gap: be in the gap.
     sleep_ms(3050).await;
-    assert!(!emu.with(|c| c.is_listening()), "the emulator should be in its listen gap");
+    assert!(
+        !emu.with(|c| c.is_listening()),
+        "the emulator should be in its listen gap"
+    );
     let robot = connect(&emu).await;
-    assert!(emu.elapsed() >= Duration::from_millis(3100), "{:?}", emu.elapsed());
+    assert!(
+        emu.elapsed() >= Duration::from_millis(3100),
+        "{:?}",
+        emu.elapsed()
+    );
     assert!(emu.with(|c| c.counters().refused) >= 1);
     assert_eq!(emu.with(|c| c.counters().sessions), 1);
     let s = robot.status().expect("a status right after connect");
@@ -57,13 +64,17 @@ async fn a_second_client_is_refused_with_a_remedy() {
         .await
         .expect_err("the session is taken");
     match &err {
-        ClientError::Connect { attempts, waited, .. } => {
+        ClientError::Connect {
+            attempts, waited, ..
+        } => {
             assert!(*attempts > 5, "{attempts}");
             assert!(*waited <= Duration::from_secs(1));
         }
         other => panic!("expected Connect, got {other:?}"),
     }
-    assert!(err.to_string().contains("no other client holds the session"));
+    assert!(err
+        .to_string()
+        .contains("no other client holds the session"));
     // The first client is unaffected.
     assert!(first.poll().await.is_ok());
 }
@@ -72,8 +83,16 @@ async fn a_second_client_is_refused_with_a_remedy() {
 async fn a_slow_reply_below_the_deadline_is_late_but_fine() {
     let emu = emulator();
     let robot = connect(&emu).await;
-    emu.with(|c| c.inject(Fault::DelayReplies { count: 1, delay_ms: 600 }));
-    let status = robot.poll().await.expect("600 ms is below the 1 s deadline");
+    emu.with(|c| {
+        c.inject(Fault::DelayReplies {
+            count: 1,
+            delay_ms: 600,
+        })
+    });
+    let status = robot
+        .poll()
+        .await
+        .expect("600 ms is below the 1 s deadline");
     assert_eq!(status.joints, home());
     let st = robot.stats();
     assert!(st.late_replies >= 1, "{st:?}");
@@ -86,8 +105,16 @@ async fn a_slow_reply_above_the_deadline_kills_the_handle() {
     let emu = emulator();
     let robot = connect(&emu).await;
     let mut sub = robot.subscribe();
-    emu.with(|c| c.inject(Fault::DelayReplies { count: 1, delay_ms: 1500 }));
-    let err = robot.poll().await.expect_err("1.5 s is beyond the 1 s deadline");
+    emu.with(|c| {
+        c.inject(Fault::DelayReplies {
+            count: 1,
+            delay_ms: 1500,
+        })
+    });
+    let err = robot
+        .poll()
+        .await
+        .expect_err("1.5 s is beyond the 1 s deadline");
     assert!(
         matches!(err, ClientError::LinkLost(LinkError::ReplyTimeout { .. })),
         "{err:?}"
@@ -126,7 +153,11 @@ async fn a_withheld_reply_is_a_typed_timeout_and_the_session_ends() {
 async fn a_garbage_reply_kills_the_handle() {
     let emu = emulator();
     let robot = connect(&emu).await;
-    emu.with(|c| c.inject(Fault::GarbageReply { text: "HELLO WORLD".into() }));
+    emu.with(|c| {
+        c.inject(Fault::GarbageReply {
+            text: "HELLO WORLD".into(),
+        })
+    });
     let err = robot.poll().await.unwrap_err();
     assert!(
         matches!(err, ClientError::LinkLost(LinkError::Undecodable(_))),
@@ -139,7 +170,12 @@ async fn a_garbage_reply_kills_the_handle() {
 async fn a_reply_split_across_segments_is_reassembled() {
     let emu = emulator();
     let robot = connect(&emu).await;
-    emu.with(|c| c.inject(Fault::SplitReply { parts: 7, gap_ms: 30 }));
+    emu.with(|c| {
+        c.inject(Fault::SplitReply {
+            parts: 7,
+            gap_ms: 30,
+        })
+    });
     let status = robot.poll().await.expect("a split reply is one reply");
     assert_eq!(status.joints, home());
     assert!(status.power && status.run && status.repeat);
@@ -235,10 +271,26 @@ async fn preflight_names_every_blocker_with_its_remedy() {
 
     type Flip = fn(&mut fs020n_sim::Controller, bool);
     let cases: [(Flip, Blocker, &str); 4] = [
-        (|c, on| c.set_repeat(!on), Blocker::Teach, "switch TEACH/REPEAT to REPEAT"),
-        (|c, on| c.set_teach_lock(on), Blocker::TeachLock, "turn TEACH LOCK off"),
-        (|c, on| c.set_run(!on), Blocker::Hold, "switch RUN/HOLD to RUN"),
-        (|c, on| c.set_power(!on).unwrap(), Blocker::PowerOff, "turn motor power on"),
+        (
+            |c, on| c.set_repeat(!on),
+            Blocker::Teach,
+            "switch TEACH/REPEAT to REPEAT",
+        ),
+        (
+            |c, on| c.set_teach_lock(on),
+            Blocker::TeachLock,
+            "turn TEACH LOCK off",
+        ),
+        (
+            |c, on| c.set_run(!on),
+            Blocker::Hold,
+            "switch RUN/HOLD to RUN",
+        ),
+        (
+            |c, on| c.set_power(!on).unwrap(),
+            Blocker::PowerOff,
+            "turn motor power on",
+        ),
     ];
     for (flip, blocker, remedy) in cases {
         emu.with(|c| flip(c, true));
@@ -258,14 +310,21 @@ async fn preflight_names_every_blocker_with_its_remedy() {
         c.set_run(false);
     });
     let err = robot.preflight().await.unwrap_err();
-    assert_eq!(err.blockers(), &[Blocker::Teach, Blocker::TeachLock, Blocker::Hold]);
+    assert_eq!(
+        err.blockers(),
+        &[Blocker::Teach, Blocker::TeachLock, Blocker::Hold]
+    );
     emu.with(|c| {
         c.set_repeat(true);
         c.set_teach_lock(false);
         c.set_run(true);
     });
 
-    emu.with(|c| c.inject(Fault::RaiseError { code: ErrorCode::DESTINATION_OUT_OF_RANGE }));
+    emu.with(|c| {
+        c.inject(Fault::RaiseError {
+            code: ErrorCode::DESTINATION_OUT_OF_RANGE,
+        })
+    });
     let err = robot.preflight().await.unwrap_err();
     assert!(
         err.to_string()
@@ -278,7 +337,10 @@ async fn preflight_names_every_blocker_with_its_remedy() {
     let err = robot.preflight().await.unwrap_err();
     assert_eq!(
         err.blockers(),
-        &[Blocker::ControllerError(ErrorCode::EMERGENCY_STOP), Blocker::PowerOff]
+        &[
+            Blocker::ControllerError(ErrorCode::EMERGENCY_STOP),
+            Blocker::PowerOff
+        ]
     );
     assert!(err.to_string().contains(ESTOP_REMEDY), "{err}");
     assert!(err.to_string().contains("E3808"), "{err}");
@@ -316,7 +378,10 @@ async fn invalid_requests_are_refused_before_sending() {
     let newest = emu.with(|c| c.newest_command().cloned());
 
     let err = robot.move_joints(with_jt1(200.0)).await.unwrap_err();
-    assert!(matches!(&err, ClientError::Limit(l) if l.joint == 1), "{err:?}");
+    assert!(
+        matches!(&err, ClientError::Limit(l) if l.joint == 1),
+        "{err:?}"
+    );
     assert!(err.to_string().contains("JT1"), "{err}");
     let mut t = home();
     t[4] = f64::NAN;
@@ -346,11 +411,15 @@ async fn invalid_requests_are_refused_before_sending() {
         .unwrap_err();
     assert!(err.to_string().contains("allow_motion"), "{err}");
     assert!(matches!(
-        robot.send_raw("1040 7 21 0 0 0 0 0 -90 0 -90 0", false).await,
+        robot
+            .send_raw("1040 7 21 0 0 0 0 0 -90 0 -90 0", false)
+            .await,
         Err(ClientError::RawRefused { .. })
     ));
     assert!(matches!(
-        robot.send_raw("1040 6 9 0 0 0 300 0 -90 0 -90 0", true).await,
+        robot
+            .send_raw("1040 6 9 0 0 0 300 0 -90 0 -90 0", true)
+            .await,
         Err(ClientError::Limit(_))
     ));
     assert!(matches!(
@@ -372,7 +441,11 @@ async fn invalid_requests_are_refused_before_sending() {
         Err(ClientError::Trajectory(TrajectoryError::StartTooFar { .. }))
     ));
     assert!(matches!(
-        robot.move_pose(fs020n_client::Xyzoat::new(5000.0, 0.0, 0.0, 0.0, 180.0, 0.0)).await,
+        robot
+            .move_pose(fs020n_client::Xyzoat::new(
+                5000.0, 0.0, 0.0, 0.0, 180.0, 0.0
+            ))
+            .await,
         Err(ClientError::Ik(_))
     ));
 
@@ -394,9 +467,7 @@ async fn motion_is_refused_while_the_status_blocks_it() {
     robot.poll().await.unwrap();
     let err = robot.move_joints(with_jt1(5.0)).await.unwrap_err();
     assert_eq!(err.blockers(), &[Blocker::TeachLock]);
-    assert!(!emu.with(|c| c
-        .newest_command()
-        .is_some_and(Command::is_motion)));
+    assert!(!emu.with(|c| c.newest_command().is_some_and(Command::is_motion)));
 }
 
 // ------------------------------------------------------------------ joint moves
@@ -412,7 +483,10 @@ async fn a_joint_move_completes_with_progress() {
     let p = mv.progress().unwrap();
     assert!(p.fraction > 0.0 && p.fraction < 1.0, "{p:?}");
     assert!((p.total_deg - 20.0).abs() < 1e-9, "{p:?}");
-    let report = mv.wait(Completion::default()).await.expect("the move completes");
+    let report = mv
+        .wait(Completion::default())
+        .await
+        .expect("the move completes");
     assert!(report.error_deg <= 0.1);
     assert!(emu.with(|c| c.joints()).max_abs_diff(&target) < 0.01);
     assert_eq!(mv.progress().unwrap().fraction, 1.0);
@@ -439,12 +513,24 @@ async fn estop_mid_move_fails_the_wait_with_e3808_and_its_remedy() {
     sleep_ms(500).await;
     emu.with(|c| c.press_estop());
     let err = mv.wait(Completion::default()).await.unwrap_err();
-    assert!(matches!(err, ClientError::Aborted { during: "joint move", .. }), "{err:?}");
+    assert!(
+        matches!(
+            err,
+            ClientError::Aborted {
+                during: "joint move",
+                ..
+            }
+        ),
+        "{err:?}"
+    );
     assert!(err
         .blockers()
         .contains(&Blocker::ControllerError(ErrorCode::EMERGENCY_STOP)));
     let text = err.to_string();
-    assert!(text.contains("E3808") && text.contains(ESTOP_REMEDY), "{text}");
+    assert!(
+        text.contains("E3808") && text.contains(ESTOP_REMEDY),
+        "{text}"
+    );
     let j = emu.with(|c| c.joints());
     assert!(j[0] > 0.0 && j[0] < 60.0, "stopped on the way: {j}");
 }
@@ -467,7 +553,10 @@ async fn hold_mid_move_fails_the_wait_and_the_move_does_not_resume() {
     );
     assert!(err.to_string().contains("switch RUN/HOLD to RUN"), "{err}");
     // The wait cancelled the move (command 5): back on RUN, the robot stays where it is.
-    assert_eq!(emu.with(|c| c.newest_command().cloned()), Some(Command::CancelMotion));
+    assert_eq!(
+        emu.with(|c| c.newest_command().cloned()),
+        Some(Command::CancelMotion)
+    );
     sleep_ms(1000).await;
     emu.with(|c| c.set_run(true));
     sleep_ms(5000).await;
@@ -488,7 +577,10 @@ async fn a_move_that_cannot_finish_in_time_is_cancelled() {
         .await
         .unwrap_err();
     assert!(matches!(err, ClientError::MoveTimeout { .. }), "{err:?}");
-    assert_eq!(emu.with(|c| c.newest_command().cloned()), Some(Command::CancelMotion));
+    assert_eq!(
+        emu.with(|c| c.newest_command().cloned()),
+        Some(Command::CancelMotion)
+    );
 }
 
 #[tokio::test(start_paused = true)]
@@ -572,7 +664,10 @@ async fn cancelling_a_stream_brakes_and_reports() {
     handle.cancel();
     let report = handle.wait().await.unwrap();
     assert_eq!(report.outcome, StreamOutcome::Cancelled);
-    assert_eq!(emu.with(|c| c.newest_command().cloned()), Some(Command::CancelMotion));
+    assert_eq!(
+        emu.with(|c| c.newest_command().cloned()),
+        Some(Command::CancelMotion)
+    );
     sleep_ms(2000).await;
     let j = emu.with(|c| c.joints())[0];
     assert!(j > 1.0 && j < 20.0, "stopped part-way: {j}");
@@ -592,7 +687,10 @@ async fn robot_cancel_stops_a_stream() {
     robot.cancel().await.unwrap();
     let report = handle.wait().await.unwrap();
     assert_eq!(report.outcome, StreamOutcome::Cancelled);
-    assert_eq!(emu.with(|c| c.newest_command().cloned()), Some(Command::CancelMotion));
+    assert_eq!(
+        emu.with(|c| c.newest_command().cloned()),
+        Some(Command::CancelMotion)
+    );
 }
 
 #[tokio::test(start_paused = true)]
@@ -604,11 +702,27 @@ async fn an_error_raised_mid_stream_ends_it_with_the_code() {
         .await
         .unwrap();
     sleep_ms(800).await;
-    emu.with(|c| c.inject(Fault::RaiseError { code: "E1130".parse().unwrap() }));
+    emu.with(|c| {
+        c.inject(Fault::RaiseError {
+            code: "E1130".parse().unwrap(),
+        })
+    });
     let err = handle.wait().await.unwrap_err();
-    assert!(matches!(err, ClientError::Aborted { during: "stream", .. }), "{err:?}");
+    assert!(
+        matches!(
+            err,
+            ClientError::Aborted {
+                during: "stream",
+                ..
+            }
+        ),
+        "{err:?}"
+    );
     let text = err.to_string();
-    assert!(text.contains("E1130") && text.contains("Collision detected"), "{text}");
+    assert!(
+        text.contains("E1130") && text.contains("Collision detected"),
+        "{text}"
+    );
     assert!(text.contains("reset error E1130"), "{text}");
 }
 
@@ -624,7 +738,13 @@ async fn a_connection_reset_mid_stream_is_a_lost_link() {
     emu.with(|c| c.inject(Fault::CloseConnection));
     let err = handle.wait().await.unwrap_err();
     assert!(err.is_link_dead(), "{err:?}");
-    assert!(matches!(err, ClientError::LinkLost(LinkError::Closed | LinkError::Io { .. })), "{err:?}");
+    assert!(
+        matches!(
+            err,
+            ClientError::LinkLost(LinkError::Closed | LinkError::Io { .. })
+        ),
+        "{err:?}"
+    );
     assert!(!robot.is_connected());
 }
 
@@ -637,12 +757,20 @@ async fn a_slow_controller_mid_stream_is_an_underrun() {
         .await
         .unwrap();
     sleep_ms(500).await;
-    emu.with(|c| c.inject(Fault::DelayReplies { count: 1, delay_ms: 400 }));
+    emu.with(|c| {
+        c.inject(Fault::DelayReplies {
+            count: 1,
+            delay_ms: 400,
+        })
+    });
     let err = handle.wait().await.unwrap_err();
     assert!(matches!(err, ClientError::StreamUnderrun { .. }), "{err:?}");
     assert!(robot.stats().stream_underruns >= 1);
     sleep_ms(10).await;
-    assert_eq!(emu.with(|c| c.newest_command().cloned()), Some(Command::CancelMotion));
+    assert_eq!(
+        emu.with(|c| c.newest_command().cloned()),
+        Some(Command::CancelMotion)
+    );
     assert!(robot.is_connected(), "a late reply is not a lost link");
 }
 
@@ -723,7 +851,9 @@ async fn every_request_and_reply_is_recorded() {
             }),
             ..ClientConfig::default()
         };
-        let robot = Robot::connect_with(EmuConnector::new(&emu), cfg).await.unwrap();
+        let robot = Robot::connect_with(EmuConnector::new(&emu), cfg)
+            .await
+            .unwrap();
         robot.set_speed(30.0).await.unwrap();
         sleep_ms(1000).await;
         let st = robot.stats();
@@ -731,7 +861,10 @@ async fn every_request_and_reply_is_recorded() {
         let text = std::fs::read_to_string(&path).unwrap();
         let tx = text.matches("tx").count() as u64;
         let rx = text.matches("rx").count() as u64;
-        assert!(tx >= st.requests && rx >= st.replies, "{tx} {rx} {st:?}\n{text}");
+        assert!(
+            tx >= st.requests && rx >= st.replies,
+            "{tx} {rx} {st:?}\n{text}"
+        );
         assert!(text.contains("1040 3 1 30"));
         assert!(text.contains("keepalive"));
         assert!(text.contains("1040 255 0"));

@@ -23,7 +23,9 @@ async fn loopback_round_trips_and_a_move() {
     let emu = Emulator::new(ControllerConfig::default());
     let server = emu.serve_tcp("127.0.0.1:0".parse().unwrap()).await.unwrap();
     let addr = server.local_addr().to_string();
-    let robot = Robot::connect(&addr, ClientConfig::default()).await.unwrap();
+    let robot = Robot::connect(&addr, ClientConfig::default())
+        .await
+        .unwrap();
     for _ in 0..200 {
         let s = robot.poll().await.unwrap();
         assert_eq!(s.joints, home());
@@ -76,7 +78,8 @@ impl Served {
             rt.block_on(async move {
                 let emu = Emulator::new(ControllerConfig::default());
                 let server = emu.serve_tcp("127.0.0.1:0".parse().unwrap()).await.unwrap();
-                tx.send((emu.clone(), server.local_addr().to_string())).unwrap();
+                tx.send((emu.clone(), server.local_addr().to_string()))
+                    .unwrap();
                 let _ = stopped.await;
                 server.stop();
             });
