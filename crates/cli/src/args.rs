@@ -112,6 +112,9 @@ pub enum Cmd {
         /// Speed percent for the joint moves.
         #[arg(long, default_value_t = 50.0)]
         speed: f64,
+        /// Confirm running the demo on the real robot given by --robot (it moves the arm).
+        #[arg(long)]
+        yes: bool,
     },
     /// Print shell completions.
     Completions {
@@ -163,6 +166,9 @@ pub struct PlayArgs {
     /// Speed percent (command 3) before playing.
     #[arg(long, default_value_t = 100.0, value_name = "PCT")]
     pub speed: f64,
+    /// If the robot is not at the first point, move there first with a joint move.
+    #[arg(long)]
+    pub approach: bool,
 }
 
 /// `decode` arguments.

@@ -2,9 +2,13 @@
 #![forbid(unsafe_code)]
 
 mod args;
+mod demo;
 mod error;
 mod offline;
 mod output;
+mod robot_cmds;
+mod session;
+mod shell;
 mod trajectory_file;
 
 use std::process::ExitCode;
@@ -50,6 +54,14 @@ fn load_model(cli: &Cli) -> CliResult<RobotModel> {
     }
 }
 
+fn ctx(cli: &Cli, model: RobotModel) -> session::Ctx {
+    session::Ctx {
+        addr: cli.robot.clone(),
+        json: cli.json,
+        model,
+    }
+}
+
 fn run(cli: Cli) -> CliResult {
     let model = load_model(&cli)?;
     match &cli.command {
@@ -65,6 +77,19 @@ fn run(cli: Cli) -> CliResult {
             );
             Ok(())
         }
-        _ => Err(CliError::failure("not implemented yet")),
+        Cmd::Status { watch, rate } => robot_cmds::status(&ctx(&cli, model), *watch, *rate),
+        Cmd::Shell => shell::shell(&ctx(&cli, model)),
+        Cmd::Speed { percent } => robot_cmds::speed(&ctx(&cli, model), *percent),
+        Cmd::Move(args) => robot_cmds::move_joints(&ctx(&cli, model), args),
+        Cmd::Play(args) => robot_cmds::play(&ctx(&cli, model), args, args.approach),
+        Cmd::Record {
+            file,
+            rate,
+            duration,
+        } => robot_cmds::record(&ctx(&cli, model), file, *rate, *duration),
+        Cmd::Raw { text, yes } => robot_cmds::raw(&ctx(&cli, model), text, *yes),
+        Cmd::Bench { count } => robot_cmds::bench(&ctx(&cli, model), *count),
+        Cmd::Demo { speed, yes } => demo::demo(&ctx(&cli, model), *speed, *yes),
+        Cmd::Sim(_) => Err(CliError::failure("not implemented yet")),
     }
 }
