@@ -726,10 +726,12 @@ impl Controller {
     pub fn try_accept(&mut self) -> Result<SessionId, Refused> {
         if self.session.is_some() {
             self.counters.refused += 1;
+            tracing::info!("{}", Refused::SessionOpen);
             return Err(Refused::SessionOpen);
         }
         if !self.is_listening() {
             self.counters.refused += 1;
+            tracing::info!("{}", Refused::ListenGap);
             return Err(Refused::ListenGap);
         }
         let id = SessionId(self.next_session);

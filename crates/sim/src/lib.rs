@@ -1,8 +1,16 @@
 //! # fs020n-sim
 //!
 //! An emulator of the Kawasaki FS020N controller running the protocol-1040 AS server program,
-//! rule for rule (docs/EMULATOR.md). The [`Controller`] is a deterministic state machine
-//! advanced by a clock it is given — virtual time in tests, real time for users.
+//! rule for rule (docs/EMULATOR.md).
+//!
+//! - [`Controller`]: the deterministic core (panel, error, communication task, motion program,
+//!   arm), advanced by a clock it is given — virtual time in tests, real time for users.
+//! - [`Emulator`]: the controller on a tokio clock, served over TCP with the controller's listen
+//!   windows ([`Emulator::serve_tcp`]) or in memory ([`Emulator::connect`]).
+//! - [`serve_pendant`]: the pendant API (HTTP + JSON): state, switches, E-stop, reset, monitor
+//!   speed, fault injection ([`Fault`]).
+//! - [`run_robot`] with [`SimOptions`]: a whole robot (robot port + pendant) for a command line.
+//! - [`Snapshot`]: the serializable state.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
