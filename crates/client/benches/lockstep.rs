@@ -229,7 +229,30 @@ fn main() {
     let mut client_echo = Vec::new();
     let mut blocking_echo = Vec::new();
     let mut decode = Vec::new();
+    let mut status_decode = Vec::new();
+    let mut tokio_echo = Vec::new();
     let bytes = reply();
+    let text = String::from_utf8(bytes.clone()).expect("ascii");
+    let mut tokio_raw = rt.block_on(async {
+        let s = tokio::net::TcpStream::connect(echo).await.expect("connect");
+        s.set_nodelay(true).expect("nodelay");
+        s
+    });
+    let mut tokio_rate = |s: &mut tokio::net::TcpStream| {
+        use tokio::io::{AsyncReadExt, AsyncWriteExt};
+        rt.block_on(async {
+            let mut buf = [0u8; 512];
+            let t = Instant::now();
+            for _ in 0..n {
+                s.write_all(POLL).await.expect("write");
+                let mut got = 0;
+                while got < REPLY_LEN {
+                    got += s.read(&mut buf[got..]).await.expect("read");
+                }
+            }
+            f64::from(n) / t.elapsed().as_secs_f64()
+        })
+    };
     for _ in 0..rounds {
         raw_echo.push(rate(n, || raw.round_trip()));
         client_echo.push(async_rate(&robot));
@@ -241,6 +264,10 @@ fn main() {
             d.push(&bytes).expect("push");
             criterion::black_box(d.next_reply().expect("decode"));
         }));
+        status_decode.push(rate(n, || {
+            criterion::black_box(fs020n_proto::Status::decode(&text).expect("decode"));
+        }));
+        tokio_echo.push(tokio_rate(&mut tokio_raw));
     }
     // The emulator: one session at a time, so the async client first, then the raw one.
     let emu_robot = rt
@@ -263,6 +290,7 @@ fn main() {
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
+    let (te, sd) = (med(&mut tokio_echo), med(&mut status_decode));
     let (re, ce, be, cm, rm, de) = (
         med(&mut raw_echo),
         med(&mut client_echo),
@@ -274,8 +302,13 @@ fn main() {
     println!("\nsummary (round trips per second, median of {rounds} rounds of {n}):");
     println!("  raw/echo         {re:10.0}   (physical limit)");
     println!(
-        "  client/echo      {ce:10.0}   ratio to raw/echo {:.3}",
-        ce / re
+        "  raw-tokio/echo   {te:10.0}   ratio to raw/echo {:.3} (minimal tokio loop)",
+        te / re
+    );
+    println!(
+        "  client/echo      {ce:10.0}   ratio to raw/echo {:.3}, to raw-tokio/echo {:.3}",
+        ce / re,
+        ce / te
     );
     println!(
         "  blocking/echo    {be:10.0}   ratio to raw/echo {:.3}",
@@ -289,5 +322,9 @@ fn main() {
         "  client/emulator  {cm:10.0}   ratio to raw/emulator {:.3}",
         cm / rm
     );
-    println!("  (decoding one 94-byte reply alone: {:.2} us)", 1e6 / de);
+    println!(
+        "  decoding one 94-byte reply: ReplyDecoder {:.2} us, Status::decode {:.2} us",
+        1e6 / de,
+        1e6 / sd
+    );
 }
