@@ -252,7 +252,7 @@ impl StreamHandle {
 
     /// `true` once the stream task has ended.
     pub fn is_finished(&self) -> bool {
-        self.task.as_ref().map_or(true, |t| t.is_finished())
+        !matches!(&self.task, Some(t) if !t.is_finished())
     }
 
     /// Waits for the end of the stream and its report.
