@@ -245,6 +245,8 @@ pub enum MotionPhase {
     Moving,
     /// Braking to a stop.
     Braking,
+    /// Paused by HOLD in the middle of a motion (resumes on RUN).
+    Held,
 }
 
 /// The robot arm's motion state, advanced tick by tick.
@@ -317,6 +319,8 @@ impl Robot {
             MotionPhase::Braking
         } else if self.active.is_empty() && self.velocity.iter().all(|v| v == 0.0) {
             MotionPhase::Idle
+        } else if self.held && self.hold_scale == 0.0 {
+            MotionPhase::Held
         } else {
             MotionPhase::Moving
         }

@@ -593,6 +593,7 @@ fn hold_pauses_and_run_resumes_to_the_target() {
     c.advance_by(ms(250)); // the HOLD ramp (0.2 s) has brought it to a pause
     let held = c.joints();
     assert!(c.velocity().iter().all(|v| v == 0.0));
+    assert_eq!(c.motion_phase(), MotionPhase::Held);
     wait_polling(&mut c, id, Duration::from_secs(3));
     assert_eq!(c.joints(), held, "no motion while held");
     assert!(held[0] < 60.0);
