@@ -238,7 +238,7 @@ fn main() {
         s.set_nodelay(true).expect("nodelay");
         s
     });
-    let mut tokio_rate = |s: &mut tokio::net::TcpStream| {
+    let tokio_rate = |s: &mut tokio::net::TcpStream| {
         use tokio::io::{AsyncReadExt, AsyncWriteExt};
         rt.block_on(async {
             let mut buf = [0u8; 512];
