@@ -20,7 +20,8 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
   fs020n decode ' 1040 -31088 -1 -1 0 -1 0     1.500     0.000     0.000   -90.000     0.000   -90.000     0.000 '
   fs020n ik 850 0 1153.5 0 180 0 --json")]
 pub struct Cli {
-    /// The robot's address (HOST:PORT).
+    /// The robot's address (HOST:PORT); default 127.0.0.1:10050, where `fs020n sim` listens.
+    /// `demo` and `bench` use an embedded emulator when it is not given.
     #[arg(long, global = true, env = "FS020N_ROBOT", value_name = "HOST:PORT")]
     pub robot: Option<String>,
     /// Print machine-readable JSON instead of tables.
@@ -29,6 +30,9 @@ pub struct Cli {
     /// More logs (-v info, -vv debug: every request and reply, -vvv trace).
     #[arg(short, long, global = true, action = clap::ArgAction::Count)]
     pub verbose: u8,
+    /// How long to keep trying to connect (the controller listens in 3 s windows), seconds.
+    #[arg(long, global = true, default_value_t = 10.0, value_name = "S")]
+    pub connect_timeout: f64,
     /// A robot model file (TOML) instead of the embedded FS020N model.
     #[arg(long, global = true, value_name = "FILE")]
     pub model: Option<PathBuf>,
@@ -197,7 +201,7 @@ pub struct SimArgs {
     #[arg(long, env = "FS020N_PENDANT_TOKEN")]
     pub token: Option<String>,
     /// Motor power at start.
-    #[arg(long, default_value = "on", value_parser = on_off)]
+    #[arg(long, default_value = "on", value_parser = on_off, action = clap::ArgAction::Set)]
     pub power: bool,
     /// RUN/HOLD at start: run or hold.
     #[arg(long, default_value = "run", value_parser = ["run", "hold"])]
@@ -206,7 +210,7 @@ pub struct SimArgs {
     #[arg(long, default_value = "repeat", value_parser = ["repeat", "teach"])]
     pub mode: String,
     /// TEACH LOCK at start.
-    #[arg(long, default_value = "off", value_parser = on_off)]
+    #[arg(long, default_value = "off", value_parser = on_off, action = clap::ArgAction::Set)]
     pub teach_lock: bool,
     /// Monitor speed at start, percent (default: the model's, 10 %).
     #[arg(long, value_name = "PCT")]

@@ -9,6 +9,7 @@ mod output;
 mod robot_cmds;
 mod session;
 mod shell;
+mod sim;
 mod trajectory_file;
 
 use std::process::ExitCode;
@@ -59,10 +60,16 @@ fn ctx(cli: &Cli, model: RobotModel) -> session::Ctx {
         addr: cli.robot.clone(),
         json: cli.json,
         model,
+        connect_timeout: std::time::Duration::from_secs_f64(cli.connect_timeout.clamp(0.1, 3600.0)),
     }
 }
 
 fn run(cli: Cli) -> CliResult {
+    if !(cli.connect_timeout.is_finite() && cli.connect_timeout > 0.0) {
+        return Err(CliError::input(
+            "--connect-timeout must be a positive number of seconds",
+        ));
+    }
     let model = load_model(&cli)?;
     match &cli.command {
         Cmd::Decode(args) => offline::decode(args, cli.json),
@@ -90,6 +97,6 @@ fn run(cli: Cli) -> CliResult {
         Cmd::Raw { text, yes } => robot_cmds::raw(&ctx(&cli, model), text, *yes),
         Cmd::Bench { count } => robot_cmds::bench(&ctx(&cli, model), *count),
         Cmd::Demo { speed, yes } => demo::demo(&ctx(&cli, model), *speed, *yes),
-        Cmd::Sim(_) => Err(CliError::failure("not implemented yet")),
+        Cmd::Sim(args) => sim::sim(args, &model, cli.json),
     }
 }

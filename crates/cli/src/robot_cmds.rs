@@ -380,7 +380,12 @@ pub fn record(ctx: &Ctx, file: &std::path::Path, rate: f64, duration: Option<f64
 /// `raw`.
 pub fn raw(ctx: &Ctx, text: &str, yes: bool) -> CliResult {
     with_robot(ctx, async |robot: &Robot| {
-        let frame = robot.send_raw(text, yes).await.map_err(client_error)?;
+        let frame = robot.send_raw(text, yes).await.map_err(|e| match e {
+                fs020n_client::ClientError::RawRefused { .. } if !yes => CliError::input(format!(
+                    "{text:?} is a motion command (the controller would move the robot); add --yes to send it"
+                )),
+                e => client_error(e),
+            })?;
         if ctx.json {
             println!(
                 "{}",

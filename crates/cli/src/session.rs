@@ -21,6 +21,8 @@ pub struct Ctx {
     pub json: bool,
     /// The robot model.
     pub model: RobotModel,
+    /// Overall connect timeout.
+    pub connect_timeout: Duration,
 }
 
 impl Ctx {
@@ -35,6 +37,7 @@ impl Ctx {
     pub fn client_config(&self) -> ClientConfig {
         ClientConfig {
             model: self.model.clone(),
+            connect_timeout: self.connect_timeout,
             ..ClientConfig::default()
         }
     }
@@ -87,7 +90,15 @@ impl Embedded {
 pub fn blocker_lines(blockers: &[Blocker]) -> String {
     blockers
         .iter()
-        .map(|b| format!("  - {} — {}", b.condition(), b.remedy()))
+        .map(|b| {
+            let remedy = match b {
+                Blocker::ProgramNotRunning => {
+                    "start the motion program first (in `fs020n shell`, type `start`)".to_owned()
+                }
+                other => other.remedy(),
+            };
+            format!("  - {} — {remedy}", b.condition())
+        })
         .collect::<Vec<_>>()
         .join("\n")
 }
