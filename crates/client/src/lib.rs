@@ -54,3 +54,19 @@ pub use transport::{AsyncReadWrite, BoxedStream, ConnectFuture, Connector, TcpCo
 
 pub use fs020n_kin::{Pose, Xyzoat};
 pub use fs020n_proto::{ErrorCode, JointsDeg, ReplyFrame, Status};
+
+#[cfg(test)]
+mod tests {
+    fn send_sync<T: Send + Sync>() {}
+    fn send<T: Send>() {}
+
+    #[test]
+    fn handles_can_cross_threads() {
+        send_sync::<super::Robot>();
+        send_sync::<super::MoveHandle>();
+        send::<super::StreamHandle>();
+        send_sync::<super::blocking::Robot>();
+        send_sync::<super::ClientError>();
+        send_sync::<super::StatusSnapshot>();
+    }
+}

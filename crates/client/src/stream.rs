@@ -190,6 +190,7 @@ pub(crate) fn check(
 
 /// A running stream. Dropping the handle cancels the stream (command 5).
 #[derive(Debug)]
+#[must_use = "dropping a StreamHandle cancels the stream: keep it and call wait()"]
 pub struct StreamHandle {
     progress: watch::Receiver<StreamProgress>,
     shared: Arc<SessionShared>,
@@ -390,8 +391,10 @@ impl Streamer {
         check_target(&self.model, &s.position)?;
         Ok(match self.options.mode {
             StreamMode::Extrapolated { lookahead_passes } => {
-                let t0_s = t0_s.ok_or(ClientError::Cancelled(
-                    "no server-clock estimate: no reply carried TIMER(1)",
+                let t0_s = t0_s.ok_or(ClientError::Config(
+                    "no server-clock estimate: no reply carried TIMER(1) (it shows asterisks after \
+                     11.6 days of one session); reconnect, or use StreamMode::Waypoints"
+                        .into(),
                 ))?;
                 Command::StreamedMove(StreamSample {
                     t0_s,
