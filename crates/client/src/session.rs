@@ -7,6 +7,7 @@
 //! session: the cause is stored, every waiter gets it, and the task ends (dropping the
 //! connection). Nothing is ever retried or resumed.
 
+use std::borrow::Cow;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
@@ -106,7 +107,7 @@ impl Exchange {
 }
 
 struct Op {
-    text: String,
+    text: Cow<'static, str>,
     kind: Kind,
     motion: Option<MotionTag>,
     reply: oneshot::Sender<Result<Exchange, ClientError>>,
@@ -229,14 +230,14 @@ impl Link {
     /// One round trip through the session task.
     pub(crate) async fn exchange(
         &self,
-        text: String,
+        text: impl Into<Cow<'static, str>>,
         kind: Kind,
         motion: Option<MotionTag>,
     ) -> Result<Exchange, ClientError> {
         let (reply, rx) = oneshot::channel();
         self.tx
             .send(Op {
-                text,
+                text: text.into(),
                 kind,
                 motion,
                 reply,
@@ -248,7 +249,7 @@ impl Link {
 
     /// A fresh status poll.
     pub(crate) async fn poll(&self) -> Result<Exchange, ClientError> {
-        self.exchange(POLL.to_owned(), Kind::Poll, None).await
+        self.exchange(POLL, Kind::Poll, None).await
     }
 
     /// Encodes and sends a non-motion command.
