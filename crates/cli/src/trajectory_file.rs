@@ -265,6 +265,15 @@ mod tests {
     }
 
     #[test]
+    fn the_shipped_example_is_valid() {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/circle.csv");
+        let p = load(&path, &RobotModel::fs020n()).unwrap();
+        assert_eq!(p.len(), 301);
+        assert_eq!(p[0].position, RobotModel::fs020n().home);
+    }
+
+    #[test]
     fn json_forms() {
         let p = parse_json(r#"[{"time_s":0,"position_deg":[0,0,-90,0,-90,0]}]"#).unwrap();
         assert_eq!(p[0].position[2], -90.0);
