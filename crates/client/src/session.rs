@@ -654,7 +654,9 @@ impl Task {
     ) -> Result<Exchange, ClientError> {
         let common = &self.shared.common;
         let id = self.shared.id;
-        common.record(Instant::now(), id, Dir::Tx, kind.as_str(), None, text);
+        if common.recorder.is_some() {
+            common.record(Instant::now(), id, Dir::Tx, kind.as_str(), None, text);
+        }
         let r = self
             .conn
             .exchange(text, cfg.write_timeout, cfg.reply_timeout)
