@@ -2,7 +2,7 @@
 
 use std::time::Duration;
 
-use fs020n_client::{Completion, Robot, StreamOptions, Trajectory, TrajectoryPoint};
+use fs020n_client::{Completion, Robot, StreamMode, StreamOptions, Trajectory, TrajectoryPoint};
 use fs020n_kin::Pose;
 use fs020n_proto::JointsDeg;
 use nalgebra::Vector3;
@@ -25,6 +25,8 @@ pub const POSES: [[f64; 6]; 4] = [
 const CIRCLE_RADIUS_M: f64 = 0.10;
 /// Duration of the circle, seconds.
 const CIRCLE_TIME_S: f64 = 4.0;
+/// Look-ahead of the demo stream, in passes of the motion program (about 10 ms each).
+const DEMO_LOOKAHEAD_PASSES: f64 = 3.0;
 /// Trajectory sample spacing, seconds.
 const CIRCLE_DT_S: f64 = 0.02;
 
@@ -165,8 +167,17 @@ async fn tour(ctx: &Ctx, robot: &Robot, speed: f64) -> CliResult<serde_json::Val
         CIRCLE_RADIUS_M * 2000.0,
         trajectory.points().len()
     ));
+    // Look ahead so that the arm, which follows each sample with a 0.1 s straight-line move, is
+    // on the path rather than behind it (3 passes measured best on the emulator: rms 0.23 deg
+    // against 0.33 deg with the default 2 and 0.98 deg with none).
+    let options = StreamOptions {
+        mode: StreamMode::Extrapolated {
+            lookahead_passes: DEMO_LOOKAHEAD_PASSES,
+        },
+        ..StreamOptions::default()
+    };
     let handle = robot
-        .stream(trajectory, StreamOptions::default())
+        .stream(trajectory, options)
         .await
         .map_err(client_error)?;
     let report = handle.wait().await.map_err(client_error)?;
