@@ -354,34 +354,10 @@ impl Conn {
                 Ok(Ok(0)) => return Err(LinkError::Closed),
                 Ok(Ok(n)) => n,
             };
-            if let Some(frame) = self.fast_reply(n) {
-                let received_at = Instant::now();
-                if frame.status.version != PROTOCOL_VERSION {
-                    return Err(LinkError::NotAController {
-                        version: frame.status.version,
-                    });
-                }
-                return Ok(Exchange {
-                    frame,
-                    sent_at,
-                    received_at,
-                });
-            }
             self.decoder
                 .push(&self.buf[..n])
                 .map_err(LinkError::Undecodable)?;
         }
-    }
-
-    /// The common case, decoded without the incremental decoder's search: nothing but blanks
-    /// buffered, and this read holds exactly one reply in the controller's normal format.
-    fn fast_reply(&mut self, n: usize) -> Option<ReplyFrame> {
-        if !self.decoder.is_empty() {
-            return None;
-        }
-        let frame = fast_decode(&self.buf[..n])?;
-        self.decoder.clear();
-        Some(frame)
     }
 
     /// Bytes that arrived while no request was outstanding.
@@ -397,26 +373,6 @@ impl Conn {
             None => Ok(()),
         }
     }
-}
-
-/// Decodes `bytes` if they are exactly one complete reply in the controller's normal format:
-/// printable ASCII ending with the final blank, 14 blank-separated fields, and accepted by
-/// [`Status::decode`] (the decoder [`ReplyDecoder`] applies to each candidate). Anything else —
-/// a partial reply, touching fields, asterisks, two replies, garbage — returns `None` and goes
-/// through [`ReplyDecoder`], which also reports the errors.
-pub(crate) fn fast_decode(bytes: &[u8]) -> Option<ReplyFrame> {
-    if bytes.last() != Some(&b' ') || !bytes.iter().all(|b| b.is_ascii_graphic() || *b == b' ') {
-        return None;
-    }
-    let text = std::str::from_utf8(bytes).ok()?;
-    if text.split_ascii_whitespace().count() != fs020n_proto::REPLY_FIELDS {
-        return None;
-    }
-    let status = Status::decode(text).ok()?;
-    Some(ReplyFrame {
-        status,
-        text: text.to_owned(),
-    })
 }
 
 /// Connects (retrying across listen gaps until the connect timeout), checks the peer with a
@@ -742,74 +698,5 @@ impl Task {
             let _ = op.reply.send(Err(end.clone()));
         }
         // Dropping `self` drops the connection and the status sender: subscribers see the end.
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use fs020n_proto::{ErrorCode, JointsDeg, Timer};
-
-    fn via_decoder(bytes: &[u8]) -> Option<ReplyFrame> {
-        let mut d = ReplyDecoder::new();
-        d.push(bytes).ok()?;
-        let f = d.next_reply().ok()??;
-        d.is_empty().then_some(f)
-    }
-
-    #[test]
-    fn the_fast_path_agrees_with_the_incremental_decoder() {
-        let mut cases: Vec<String> = Vec::new();
-        let joints = [
-            JointsDeg::new([0.0, 0.0, -90.0, 0.0, -90.0, 0.0]),
-            JointsDeg::new([-159.999, 139.5, -154.25, 269.999, -144.0, -359.999]),
-            JointsDeg::new([123456.0, -12345.678, 0.001, -0.001, 99999.999, 1.0]),
-        ];
-        for (k, j) in joints.iter().enumerate() {
-            for timer in [
-                Timer::Seconds(0.0),
-                Timer::Seconds(12.5),
-                Timer::Seconds(999999.0),
-                Timer::Overflow,
-            ] {
-                let s = Status {
-                    version: 1040,
-                    error: if k == 1 {
-                        ErrorCode::EMERGENCY_STOP
-                    } else {
-                        ErrorCode::NONE
-                    },
-                    run: k != 2,
-                    repeat: true,
-                    teach_lock: k == 2,
-                    power: true,
-                    task_running: k == 0,
-                    timer,
-                    joints: *j,
-                };
-                cases.push(s.encode());
-            }
-        }
-        cases.push("1040 0 0 0 0 0 0 1 2 3 4 5 6 7 ".into());
-        cases.push(" 1040 0 -1 -1 0 -1 -1    12.500     0.000".into());
-        cases.push(" 1040 0 -1 -1 0 -1 -1 100000.000-12345.678     0.000     0.000     0.000     0.000     0.000 ".into());
-        cases.push(" 1040 0 -1 -1 0 -1 -1    12.500     0.000    30.000     0.000     0.000     0.000  **********".into());
-        cases.push(" 1040 0 -1 oops 0 -1 -1    12.500     0.000    30.000     0.000     0.000     0.000     0.000 ".into());
-        cases.push("HELLO WORLD ".into());
-        let exact = cases[0].clone();
-        cases.push(format!("{exact}{exact}"));
-        for c in &cases {
-            let fast = fast_decode(c.as_bytes());
-            if let Some(f) = &fast {
-                let slow = via_decoder(c.as_bytes()).expect("the decoder accepts it too");
-                assert_eq!(f.status, slow.status, "{c:?}");
-            }
-        }
-        // The normal format takes the fast path.
-        assert!(fast_decode(exact.as_bytes()).is_some());
-        // Partial, touching, overflowing, garbage and doubled replies do not.
-        for c in &cases[cases.len() - 6..] {
-            assert!(fast_decode(c.as_bytes()).is_none(), "{c:?}");
-        }
     }
 }

@@ -78,17 +78,21 @@ impl ReplyDecoder {
     /// the bytes cannot be a reply. After an error the buffer is cleared: a text stream without
     /// terminators cannot be resynchronised reliably, so the connection should be dropped.
     pub fn next_reply(&mut self) -> Result<Option<ReplyFrame>, DecodeError> {
-        let end = match find_reply_end(&self.buf) {
-            Ok(Some(end)) => end,
+        let (end, decoded) = match find_reply(&self.buf) {
+            Ok(Some(found)) => found,
             Ok(None) => return Ok(None),
             Err(e) => {
                 self.buf.clear();
                 return Err(e);
             }
         };
-        let text: String = self.buf.drain(..end).map(char::from).collect();
-        match Status::decode(&text) {
-            Ok(status) => Ok(Some(ReplyFrame { status, text })),
+        match decoded {
+            Ok(status) => {
+                // Only reply bytes (ASCII) were accepted, so the text is exact.
+                let text = String::from_utf8_lossy(&self.buf[..end]).into_owned();
+                self.buf.drain(..end);
+                Ok(Some(ReplyFrame { status, text }))
+            }
             Err(e) => {
                 self.buf.clear();
                 Err(e)
@@ -107,16 +111,25 @@ fn structurally_complete(result: &Result<Status, DecodeError>) -> bool {
     )
 }
 
-/// Where the first complete reply in `b` ends (exclusive, including the one blank that ends
-/// it), `None` if it is not complete yet.
+/// Blank-separated tokens looked at: 14 fields and one more.
+const MAX_TOKENS: usize = REPLY_FIELDS + 1;
+
+/// Finds the first complete reply in `b`: where it ends (exclusive, including the one blank that
+/// ends it) and its decoding; `None` if it is not complete yet.
 ///
 /// A reply ends at the end of a field (a non-blank followed by a blank, or the end of the
-/// buffer). Each such candidate, in order, is tried with the full tolerant decoder; the first
-/// that decodes — or holds 14 fields whose values are invalid (asterisks in a joint, a
-/// non-integer in fields 1–7) — is the reply. Errors are reported as soon as they are certain: a byte no reply
-/// contains, one of the six leading fields (always blank-separated) that is not a number, or 14
-/// blank-separated fields that still do not form a reply.
-fn find_reply_end(b: &[u8]) -> Result<Option<usize>, DecodeError> {
+/// buffer). The candidates are taken in order; the first that decodes — or holds 14 fields whose
+/// values are invalid (asterisks in a joint, a non-integer in fields 1–7) — is the reply. A
+/// candidate before the 14th blank-separated field can only be the controller's fixed layout
+/// with touching fields, and only if it leaves room for seven integers and 70 characters, so the
+/// usual reply is decoded once. An unterminated last field may go on, so at the end of the
+/// buffer only the fixed layout (whose last field is complete at 10 characters) counts.
+///
+/// Errors are reported as soon as they are certain: a byte no reply contains, one of the six
+/// leading fields (always blank-separated) that is not a number, or 14 blank-separated fields
+/// that still do not form a reply.
+#[allow(clippy::type_complexity)]
+fn find_reply(b: &[u8]) -> Result<Option<(usize, Result<Status, DecodeError>)>, DecodeError> {
     if let Some(pos) = b.iter().position(|&c| !is_reply_byte(c)) {
         return Err(DecodeError::Garbage {
             reason: "unexpected byte",
@@ -124,10 +137,11 @@ fn find_reply_end(b: &[u8]) -> Result<Option<usize>, DecodeError> {
             excerpt: excerpt(b, pos),
         });
     }
-    let mut tokens = 0;
-    let mut first_bad: Option<usize> = None;
+    // One pass over the tokens.
+    let mut spans = [(0usize, 0usize); MAX_TOKENS];
+    let mut n = 0;
     let mut i = 0;
-    while i < b.len() {
+    while i < b.len() && n < MAX_TOKENS {
         while i < b.len() && is_blank(b[i]) {
             i += 1;
         }
@@ -138,53 +152,53 @@ fn find_reply_end(b: &[u8]) -> Result<Option<usize>, DecodeError> {
         while i < b.len() && !is_blank(b[i]) {
             i += 1;
         }
-        let terminated = i < b.len();
-        if !terminated && b.len() - start < F10_WIDTH && tokens < 7 {
-            // A short unterminated token among the integers may go on.
-            return Ok(None);
-        }
-        let candidate = std::str::from_utf8(&b[..i]).unwrap_or_default();
-        // An unterminated last field may go on, unless the fixed 10-character layout says the
-        // reply is complete (the controller's format with its final blank still in flight).
-        let complete = structurally_complete(&if terminated {
-            Status::decode(candidate)
+        spans[n] = (start, i);
+        n += 1;
+    }
+    // Only reply bytes (ASCII) reach here, so every slice is valid text.
+    let text = |from: usize, to: usize| std::str::from_utf8(&b[from..to]).unwrap_or_default();
+    let terminated = |k: usize| spans[k].1 < b.len();
+    let garbage = |at: usize, reason: &'static str| DecodeError::Garbage {
+        reason,
+        offset: at,
+        excerpt: excerpt(b, at),
+    };
+    // Seven integers (the sixth ends at spans[5]) and 70 characters of fixed-width fields.
+    let fixed_min_end = if n > 5 {
+        spans[5].1 + 2 + 7 * F10_WIDTH
+    } else {
+        usize::MAX
+    };
+    for k in 6..n.min(REPLY_FIELDS) {
+        let end = spans[k].1;
+        let decoded = if k == REPLY_FIELDS - 1 && terminated(k) {
+            Status::decode(text(0, end))
+        } else if end >= fixed_min_end {
+            decode_fixed_layout(text(0, end))
         } else {
-            decode_fixed_layout(candidate)
+            continue;
+        };
+        if structurally_complete(&decoded) {
+            let consumed = if terminated(k) { end + 1 } else { end };
+            return Ok(Some((consumed, decoded)));
+        }
+    }
+    // No reply yet. The six leading fields are always blank-separated: one that is complete but
+    // not a number is garbage now. (A reply found above has valid ones.)
+    for k in 0..n.min(6) {
+        if terminated(k) && parse_field(text(spans[k].0, spans[k].1)).is_none() {
+            return Err(garbage(spans[k].0, "field is not a number"));
+        }
+    }
+    if n >= REPLY_FIELDS && terminated(REPLY_FIELDS - 1) {
+        let bad = spans[6..REPLY_FIELDS].iter().find(|(s, e)| {
+            let t = text(*s, *e);
+            t != F10_OVERFLOW && parse_field(t).is_none()
         });
-        if tokens + 1 >= 7 && complete {
-            return Ok(Some(if terminated { i + 1 } else { i }));
-        }
-        if !terminated {
-            return Ok(None);
-        }
-        let tok = std::str::from_utf8(&b[start..i]).unwrap_or_default();
-        let valid = tok == F10_OVERFLOW || parse_field(tok).is_some();
-        if !valid {
-            if tokens < 6 {
-                return Err(DecodeError::Garbage {
-                    reason: "field is not a number",
-                    offset: start,
-                    excerpt: excerpt(b, start),
-                });
-            }
-            first_bad.get_or_insert(start);
-        }
-        tokens += 1;
-        if tokens >= REPLY_FIELDS {
-            let at = first_bad.unwrap_or(0);
-            return Err(match first_bad {
-                Some(_) => DecodeError::Garbage {
-                    reason: "field is not a number",
-                    offset: at,
-                    excerpt: excerpt(b, at),
-                },
-                None => DecodeError::Garbage {
-                    reason: "14 fields that do not form a reply",
-                    offset: 0,
-                    excerpt: excerpt(b, 0),
-                },
-            });
-        }
+        return Err(match bad {
+            Some((at, _)) => garbage(*at, "field is not a number"),
+            None => garbage(0, "14 fields that do not form a reply"),
+        });
     }
     Ok(None)
 }

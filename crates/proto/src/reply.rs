@@ -170,13 +170,26 @@ pub(crate) enum Field {
     Overflow,
 }
 
-/// Bytes a reply may contain.
+/// Bytes a reply may contain: digits, blanks, signs, the point, exponent letters, asterisks.
+const REPLY_BYTES: [bool; 256] = {
+    let mut t = [false; 256];
+    let mut c = b'0';
+    while c <= b'9' {
+        t[c as usize] = true;
+        c += 1;
+    }
+    let others = b" \t\r\n-+.Ee*";
+    let mut i = 0;
+    while i < others.len() {
+        t[others[i] as usize] = true;
+        i += 1;
+    }
+    t
+};
+
+/// `true` for a byte a reply may contain.
 pub(crate) fn is_reply_byte(b: u8) -> bool {
-    b.is_ascii_digit()
-        || matches!(
-            b,
-            b' ' | b'\t' | b'-' | b'+' | b'.' | b'E' | b'e' | b'*' | b'\r' | b'\n'
-        )
+    REPLY_BYTES[b as usize]
 }
 
 pub(crate) fn is_blank(b: u8) -> bool {
