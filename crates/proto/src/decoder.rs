@@ -169,8 +169,7 @@ fn find_reply(b: &[u8]) -> Result<Option<(usize, Result<Status, DecodeError>)>, 
     } else {
         usize::MAX
     };
-    for k in 6..n.min(REPLY_FIELDS) {
-        let end = spans[k].1;
+    for (k, &(_, end)) in spans.iter().enumerate().take(n.min(REPLY_FIELDS)).skip(6) {
         let decoded = if k == REPLY_FIELDS - 1 && terminated(k) {
             Status::decode(text(0, end))
         } else if end >= fixed_min_end {
@@ -185,9 +184,9 @@ fn find_reply(b: &[u8]) -> Result<Option<(usize, Result<Status, DecodeError>)>, 
     }
     // No reply yet. The six leading fields are always blank-separated: one that is complete but
     // not a number is garbage now. (A reply found above has valid ones.)
-    for k in 0..n.min(6) {
-        if terminated(k) && parse_field(text(spans[k].0, spans[k].1)).is_none() {
-            return Err(garbage(spans[k].0, "field is not a number"));
+    for (k, &(start, end)) in spans.iter().enumerate().take(n.min(6)) {
+        if terminated(k) && parse_field(text(start, end)).is_none() {
+            return Err(garbage(start, "field is not a number"));
         }
     }
     if n >= REPLY_FIELDS && terminated(REPLY_FIELDS - 1) {
