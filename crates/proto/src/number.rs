@@ -120,7 +120,25 @@ pub fn format_request_number(value: f64, field: &'static str) -> Result<String, 
             limit: REQUEST_NUMBER_LIMIT,
         });
     }
-    let mut s = format!("{value:.prec$}", prec = REQUEST_DECIMALS);
+    let Some(m) = thousandths(value) else {
+        return Ok(trim_decimals(format!(
+            "{value:.prec$}",
+            prec = REQUEST_DECIMALS
+        )));
+    };
+    let (int, frac) = (m.unsigned_abs() / 1000, m.unsigned_abs() % 1000);
+    let sign = if m < 0 { "-" } else { "" };
+    Ok(match frac {
+        0 if int == 0 => "0".to_owned(),
+        0 => format!("{sign}{int}"),
+        f if f % 100 == 0 => format!("{sign}{int}.{}", f / 100),
+        f if f % 10 == 0 => format!("{sign}{int}.{:02}", f / 10),
+        f => format!("{sign}{int}.{f:03}"),
+    })
+}
+
+/// Drops trailing zeros (and a trailing point) of a fixed-point number; `-0` becomes `0`.
+fn trim_decimals(mut s: String) -> String {
     if s.contains('.') {
         while s.ends_with('0') {
             s.pop();
@@ -132,7 +150,23 @@ pub fn format_request_number(value: f64, field: &'static str) -> Result<String, 
     if s == "-0" {
         s = "0".to_owned();
     }
-    Ok(s)
+    s
+}
+
+/// `value` in thousandths, rounded exactly as `format!("{:.3}")` rounds it, computed with
+/// integers for speed; `None` when the value is so close to a rounding tie that the product
+/// `value * 1000` might round the other way (the caller then uses the exact float printer), or
+/// too large for an `i64`.
+fn thousandths(value: f64) -> Option<i64> {
+    let x = value * 1000.0;
+    if x.is_nan() || x.abs() >= 1.0e15 {
+        return None;
+    }
+    let frac = (x - x.trunc()).abs();
+    if (frac - 0.5).abs() < 1.0e-6 {
+        return None;
+    }
+    Some(x.round() as i64)
 }
 
 /// Formats a value as AS `/F10.3`: 3 decimals, right-justified in exactly 10 characters, or
@@ -146,17 +180,47 @@ pub fn format_request_number(value: f64, field: &'static str) -> Result<String, 
 /// assert_eq!(format_f10_3(1.0e6), "**********");
 /// ```
 pub fn format_f10_3(value: f64) -> String {
+    let mut out = String::with_capacity(F10_WIDTH);
+    push_f10_3(&mut out, value);
+    out
+}
+
+/// Appends `value` in the `/F10.3` format (see [`format_f10_3`]) to `out`.
+pub fn push_f10_3(out: &mut String, value: f64) {
+    use std::fmt::Write;
     if !value.is_finite() {
-        return F10_OVERFLOW.to_owned();
+        out.push_str(F10_OVERFLOW);
+        return;
     }
-    let mut s = format!("{value:>10.3}");
-    if s.trim() == "-0.000" {
-        s = format!("{:>10}", "0.000");
-    }
-    if s.len() > F10_WIDTH {
-        F10_OVERFLOW.to_owned()
-    } else {
-        s
+    match thousandths(value) {
+        Some(m) => {
+            let a = m.unsigned_abs();
+            let int = a / 1000;
+            let negative = m < 0;
+            let digits = int.checked_ilog10().unwrap_or(0) as usize + 1;
+            let len = usize::from(negative) + digits + 4;
+            if len > F10_WIDTH {
+                out.push_str(F10_OVERFLOW);
+                return;
+            }
+            out.extend(std::iter::repeat_n(' ', F10_WIDTH - len));
+            let _ = write!(
+                out,
+                "{}{int}.{:03}",
+                if negative { "-" } else { "" },
+                a % 1000
+            );
+        }
+        None => {
+            let s = format!("{value:>10.3}");
+            if s.trim() == "-0.000" {
+                let _ = write!(out, "{:>10}", "0.000");
+            } else if s.len() > F10_WIDTH {
+                out.push_str(F10_OVERFLOW);
+            } else {
+                out.push_str(&s);
+            }
+        }
     }
 }
 
@@ -179,6 +243,7 @@ pub(crate) fn parse_field(token: &str) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::strategy::Strategy;
 
     #[test]
     fn val_semantics() {
@@ -237,6 +302,41 @@ mod tests {
         assert_eq!(format_f10_3(-999999.0), "**********");
         assert_eq!(format_f10_3(f64::NAN), "**********");
         assert_eq!(format_default_int(-31088), " -31088");
+    }
+
+    fn reference_f10_3(value: f64) -> String {
+        let s = format!("{value:>10.3}");
+        let s = if s.trim() == "-0.000" {
+            format!("{:>10}", "0.000")
+        } else {
+            s
+        };
+        if s.len() > F10_WIDTH {
+            F10_OVERFLOW.to_owned()
+        } else {
+            s
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(20_000))]
+        /// The integer fast path prints exactly what the exact float printer prints.
+        #[test]
+        fn integer_formatting_matches_the_float_printer(
+            v in proptest::prelude::any::<f64>().prop_filter("finite", |v| v.is_finite()),
+            k in -10_000_000_000i64..10_000_000_000,
+            half in proptest::bool::ANY,
+        ) {
+            // Arbitrary doubles, and values on and next to the decimal ties.
+            let near = k as f64 / 1000.0 + if half { 0.0005 } else { 0.0 };
+            for x in [v, near, near.next_up(), near.next_down(), v / 1e6] {
+                proptest::prop_assert_eq!(format_f10_3(x), reference_f10_3(x));
+                if x.abs() < REQUEST_NUMBER_LIMIT {
+                    let reference = trim_decimals(format!("{x:.3}"));
+                    proptest::prop_assert_eq!(format_request_number(x, "x").unwrap(), reference);
+                }
+            }
+        }
     }
 
     #[test]

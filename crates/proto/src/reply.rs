@@ -2,11 +2,12 @@
 //! decoding (of everything a controller may send).
 
 use std::fmt;
+use std::fmt::Write as _;
 
 use crate::error::{excerpt, DecodeError};
 use crate::error_code::ErrorCode;
 use crate::joints::{JointsDeg, JOINT_COUNT};
-use crate::number::{format_default_int, format_f10_3, parse_field, F10_OVERFLOW, F10_WIDTH};
+use crate::number::{parse_field, push_f10_3, F10_OVERFLOW, F10_WIDTH};
 use crate::session::{AS_FALSE, AS_TRUE, PROTOCOL_VERSION};
 
 /// Number of fields in a reply.
@@ -89,14 +90,15 @@ impl Status {
             as_bool(self.power),
             as_bool(self.task_running),
         ] {
-            out.push_str(&format_default_int(v));
+            // The AS default format: one blank, then the integer.
+            let _ = write!(out, " {v}");
         }
         match self.timer {
-            Timer::Seconds(s) => out.push_str(&format_f10_3(s)),
+            Timer::Seconds(s) => push_f10_3(&mut out, s),
             Timer::Overflow => out.push_str(F10_OVERFLOW),
         }
         for j in self.joints.iter() {
-            out.push_str(&format_f10_3(j));
+            push_f10_3(&mut out, j);
         }
         out.push(' ');
         out
