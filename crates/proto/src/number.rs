@@ -227,7 +227,15 @@ pub fn push_f10_3(out: &mut String, value: f64) {
 /// Formats an integer in the AS default format as it appears in `$ENCODE`: one blank, then the
 /// number without a decimal point.
 pub fn format_default_int(value: i64) -> String {
-    format!(" {value}")
+    let mut out = String::with_capacity(8);
+    push_default_int(&mut out, value);
+    out
+}
+
+/// Appends `value` in the AS default format (see [`format_default_int`]) to `out`.
+pub fn push_default_int(out: &mut String, value: i64) {
+    use std::fmt::Write;
+    let _ = write!(out, " {value}");
 }
 
 /// Parses one reply field: a decimal number, optionally with an exponent. Returns `None` for

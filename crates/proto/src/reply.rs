@@ -2,12 +2,11 @@
 //! decoding (of everything a controller may send).
 
 use std::fmt;
-use std::fmt::Write as _;
 
 use crate::error::{excerpt, DecodeError};
 use crate::error_code::ErrorCode;
 use crate::joints::{JointsDeg, JOINT_COUNT};
-use crate::number::{parse_field, push_f10_3, F10_OVERFLOW, F10_WIDTH};
+use crate::number::{parse_field, push_default_int, push_f10_3, F10_OVERFLOW, F10_WIDTH};
 use crate::session::{AS_FALSE, AS_TRUE, PROTOCOL_VERSION};
 
 /// Number of fields in a reply.
@@ -90,8 +89,7 @@ impl Status {
             as_bool(self.power),
             as_bool(self.task_running),
         ] {
-            // The AS default format: one blank, then the integer.
-            let _ = write!(out, " {v}");
+            push_default_int(&mut out, v);
         }
         match self.timer {
             Timer::Seconds(s) => push_f10_3(&mut out, s),
