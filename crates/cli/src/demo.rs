@@ -11,7 +11,9 @@ use serde_json::json;
 use crate::error::{CliError, CliResult, Exit};
 use crate::output::joints_json;
 use crate::robot_cmds::{measure, print_stream_report};
-use crate::session::{check_speed, client_error, close_quietly, connect, runtime, Ctx, Embedded};
+use crate::session::{
+    check_speed, client_error, close_quietly, connect, robot_or_embedded, runtime, Ctx,
+};
 
 /// The poses the demo visits (degrees).
 pub const POSES: [[f64; 6]; 4] = [
@@ -80,13 +82,7 @@ pub fn demo(ctx: &Ctx, speed: f64, yes: bool) -> CliResult {
     }
     let rt = runtime()?;
     rt.block_on(async {
-        let embedded = match &ctx.addr {
-            Some(_) => None,
-            None => Some(Embedded::start(&ctx.model).await?),
-        };
-        let addr = embedded
-            .as_ref()
-            .map_or_else(|| ctx.addr_or_default(), Embedded::addr);
+        let (addr, embedded) = robot_or_embedded(ctx).await?;
         say(ctx, &format!(
             "fs020n demo — {} at {addr}",
             if embedded.is_some() { "embedded FS020N emulator" } else { "robot" }

@@ -193,10 +193,7 @@ pub fn fk(model: &RobotModel, joints: &[f64], as_json: bool) -> CliResult {
     }
     let p = model.forward(&q.to_rad()).to_xyzoat();
     if as_json {
-        println!(
-            "{}",
-            json!({ "x_mm": p.x_mm, "y_mm": p.y_mm, "z_mm": p.z_mm, "o_deg": p.o_deg, "a_deg": p.a_deg, "t_deg": p.t_deg })
-        );
+        println!("{}", serde_json::to_string(&p).unwrap_or_default());
     } else {
         println!("flange of {q}");
         println!(

@@ -15,7 +15,8 @@ use crate::args::{MoveArgs, PlayArgs, PlayMode};
 use crate::error::{CliError, CliResult, Exit};
 use crate::output::{joints_json, status_json, status_table};
 use crate::session::{
-    check_speed, check_target, client_error, close_quietly, connect, ctrl_c, runtime, Ctx, Embedded,
+    check_speed, check_target, client_error, close_quietly, connect, ctrl_c, robot_or_embedded,
+    runtime, Ctx,
 };
 use crate::trajectory_file;
 
@@ -456,13 +457,7 @@ pub fn bench(ctx: &Ctx, count: u32) -> CliResult {
     }
     let rt = runtime()?;
     rt.block_on(async {
-        let embedded = match &ctx.addr {
-            Some(_) => None,
-            None => Some(Embedded::start(&ctx.model).await?),
-        };
-        let addr = embedded
-            .as_ref()
-            .map_or_else(|| ctx.addr_or_default(), Embedded::addr);
+        let (addr, embedded) = robot_or_embedded(ctx).await?;
         let robot = connect(&addr, ctx).await?;
         let result = measure(&robot, count).await;
         close_quietly(&robot).await;

@@ -86,6 +86,18 @@ impl Embedded {
     }
 }
 
+/// The robot of `demo` and `bench`: `--robot` if given, else an embedded emulator (returned so
+/// that it lives as long as the session).
+pub async fn robot_or_embedded(ctx: &Ctx) -> CliResult<(String, Option<Embedded>)> {
+    match &ctx.addr {
+        Some(addr) => Ok((addr.clone(), None)),
+        None => {
+            let e = Embedded::start(&ctx.model).await?;
+            Ok((e.addr(), Some(e)))
+        }
+    }
+}
+
 /// Lists blockers with their remedies, one per line.
 pub fn blocker_lines(blockers: &[Blocker]) -> String {
     blockers

@@ -16,8 +16,8 @@ pub struct Pose(pub Isometry3<f64>);
 /// The AS language transformation representation: position in millimetres, orientation as
 /// Z-Y-Z Euler angles O, A, T in degrees: `R = Rz(O) · Ry(A) · Rz(T)`.
 ///
-/// The tool pointing straight down gives `A = 180`.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+/// The tool pointing straight down gives `A = 180`. Serializes as the six named fields.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct Xyzoat {
     /// X, millimetres.
     pub x_mm: f64,

@@ -33,4 +33,4 @@ pub use panel::Panel;
 pub use pendant::{pendant_router, serve_pendant, PendantServer};
 pub use run::{run_robot, RunningRobot, SimOptions};
 pub use server::{Emulator, TcpServer};
-pub use snapshot::{CommandInfo, ErrorInfo, LastEnd, SessionInfo, Snapshot, ToolPose};
+pub use snapshot::{CommandInfo, ErrorInfo, LastEnd, SessionInfo, Snapshot};

@@ -1,6 +1,7 @@
 //! A serializable picture of the whole controller at one instant: what the pendant API returns
 //! from `GET /state`, what the CLI prints, what tests compare.
 
+use fs020n_kin::Xyzoat;
 use fs020n_proto::{Command, ErrorCode, JointsDeg};
 use serde::Serialize;
 
@@ -24,7 +25,7 @@ pub struct Snapshot {
     /// Joint velocities, degrees per second.
     pub velocities_deg_s: JointsDeg,
     /// Flange pose in the base frame, as the pendant shows it.
-    pub tool: ToolPose,
+    pub tool: Xyzoat,
     /// State of the motion program `ros_move` (robot task 1).
     pub task: TaskState,
     /// What the arm is doing.
@@ -70,23 +71,6 @@ impl From<ErrorCode> for ErrorInfo {
             message: e.message().map(str::to_owned),
         }
     }
-}
-
-/// A pose as X, Y, Z (mm) and O, A, T (Z-Y-Z Euler angles, degrees).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct ToolPose {
-    /// X, millimetres.
-    pub x_mm: f64,
-    /// Y, millimetres.
-    pub y_mm: f64,
-    /// Z, millimetres.
-    pub z_mm: f64,
-    /// O, degrees.
-    pub o_deg: f64,
-    /// A, degrees.
-    pub a_deg: f64,
-    /// T, degrees.
-    pub t_deg: f64,
 }
 
 /// The communication task's session.
@@ -142,14 +126,7 @@ impl Snapshot {
             error: c.error().into(),
             joints_deg: joints,
             velocities_deg_s: c.velocity(),
-            tool: ToolPose {
-                x_mm: x.x_mm,
-                y_mm: x.y_mm,
-                z_mm: x.z_mm,
-                o_deg: x.o_deg,
-                a_deg: x.a_deg,
-                t_deg: x.t_deg,
-            },
+            tool: x,
             task: c.task(),
             motion: c.motion_phase(),
             motion_planned: c.robot().has_planned(),
