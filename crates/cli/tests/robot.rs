@@ -414,3 +414,80 @@ fn demo_on_a_real_robot_needs_yes() {
         .code(2)
         .stderr(predicate::str::contains("--yes"));
 }
+
+#[test]
+fn status_watch_streams_json_lines_until_interrupted() {
+    let sim = Sim::start(&[]);
+    let mut child = StdCommand::new(assert_cmd::cargo::cargo_bin("fs020n"))
+        .args([
+            "--robot", &sim.addr, "--json", "status", "--watch", "--rate", "50",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut reader = BufReader::new(child.stdout.take().unwrap());
+    let mut timers = Vec::new();
+    for _ in 0..4 {
+        let mut line = String::new();
+        reader.read_line(&mut line).unwrap();
+        let v: Value = serde_json::from_str(&line).unwrap();
+        timers.push(v["timer_s"].as_f64().unwrap());
+    }
+    assert!(timers.windows(2).all(|w| w[1] >= w[0]), "{timers:?}");
+    interrupt(&child);
+    let status = child.wait().unwrap();
+    assert!(status.success(), "Ctrl-C ends --watch cleanly: {status:?}");
+}
+
+/// Sends SIGINT (Ctrl-C) to a child process.
+fn interrupt(child: &Child) {
+    let ok = StdCommand::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap()
+        .success();
+    assert!(ok, "kill -INT");
+}
+
+#[test]
+fn ctrl_c_during_play_cancels_and_closes() {
+    let sim = Sim::start(&[]);
+    let dir = tempfile::tempdir().unwrap();
+    let slow = dir.path().join("slow.csv");
+    let mut text = String::from("time_s,j1,j2,j3,j4,j5,j6\n");
+    for k in 0..=500 {
+        let t = k as f64 * 0.02;
+        text.push_str(&format!("{t},{},0,-90,0,-90,0\n", 2.0 * t));
+    }
+    std::fs::write(&slow, text).unwrap();
+    let mut child = StdCommand::new(assert_cmd::cargo::cargo_bin("fs020n"))
+        .args(["--robot", &sim.addr, "play", slow.to_str().unwrap()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Let the stream run (the file lasts 10 s), then interrupt it.
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    interrupt(&child);
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(130),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stderr).contains("interrupted"));
+    // The session was closed: a new one is accepted and the robot stands still, part way.
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let first = sim.cmd().args(["--json", "status"]).output().unwrap();
+    let j1 = json_of(&first.stdout)["joints_deg"][0].as_f64().unwrap();
+    assert!(j1 > 0.5 && j1 < 15.0, "stopped part way: {j1}");
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let second = sim.cmd().args(["--json", "status"]).output().unwrap();
+    assert_eq!(
+        json_of(&second.stdout)["joints_deg"][0].as_f64().unwrap(),
+        j1,
+        "standing still"
+    );
+}
