@@ -461,7 +461,7 @@ fn ctrl_c_during_play_cancels_and_closes() {
         text.push_str(&format!("{t},{},0,-90,0,-90,0\n", 2.0 * t));
     }
     std::fs::write(&slow, text).unwrap();
-    let mut child = StdCommand::new(assert_cmd::cargo::cargo_bin("fs020n"))
+    let child = StdCommand::new(assert_cmd::cargo::cargo_bin("fs020n"))
         .args(["--robot", &sim.addr, "play", slow.to_str().unwrap()])
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
