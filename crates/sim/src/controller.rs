@@ -217,6 +217,9 @@ struct Session {
     id: SessionId,
     accepted_at: Duration,
     last_rx: Duration,
+    /// A delayed or split reply is being sent: the communication task is not receiving, so its
+    /// receive timeout does not run.
+    replying: bool,
     ring: Vec<Command>,
     newest: usize,
 }
@@ -397,9 +400,25 @@ impl Controller {
         self.session.as_ref().map(|s| s.newest)
     }
 
-    /// When the open session times out for lack of requests.
+    /// The reply of session `id` has been sent: the communication task receives again and its
+    /// 5 s receive timeout starts now (spec §4: receive, act, send, receive…). Callers that
+    /// apply a delayed or split reply ([`Handled::fault`]) must call it once the reply is out;
+    /// until then the session cannot time out.
+    pub fn reply_sent(&mut self, id: SessionId) {
+        let now = self.now;
+        if let Some(s) = self.session.as_mut().filter(|s| s.id == id) {
+            s.replying = false;
+            s.last_rx = now;
+        }
+    }
+
+    /// When the open session times out for lack of requests (`None` while a delayed reply is
+    /// being sent).
     pub fn receive_deadline(&self) -> Option<Duration> {
-        self.session.as_ref().map(|s| s.last_rx + RECEIVE_TIMEOUT)
+        self.session
+            .as_ref()
+            .filter(|s| !s.replying)
+            .map(|s| s.last_rx + RECEIVE_TIMEOUT)
     }
 
     /// Until when the communication task does not read (fault injection).
@@ -742,6 +761,7 @@ impl Controller {
             id,
             accepted_at: self.now,
             last_rx: self.now,
+            replying: false,
             ring: vec![
                 Command::Other {
                     number: 0.0,
@@ -823,6 +843,11 @@ impl Controller {
         let reply = self.status().encode();
         tracing::debug!(reply = %reply, "reply");
         let fault = self.faults.next_reply();
+        if let Some(s) = &mut self.session {
+            // A delayed or split reply takes time to send; the receive timeout waits for it
+            // (see `reply_sent`).
+            s.replying = matches!(fault, Some(ReplyFault::Delay(_) | ReplyFault::Split { .. }));
+        }
         if close {
             self.end_session(SessionEnd::EndCommand);
         }
@@ -866,9 +891,13 @@ impl Controller {
         }
     }
 
-    /// TEACH LOCK on or off (on prevents command 1 from starting the program).
+    /// TEACH LOCK on or off. On gives the pendant control: a running program stops (the
+    /// program cannot run with the lock on, spec §4) and command 1 is refused.
     pub fn set_teach_lock(&mut self, on: bool) {
         self.panel.teach_lock = on;
+        if on {
+            self.stop_program();
+        }
     }
 
     /// Presses the emergency stop: motor power is cut, the robot stops dead, the program ends
@@ -899,6 +928,9 @@ impl Controller {
 
     /// Sets the monitor speed (1–100 %). It applies from the next planned motion.
     pub fn set_monitor_speed(&mut self, percent: f64) -> Result<(), PanelError> {
+        if percent > 100.0 {
+            return Err(PanelError::Speed(percent));
+        }
         self.monitor_speed = clamp_speed(percent).ok_or(PanelError::Speed(percent))?;
         Ok(())
     }
@@ -936,7 +968,8 @@ impl Controller {
         match &fault {
             Fault::CloseConnection => self.end_session(SessionEnd::Fault),
             Fault::StopReading { duration_ms } => {
-                self.stop_reading_until = Some(self.now + Duration::from_millis(*duration_ms));
+                let ms = (*duration_ms).min(crate::fault::MAX_FAULT_MS);
+                self.stop_reading_until = Some(self.now + Duration::from_millis(ms));
             }
             Fault::RaiseError { code } => self.raise(*code),
             _ => self.faults.push(&fault),

@@ -74,27 +74,84 @@ pub struct FaultQueue {
     replies: VecDeque<ReplyFault>,
 }
 
+/// Most replies one fault may affect (`count`), and most pending reply faults.
+pub const MAX_FAULT_COUNT: u32 = 10_000;
+/// Longest delay, gap or reading pause of a fault, milliseconds (10 minutes).
+pub const MAX_FAULT_MS: u64 = 600_000;
+/// Most bytes of a garbage reply, and most pieces of a split reply.
+pub const MAX_FAULT_BYTES: usize = 4096;
+
+impl Fault {
+    /// Checks the fault's numbers against the limits ([`MAX_FAULT_COUNT`], [`MAX_FAULT_MS`],
+    /// [`MAX_FAULT_BYTES`]), so that a fault cannot exhaust memory or wedge the emulator.
+    pub fn validate(&self) -> Result<(), String> {
+        let count = |c: u32| {
+            if c > MAX_FAULT_COUNT {
+                Err(format!("count {c} is above the limit {MAX_FAULT_COUNT}"))
+            } else {
+                Ok(())
+            }
+        };
+        let ms = |what: &str, v: u64| {
+            if v > MAX_FAULT_MS {
+                Err(format!("{what} {v} is above the limit {MAX_FAULT_MS} ms"))
+            } else {
+                Ok(())
+            }
+        };
+        match self {
+            Fault::DelayReplies { count: c, delay_ms } => {
+                count(*c)?;
+                ms("delay_ms", *delay_ms)
+            }
+            Fault::WithholdReplies { count: c } => count(*c),
+            Fault::GarbageReply { text } if text.len() > MAX_FAULT_BYTES => Err(format!(
+                "the garbage text is {} bytes, above the limit {MAX_FAULT_BYTES}",
+                text.len()
+            )),
+            Fault::SplitReply { parts, gap_ms } => {
+                if *parts as usize > MAX_FAULT_BYTES {
+                    return Err(format!(
+                        "parts {parts} is above the limit {MAX_FAULT_BYTES}"
+                    ));
+                }
+                ms("gap_ms", *gap_ms)
+            }
+            Fault::StopReading { duration_ms } => ms("duration_ms", *duration_ms),
+            _ => Ok(()),
+        }
+    }
+}
+
 impl FaultQueue {
     /// Queues reply faults for `fault` (other kinds are applied by the controller directly).
+    /// The queue never holds more than [`MAX_FAULT_COUNT`] entries; numbers above the limits
+    /// are clamped to them.
     pub(crate) fn push(&mut self, fault: &Fault) {
+        let room = (MAX_FAULT_COUNT as usize).saturating_sub(self.replies.len());
+        let count = |c: &u32| (*c as usize).min(room);
+        let ms = |v: &u64| Duration::from_millis((*v).min(MAX_FAULT_MS));
         match fault {
-            Fault::DelayReplies { count, delay_ms } => {
-                for _ in 0..*count {
-                    self.replies
-                        .push_back(ReplyFault::Delay(Duration::from_millis(*delay_ms)));
+            Fault::DelayReplies { count: c, delay_ms } => {
+                for _ in 0..count(c) {
+                    self.replies.push_back(ReplyFault::Delay(ms(delay_ms)));
                 }
             }
-            Fault::WithholdReplies { count } => {
-                for _ in 0..*count {
+            Fault::WithholdReplies { count: c } => {
+                for _ in 0..count(c) {
                     self.replies.push_back(ReplyFault::Withhold);
                 }
             }
-            Fault::GarbageReply { text } => self
-                .replies
-                .push_back(ReplyFault::Garbage(text.as_bytes().to_vec())),
+            _ if room == 0 => {}
+            Fault::GarbageReply { text } => {
+                let bytes = text.as_bytes();
+                self.replies.push_back(ReplyFault::Garbage(
+                    bytes[..bytes.len().min(MAX_FAULT_BYTES)].to_vec(),
+                ))
+            }
             Fault::SplitReply { parts, gap_ms } => self.replies.push_back(ReplyFault::Split {
-                parts: (*parts as usize).max(2),
-                gap: Duration::from_millis(*gap_ms),
+                parts: (*parts as usize).clamp(2, MAX_FAULT_BYTES),
+                gap: ms(gap_ms),
             }),
             Fault::CloseConnection | Fault::StopReading { .. } | Fault::RaiseError { .. } => {}
         }

@@ -237,7 +237,9 @@ pub fn parse_fault(mut v: Value) -> Result<Fault, String> {
             *code = Value::from(parsed.raw());
         }
     }
-    serde_json::from_value(v).map_err(|e| e.to_string())
+    let fault: Fault = serde_json::from_value(v).map_err(|e| e.to_string())?;
+    fault.validate()?;
+    Ok(fault)
 }
 
 async fn faults_post(

@@ -82,8 +82,9 @@ impl Emulator {
         let now = self.elapsed();
         let (r, changed) = {
             let mut c = self.lock();
-            c.advance_to(now);
+            // Taken before advancing: a session that times out while advancing is a change.
             let before = (c.session(), c.reading_paused_until());
+            c.advance_to(now);
             let r = f(&mut c);
             (r, before != (c.session(), c.reading_paused_until()))
         };
@@ -223,23 +224,55 @@ impl Emulator {
                 None => send(&mut wr, &handled.reply).await,
                 Some(ReplyFault::Withhold) => Ok(()),
                 Some(ReplyFault::Delay(d)) => {
-                    tokio::time::sleep(d).await;
+                    if !self.pause(id, d, &mut changes).await {
+                        break;
+                    }
                     send(&mut wr, &handled.reply).await
                 }
                 Some(ReplyFault::Garbage(bytes)) => send(&mut wr, &bytes).await,
                 Some(ReplyFault::Split { parts, gap }) => {
-                    send_split(&mut wr, &handled.reply, parts, gap).await
+                    let size = handled.reply.len().div_ceil(parts.max(1)).max(1);
+                    let mut sent = Ok(());
+                    for (k, chunk) in handled.reply.chunks(size).enumerate() {
+                        if k > 0 && !self.pause(id, gap, &mut changes).await {
+                            break;
+                        }
+                        sent = send(&mut wr, chunk).await;
+                        if sent.is_err() {
+                            break;
+                        }
+                    }
+                    sent
                 }
             };
             if let Err(why) = sent {
                 self.with(|c| c.end_session_of(id, why));
                 break;
             }
+            // The communication task receives again only now (its 5 s timeout starts here).
+            self.with(|c| c.reply_sent(id));
             if handled.close {
                 break;
             }
         }
         let _ = wr.shutdown().await;
+    }
+}
+
+impl Emulator {
+    /// Waits `d` while session `id` stays open (a delayed or split reply); `false` when the
+    /// session ended meanwhile (closed by fault injection, or the emulator stopped it).
+    async fn pause(&self, id: SessionId, d: Duration, changes: &mut watch::Receiver<u64>) -> bool {
+        let until = Instant::now() + d;
+        loop {
+            if !self.with(|c| c.is_session_open(id)) {
+                return false;
+            }
+            tokio::select! {
+                _ = tokio::time::sleep_until(until) => return self.with(|c| c.is_session_open(id)),
+                r = changes.changed() => if r.is_err() { return false },
+            }
+        }
     }
 }
 
@@ -261,22 +294,6 @@ async fn send<W: AsyncWrite + Unpin>(wr: &mut W, bytes: &[u8]) -> Result<(), Ses
         Ok(Err(_)) => Err(SessionEnd::Disconnected),
         Err(_) => Err(SessionEnd::SendTimeout),
     }
-}
-
-async fn send_split<W: AsyncWrite + Unpin>(
-    wr: &mut W,
-    bytes: &[u8],
-    parts: usize,
-    gap: Duration,
-) -> Result<(), SessionEnd> {
-    let size = bytes.len().div_ceil(parts.max(1)).max(1);
-    for (k, chunk) in bytes.chunks(size).enumerate() {
-        if k > 0 {
-            tokio::time::sleep(gap).await;
-        }
-        send(wr, chunk).await?;
-    }
-    Ok(())
 }
 
 /// A running TCP robot port. Dropping it does not stop it; call [`TcpServer::stop`].
