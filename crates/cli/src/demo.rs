@@ -12,7 +12,7 @@ use crate::error::{CliError, CliResult, Exit};
 use crate::output::joints_json;
 use crate::robot_cmds::{measure, print_stream_report};
 use crate::session::{
-    check_speed, client_error, close_quietly, connect, robot_or_embedded, runtime, Ctx,
+    check_speed, client_error, close_quietly, connect, robot_or_embedded, runtime, Ctx, Interrupt,
 };
 
 /// The poses the demo visits (degrees).
@@ -87,8 +87,15 @@ pub fn demo(ctx: &Ctx, speed: f64, yes: bool) -> CliResult {
             "fs020n demo — {} at {addr}",
             if embedded.is_some() { "embedded FS020N emulator" } else { "robot" }
         ));
+        let stop = Interrupt::install();
         let robot = connect(&addr, ctx).await?;
-        let result = tour(ctx, &robot, speed).await;
+        let result = tokio::select! {
+            r = tour(ctx, &robot, speed) => r,
+            _ = stop.wait() => {
+                let _ = robot.cancel().await;
+                Err(CliError::new(Exit::Interrupted, "interrupted: motion cancelled and the session closed"))
+            }
+        };
         close_quietly(&robot).await;
         let report = result?;
         if let Some(e) = &embedded {

@@ -2,7 +2,7 @@
 
 use fs020n_kin::{IkError, Pose, RobotModel, Xyzoat};
 use fs020n_proto::server::ServerRequest;
-use fs020n_proto::{Command, JointsDeg, Status};
+use fs020n_proto::{Command, DecodeError, JointsDeg, Status};
 use serde_json::{json, Value};
 
 use crate::args::DecodeArgs;
@@ -17,8 +17,14 @@ pub fn decode(args: &DecodeArgs, as_json: bool) -> CliResult {
     } else if args.request {
         false
     } else {
-        // A reply has 14 fields; a request starts with a version and has a different count.
-        Status::decode(text).is_ok()
+        // A reply: it decodes, or it has a reply's 14 fields with a bad value (asterisks in a
+        // joint, a non-integer flag), or it starts with a blank as replies do and requests
+        // must not (use --request to read such a request as the controller would).
+        match Status::decode(text) {
+            Ok(_) => true,
+            Err(DecodeError::JointOverflow { .. } | DecodeError::NotInteger { .. }) => true,
+            Err(_) => text.starts_with(' '),
+        }
     };
     if as_reply {
         let status =

@@ -4,9 +4,10 @@ use std::io::Write;
 use std::time::{Duration, Instant};
 
 use fs020n_client::{
-    Completion, Robot, StreamMode, StreamOptions, StreamOutcome, StreamReport, Trajectory,
-    TrajectoryPoint,
+    ClientError, Completion, Robot, StreamMode, StreamOptions, StreamOutcome, StreamReport,
+    Trajectory, TrajectoryPoint,
 };
+use fs020n_proto::server::ServerRequest;
 use fs020n_proto::{Status, Timer};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
@@ -15,8 +16,8 @@ use crate::args::{MoveArgs, PlayArgs, PlayMode};
 use crate::error::{CliError, CliResult, Exit};
 use crate::output::{joints_json, status_json, status_table};
 use crate::session::{
-    check_speed, check_target, client_error, close_quietly, connect, ctrl_c, robot_or_embedded,
-    runtime, Ctx,
+    check_speed, check_target, check_timeout, client_error, close_quietly, connect,
+    robot_or_embedded, runtime, Ctx, Interrupt,
 };
 use crate::trajectory_file;
 
@@ -27,12 +28,17 @@ fn interrupted() -> CliError {
     )
 }
 
-/// Runs `body` in a session with the robot and always ends the session cleanly (255).
-fn with_robot<T>(ctx: &Ctx, body: impl AsyncFnOnce(&Robot) -> CliResult<T>) -> CliResult<T> {
+/// Runs `body` in a session with the robot and always ends the session cleanly (255). The body
+/// gets the Ctrl-C flag.
+fn with_robot<T>(
+    ctx: &Ctx,
+    body: impl AsyncFnOnce(&Robot, &Interrupt) -> CliResult<T>,
+) -> CliResult<T> {
     let rt = runtime()?;
     rt.block_on(async {
+        let stop = Interrupt::install();
         let robot = connect(&ctx.addr_or_default(), ctx).await?;
-        let result = body(&robot).await;
+        let result = body(&robot, &stop).await;
         close_quietly(&robot).await;
         result
     })
@@ -51,7 +57,7 @@ pub fn status(ctx: &Ctx, watch: bool, rate: f64) -> CliResult {
     if watch && !(rate.is_finite() && rate > 0.0 && rate <= 100.0) {
         return Err(CliError::input("--rate must be above 0 and at most 100 Hz"));
     }
-    with_robot(ctx, async |robot: &Robot| {
+    with_robot(ctx, async |robot: &Robot, stop: &Interrupt| {
         let s = robot.poll().await.map_err(client_error)?;
         print_status(&s, ctx.json, false);
         if !watch {
@@ -59,13 +65,14 @@ pub fn status(ctx: &Ctx, watch: bool, rate: f64) -> CliResult {
         }
         let mut tick = tokio::time::interval(Duration::from_secs_f64(1.0 / rate));
         loop {
-            tokio::select! {
-                _ = tick.tick() => {
-                    let s = robot.poll().await.map_err(client_error)?;
-                    print_status(&s, ctx.json, true);
-                }
-                _ = ctrl_c() => return Ok(()),
-            }
+            let s = tokio::select! {
+                _ = stop.wait() => return Ok(()),
+                s = async {
+                    tick.tick().await;
+                    robot.poll().await
+                } => s.map_err(client_error)?,
+            };
+            print_status(&s, ctx.json, true);
         }
     })
 }
@@ -89,7 +96,7 @@ fn print_status(s: &Status, as_json: bool, redraw: bool) {
 /// `speed`.
 pub fn speed(ctx: &Ctx, percent: f64) -> CliResult {
     let percent = check_speed(percent)?;
-    with_robot(ctx, async |robot: &Robot| {
+    with_robot(ctx, async |robot: &Robot, _stop: &Interrupt| {
         robot.set_speed(percent).await.map_err(client_error)?;
         if ctx.json {
             println!("{}", json!({ "speed_percent": percent }));
@@ -100,24 +107,23 @@ pub fn speed(ctx: &Ctx, percent: f64) -> CliResult {
     })
 }
 
+/// Largest `--tolerance` of `move`, degrees.
+pub const MAX_TOLERANCE_DEG: f64 = 5.0;
+
 /// `move`: preflight, start, move, wait, close — in one session (the controller stops the
 /// robot when the session ends, so the command always waits for the motion to finish).
 pub fn move_joints(ctx: &Ctx, args: &MoveArgs) -> CliResult {
     let target = check_target(&ctx.model, &args.joints)?;
     let speed = args.speed.map(check_speed).transpose()?;
-    if !(args.tolerance.is_finite() && args.tolerance > 0.0) {
-        return Err(CliError::input(
-            "--tolerance must be a positive number of degrees",
-        ));
+    if !(args.tolerance.is_finite() && args.tolerance > 0.0 && args.tolerance <= MAX_TOLERANCE_DEG)
+    {
+        return Err(CliError::input(format!(
+            "--tolerance must be above 0 and at most {MAX_TOLERANCE_DEG} degrees (the session \
+             end stops the arm where it is, so it must really be at the target)"
+        )));
     }
-    if let Some(t) = args.timeout {
-        if !(t.is_finite() && t > 0.0) {
-            return Err(CliError::input(
-                "--timeout must be a positive number of seconds",
-            ));
-        }
-    }
-    with_robot(ctx, async |robot: &Robot| {
+    let timeout = args.timeout.map(check_timeout).transpose()?;
+    with_robot(ctx, async |robot: &Robot, stop: &Interrupt| {
         robot.preflight().await.map_err(client_error)?;
         if let Some(p) = speed {
             robot.set_speed(p).await.map_err(client_error)?;
@@ -125,10 +131,7 @@ pub fn move_joints(ctx: &Ctx, args: &MoveArgs) -> CliResult {
         robot.start().await.map_err(client_error)?;
         let handle = robot.move_joints(target).await.map_err(client_error)?;
         let planned = handle.planned_duration();
-        let timeout = args
-            .timeout
-            .map(Duration::from_secs_f64)
-            .unwrap_or(planned * 2 + Duration::from_secs(5));
+        let timeout = timeout.unwrap_or(planned * 2 + Duration::from_secs(5));
         let completion = Completion {
             tolerance_deg: args.tolerance,
             settle: Duration::from_millis(100),
@@ -151,7 +154,7 @@ pub fn move_joints(ctx: &Ctx, args: &MoveArgs) -> CliResult {
                         pb.set_message(format!("{:.2} deg to go", p.remaining_deg));
                     }
                 }
-                _ = ctrl_c() => {
+                _ = stop.wait() => {
                     pb.abandon_with_message("cancelled");
                     let _ = handle.cancel().await;
                     return Err(interrupted());
@@ -198,42 +201,53 @@ fn to_trajectory(points: &[trajectory_file::FilePoint]) -> CliResult<Trajectory>
     .map_err(|e| CliError::input(format!("trajectory refused: {e}")))
 }
 
-/// `play`.
+/// `play`: everything that can be checked is checked before connecting; then the start
+/// position before anything is sent that acts; then preflight, speed, start, (approach), stream.
 pub fn play(ctx: &Ctx, args: &PlayArgs, approach: bool) -> CliResult {
     let speed = check_speed(args.speed)?;
-    if !(args.rate.is_finite() && args.rate >= 1.0 && args.rate <= 500.0) {
-        return Err(CliError::input("--rate must be from 1 to 500 Hz"));
+    if !(args.rate.is_finite() && args.rate >= MIN_PLAY_RATE_HZ && args.rate <= MAX_PLAY_RATE_HZ) {
+        return Err(CliError::input(format!(
+            "--rate must be from {MIN_PLAY_RATE_HZ} to {MAX_PLAY_RATE_HZ} Hz"
+        )));
     }
     let points = trajectory_file::load(&args.file, &ctx.model)?;
     let trajectory = to_trajectory(&points)?;
+    let defaults = StreamOptions::default();
+    let period = Duration::from_secs_f64(1.0 / args.rate);
     let options = StreamOptions {
         mode: match args.mode {
-            PlayMode::Stream => StreamOptions::default().mode,
+            PlayMode::Stream => defaults.mode,
             PlayMode::Waypoints => StreamMode::Waypoints,
         },
-        period: Duration::from_secs_f64(1.0 / args.rate),
-        ..StreamOptions::default()
+        period,
+        // A gap of two periods (at least the default) before the stream counts as starved.
+        max_gap: defaults.max_gap.max(period * 2),
+        ..defaults
     };
-    with_robot(ctx, async |robot: &Robot| {
+    trajectory
+        .validate(&ctx.model, period.as_secs_f64(), options.max_step_deg)
+        .map_err(|e| CliError::input(format!("{}: {e}", args.file.display())))?;
+    with_robot(ctx, async |robot: &Robot, stop: &Interrupt| {
+        let first = trajectory.first();
+        let here = robot.poll().await.map_err(client_error)?.joints;
+        let away = here.max_abs_diff(&first) > options.start_tolerance_deg;
+        if away && !approach {
+            return Err(CliError::input(format!(
+                "the robot is at {here} but the trajectory starts at {first}; move there first \
+                 (fs020n move …) or add --approach to do it with a joint move at --speed ({speed} %)"
+            )));
+        }
         robot.preflight().await.map_err(client_error)?;
         robot.set_speed(speed).await.map_err(client_error)?;
         robot.start().await.map_err(client_error)?;
-        let first = trajectory.first();
-        let here = robot.poll().await.map_err(client_error)?.joints;
-        if here.max_abs_diff(&first) > options.start_tolerance_deg {
-            if !approach {
-                return Err(CliError::input(format!(
-                        "the robot is at {here} but the trajectory starts at {first}; move there first \
-                         (fs020n move …) or add --approach to do it with a joint move at {speed} %"
-                    )));
-            }
+        if away {
             let h = robot.move_joints(first).await.map_err(client_error)?;
             let timeout = h.planned_duration() * 2 + Duration::from_secs(5);
             tokio::select! {
                 r = h.wait(Completion { timeout: Some(timeout), ..Completion::default() }) => {
                     r.map_err(client_error)?;
                 }
-                _ = ctrl_c() => {
+                _ = stop.wait() => {
                     let _ = h.cancel().await;
                     return Err(interrupted());
                 }
@@ -259,7 +273,7 @@ pub fn play(ctx: &Ctx, args: &PlayArgs, approach: bool) -> CliResult {
                         break;
                     }
                 }
-                _ = ctrl_c() => {
+                _ = stop.wait() => {
                     pb.abandon_with_message("cancelled");
                     handle.cancel();
                     let _ = robot.cancel().await;
@@ -277,10 +291,33 @@ pub fn play(ctx: &Ctx, args: &PlayArgs, approach: bool) -> CliResult {
     })
 }
 
+/// Lowest `play --rate`, Hz (the client allows at most 500 ms between samples).
+pub const MIN_PLAY_RATE_HZ: f64 = 4.0;
+/// Highest `play --rate`, Hz.
+pub const MAX_PLAY_RATE_HZ: f64 = 500.0;
+
+/// A stream report as JSON, durations in seconds.
+pub fn stream_report_json(r: &StreamReport) -> serde_json::Value {
+    json!({
+        "outcome": r.outcome,
+        "samples_sent": r.samples_sent,
+        "late_replies": r.late_replies,
+        "underruns": r.underruns,
+        "tracking_error_max_deg": r.tracking_error_max_deg,
+        "tracking_error_rms_deg": r.tracking_error_rms_deg,
+        "tracking_samples": r.tracking_samples,
+        "final_error_deg": r.final_error_deg,
+        "settled": r.settled,
+        "duration_s": r.duration.as_secs_f64(),
+        "rtt_mean_s": r.rtt_mean.as_secs_f64(),
+        "rtt_max_s": r.rtt_max.as_secs_f64(),
+    })
+}
+
 /// Prints a stream report.
 pub fn print_stream_report(r: &StreamReport, as_json: bool) {
     if as_json {
-        println!("{}", serde_json::to_string(r).unwrap_or_default());
+        println!("{}", stream_report_json(r));
         return;
     }
     println!(
@@ -320,21 +357,23 @@ pub fn record(ctx: &Ctx, file: &std::path::Path, rate: f64, duration: Option<f64
         std::fs::File::create(file)
             .map_err(|e| CliError::input(format!("cannot create {}: {e}", file.display())))?,
     );
-    with_robot(ctx, async |robot: &Robot| {
+    with_robot(ctx, async |robot: &Robot, stop: &Interrupt| {
         writeln!(out, "time_s,timer_s,error_code,error,run,repeat,teach_lock,power,task_running,j1,j2,j3,j4,j5,j6")?;
         let start = Instant::now();
         let end = duration.map(|d| start + Duration::from_secs_f64(d));
         let mut tick = tokio::time::interval(Duration::from_secs_f64(1.0 / rate));
         let mut rows = 0u64;
         loop {
-            tokio::select! {
-                _ = tick.tick() => {}
-                _ = ctrl_c() => break,
-            }
+            let s = tokio::select! {
+                _ = stop.wait() => break,
+                s = async {
+                    tick.tick().await;
+                    robot.poll().await
+                } => s.map_err(client_error)?,
+            };
             if end.is_some_and(|e| Instant::now() >= e) {
                 break;
             }
-            let s = robot.poll().await.map_err(client_error)?;
             let t = start.elapsed().as_secs_f64();
             let timer = match s.timer {
                 Timer::Seconds(v) => format!("{v:.3}"),
@@ -380,13 +419,17 @@ pub fn record(ctx: &Ctx, file: &std::path::Path, rate: f64, duration: Option<f64
 
 /// `raw`.
 pub fn raw(ctx: &Ctx, text: &str, yes: bool) -> CliResult {
-    with_robot(ctx, async |robot: &Robot| {
-        let frame = robot.send_raw(text, yes).await.map_err(|e| match e {
-                fs020n_client::ClientError::RawRefused { .. } if !yes => CliError::input(format!(
+    with_robot(ctx, async |robot: &Robot, _stop: &Interrupt| {
+        let frame = robot.send_raw(text, yes).await.map_err(|e| {
+            let request = ServerRequest::parse(text.as_bytes());
+            let motion = request.version_matches() && request.command().is_motion();
+            match e {
+                ClientError::RawRefused { .. } if motion && !yes => CliError::input(format!(
                     "{text:?} is a motion command (the controller would move the robot); add --yes to send it"
                 )),
                 e => client_error(e),
-            })?;
+            }
+        })?;
         if ctx.json {
             println!(
                 "{}",

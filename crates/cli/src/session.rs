@@ -151,7 +151,39 @@ pub fn client_error(e: ClientError) -> CliError {
     CliError::new(exit, message)
 }
 
-/// Resolves when the user presses Ctrl-C (never, if the handler cannot be installed).
+/// Ctrl-C, remembered: once pressed it stays pressed, so a signal that arrives while a command
+/// is busy (in a poll, a move) is never lost. Install it once per command, inside the runtime.
+#[derive(Clone)]
+pub struct Interrupt(std::sync::Arc<tokio::sync::watch::Sender<bool>>);
+
+impl Interrupt {
+    /// Starts listening for Ctrl-C.
+    pub fn install() -> Interrupt {
+        let tx = std::sync::Arc::new(tokio::sync::watch::Sender::new(false));
+        let listener = tx.clone();
+        tokio::spawn(async move {
+            while tokio::signal::ctrl_c().await.is_ok() {
+                listener.send_replace(true);
+            }
+        });
+        Interrupt(tx)
+    }
+
+    /// Resolves once Ctrl-C has been pressed (and not cleared since).
+    pub async fn wait(&self) {
+        let mut rx = self.0.subscribe();
+        if rx.wait_for(|pressed| *pressed).await.is_err() {
+            std::future::pending::<()>().await;
+        }
+    }
+
+    /// Forgets a Ctrl-C already handled (the shell goes on after one).
+    pub fn clear(&self) {
+        self.0.send_replace(false);
+    }
+}
+
+/// Resolves when the user presses Ctrl-C (for `sim`, which has no session to close).
 pub async fn ctrl_c() {
     if tokio::signal::ctrl_c().await.is_err() {
         std::future::pending::<()>().await;
@@ -181,6 +213,20 @@ pub fn check_target(model: &RobotModel, values: &[f64]) -> CliResult<fs020n_prot
         .check_limits(&j)
         .map_err(|e| CliError::input(format!("target refused before connecting: {e}")))?;
     Ok(j)
+}
+
+/// Longest `--timeout` accepted, seconds (a day).
+pub const MAX_TIMEOUT_S: f64 = 86_400.0;
+
+/// Checks a `--timeout` in seconds.
+pub fn check_timeout(seconds: f64) -> CliResult<Duration> {
+    if seconds.is_finite() && seconds > 0.0 && seconds <= MAX_TIMEOUT_S {
+        Ok(Duration::from_secs_f64(seconds))
+    } else {
+        Err(CliError::input(format!(
+            "--timeout {seconds} must be above 0 and at most {MAX_TIMEOUT_S} s"
+        )))
+    }
 }
 
 /// Checks a speed percent before any connection is made.

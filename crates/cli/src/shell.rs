@@ -7,10 +7,10 @@ use rustyline::error::ReadlineError;
 use rustyline::history::DefaultHistory;
 use rustyline::Editor;
 
-use crate::error::{CliError, CliResult};
+use crate::error::{CliError, CliResult, Exit};
 use crate::output::{status_json, status_table};
 use crate::session::{
-    check_speed, check_target, client_error, close_quietly, connect, runtime, Ctx,
+    check_speed, check_target, client_error, close_quietly, connect, runtime, Ctx, Interrupt,
 };
 
 const COMMANDS: &[(&str, &str)] = &[
@@ -78,6 +78,7 @@ pub fn shell(ctx: &Ctx) -> CliResult {
     let rt = runtime()?;
     let addr = ctx.addr_or_default();
     let mut robot = rt.block_on(connect(&addr, ctx))?;
+    let stop = rt.block_on(async { Interrupt::install() });
     println!("connected to {addr}; type `help` for commands, `quit` to leave");
     let mut rl: Editor<ShellHelper, DefaultHistory> =
         Editor::new().map_err(|e| CliError::failure(format!("cannot open the prompt: {e}")))?;
@@ -104,7 +105,29 @@ pub fn shell(ctx: &Ctx) -> CliResult {
         if matches!(words[0], "quit" | "exit") {
             break;
         }
-        let outcome = rt.block_on(execute(ctx, &mut robot, &words, line, &mut last_move));
+        let outcome = if words[0] == "reconnect" {
+            rt.block_on(robot.reconnect())
+                .map_err(client_error)
+                .map(|()| {
+                    last_move = None;
+                    println!(
+                    "reconnected: a new session; the program is not running — `start` it to move"
+                );
+                })
+        } else {
+            rt.block_on(async {
+                stop.clear();
+                tokio::select! {
+                    r = execute(ctx, &robot, &words, line, &mut last_move) => r,
+                    _ = stop.wait() => {
+                        // Ctrl-C while a command runs (e.g. `move … wait`): stop the arm, keep
+                        // the session.
+                        let _ = robot.cancel().await;
+                        Err(CliError::new(Exit::Interrupted, "interrupted: motion cancelled; the session stays open"))
+                    }
+                }
+            })
+        };
         if let Err(e) = outcome {
             eprintln!("error: {e}");
         }
@@ -112,14 +135,20 @@ pub fn shell(ctx: &Ctx) -> CliResult {
     if let Some(p) = history_path() {
         let _ = rl.save_history(&p);
     }
+    let lost = robot.link_error();
     rt.block_on(close_quietly(&robot));
-    println!("session closed");
-    Ok(())
+    match lost {
+        Some(e) => Err(client_error(e)),
+        None => {
+            println!("session closed");
+            Ok(())
+        }
+    }
 }
 
 async fn execute(
     ctx: &Ctx,
-    robot: &mut Robot,
+    robot: &Robot,
     words: &[&str],
     line: &str,
     last_move: &mut Option<MoveHandle>,
@@ -206,11 +235,6 @@ async fn execute(
                 s.late_replies,
                 s.keepalive_polls
             );
-        }
-        "reconnect" => {
-            robot.reconnect().await.map_err(client_error)?;
-            *last_move = None;
-            println!("reconnected: a new session; the program is not running — `start` it to move");
         }
         other => {
             return Err(CliError::input(format!(

@@ -491,3 +491,144 @@ fn ctrl_c_during_play_cancels_and_closes() {
         "standing still"
     );
 }
+
+/// GET a pendant path, returning the JSON body.
+fn pendant_get(addr: &str, path: &str) -> Value {
+    use std::io::Read;
+    let mut s = std::net::TcpStream::connect(addr).unwrap();
+    write!(
+        s,
+        "GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut text = String::new();
+    s.read_to_string(&mut text).unwrap();
+    let body = text.split("\r\n\r\n").nth(1).unwrap();
+    serde_json::from_str(body).unwrap()
+}
+
+fn sim_with_pendant() -> (Sim, String) {
+    let mut child = StdCommand::new(assert_cmd::cargo::cargo_bin("fs020n"))
+        .args([
+            "--json",
+            "sim",
+            "--listen",
+            "127.0.0.1:0",
+            "--pendant",
+            "127.0.0.1:0",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let v: Value = serde_json::from_str(&line).unwrap();
+    let pendant = v["pendant"]
+        .as_str()
+        .unwrap()
+        .trim_start_matches("http://")
+        .to_owned();
+    (
+        Sim {
+            child,
+            addr: v["listen"].as_str().unwrap().to_owned(),
+        },
+        pendant,
+    )
+}
+
+#[test]
+fn play_refuses_before_acting() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("p.csv");
+    std::fs::write(&file, "0,20,0,-90,0,-90,0\n1,21,0,-90,0,-90,0\n").unwrap();
+    // Options that cannot work are refused before any connection (nothing listens here).
+    Command::cargo_bin("fs020n")
+        .unwrap()
+        .args([
+            "--robot",
+            "127.0.0.1:9",
+            "play",
+            file.to_str().unwrap(),
+            "--rate",
+            "2",
+        ])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--rate"));
+    // A start away from the robot is refused before the speed is changed or the program started.
+    let (sim, pendant) = sim_with_pendant();
+    sim.cmd()
+        .args(["play", file.to_str().unwrap(), "--speed", "23"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--approach"));
+    let state = pendant_get(&pendant, "/state");
+    assert_eq!(state["monitor_speed_percent"], 10.0, "speed untouched");
+    assert_eq!(
+        state["counters"]["effective_requests"], 1,
+        "only the closing 255 acted: {state}"
+    );
+}
+
+#[test]
+fn move_options_are_bounded() {
+    let c = |args: &[&str]| {
+        let mut c = Command::cargo_bin("fs020n").unwrap();
+        c.args([
+            "--robot",
+            "127.0.0.1:9",
+            "move",
+            "1",
+            "0",
+            "-90",
+            "0",
+            "-90",
+            "0",
+        ])
+        .args(args);
+        c
+    };
+    c(&["--tolerance", "50"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--tolerance"));
+    c(&["--timeout", "1e19"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--timeout"));
+    c(&["--tolerance", "NaN"]).assert().code(2);
+}
+
+#[test]
+fn raw_refusals_say_why() {
+    let sim = Sim::start(&[]);
+    sim.cmd()
+        .args(["raw", ""])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("empty").and(predicate::str::contains("--yes").not()));
+}
+
+#[test]
+fn ctrl_c_during_the_demo_cancels_and_exits_130() {
+    let child = StdCommand::new(assert_cmd::cargo::cargo_bin("fs020n"))
+        .env_remove("FS020N_ROBOT")
+        .arg("demo")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    interrupt(&child);
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(130),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
