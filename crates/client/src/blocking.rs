@@ -6,9 +6,13 @@
 //! 5 s receive timeout would end the session (and stop the robot) whenever the program paused
 //! between two calls. Each method runs the async method with `block_on`.
 //!
-//! Do not call these methods from inside an async runtime (tokio panics on nested
-//! `block_on`); use [`crate::Robot`] there.
+//! Do not use it from inside an async runtime (tokio forbids blocking there); use
+//! [`crate::Robot`] there. Inside a runtime, every blocking method returns
+//! [`ClientError::Config`] instead of blocking (or panicking), and dropping a [`Robot`] hands
+//! the closing 255 and the runtime's shutdown to a helper thread.
 
+use std::future::Future;
+use std::ops::Deref;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -27,13 +31,66 @@ use crate::stream::{StreamOptions, StreamProgress, StreamReport};
 use crate::trajectory::Trajectory;
 use crate::transport::Connector;
 
-fn runtime() -> Result<Arc<Runtime>, ClientError> {
+/// The blocking client's own runtime. Dropped where blocking is not allowed (inside another
+/// async runtime, where a plain drop panics), it is shut down in the background instead.
+#[derive(Debug)]
+struct ClientRuntime(Option<Runtime>);
+
+impl Deref for ClientRuntime {
+    type Target = Runtime;
+
+    fn deref(&self) -> &Runtime {
+        // Only `Drop` takes it out.
+        #[allow(clippy::expect_used)]
+        self.0.as_ref().expect("the runtime is present until drop")
+    }
+}
+
+impl Drop for ClientRuntime {
+    fn drop(&mut self) {
+        if let Some(rt) = self.0.take() {
+            if in_async_context() {
+                rt.shutdown_background();
+            }
+        }
+    }
+}
+
+type Rt = Arc<ClientRuntime>;
+
+fn in_async_context() -> bool {
+    tokio::runtime::Handle::try_current().is_ok()
+}
+
+/// Refuses to block inside an async runtime (tokio would panic).
+fn outside_async_context() -> Result<(), ClientError> {
+    if in_async_context() {
+        return Err(ClientError::Config(
+            "the blocking client cannot be used inside an async runtime (blocking there is not \
+             allowed); use fs020n_client::Robot, the async API, instead"
+                .into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Runs `f` to completion on the client's runtime; refused inside an async runtime.
+fn block_on<T>(
+    rt: &Runtime,
+    f: impl Future<Output = Result<T, ClientError>>,
+) -> Result<T, ClientError> {
+    outside_async_context()?;
+    rt.block_on(f)
+}
+
+fn runtime() -> Result<Rt, ClientError> {
+    outside_async_context()?;
     tokio::runtime::Builder::new_multi_thread()
         .worker_threads(1)
         .thread_name("fs020n-client")
         .enable_all()
         .build()
-        .map(Arc::new)
+        .map(|rt| Arc::new(ClientRuntime(Some(rt))))
         .map_err(|e| ClientError::Config(format!("cannot start the client's runtime: {e}")))
 }
 
@@ -53,12 +110,13 @@ fn runtime() -> Result<Arc<Runtime>, ClientError> {
 /// ```
 #[derive(Debug)]
 pub struct Robot {
-    rt: Arc<Runtime>,
+    rt: Rt,
     inner: Option<crate::Robot>,
 }
 
 impl Robot {
-    /// See [`crate::Robot::connect`].
+    /// See [`crate::Robot::connect`]. Inside an async runtime it returns
+    /// [`ClientError::Config`] (use the async [`crate::Robot`] there).
     pub fn connect(addr: &str, config: ClientConfig) -> Result<Robot, ClientError> {
         let rt = runtime()?;
         let inner = rt.block_on(crate::Robot::connect(addr, config))?;
@@ -68,7 +126,8 @@ impl Robot {
         })
     }
 
-    /// See [`crate::Robot::connect_with`].
+    /// See [`crate::Robot::connect_with`]. Inside an async runtime it returns
+    /// [`ClientError::Config`].
     pub fn connect_with(
         connector: impl Connector,
         config: ClientConfig,
@@ -98,7 +157,7 @@ impl Robot {
     pub fn reconnect(&mut self) -> Result<(), ClientError> {
         let rt = self.rt.clone();
         match self.inner.as_mut() {
-            Some(inner) => rt.block_on(inner.reconnect()),
+            Some(inner) => block_on(&rt, inner.reconnect()),
             None => Err(ClientError::Closed),
         }
     }
@@ -125,42 +184,42 @@ impl Robot {
 
     /// See [`crate::Robot::poll`].
     pub fn poll(&self) -> Result<Status, ClientError> {
-        self.rt.block_on(self.r().poll())
+        block_on(&self.rt, self.r().poll())
     }
 
     /// See [`crate::Robot::preflight`].
     pub fn preflight(&self) -> Result<(), ClientError> {
-        self.rt.block_on(self.r().preflight())
+        block_on(&self.rt, self.r().preflight())
     }
 
     /// See [`crate::Robot::start`].
     pub fn start(&self) -> Result<(), ClientError> {
-        self.rt.block_on(self.r().start())
+        block_on(&self.rt, self.r().start())
     }
 
     /// See [`crate::Robot::stop_program`].
     pub fn stop_program(&self) -> Result<Status, ClientError> {
-        self.rt.block_on(self.r().stop_program())
+        block_on(&self.rt, self.r().stop_program())
     }
 
     /// See [`crate::Robot::set_speed`].
     pub fn set_speed(&self, percent: f64) -> Result<Status, ClientError> {
-        self.rt.block_on(self.r().set_speed(percent))
+        block_on(&self.rt, self.r().set_speed(percent))
     }
 
     /// See [`crate::Robot::cancel`].
     pub fn cancel(&self) -> Result<Status, ClientError> {
-        self.rt.block_on(self.r().cancel())
+        block_on(&self.rt, self.r().cancel())
     }
 
     /// See [`crate::Robot::close`].
     pub fn close(&self) -> Result<(), ClientError> {
-        self.rt.block_on(self.r().close())
+        block_on(&self.rt, self.r().close())
     }
 
     /// See [`crate::Robot::move_joints`].
     pub fn move_joints(&self, target: JointsDeg) -> Result<MoveHandle, ClientError> {
-        let inner = self.rt.block_on(self.r().move_joints(target))?;
+        let inner = block_on(&self.rt, self.r().move_joints(target))?;
         Ok(MoveHandle {
             rt: self.rt.clone(),
             inner,
@@ -169,7 +228,7 @@ impl Robot {
 
     /// See [`crate::Robot::move_pose`].
     pub fn move_pose(&self, target: impl Into<Pose>) -> Result<MoveHandle, ClientError> {
-        let inner = self.rt.block_on(self.r().move_pose(target))?;
+        let inner = block_on(&self.rt, self.r().move_pose(target))?;
         Ok(MoveHandle {
             rt: self.rt.clone(),
             inner,
@@ -182,7 +241,7 @@ impl Robot {
         trajectory: Trajectory,
         options: StreamOptions,
     ) -> Result<StreamHandle, ClientError> {
-        let inner = self.rt.block_on(self.r().stream(trajectory, options))?;
+        let inner = block_on(&self.rt, self.r().stream(trajectory, options))?;
         Ok(StreamHandle {
             rt: self.rt.clone(),
             inner,
@@ -191,7 +250,7 @@ impl Robot {
 
     /// See [`crate::Robot::send_raw`].
     pub fn send_raw(&self, text: &str, allow_motion: bool) -> Result<ReplyFrame, ClientError> {
-        self.rt.block_on(self.r().send_raw(text, allow_motion))
+        block_on(&self.rt, self.r().send_raw(text, allow_motion))
     }
 
     /// See [`crate::Robot::stats`].
@@ -218,14 +277,40 @@ impl Robot {
 impl Drop for Robot {
     /// Ends the session with 255 (bounded by the close timeout) before the runtime goes away,
     /// so that the controller stops the robot at once rather than after its 5 s timeout.
+    ///
+    /// Inside an async runtime, where blocking panics, the close and the drop of the handle and
+    /// runtime run on a helper thread; the drop waits for it (bounded the same way).
     fn drop(&mut self) {
-        if let Some(inner) = self.inner.take() {
-            if tokio::runtime::Handle::try_current().is_err() && inner.is_connected() {
+        let Some(inner) = self.inner.take() else {
+            return;
+        };
+        let rt = self.rt.clone();
+        let close = move || {
+            if inner.is_connected() {
                 let limit = inner.config().close_timeout + inner.config().reply_timeout;
-                let _ = self
-                    .rt
-                    .block_on(async { tokio::time::timeout(limit, inner.close()).await });
+                let _ = rt.block_on(async { tokio::time::timeout(limit, inner.close()).await });
             }
+            drop(inner);
+            drop(rt);
+        };
+        if !in_async_context() {
+            close();
+            return;
+        }
+        match std::thread::Builder::new()
+            .name("fs020n-client-close".into())
+            .spawn(close)
+        {
+            Ok(thread) => {
+                if thread.join().is_err() {
+                    tracing::warn!("the thread closing the blocking client panicked");
+                }
+            }
+            Err(e) => tracing::warn!(
+                error = %e,
+                "cannot start a thread to close the blocking client; the session ends when the \
+                 controller's receive timeout expires"
+            ),
         }
     }
 }
@@ -233,19 +318,19 @@ impl Drop for Robot {
 /// Blocking handle of a joint move; see [`crate::MoveHandle`].
 #[derive(Debug, Clone)]
 pub struct MoveHandle {
-    rt: Arc<Runtime>,
+    rt: Rt,
     inner: crate::MoveHandle,
 }
 
 impl MoveHandle {
     /// See [`crate::MoveHandle::wait`].
     pub fn wait(&self, completion: Completion) -> Result<MoveReport, ClientError> {
-        self.rt.block_on(self.inner.wait(completion))
+        block_on(&self.rt, self.inner.wait(completion))
     }
 
     /// See [`crate::MoveHandle::cancel`].
     pub fn cancel(&self) -> Result<(), ClientError> {
-        self.rt.block_on(self.inner.cancel())
+        block_on(&self.rt, self.inner.cancel())
     }
 
     /// See [`crate::MoveHandle::progress`].
@@ -267,7 +352,7 @@ impl MoveHandle {
 /// Blocking handle of a stream; see [`crate::StreamHandle`]. Dropping it cancels the stream.
 #[derive(Debug)]
 pub struct StreamHandle {
-    rt: Arc<Runtime>,
+    rt: Rt,
     inner: crate::StreamHandle,
 }
 
@@ -275,7 +360,7 @@ impl StreamHandle {
     /// See [`crate::StreamHandle::wait`].
     pub fn wait(self) -> Result<StreamReport, ClientError> {
         let StreamHandle { rt, inner } = self;
-        rt.block_on(inner.wait())
+        block_on(&rt, inner.wait())
     }
 
     /// See [`crate::StreamHandle::cancel`].

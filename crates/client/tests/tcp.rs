@@ -141,3 +141,37 @@ fn the_blocking_api_over_loopback() {
         Some(SessionEnd::EndCommand)
     );
 }
+
+#[test]
+fn the_blocking_robot_inside_an_async_runtime_refuses_and_still_closes_on_drop() {
+    let served = Served::start();
+    let robot = blocking::Robot::connect(&served.addr, ClientConfig::default()).unwrap();
+    robot.set_speed(100.0).unwrap();
+    robot.start().unwrap();
+    let mv = robot.move_joints(with_jt1(1.0)).unwrap();
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    let addr = served.addr.clone();
+    rt.block_on(async move {
+        // Blocking calls inside a runtime are refused with a typed error instead of panicking.
+        let err = blocking::Robot::connect(&addr, ClientConfig::default()).unwrap_err();
+        assert!(matches!(err, ClientError::Config(_)), "{err:?}");
+        assert!(err.to_string().contains("async"), "{err}");
+        assert!(matches!(robot.poll(), Err(ClientError::Config(_))));
+        assert!(matches!(
+            mv.wait(Completion::default()),
+            Err(ClientError::Config(_))
+        ));
+        // Dropping the robot here neither panics nor leaves the session open: 255 is sent.
+        drop(robot);
+        // The last handle on the client's runtime goes too, still without a panic.
+        drop(mv);
+    });
+    assert_eq!(
+        served.emu.with(|c| c.last_session_end()).map(|e| e.1),
+        Some(SessionEnd::EndCommand)
+    );
+    assert_eq!(served.emu.with(|c| c.task()), TaskState::NotRunning);
+}
