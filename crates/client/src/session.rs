@@ -553,6 +553,13 @@ impl Task {
     /// Handles one request; `Some(cause)` ends the session.
     async fn handle(&mut self, op: Op, cfg: &ClientConfig) -> Option<ClientError> {
         if let Some(tag) = op.motion {
+            // Nobody waits for this motion any more (its future was dropped, e.g. by a
+            // timeout): nobody would learn that it was sent, nor watch or cancel it.
+            if op.reply.is_closed() {
+                self.shared.common.refused();
+                tracing::debug!(request = %op.text, "motion not sent: its caller is gone");
+                return None;
+            }
             if let Err(e) = self.check_motion(tag) {
                 self.shared.common.refused();
                 let _ = op.reply.send(Err(e));
