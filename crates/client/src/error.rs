@@ -6,7 +6,7 @@ use std::time::Duration;
 use fs020n_kin::{IkError, LimitError};
 use fs020n_proto::{DecodeError, EncodeError};
 
-use crate::safety::{self, Blocker};
+use crate::safety::{self, Blocker, SampleError};
 use crate::trajectory::TrajectoryError;
 
 /// Why the link to the controller was lost. After any of these the session is dead: the
@@ -128,6 +128,10 @@ pub enum ClientError {
     /// A request that cannot be encoded (too long, out of range); nothing was sent.
     #[error("request refused before sending: {0}")]
     Encode(EncodeError),
+    /// A command-7 sample (raw) that could send the robot out of its ranges, or with a
+    /// velocity or acceleration above the model's; nothing was sent.
+    #[error("command-7 sample refused before sending: {0}")]
+    Sample(SampleError),
     /// A speed outside 1–100 %; nothing was sent.
     #[error("speed {percent} % refused: give a speed from 1 to 100 %")]
     Speed {
@@ -199,7 +203,8 @@ pub enum ClientError {
         /// The error text.
         message: String,
     },
-    /// An invalid configuration value.
+    /// An invalid configuration value ([`ClientConfig`](crate::ClientConfig), a
+    /// [`Completion`](crate::Completion)), or the blocking API used inside an async runtime.
     #[error("invalid configuration: {0}")]
     Config(String),
 }
@@ -213,6 +218,12 @@ impl From<LinkError> for ClientError {
 impl From<EncodeError> for ClientError {
     fn from(e: EncodeError) -> Self {
         ClientError::Encode(e)
+    }
+}
+
+impl From<SampleError> for ClientError {
+    fn from(e: SampleError) -> Self {
+        ClientError::Sample(e)
     }
 }
 

@@ -15,7 +15,9 @@
 //!   ([`Completion`]), watch or cancel; [`Robot::stream`] streams a [`Trajectory`] with
 //!   command 7 stamped by the estimated server clock ([`ServerClock`]) or with command 6.
 //! * Safety: [`Robot::preflight`] lists every [`Blocker`] with its remedy; targets are checked
-//!   against the robot model, speeds against 1–100 %, requests against 255 bytes.
+//!   against the robot model, speeds against 1–100 %, requests against 255 bytes, and every
+//!   command-7 sample over everything the controller can extrapolate it to
+//!   ([`check_stream_sample`]).
 //! * Diagnostics: [`Robot::stats`] (round trips min/mean/p99/max, late replies, reconnects,
 //!   underruns) and an optional recording of every request and reply ([`Recording`]).
 //!
@@ -43,7 +45,10 @@ pub use config::{ClientConfig, RecordFormat, Recording};
 pub use error::{ClientError, LinkError};
 pub use motion::{Completion, MoveHandle, MoveProgress, MoveReport};
 pub use robot::Robot;
-pub use safety::{blockers, Blocker, ESTOP_REMEDY};
+pub use safety::{
+    blockers, check_stream_sample, extrapolation_window, Blocker, SampleError, ESTOP_REMEDY,
+    EXTRAPOLATION_STEP_BOUND_S, MAX_LOOKAHEAD_PASSES,
+};
 pub use session::StatusSnapshot;
 pub use stats::{RttStats, Stats, RTT_WINDOW};
 pub use stream::{

@@ -12,17 +12,43 @@ use crate::error::ClientError;
 use crate::safety::blockers;
 use crate::session::{Link, MotionTag, StatusSnapshot};
 
+/// Longest timeout honoured by [`MoveHandle::wait`] and the stream's end wait: longer ones are
+/// treated as this (one day).
+pub(crate) const LONGEST_WAIT: Duration = Duration::from_secs(24 * 60 * 60);
+
 /// When a move counts as finished.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Completion {
-    /// Every joint within this many degrees of the target. Default 0.1°.
+    /// Every joint within this many degrees of the target. Default 0.1°. Must be finite and
+    /// above 0.
     pub tolerance_deg: f64,
-    /// ...continuously for this long (by the replies' arrival times). Default 100 ms.
+    /// ...continuously for this long (by the replies' arrival times). Default 100 ms. At most
+    /// one day.
     pub settle: Duration,
     /// Give up (and cancel the move) after this long from sending it. `None`: the planned
     /// duration of the move at the last speed set by this client (or
-    /// `ClientConfig::assumed_speed_percent`), times 1.5, plus 3 s.
+    /// `ClientConfig::assumed_speed_percent`), times 1.5, plus 3 s. Longer than one day counts
+    /// as one day.
     pub timeout: Option<Duration>,
+}
+
+impl Completion {
+    /// Checks the values: `tolerance_deg` finite and above 0, `settle` at most one day.
+    pub fn validate(&self) -> Result<(), ClientError> {
+        if !(self.tolerance_deg.is_finite() && self.tolerance_deg > 0.0) {
+            return Err(ClientError::Config(format!(
+                "Completion::tolerance_deg {} must be a finite number above 0",
+                self.tolerance_deg
+            )));
+        }
+        if self.settle > LONGEST_WAIT {
+            return Err(ClientError::Config(format!(
+                "Completion::settle {:?} must be at most {LONGEST_WAIT:?}",
+                self.settle
+            )));
+        }
+        Ok(())
+    }
 }
 
 impl Default for Completion {
@@ -166,13 +192,25 @@ impl MoveHandle {
     /// Waits until the robot is at the target (see [`Completion`]). Fails — and cancels the
     /// move with command 5, so that it cannot resume later (e.g. when HOLD is switched back to
     /// RUN) — when the controller reports an error, HOLD, TEACH, the lock, power off or the
-    /// program stopped, and on timeout. Fails without sending anything when the move was
-    /// cancelled or superseded, or the link is lost.
+    /// program stopped, on timeout, and when `completion` is invalid
+    /// ([`Completion::validate`], `ClientError::Config`). Fails without sending anything when
+    /// the move was cancelled or superseded, or the link is lost.
     pub async fn wait(&self, completion: Completion) -> Result<MoveReport, ClientError> {
+        if let Err(e) = completion.validate() {
+            // The caller cannot wait for this move: do not leave it running unobserved.
+            if self.still_current().is_ok() {
+                self.abort().await;
+            }
+            return Err(e);
+        }
         let timeout = completion
             .timeout
-            .unwrap_or_else(|| self.planned.mul_f64(1.5) + Duration::from_secs(3));
-        let deadline = self.sent_at + timeout;
+            .unwrap_or_else(|| self.planned.mul_f64(1.5) + Duration::from_secs(3))
+            .min(LONGEST_WAIT);
+        let deadline = self
+            .sent_at
+            .checked_add(timeout)
+            .unwrap_or_else(|| Instant::now() + LONGEST_WAIT);
         let mut rx = self.link.status.clone();
         let mut epoch = self.link.shared.epoch.subscribe();
         let mut inside_since: Option<Instant> = None;

@@ -14,8 +14,8 @@ use crate::clock::ClockFit;
 use crate::config::ClientConfig;
 use crate::error::ClientError;
 use crate::motion::MoveHandle;
-use crate::safety::{blockers, check_speed, check_target};
-use crate::session::{establish, lock, Common, Kind, Link, StatusSnapshot};
+use crate::safety::{blockers, check_speed, check_stream_sample, check_target};
+use crate::session::{establish, lock, Common, Kind, Link, MotionTag, StatusSnapshot};
 use crate::stats::Stats;
 use crate::stream::{StreamHandle, StreamOptions};
 use crate::trajectory::Trajectory;
@@ -243,6 +243,17 @@ impl Robot {
     /// model's ranges) and the latest status (no error, RUN, REPEAT, lock off, power on,
     /// program running). Returns at once with a handle to wait for, watch or cancel the move.
     pub async fn move_joints(&self, target: JointsDeg) -> Result<MoveHandle, ClientError> {
+        let tag = self.link.shared.motion_tag();
+        self.move_joints_tagged(target, tag).await
+    }
+
+    /// [`move_joints`](Self::move_joints) with a motion tag taken when the caller started: a
+    /// cancel or stop issued since then (while the caller awaited something) refuses the move.
+    async fn move_joints_tagged(
+        &self,
+        target: JointsDeg,
+        tag: MotionTag,
+    ) -> Result<MoveHandle, ClientError> {
         check_target(&self.common.config.model, &target).inspect_err(|_| self.common.refused())?;
         self.not_streaming()?;
         let text = Request::new(Command::JointMove { target })
@@ -253,7 +264,6 @@ impl Robot {
             .latest()
             .map(|s| s.status.joints)
             .unwrap_or(target);
-        let tag = self.link.shared.motion_tag();
         let ex = self.link.exchange(text, Kind::Motion, Some(tag)).await?;
         let speed = self
             .link
@@ -274,6 +284,8 @@ impl Robot {
     /// Moves the tool flange to a pose (`Pose`, or AS `Xyzoat` in mm/deg) with a joint move to
     /// the inverse-kinematics solution nearest to the current joints (from a fresh poll).
     pub async fn move_pose(&self, target: impl Into<Pose>) -> Result<MoveHandle, ClientError> {
+        // Before the poll: a cancel issued while this call is under way refuses the move.
+        let tag = self.link.shared.motion_tag();
         let pose: Pose = target.into();
         if !pose.is_finite() {
             self.common.refused();
@@ -288,17 +300,22 @@ impl Robot {
             .model
             .inverse_nearest(&pose, &now.joints.to_rad())
             .inspect_err(|_| self.common.refused())?;
-        self.move_joints(q.to_deg()).await
+        self.move_joints_tagged(q.to_deg(), tag).await
     }
 
     /// Streams a trajectory (commands 7 or 6, see [`StreamOptions`]) from a background task.
     /// Everything is checked before the first sample: the trajectory against the model (ranges,
-    /// speeds, per-cycle step), its start against the current joints, and the latest status.
+    /// speeds, per-cycle step; for command 7 also accelerations and every target the
+    /// controller can extrapolate to), its start against the current joints, and the latest
+    /// status. A cancel or stop issued while this call is under way (e.g. during its poll)
+    /// refuses the stream with [`ClientError::Cancelled`]; nothing is sent.
     pub async fn stream(
         &self,
         trajectory: Trajectory,
         options: StreamOptions,
     ) -> Result<StreamHandle, ClientError> {
+        // The motion epoch when the caller asked, before any await.
+        let epoch = self.link.shared.current_epoch();
         self.not_streaming()?;
         let current = self.poll().await?;
         let b = blockers(&current, true);
@@ -312,11 +329,18 @@ impl Robot {
             &current.joints,
         )
         .inspect_err(|_| self.common.refused())?;
+        if self.link.shared.current_epoch() != epoch {
+            self.common.refused();
+            return Err(ClientError::Cancelled(
+                "the stream was not started: a cancel or stop was requested while it was starting",
+            ));
+        }
         StreamHandle::spawn(
             self.link.clone(),
             self.common.config.model.clone(),
             trajectory,
             options,
+            epoch,
         )
     }
 
@@ -324,7 +348,13 @@ impl Robot {
     /// non-ASCII or control characters, empty text, more than 255 bytes, and — unless
     /// `allow_motion` — anything the controller would execute as a motion (1040 6 / 1040 7,
     /// read with the controller's own parsing). Allowed motions get the same checks as typed
-    /// ones (ranges, status). An effective 255 ends the session as [`close`](Self::close) does.
+    /// ones (ranges, status; for 7 the whole sample, see [`check_stream_sample`](crate::check_stream_sample)),
+    /// and a speed (1040 3) must be 1–100 %. While a stream runs, every request the controller
+    /// would act on (version 1040) is refused with [`ClientError::Busy`] — it would become the
+    /// newest command and pause the stream — except 2, 5 and 255, which end the stream as
+    /// [`stop_program`](Self::stop_program), [`cancel`](Self::cancel) and
+    /// [`close`](Self::close) do; polls with another version are allowed. An effective 255 ends
+    /// the session as [`close`](Self::close) does.
     pub async fn send_raw(
         &self,
         text: &str,
@@ -366,10 +396,16 @@ impl Robot {
                              pass allow_motion to send it"
                         ));
                     }
+                    // The tag first: a cancel issued from here on refuses this motion.
+                    motion = Some(self.link.shared.motion_tag());
                     check_target(&self.common.config.model, target)
                         .inspect_err(|_| self.common.refused())?;
+                    if let Command::StreamedMove(sample) = &command {
+                        check_stream_sample(&self.common.config.model, sample)
+                            .map_err(ClientError::Sample)
+                            .inspect_err(|_| self.common.refused())?;
+                    }
                     self.not_streaming()?;
-                    motion = Some(self.link.shared.motion_tag());
                     kind = Kind::Motion;
                 }
                 Command::StopProgram | Command::CancelMotion => self.link.shared.bump_epoch(),
@@ -377,15 +413,20 @@ impl Robot {
                     let ex = self.link.close().await?;
                     return Ok(ex.frame);
                 }
-                Command::StartProgram | Command::SetSpeed { .. } => self.not_streaming()?,
-                _ => {}
+                Command::SetSpeed { percent } => {
+                    check_speed(*percent).inspect_err(|_| self.common.refused())?;
+                    self.not_streaming()?;
+                }
+                // 0, 1, 4 and unknown commands: harmless alone, but each becomes the newest
+                // command and would pause a running stream (spec §2.2).
+                _ => self.not_streaming()?,
             }
         }
-        Ok(self
-            .link
-            .exchange(text.to_owned(), kind, motion)
-            .await?
-            .frame)
+        let ex = self.link.exchange(text.to_owned(), kind, motion).await?;
+        if let (true, Command::SetSpeed { percent }) = (effective, &command) {
+            self.link.shared.set_speed_percent(*percent);
+        }
+        Ok(ex.frame)
     }
 
     /// Round-trip statistics and counters (kept across reconnects).

@@ -14,7 +14,8 @@ use tokio::time::Instant;
 
 use crate::clock::ClockFit;
 use crate::error::ClientError;
-use crate::safety::{blockers, check_target};
+use crate::motion::LONGEST_WAIT;
+use crate::safety::{blockers, check_stream_sample, check_target, MAX_LOOKAHEAD_PASSES};
 use crate::session::{lock, Exchange, Kind, Link, SessionShared};
 use crate::trajectory::{Trajectory, TrajectoryError, TrajectorySample};
 
@@ -54,7 +55,8 @@ pub struct StreamOptions {
     /// After the last sample, wait until every joint is this close to the last point,
     /// degrees. Default 0.5°.
     pub end_tolerance_deg: f64,
-    /// ...for at most this long (not an error: the report gives the final error). Default 3 s.
+    /// ...for at most this long (not an error: the report gives the final error). Default 3 s;
+    /// at most one day.
     pub end_timeout: Duration,
 }
 
@@ -152,11 +154,19 @@ pub(crate) fn check(
         ));
     }
     if let StreamMode::Extrapolated { lookahead_passes } = options.mode {
-        if !(lookahead_passes.is_finite() && (0.0..=50.0).contains(&lookahead_passes)) {
+        if !(lookahead_passes.is_finite()
+            && (0.0..=MAX_LOOKAHEAD_PASSES).contains(&lookahead_passes))
+        {
             return opt(format!(
-                "lookahead_passes {lookahead_passes} must be from 0 to 50"
+                "lookahead_passes {lookahead_passes} must be from 0 to {MAX_LOOKAHEAD_PASSES}"
             ));
         }
+    }
+    if options.end_timeout > LONGEST_WAIT {
+        return opt(format!(
+            "end_timeout {:?} must be at most {LONGEST_WAIT:?}",
+            options.end_timeout
+        ));
     }
     if options.max_gap < options.period * 2 || options.max_gap > Duration::from_millis(500) {
         return opt(format!(
@@ -172,7 +182,15 @@ pub(crate) fn check(
             return opt(format!("{name} {v} must be above 0"));
         }
     }
-    trajectory.validate(model, period, options.max_step_deg)?;
+    match options.mode {
+        StreamMode::Extrapolated { lookahead_passes } => trajectory.validate_extrapolated(
+            model,
+            period,
+            options.max_step_deg,
+            lookahead_passes,
+        )?,
+        StreamMode::Waypoints => trajectory.validate(model, period, options.max_step_deg)?,
+    }
     let first = trajectory.first();
     let (joint, distance) = (0..JOINT_COUNT)
         .map(|j| (j + 1, (first[j] - current[j]).abs()))
@@ -199,17 +217,20 @@ pub struct StreamHandle {
 }
 
 impl StreamHandle {
+    /// Spawns the stream task. `epoch` is the motion epoch read when the caller started
+    /// (before any await): a cancel or stop issued since then cancels the stream before its
+    /// first sample.
     pub(crate) fn spawn(
         link: Link,
         model: RobotModel,
         trajectory: Trajectory,
         options: StreamOptions,
+        epoch: u64,
     ) -> Result<StreamHandle, ClientError> {
         let shared = link.shared.clone();
         if shared.streaming.swap(true, Ordering::SeqCst) {
             return Err(ClientError::Busy("a stream is already running"));
         }
-        let epoch = shared.current_epoch();
         let (tx, progress) = watch::channel(StreamProgress::default());
         let guard = StreamingGuard(shared.clone());
         let task = tokio::spawn(async move {
@@ -310,6 +331,13 @@ enum End {
     Cancelled,
 }
 
+/// How the wait after the last sample ended (with the final error, degrees, if not cancelled).
+enum Settle {
+    Reached(f64),
+    TimedOut(f64),
+    Cancelled,
+}
+
 impl Streamer {
     fn cancelled(&self) -> bool {
         self.link.shared.current_epoch() != self.epoch
@@ -343,16 +371,10 @@ impl Streamer {
                 return Err(e);
             }
         };
-        let (outcome, final_error_deg, settled) = match end {
-            End::Cancelled => {
-                self.brake().await;
-                let err = self.link.latest().map_or(f64::NAN, |s| {
-                    s.status.joints.max_abs_diff(&self.trajectory.last())
-                });
-                (StreamOutcome::Cancelled, err, false)
-            }
+        let settle = match end {
+            End::Cancelled => Settle::Cancelled,
             End::Done => match self.settle().await {
-                Ok((e, s)) => (StreamOutcome::Completed, e, s),
+                Ok(s) => s,
                 Err(e) => {
                     if !e.is_link_dead() {
                         self.brake().await;
@@ -360,6 +382,19 @@ impl Streamer {
                     return Err(e);
                 }
             },
+        };
+        let (outcome, final_error_deg, settled) = match settle {
+            Settle::Reached(e) => (StreamOutcome::Completed, e, true),
+            Settle::TimedOut(e) => (StreamOutcome::Completed, e, false),
+            // Cancelled while sending or while the robot was still settling on the last
+            // point (the newest command is still a 7): brake either way.
+            Settle::Cancelled => {
+                self.brake().await;
+                let err = self.link.latest().map_or(f64::NAN, |s| {
+                    s.status.joints.max_abs_diff(&self.trajectory.last())
+                });
+                (StreamOutcome::Cancelled, err, false)
+            }
         };
         let rtt_mean = if tally.samples > 0 {
             tally.rtt_sum / u32::try_from(tally.samples).unwrap_or(u32::MAX)
@@ -387,7 +422,15 @@ impl Streamer {
         })
     }
 
-    fn command_for(&self, s: &TrajectorySample, t0_s: Option<f64>) -> Result<Command, ClientError> {
+    /// The command for one sample at trajectory time `tau`, checked before it is sent: the
+    /// position against the ranges and, for command 7, the whole sample with
+    /// [`check_stream_sample`] (velocity, acceleration, every extrapolated target).
+    fn command_for(
+        &self,
+        tau: f64,
+        s: &TrajectorySample,
+        t0_s: Option<f64>,
+    ) -> Result<Command, ClientError> {
         check_target(&self.model, &s.position)?;
         Ok(match self.options.mode {
             StreamMode::Extrapolated { lookahead_passes } => {
@@ -396,13 +439,17 @@ impl Streamer {
                      11.6 days of one session); reconnect, or use StreamMode::Waypoints"
                         .into(),
                 ))?;
-                Command::StreamedMove(StreamSample {
+                let sample = StreamSample {
                     t0_s,
                     lookahead_passes,
                     position: s.position,
                     velocity: s.velocity,
                     acceleration: s.acceleration,
-                })
+                };
+                check_stream_sample(&self.model, &sample).map_err(|error| {
+                    ClientError::Trajectory(TrajectoryError::Sample { time_s: tau, error })
+                })?;
+                Command::StreamedMove(sample)
             }
             StreamMode::Waypoints => Command::JointMove { target: s.position },
         })
@@ -451,7 +498,7 @@ impl Streamer {
                     acceleration: JointsDeg::ZERO,
                 }
             } else {
-                self.trajectory.sample(tau)
+                self.trajectory.sample_for_streaming(tau, &self.model)
             };
             let step = sample.position.max_abs_diff(&prev_pos);
             if step > allowed_step + 1e-9 {
@@ -471,7 +518,7 @@ impl Streamer {
                 .into());
             }
             let at = local_start + Duration::from_secs_f64((tau - t_begin).max(0.0));
-            let command = self.command_for(&sample, self.server_time(at))?;
+            let command = self.command_for(tau, &sample, self.server_time(at))?;
             let text = Request::new(command).encode()?;
             let tag = self.link.shared.motion_tag();
             if tag.epoch != self.epoch {
@@ -576,10 +623,13 @@ impl Streamer {
     }
 
     /// After the last sample: waits (on the keep-alive statuses) until the robot is at the last
-    /// point, or the end timeout.
-    async fn settle(&self) -> Result<(f64, bool), ClientError> {
+    /// point, the end timeout, or a cancel.
+    async fn settle(&self) -> Result<Settle, ClientError> {
         let target = self.trajectory.last();
-        let deadline = Instant::now() + self.options.end_timeout;
+        let now = Instant::now();
+        let deadline = now
+            .checked_add(self.options.end_timeout.min(LONGEST_WAIT))
+            .unwrap_or(now + LONGEST_WAIT);
         let mut rx = self.link.status.clone();
         let mut epoch_rx = self.link.shared.epoch.subscribe();
         let mut err = f64::NAN;
@@ -593,17 +643,20 @@ impl Streamer {
                     });
                 }
                 err = s.status.joints.max_abs_diff(&target);
+                if self.cancelled() {
+                    return Ok(Settle::Cancelled);
+                }
                 if err <= self.options.end_tolerance_deg {
-                    return Ok((err, true));
+                    return Ok(Settle::Reached(err));
                 }
             }
             if self.cancelled() {
-                return Ok((err, false));
+                return Ok(Settle::Cancelled);
             }
             tokio::select! {
                 r = rx.changed() => if r.is_err() { return Err(self.link.shared.death()) },
                 _ = epoch_rx.changed() => {}
-                _ = tokio::time::sleep_until(deadline) => return Ok((err, false)),
+                _ = tokio::time::sleep_until(deadline) => return Ok(Settle::TimedOut(err)),
             }
         }
     }

@@ -5,10 +5,15 @@
 //! given velocities, or — where a point has none — finite-difference velocities (central
 //! differences inside, zero at the first and last point: streams start and end at rest).
 //! Accelerations given at both ends of a segment are interpolated linearly; otherwise the
-//! spline's own second derivative is used.
+//! spline's own second derivative is used. For command 7 that estimate is limited to the
+//! model's maximum acceleration (it only shapes the controller's extrapolation, and a
+//! coarse trajectory's spline can demand several times what the arm can do at its knots);
+//! given accelerations are never changed, and are refused when above the maximum.
 
 use fs020n_kin::{LimitError, RobotModel};
-use fs020n_proto::{JointsDeg, JOINT_COUNT};
+use fs020n_proto::{JointsDeg, StreamSample, JOINT_COUNT};
+
+use crate::safety::{check_stream_sample, SampleError};
 
 /// One point of a trajectory. Units are in the names and types: seconds and degrees.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -107,6 +112,16 @@ pub enum TrajectoryError {
         distance_deg: f64,
         /// The tolerance, degrees.
         tolerance_deg: f64,
+    },
+    /// A command-7 sample of the trajectory (position, velocity, acceleration as they would be
+    /// sent) is refused: a velocity or acceleration above the model's, or a target the
+    /// controller could extrapolate to outside the joint ranges.
+    #[error("at t = {time_s:.3} s: {error}")]
+    Sample {
+        /// Trajectory time, seconds.
+        time_s: f64,
+        /// The violation.
+        error: SampleError,
     },
     /// Stream options out of their ranges.
     #[error("invalid stream option: {0}")]
@@ -219,11 +234,36 @@ impl Trajectory {
     /// Samples at time `t` (seconds; clamped to the trajectory's span, where the velocity and
     /// acceleration outside are zero).
     pub fn sample(&self, t: f64) -> TrajectorySample {
+        self.sample_with_origin(t).0
+    }
+
+    /// The sample command 7 sends at time `t`: [`sample`](Self::sample), with the spline's
+    /// own acceleration (where no acceleration is given) limited to the model's maximum
+    /// acceleration of each joint. Given accelerations are returned unchanged.
+    pub fn sample_for_streaming(&self, t: f64, model: &RobotModel) -> TrajectorySample {
+        let (mut s, given) = self.sample_with_origin(t);
+        if !given {
+            let max = model.max_accels_deg_s2();
+            for j in 0..JOINT_COUNT {
+                s.acceleration[j] = s.acceleration[j].clamp(-max[j], max[j]);
+            }
+        }
+        s
+    }
+
+    /// The sample and whether its acceleration was given (interpolated from the points) rather
+    /// than the spline's.
+    fn sample_with_origin(&self, t: f64) -> (TrajectorySample, bool) {
         let n = self.points.len();
-        let rest = |p: JointsDeg| TrajectorySample {
-            position: p,
-            velocity: JointsDeg::ZERO,
-            acceleration: JointsDeg::ZERO,
+        let rest = |p: JointsDeg| {
+            (
+                TrajectorySample {
+                    position: p,
+                    velocity: JointsDeg::ZERO,
+                    acceleration: JointsDeg::ZERO,
+                },
+                true,
+            )
         };
         if n == 1 || t.is_nan() || t <= self.start_s() {
             return rest(self.first());
@@ -265,15 +305,18 @@ impl Trajectory {
             v[j] = (d00 * p0 + d10 * m0 + d01 * p1 + d11 * m1) / h;
             acc[j] = (e00 * p0 + e10 * m0 + e01 * p1 + e11 * m1) / (h * h);
         }
-        let acceleration = match (a.acceleration, b.acceleration) {
-            (Some(x), Some(y)) => x.zip_with(&y, |x, y| x + s * (y - x)),
-            _ => JointsDeg(acc),
+        let (acceleration, given) = match (a.acceleration, b.acceleration) {
+            (Some(x), Some(y)) => (x.zip_with(&y, |x, y| x + s * (y - x)), true),
+            _ => (JointsDeg(acc), false),
         };
-        TrajectorySample {
-            position: JointsDeg(p),
-            velocity: JointsDeg(v),
-            acceleration,
-        }
+        (
+            TrajectorySample {
+                position: JointsDeg(p),
+                velocity: JointsDeg(v),
+                acceleration,
+            },
+            given,
+        )
     }
 
     /// Checks the trajectory against the model and a cycle `period_s`: every point and every
@@ -345,6 +388,47 @@ impl Trajectory {
                 }
             }
             prev = s;
+        }
+        Ok(())
+    }
+
+    /// [`validate`](Self::validate), then the checks of command 7 with `lookahead_passes`:
+    /// at every point and every sample one period apart, the sample as it would be sent
+    /// ([`sample_for_streaming`](Self::sample_for_streaming)) passes
+    /// [`check_stream_sample`](crate::check_stream_sample) — velocities and accelerations at
+    /// most the model's maxima, and every target the controller can extrapolate to over
+    /// [`extrapolation_window`](crate::extrapolation_window) inside the joint ranges
+    /// ([`TrajectoryError::Sample`]).
+    pub fn validate_extrapolated(
+        &self,
+        model: &RobotModel,
+        period_s: f64,
+        max_step_deg: f64,
+        lookahead_passes: f64,
+    ) -> Result<(), TrajectoryError> {
+        self.validate(model, period_s, max_step_deg)?;
+        let check = |t: f64| -> Result<(), TrajectoryError> {
+            let s = self.sample_for_streaming(t, model);
+            check_stream_sample(
+                model,
+                &StreamSample {
+                    t0_s: 0.0,
+                    lookahead_passes,
+                    position: s.position,
+                    velocity: s.velocity,
+                    acceleration: s.acceleration,
+                },
+            )
+            .map_err(|error| TrajectoryError::Sample { time_s: t, error })
+        };
+        for p in &self.points {
+            check(p.time_s)?;
+        }
+        let (t0, t1) = (self.start_s(), self.duration_s());
+        // `validate` bounded the number of cycles.
+        let cycles = ((t1 - t0) / period_s).ceil() as u64;
+        for k in 1..=cycles {
+            check((t0 + k as f64 * period_s).min(t1))?;
         }
         Ok(())
     }
