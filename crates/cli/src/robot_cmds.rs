@@ -224,9 +224,18 @@ pub fn play(ctx: &Ctx, args: &PlayArgs, approach: bool) -> CliResult {
         max_gap: defaults.max_gap.max(period * 2),
         ..defaults
     };
-    trajectory
-        .validate(&ctx.model, period.as_secs_f64(), options.max_step_deg)
-        .map_err(|e| CliError::input(format!("{}: {e}", args.file.display())))?;
+    let checked = match options.mode {
+        StreamMode::Extrapolated { lookahead_passes } => trajectory.validate_extrapolated(
+            &ctx.model,
+            period.as_secs_f64(),
+            options.max_step_deg,
+            lookahead_passes,
+        ),
+        StreamMode::Waypoints => {
+            trajectory.validate(&ctx.model, period.as_secs_f64(), options.max_step_deg)
+        }
+    };
+    checked.map_err(|e| CliError::input(format!("{}: {e}", args.file.display())))?;
     with_robot(ctx, async |robot: &Robot, stop: &Interrupt| {
         let first = trajectory.first();
         let here = robot.poll().await.map_err(client_error)?.joints;

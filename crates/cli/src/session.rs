@@ -131,6 +131,7 @@ pub fn client_error(e: ClientError) -> CliError {
         | ClientError::Trajectory(_)
         | ClientError::Ik(_)
         | ClientError::RawRefused { .. }
+        | ClientError::Sample(_)
         | ClientError::Config(_) => Exit::Input,
         _ => Exit::Failure,
     };
