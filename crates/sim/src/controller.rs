@@ -266,6 +266,15 @@ fn as_seconds_ms(d: Duration) -> f64 {
 impl Controller {
     /// A controller at time zero, listening.
     pub fn new(config: ControllerConfig) -> Controller {
+        let mut config = config;
+        // Zero periods would stall time or divide by zero: keep the defaults instead.
+        let defaults = Timing::default();
+        if config.timing.tick.is_zero() {
+            config.timing.tick = defaults.tick;
+        }
+        if (config.timing.accept_window + config.timing.listen_gap).is_zero() {
+            config.timing.accept_window = defaults.accept_window;
+        }
         let mut panel = config.panel;
         if panel.estop {
             panel.power = false;
@@ -720,7 +729,9 @@ impl Controller {
             next_pass_at: self.tick_time + self.timing.tick,
             blocked_since: None,
             step_s: 0.0,
-            prev_pt: None,
+            // "Remember the current joints": a first 7 whose point is where the robot stands
+            // issues no motion.
+            prev_pt: Some(self.robot.joints()),
         });
     }
 

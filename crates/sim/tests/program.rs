@@ -703,3 +703,23 @@ fn long_straight_lines_stay_on_the_line_with_adaptive_sampling() {
     );
     assert!(path.duration_s() > 0.1);
 }
+
+#[test]
+fn a_first_7_at_the_current_joints_issues_no_motion() {
+    let (mut c, id) = running();
+    let here = c.joints().values();
+    let before = c.counters().motions;
+    let t0 = c.timer1_s();
+    cmd(
+        &mut c,
+        id,
+        Command::StreamedMove(sample(t0, 1.0, here, [0.0; 6], [0.0; 6])),
+    );
+    c.advance_by(ms(200));
+    assert_eq!(
+        c.counters().motions,
+        before,
+        "the program remembers the joints it started at"
+    );
+    assert!(c.counters().passes > 0);
+}
