@@ -50,8 +50,9 @@ fn init_logging(verbose: u8) {
 fn load_model(cli: &Cli) -> CliResult<RobotModel> {
     match &cli.model {
         None => Ok(RobotModel::fs020n()),
-        Some(path) => RobotModel::from_file(path)
-            .map_err(|e| CliError::input(format!("robot model {}: {e}", path.display()))),
+        Some(path) => {
+            RobotModel::from_file(path).map_err(|e| CliError::input(format!("robot model: {e}")))
+        }
     }
 }
 

@@ -17,7 +17,7 @@ use crate::error::{CliError, CliResult, Exit};
 use crate::output::{joints_json, status_json, status_table};
 use crate::session::{
     check_speed, check_target, check_timeout, client_error, close_quietly, connect,
-    robot_or_embedded, runtime, Ctx, Interrupt,
+    robot_or_embedded, runtime, Ctx, Interrupt, MAX_TIMEOUT_S,
 };
 use crate::trajectory_file;
 
@@ -52,14 +52,19 @@ fn bar(len: u64, template: &str) -> ProgressBar {
     pb
 }
 
+/// Lowest sampling rate of `status --watch` and `record`, Hz.
+pub const MIN_RATE_HZ: f64 = 0.01;
+
 /// `status`.
 pub fn status(ctx: &Ctx, watch: bool, rate: f64) -> CliResult {
-    if watch && !(rate.is_finite() && rate > 0.0 && rate <= 100.0) {
-        return Err(CliError::input("--rate must be above 0 and at most 100 Hz"));
+    if watch && !(rate.is_finite() && (MIN_RATE_HZ..=100.0).contains(&rate)) {
+        return Err(CliError::input(format!(
+            "--rate must be from {MIN_RATE_HZ} to 100 Hz"
+        )));
     }
     with_robot(ctx, async |robot: &Robot, stop: &Interrupt| {
         let s = robot.poll().await.map_err(client_error)?;
-        print_status(&s, ctx.json, false);
+        print_status(&s, ctx.json, false)?;
         if !watch {
             return Ok(());
         }
@@ -72,25 +77,30 @@ pub fn status(ctx: &Ctx, watch: bool, rate: f64) -> CliResult {
                     robot.poll().await
                 } => s.map_err(client_error)?,
             };
-            print_status(&s, ctx.json, true);
+            match print_status(&s, ctx.json, true) {
+                // The reader went away (e.g. `| head`): a normal end.
+                Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => return Ok(()),
+                r => r?,
+            }
         }
     })
 }
 
-fn print_status(s: &Status, as_json: bool, redraw: bool) {
+fn print_status(s: &Status, as_json: bool, redraw: bool) -> std::io::Result<()> {
+    let mut out = std::io::stdout().lock();
     if as_json {
-        println!("{}", status_json(s));
+        writeln!(out, "{}", status_json(s))?;
     } else {
         if redraw {
             // Clear the screen and go home.
-            print!("\x1b[2J\x1b[H");
+            write!(out, "\x1b[2J\x1b[H")?;
         }
-        print!("{}", status_table(s));
+        write!(out, "{}", status_table(s))?;
         if redraw {
-            println!("(Ctrl-C to stop)");
+            writeln!(out, "(Ctrl-C to stop)")?;
         }
     }
-    let _ = std::io::stdout().flush();
+    out.flush()
 }
 
 /// `speed`.
@@ -350,16 +360,16 @@ pub fn print_stream_report(r: &StreamReport, as_json: bool) {
 
 /// `record`.
 pub fn record(ctx: &Ctx, file: &std::path::Path, rate: f64, duration: Option<f64>) -> CliResult {
-    if !(rate.is_finite() && rate > 0.0 && rate <= 1000.0) {
-        return Err(CliError::input(
-            "--rate must be above 0 and at most 1000 Hz",
-        ));
+    if !(rate.is_finite() && (MIN_RATE_HZ..=1000.0).contains(&rate)) {
+        return Err(CliError::input(format!(
+            "--rate must be from {MIN_RATE_HZ} to 1000 Hz"
+        )));
     }
     if let Some(d) = duration {
-        if !(d.is_finite() && d > 0.0) {
-            return Err(CliError::input(
-                "--duration must be a positive number of seconds",
-            ));
+        if !(d.is_finite() && d > 0.0 && d <= MAX_TIMEOUT_S) {
+            return Err(CliError::input(format!(
+                "--duration must be above 0 and at most {MAX_TIMEOUT_S} s"
+            )));
         }
     }
     let mut out = std::io::BufWriter::new(

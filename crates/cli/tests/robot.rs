@@ -632,3 +632,21 @@ fn ctrl_c_during_the_demo_cancels_and_exits_130() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+#[test]
+fn sampling_options_are_bounded_before_connecting() {
+    let c = |args: &[&str]| {
+        let mut c = Command::cargo_bin("fs020n").unwrap();
+        c.args(["--robot", "127.0.0.1:9"]).args(args);
+        c
+    };
+    c(&["record", "/tmp/never.csv", "--duration", "1e30"])
+        .assert()
+        .code(2);
+    c(&["record", "/tmp/never.csv", "--rate", "1e-300"])
+        .assert()
+        .code(2);
+    c(&["status", "--watch", "--rate", "1e-300"])
+        .assert()
+        .code(2);
+}

@@ -441,7 +441,11 @@ impl RobotModel {
     /// ([`RobotModel::jacobian`], metres and radians). Zero exactly at a singularity (arm
     /// stretched, wrist straight, wrist centre on the JT1 axis); grows smoothly away from it.
     /// See [`RobotModel::singularity_margins`] for per-singularity margins.
+    /// NaN when a joint is not finite (the SVD would not converge).
     pub fn singularity_distance(&self, q: &JointsRad) -> f64 {
+        if !q.is_finite() {
+            return f64::NAN;
+        }
         let sv = self.jacobian(q).singular_values();
         sv.iter().copied().fold(f64::INFINITY, f64::min)
     }

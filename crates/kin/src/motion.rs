@@ -64,8 +64,9 @@ pub struct JointMove {
 
 impl JointMove {
     /// Plans a move, never failing: a speed fraction outside (0, 1] is clamped into
-    /// [[`MIN_SPEED_FRACTION`], 1] (NaN becomes the minimum), and a joint whose start or target
-    /// is not finite does not move (non-finite start values are replaced by the target, or 0).
+    /// [[`MIN_SPEED_FRACTION`], 1] (NaN becomes the minimum), and a joint whose start, target or
+    /// distance is not finite does not move (non-finite start values are replaced by the target,
+    /// or 0).
     pub fn plan(model: &RobotModel, from: JointsDeg, to: JointsDeg, speed_fraction: f64) -> Self {
         let f = if speed_fraction.is_nan() {
             MIN_SPEED_FRACTION
@@ -78,7 +79,7 @@ impl JointMove {
             if !from[i].is_finite() {
                 from[i] = if to[i].is_finite() { to[i] } else { 0.0 };
             }
-            if !to[i].is_finite() {
+            if !(to[i] - from[i]).is_finite() {
                 to[i] = from[i];
             }
         }
@@ -96,7 +97,8 @@ impl JointMove {
             return Err(MotionError::SpeedFraction(speed_fraction));
         }
         for i in 0..JOINT_COUNT {
-            if !from[i].is_finite() || !to[i].is_finite() {
+            // A distance that overflows (e.g. -1e308 to 1e308) is as unusable as NaN.
+            if !(to[i] - from[i]).is_finite() {
                 return Err(MotionError::NonFinite(i + 1));
             }
         }
@@ -113,8 +115,8 @@ impl JointMove {
                 a = a.min(spec.max_accel_deg_s2 / d);
             }
         }
-        if !v.is_finite() || !a.is_finite() {
-            // zero-length move
+        if from == to || !a.is_finite() {
+            // Zero-length move (or a model without an acceleration limit: instantaneous).
             return Self {
                 from,
                 to,

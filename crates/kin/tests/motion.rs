@@ -154,3 +154,35 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn overflowing_distances_and_unlimited_speeds_stay_defined() {
+    let model = RobotModel::fs020n();
+    let mut from = model.home;
+    let mut to = model.home;
+    from[0] = -1e308;
+    to[0] = 1e308;
+    assert!(JointMove::try_plan(&model, from, to, 1.0).is_err());
+    let m = JointMove::plan(&model, from, to, 1.0);
+    assert!(m.duration_s().is_finite());
+    assert!(m.position_at(0.5 * m.duration_s()).is_finite());
+    // A model without a useful speed limit still accelerates (triangular profile), no jump.
+    let mut fast = model.clone();
+    for j in &mut fast.joints {
+        j.max_speed_deg_s = 1e308;
+    }
+    let target = JointsDeg::new([10.0, 0.0, -90.0, 0.0, -90.0, 0.0]);
+    let m = JointMove::plan(&fast, model.home, target, 1.0);
+    assert!((m.duration_s() - 2.0 * (10.0_f64 / 235.0).sqrt()).abs() < 1e-9);
+    assert!(m.position_at(0.0).max_abs_diff(&model.home) < 1e-12);
+}
+
+#[test]
+fn singularity_distance_of_non_finite_joints_is_nan() {
+    let model = RobotModel::fs020n();
+    let mut q = model.home.to_rad();
+    q[0] = f64::NAN;
+    assert!(model.singularity_distance(&q).is_nan());
+    q[0] = f64::INFINITY;
+    assert!(model.singularity_distance(&q).is_nan());
+}

@@ -23,6 +23,13 @@ pub enum EncodeError {
         /// The allowed magnitude.
         limit: f64,
     },
+    /// `Command::Other` with a number that the controller reads as a real command (1–7 or
+    /// 255): it would act as that command while the client treats it as harmless.
+    #[error("command number {number} is a real command; use its Command variant instead of Command::Other")]
+    KnownCommandAsOther {
+        /// The number as it would be written.
+        number: String,
+    },
     /// The encoded request would exceed the 255 bytes the controller reads; it would silently
     /// cut the rest.
     #[error("the request is {len} bytes; the controller reads only the first {max} and would silently drop the rest")]

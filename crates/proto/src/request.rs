@@ -183,6 +183,9 @@ impl Command {
     }
 }
 
+/// Command numbers with a meaning, as written on the wire.
+const KNOWN_COMMANDS: [&str; 8] = ["1", "2", "3", "4", "5", "6", "7", "255"];
+
 /// A request: protocol version and command.
 ///
 /// ```
@@ -230,6 +233,14 @@ impl Request {
     /// Encodes the request exactly: no leading blank, single blanks, no terminator, fixed-point
     /// numbers with bounded decimals, and at most [`MAX_REQUEST_BYTES`] bytes.
     pub fn encode(&self) -> Result<String, EncodeError> {
+        if let Command::Other { number, .. } = &self.command {
+            // An "other" number that reads as a real command would do what that command does
+            // (the server compares the number after VAL): build that command instead.
+            let written = format_request_number(*number, "command number")?;
+            if KNOWN_COMMANDS.contains(&written.as_str()) {
+                return Err(EncodeError::KnownCommandAsOther { number: written });
+            }
+        }
         let args = self.command.args();
         let mut out = format!(
             "{} {} {}",
@@ -314,6 +325,33 @@ mod tests {
                 ..
             })
         ));
+    }
+
+    #[test]
+    fn other_cannot_smuggle_a_real_command() {
+        for number in [6.0, 6.0004, 1.0, 255.0] {
+            let r = Request::new(Command::Other {
+                number,
+                args: vec![0.0; 9],
+            });
+            assert!(
+                matches!(r.encode(), Err(EncodeError::KnownCommandAsOther { .. })),
+                "{number}"
+            );
+        }
+        assert!(Request::new(Command::Other {
+            number: 6.5,
+            args: vec![]
+        })
+        .encode()
+        .is_ok());
+        assert!(Request::new(Command::Other {
+            number: 9.0,
+            args: vec![]
+        })
+        .encode()
+        .is_ok());
+        assert_eq!(Request::status_poll().encode().unwrap(), "0 0 0");
     }
 
     #[test]
