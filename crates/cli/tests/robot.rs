@@ -11,13 +11,27 @@ use serde_json::Value;
 struct Sim {
     child: Child,
     addr: String,
+    /// The pendant API's HOST:PORT, when started with one.
+    pendant: Option<String>,
 }
 
 impl Sim {
     fn start(extra: &[&str]) -> Sim {
-        let mut child = StdCommand::new(assert_cmd::cargo::cargo_bin("fs020n"))
-            .args(["--json", "sim", "--listen", "127.0.0.1:0"])
-            .args(extra)
+        Sim::spawn(extra, false)
+    }
+
+    fn with_pendant() -> Sim {
+        Sim::spawn(&[], true)
+    }
+
+    fn spawn(extra: &[&str], pendant: bool) -> Sim {
+        let mut cmd = StdCommand::new(assert_cmd::cargo::cargo_bin("fs020n"));
+        cmd.args(["--json", "sim", "--listen", "127.0.0.1:0"])
+            .args(extra);
+        if pendant {
+            cmd.args(["--pendant", "127.0.0.1:0"]);
+        }
+        let mut child = cmd
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
@@ -30,6 +44,9 @@ impl Sim {
         Sim {
             child,
             addr: v["listen"].as_str().expect("listen").to_owned(),
+            pendant: v["pendant"]
+                .as_str()
+                .map(|p| p.trim_start_matches("http://").to_owned()),
         }
     }
 
@@ -507,39 +524,6 @@ fn pendant_get(addr: &str, path: &str) -> Value {
     serde_json::from_str(body).unwrap()
 }
 
-fn sim_with_pendant() -> (Sim, String) {
-    let mut child = StdCommand::new(assert_cmd::cargo::cargo_bin("fs020n"))
-        .args([
-            "--json",
-            "sim",
-            "--listen",
-            "127.0.0.1:0",
-            "--pendant",
-            "127.0.0.1:0",
-        ])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut line = String::new();
-    BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut line)
-        .unwrap();
-    let v: Value = serde_json::from_str(&line).unwrap();
-    let pendant = v["pendant"]
-        .as_str()
-        .unwrap()
-        .trim_start_matches("http://")
-        .to_owned();
-    (
-        Sim {
-            child,
-            addr: v["listen"].as_str().unwrap().to_owned(),
-        },
-        pendant,
-    )
-}
-
 #[test]
 fn play_refuses_before_acting() {
     let dir = tempfile::tempdir().unwrap();
@@ -560,7 +544,8 @@ fn play_refuses_before_acting() {
         .code(2)
         .stderr(predicate::str::contains("--rate"));
     // A start away from the robot is refused before the speed is changed or the program started.
-    let (sim, pendant) = sim_with_pendant();
+    let sim = Sim::with_pendant();
+    let pendant = sim.pendant.clone().expect("pendant");
     sim.cmd()
         .args(["play", file.to_str().unwrap(), "--speed", "23"])
         .assert()

@@ -8,25 +8,11 @@ use std::time::Duration;
 use common::*;
 use fs020n_client::{
     Blocker, ClientConfig, ClientError, Completion, LinkError, RecordFormat, Recording, Robot,
-    StreamMode, StreamOptions, StreamOutcome, Trajectory, TrajectoryError, TrajectoryPoint,
-    ESTOP_REMEDY,
+    StreamMode, StreamOptions, StreamOutcome, TrajectoryError, ESTOP_REMEDY,
 };
 use fs020n_kin::RobotModel;
 use fs020n_proto::{Command, ErrorCode, JointsDeg};
 use fs020n_sim::{Fault, SessionEnd, TaskState};
-
-/// JT1 from `from` to `to` degrees in `secs`, a smooth (cosine) profile sampled every 50 ms.
-fn jt1_ramp(from: f64, to: f64, secs: f64) -> Trajectory {
-    let n = (secs / 0.05).round() as usize;
-    let points = (0..=n)
-        .map(|k| {
-            let t = k as f64 * 0.05;
-            let s = 0.5 - 0.5 * (std::f64::consts::PI * t / secs).cos();
-            TrajectoryPoint::new(t, with_jt1(from + (to - from) * s))
-        })
-        .collect();
-    Trajectory::new(points).unwrap()
-}
 
 // ------------------------------------------------------------------ connection and session
 

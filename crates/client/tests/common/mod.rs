@@ -70,3 +70,17 @@ pub async fn sleep_ms(ms: u64) {
 pub fn effective(emu: &Emulator) -> u64 {
     emu.with(|c| c.counters().effective_requests)
 }
+
+/// JT1 from `from` to `to` degrees in `secs`, a smooth (cosine) profile sampled every 50 ms.
+#[allow(dead_code)]
+pub fn jt1_ramp(from: f64, to: f64, secs: f64) -> fs020n_client::Trajectory {
+    let n = (secs / 0.05).round() as usize;
+    let points = (0..=n)
+        .map(|k| {
+            let t = k as f64 * 0.05;
+            let s = 0.5 - 0.5 * (std::f64::consts::PI * t / secs).cos();
+            fs020n_client::TrajectoryPoint::new(t, with_jt1(from + (to - from) * s))
+        })
+        .collect();
+    fs020n_client::Trajectory::new(points).unwrap()
+}
