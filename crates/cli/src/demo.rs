@@ -166,8 +166,8 @@ async fn tour(ctx: &Ctx, robot: &Robot, speed: f64) -> CliResult<serde_json::Val
     let here = robot.poll().await.map_err(client_error)?.joints;
     let trajectory = circle(ctx, here)?;
     say(ctx, &format!(
-        "stream: a {:.0} mm circle of the flange in {CIRCLE_TIME_S} s, {} samples, command 7 stamped with the estimated controller clock",
-        CIRCLE_RADIUS_M * 2000.0,
+        "stream: a circle of {:.0} mm radius with the flange in {CIRCLE_TIME_S} s, {} samples, command 7 stamped with the estimated controller clock",
+        CIRCLE_RADIUS_M * 1000.0,
         trajectory.points().len()
     ));
     // Look ahead so that the arm, which follows each sample with a 0.1 s straight-line move, is
