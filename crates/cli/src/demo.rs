@@ -9,7 +9,7 @@ use nalgebra::Vector3;
 use serde_json::json;
 
 use crate::error::{CliError, CliResult, Exit};
-use crate::output::joints_json;
+use crate::output::{joints_json, rtt_line};
 use crate::robot_cmds::{measure, print_stream_report};
 use crate::session::{
     check_speed, client_error, close_quietly, connect, robot_or_embedded, runtime, Ctx, Interrupt,
@@ -198,16 +198,16 @@ async fn tour(ctx: &Ctx, robot: &Robot, speed: f64) -> CliResult<serde_json::Val
     }
     let bench = measure(robot, 200).await?;
     let stats = robot.stats();
-    say(ctx, &format!(
-        "round trips: {} in this session, min {:.0} µs, mean {:.0} µs, p99 {:.0} µs, max {:.0} µs; late replies {}; 200 back-to-back polls at {:.0}/s",
+    say(
+        ctx,
+        &format!(
+        "round trips: {} in this session, {}; late replies {}; 200 back-to-back polls at {:.0}/s",
         stats.rtt.count,
-        stats.rtt.min.as_secs_f64() * 1e6,
-        stats.rtt.mean.as_secs_f64() * 1e6,
-        stats.rtt.p99.as_secs_f64() * 1e6,
-        stats.rtt.max.as_secs_f64() * 1e6,
+        rtt_line(&stats.rtt),
         stats.late_replies,
         bench.rate_hz
-    ));
+    ),
+    );
     if report.outcome != fs020n_client::StreamOutcome::Completed {
         return Err(CliError::new(
             Exit::Motion,

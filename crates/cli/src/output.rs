@@ -1,5 +1,6 @@
 //! Formatting of statuses and numbers for people and for `--json`.
 
+use fs020n_client::RttStats;
 use fs020n_proto::{JointsDeg, Status, Timer};
 use serde_json::{json, Value};
 
@@ -63,4 +64,16 @@ pub fn status_table(s: &Status) -> String {
     }
     out.push('\n');
     out
+}
+
+/// Round-trip figures for people: `min … µs, mean … µs, p99 … µs, max … µs`.
+pub fn rtt_line(r: &RttStats) -> String {
+    let us = |d: std::time::Duration| d.as_secs_f64() * 1e6;
+    format!(
+        "min {:.0} µs, mean {:.0} µs, p99 {:.0} µs, max {:.0} µs",
+        us(r.min),
+        us(r.mean),
+        us(r.p99),
+        us(r.max)
+    )
 }

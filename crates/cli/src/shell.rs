@@ -8,7 +8,7 @@ use rustyline::history::DefaultHistory;
 use rustyline::Editor;
 
 use crate::error::{CliError, CliResult, Exit};
-use crate::output::{status_json, status_table};
+use crate::output::{rtt_line, status_json, status_table};
 use crate::session::{
     check_speed, check_target, client_error, close_quietly, connect, runtime, Ctx, Interrupt,
 };
@@ -225,13 +225,10 @@ async fn execute(
         "stats" => {
             let s = robot.stats();
             println!(
-                "{} requests, {} replies, round trip min {:.0} µs / mean {:.0} µs / p99 {:.0} µs / max {:.0} µs, late replies {}, keep-alive polls {}",
+                "{} requests, {} replies, round trip {}, late replies {}, keep-alive polls {}",
                 s.requests,
                 s.replies,
-                s.rtt.min.as_secs_f64() * 1e6,
-                s.rtt.mean.as_secs_f64() * 1e6,
-                s.rtt.p99.as_secs_f64() * 1e6,
-                s.rtt.max.as_secs_f64() * 1e6,
+                rtt_line(&s.rtt),
                 s.late_replies,
                 s.keepalive_polls
             );
