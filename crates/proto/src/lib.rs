@@ -10,6 +10,7 @@
 //! * [`server::ServerRequest`] — how the controller parses a request (`VAL` semantics).
 //! * [`ErrorCode`] — AS error numbers (−31088 ↔ `E1088`) with messages.
 //! * [`session`] — the timing and size rules as constants.
+//! * [`format`] — every AS print format (`/D`, `/Fm.n`, `/Em.n`, …) for `PRINT`/`$ENCODE`.
 //! * [`JointsDeg`] / [`JointsRad`] — joint vectors with the unit in the type.
 //!
 //! ```
@@ -27,6 +28,7 @@
 pub mod decoder;
 pub mod error;
 pub mod error_code;
+pub mod format;
 pub mod joints;
 pub mod number;
 pub mod reply;
