@@ -1,0 +1,569 @@
+//! The syntax tree of AS program files, with a [`Span`] on every statement, expression and
+//! name (see [`crate::parse`]).
+
+use std::sync::Arc;
+
+use crate::error::ParseError;
+use crate::lexer::Name;
+use crate::span::Span;
+
+/// One parsed file: its programs and data sections.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Module {
+    /// The file name used in messages.
+    pub file: Arc<str>,
+    /// The source lines (without line endings), for traces and the pendant.
+    pub lines: Vec<String>,
+    /// `.PROGRAM` … `.END` blocks, in file order.
+    pub programs: Vec<Program>,
+    /// Values of the data sections (`.REALS`, `.STRINGS`, `.JOINTS`, `.TRANS`), in file order.
+    pub data: Vec<DataItem>,
+    /// Things skipped but worth knowing (unknown sections such as `.AUXDATA`).
+    pub warnings: Vec<ParseError>,
+}
+
+/// `.PROGRAM name(params)` … `.END`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Program {
+    /// Program name in lower case (`autostart.pc`, `ros_move`).
+    pub name: String,
+    /// Parameters (program-local variables assigned by `CALL`).
+    pub params: Vec<Param>,
+    /// The statements.
+    pub body: Vec<Stmt>,
+    /// Where `.PROGRAM` stands.
+    pub span: Span,
+    /// The line of `.END`.
+    pub end_line: u32,
+}
+
+/// A program parameter: `.a`, `.$s`, `.#p`, or by reference `.&a` / `&.a`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Param {
+    /// The local variable it fills.
+    pub name: Name,
+    /// Passed by reference: the caller's variable receives the final value on `RETURN`.
+    pub by_ref: bool,
+    /// Where it stands.
+    pub span: Span,
+}
+
+/// A label (`exit:` or `10`) with where it stands.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Label {
+    /// The label in lower case (a number as its digits).
+    pub name: String,
+    /// Where it stands.
+    pub span: Span,
+}
+
+/// A statement (one source line, or a block of lines for IF, WHILE, DO, FOR, CASE).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stmt {
+    /// A label at the start of the line.
+    pub label: Option<Label>,
+    /// What it does.
+    pub kind: StmtKind,
+    /// Where it starts.
+    pub span: Span,
+}
+
+/// A variable or array element that can be assigned: `a`, `.$buf[1]`, `ros_cmd[.i, 2]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LValue {
+    /// The variable.
+    pub name: Name,
+    /// Array indices (0 to 3).
+    pub indices: Vec<Expr>,
+    /// Where it stands.
+    pub span: Span,
+}
+
+/// What a statement does.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StmtKind {
+    /// A line with only a label (or a label on an empty statement).
+    Empty,
+    /// `target = value`.
+    Assign {
+        /// The variable.
+        target: LValue,
+        /// The value.
+        value: Expr,
+    },
+    /// `IF cond THEN` … [`ELSE` …] `END`.
+    If {
+        /// Condition (non-zero is true).
+        cond: Expr,
+        /// Statements when true.
+        then: Vec<Stmt>,
+        /// Statements when false.
+        otherwise: Vec<Stmt>,
+    },
+    /// `IF cond GOTO label`.
+    IfGoto {
+        /// Condition.
+        cond: Expr,
+        /// Where to go when true.
+        label: Label,
+    },
+    /// `WHILE cond DO` … `END`.
+    While {
+        /// Tested before each pass.
+        cond: Expr,
+        /// The loop body.
+        body: Vec<Stmt>,
+    },
+    /// `DO` … `UNTIL cond`.
+    DoUntil {
+        /// The loop body (runs at least once).
+        body: Vec<Stmt>,
+        /// Tested after each pass; the loop ends when true.
+        cond: Expr,
+    },
+    /// `FOR var = from TO to [STEP step]` … `END`.
+    For {
+        /// The loop variable (a real).
+        var: LValue,
+        /// First value.
+        from: Expr,
+        /// Last value.
+        to: Expr,
+        /// Increment (default 1).
+        step: Option<Expr>,
+        /// The loop body.
+        body: Vec<Stmt>,
+    },
+    /// `CASE expr OF` `VALUE a, b:` … `ANY:` … `END`.
+    Case {
+        /// The value compared.
+        selector: Expr,
+        /// The arms in order.
+        arms: Vec<CaseArm>,
+    },
+    /// `GOTO label`.
+    Goto(Label),
+    /// `CALL program[(args)]`.
+    Call {
+        /// The program.
+        program: String,
+        /// The arguments.
+        args: Vec<Expr>,
+    },
+    /// `RETURN`.
+    Return,
+    /// `PRINT` / `TYPE` items.
+    Print {
+        /// The items (values, strings, format codes).
+        items: Vec<PrintItem>,
+    },
+    /// `TWAIT seconds`.
+    Twait(Expr),
+    /// `WAIT condition`.
+    Wait(Expr),
+    /// `HALT`.
+    Halt,
+    /// `STOP`.
+    Stop,
+    /// `PAUSE`.
+    Pause,
+    /// `SIGNAL n, -m, …`.
+    Signal(Vec<Expr>),
+    /// `ON sig GOTO|CALL …` (`immediate`: `ONI`).
+    On {
+        /// `ONI` (cuts the motion) rather than `ON`.
+        immediate: bool,
+        /// The signal (negative: falling edge).
+        signal: Expr,
+        /// What happens when it fires.
+        action: OnAction,
+    },
+    /// `IGNORE sig`.
+    Ignore(Expr),
+    /// `MC monitor command`, or a program-level `EXECUTE`/`PCEXECUTE`/`PCABORT`.
+    Monitor(MonitorCommand),
+    /// `ABS.SPEED ON`, `ENABLE name`, `DISABLE name`.
+    SetSwitch {
+        /// The system switch (lower case).
+        name: String,
+        /// ON or OFF.
+        on: bool,
+    },
+    /// `TIMER n = value`.
+    Timer {
+        /// Timer number.
+        timer: Expr,
+        /// Seconds it shows now.
+        value: Expr,
+    },
+    /// `DECOMPOSE array[i] = location`.
+    Decompose {
+        /// First element to fill.
+        target: LValue,
+        /// A joint point or a transformation.
+        source: Expr,
+    },
+    /// `HERE location_variable`.
+    Here {
+        /// The variable (`#p` for joints, `p` for the transformation).
+        target: LValue,
+    },
+    /// `POINT location_variable = location`.
+    Point {
+        /// The variable.
+        target: LValue,
+        /// The value.
+        value: Expr,
+    },
+    /// `JMOVE` (`linear` false) or `LMOVE` (`linear` true).
+    Move {
+        /// Straight-line interpolation.
+        linear: bool,
+        /// A joint point or a transformation.
+        target: Expr,
+    },
+    /// `HOME [n]`.
+    Home(Option<Expr>),
+    /// `DELAY seconds` (a motion that stands still).
+    Delay(Expr),
+    /// `BRAKE`.
+    Brake,
+    /// `BREAK`.
+    Break,
+    /// `SPEED v [unit] [ALWAYS]`.
+    Speed {
+        /// The value.
+        value: Expr,
+        /// Its unit.
+        unit: SpeedUnit,
+        /// Persistent (otherwise the next motion only).
+        always: bool,
+    },
+    /// `ACCURACY d [FINE] [ALWAYS]`.
+    Accuracy {
+        /// Millimetres.
+        value: Expr,
+        /// Exact coincidence.
+        fine: bool,
+        /// Persistent.
+        always: bool,
+    },
+    /// `ACCEL p [ALWAYS]` (`decel` false) or `DECEL p [ALWAYS]`.
+    AccelDecel {
+        /// DECEL rather than ACCEL.
+        decel: bool,
+        /// Percent.
+        value: Expr,
+        /// Persistent.
+        always: bool,
+    },
+    /// `CP ON|OFF`.
+    Cp(bool),
+    /// A `TCP_…` instruction.
+    Tcp(TcpStmt),
+}
+
+/// One `VALUE …:` or `ANY:` arm of a CASE.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CaseArm {
+    /// The values (`None`: `ANY`).
+    pub values: Option<Vec<Expr>>,
+    /// Its statements.
+    pub body: Vec<Stmt>,
+    /// Where `VALUE`/`ANY` stands.
+    pub span: Span,
+}
+
+/// What an `ON`/`ONI` does.
+#[derive(Debug, Clone, PartialEq)]
+pub enum OnAction {
+    /// Jump to a label of the program that executed the ON.
+    Goto(Label),
+    /// Call a program, then go on where the task was.
+    Call(String),
+}
+
+/// A monitor command (`MC …`, or the program instructions of the same effect).
+#[derive(Debug, Clone, PartialEq)]
+pub enum MonitorCommand {
+    /// `EXECUTE program[(args)][, cycles]`: start it in robot task 1.
+    Execute {
+        /// The program.
+        program: String,
+        /// Its arguments.
+        args: Vec<Expr>,
+        /// How many times it runs (default 1; negative: forever).
+        cycles: Option<Expr>,
+    },
+    /// `PCEXECUTE [n:] program[(args)][, cycles]`: start it in PC task n (default 1).
+    PcExecute {
+        /// Task number 1–5.
+        task: Option<Expr>,
+        /// The program.
+        program: String,
+        /// Its arguments.
+        args: Vec<Expr>,
+        /// How many times it runs.
+        cycles: Option<Expr>,
+    },
+    /// `PCABORT [n:]`.
+    PcAbort {
+        /// Task number 1–5 (default 1).
+        task: Option<Expr>,
+    },
+    /// `ABORT`: robot task 1 stops after the current step.
+    Abort,
+    /// `HOLD`: robot task 1 and its motion pause.
+    Hold,
+    /// `CONTINUE`: resume after HOLD or PAUSE.
+    Continue,
+    /// `SPEED p`: monitor speed, percent.
+    Speed(Expr),
+    /// `ERESET`: reset the error.
+    Ereset,
+}
+
+/// A print format code.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FormatCode {
+    /// `/D`: default.
+    D,
+    /// `/L`: default without blanks.
+    L,
+    /// `/Fm.n`.
+    F(u8, u8),
+    /// `/Em.n`.
+    E(u8, u8),
+    /// `/Gm.n`.
+    G(u8, u8),
+    /// `/Im`.
+    I(u8),
+    /// `/Km`: `/I` padded with zeros.
+    K(u8),
+    /// `/Hm`: hexadecimal.
+    H(u8),
+    /// `/Jm`: `/H` padded with zeros.
+    J(u8),
+    /// `/Xn`: n blanks.
+    X(u8),
+    /// `/Cn`: n line feeds.
+    C(u8),
+    /// `/S`: no line feed at the end of the PRINT.
+    S,
+}
+
+/// An item of PRINT/TYPE or `$ENCODE`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PrintItem {
+    /// A value (real or string).
+    Expr(Expr),
+    /// A format code.
+    Format(FormatCode, Span),
+}
+
+/// Unit of a SPEED.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SpeedUnit {
+    /// Percent of the maximum (default).
+    Percent,
+    /// `MM/S`: tool speed.
+    MmPerS,
+    /// `MM/MIN`: tool speed.
+    MmPerMin,
+    /// `S`: the motion takes this many seconds.
+    Seconds,
+}
+
+/// The `TCP_…` instructions (each stores its result, 0/socket id or a negative code, in `ret`).
+#[derive(Debug, Clone, PartialEq)]
+pub enum TcpStmt {
+    /// `TCP_LISTEN ret, port`.
+    Listen {
+        /// Result.
+        ret: LValue,
+        /// Port.
+        port: Expr,
+    },
+    /// `TCP_ACCEPT ret, port, timeout[, ip_array]`.
+    Accept {
+        /// Socket id or error.
+        ret: LValue,
+        /// Port.
+        port: Expr,
+        /// Seconds (default 1).
+        timeout: Option<Expr>,
+        /// Receives the client's address in 4 elements.
+        ip: Option<LValue>,
+    },
+    /// `TCP_END_LISTEN ret, port`.
+    EndListen {
+        /// Result.
+        ret: LValue,
+        /// Port.
+        port: Expr,
+    },
+    /// `TCP_RECV ret, sock, $array[start], count, timeout[, max_bytes]`.
+    Recv {
+        /// Result.
+        ret: LValue,
+        /// Socket id.
+        sock: Expr,
+        /// First string element to fill.
+        buf: LValue,
+        /// Receives the number of elements filled.
+        count: LValue,
+        /// Seconds (default 1).
+        timeout: Option<Expr>,
+        /// Bytes per element, 1–255 (default 255).
+        max: Option<Expr>,
+    },
+    /// `TCP_SEND ret, sock, $array[start], n, timeout`.
+    Send {
+        /// Result.
+        ret: LValue,
+        /// Socket id.
+        sock: Expr,
+        /// First string element to send.
+        buf: LValue,
+        /// Number of elements.
+        n: Expr,
+        /// Seconds (default 1).
+        timeout: Option<Expr>,
+    },
+    /// `TCP_CLOSE ret, sock`.
+    Close {
+        /// Result.
+        ret: LValue,
+        /// Socket id.
+        sock: Expr,
+    },
+    /// `TCP_CONNECT ret, port, ip_array[start], timeout`.
+    Connect {
+        /// Socket id or error.
+        ret: LValue,
+        /// Port.
+        port: Expr,
+        /// 4 elements holding the IPv4 address.
+        ip: LValue,
+        /// Seconds (default 1).
+        timeout: Option<Expr>,
+    },
+}
+
+/// An expression.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Expr {
+    /// What it is.
+    pub kind: ExprKind,
+    /// Where it starts.
+    pub span: Span,
+}
+
+/// The kinds of expression.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ExprKind {
+    /// A number.
+    Num(f64),
+    /// A string literal.
+    Str(Vec<u8>),
+    /// A variable, an array element, or a name-only function (`TRUE`, `ERROR`, `HERE`, …).
+    Var(LValue),
+    /// `-a`, `NOT a`, `COM a`.
+    Unary(UnOp, Box<Expr>),
+    /// `a op b`.
+    Binary(BinOp, Box<Expr>, Box<Expr>),
+    /// `name(args)`: a function.
+    Call {
+        /// The function name (with its sigil: `$mid`, `#ppoint`).
+        name: Name,
+        /// The arguments.
+        args: Vec<Arg>,
+    },
+}
+
+/// A function argument.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Arg {
+    /// An expression.
+    Expr(Expr),
+    /// A format code (`$ENCODE(/F10.3, …)`).
+    Format(FormatCode, Span),
+}
+
+/// Unary operators.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum UnOp {
+    /// `-`
+    Neg,
+    /// `NOT` (logical).
+    Not,
+    /// `COM` (bitwise complement).
+    Com,
+}
+
+/// Binary operators.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BinOp {
+    /// `+` (also string concatenation and transformation composition).
+    Add,
+    /// `-`
+    Sub,
+    /// `*`
+    Mul,
+    /// `/`
+    Div,
+    /// `MOD`
+    Mod,
+    /// `^`
+    Pow,
+    /// `==`
+    Eq,
+    /// `<>`
+    Ne,
+    /// `<`
+    Lt,
+    /// `>`
+    Gt,
+    /// `<=`
+    Le,
+    /// `>=`
+    Ge,
+    /// `AND` (logical).
+    And,
+    /// `OR` (logical).
+    Or,
+    /// `XOR` (logical).
+    Xor,
+    /// `BAND` (bitwise).
+    Band,
+    /// `BOR` (bitwise).
+    Bor,
+    /// `BXOR` (bitwise).
+    Bxor,
+}
+
+/// A value from a data section.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DataItem {
+    /// The variable (global; indices are constants).
+    pub name: Name,
+    /// Array indices.
+    pub indices: Vec<i32>,
+    /// The value.
+    pub value: DataValue,
+    /// Where it stands.
+    pub span: Span,
+}
+
+/// The value of a data item.
+#[derive(Debug, Clone, PartialEq)]
+pub enum DataValue {
+    /// `.REALS`: `name = value`.
+    Real(f64),
+    /// `.STRINGS`: `$name = "text"`.
+    Str(Vec<u8>),
+    /// `.JOINTS`: `#name j1 … j6` (degrees).
+    Joints([f64; 6]),
+    /// `.TRANS`: `name x y z o a t` (mm, degrees).
+    Trans([f64; 6]),
+}

@@ -1,0 +1,1486 @@
+//! The compiler: parsed modules into flat, typed code with resolved variables, labels and
+//! programs. Structured statements become jumps (so `GOTO` may leave any block); every
+//! expression is typed (real, string, joint point, transformation) so that a type error is a
+//! load error with file:line:column, never a surprise at run time.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use crate::ast::*;
+use crate::error::{LoadError, ParseError, MAX_REPORTED};
+use crate::keywords;
+use crate::lexer::{Name, Sigil};
+use crate::span::Span;
+use crate::value::Bytes;
+
+/// The four value types of AS.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub(crate) enum Ty {
+    Real = 0,
+    Str = 1,
+    Joint = 2,
+    Trans = 3,
+}
+
+impl Ty {
+    fn name(self) -> &'static str {
+        match self {
+            Ty::Real => "a real",
+            Ty::Str => "a string",
+            Ty::Joint => "a joint point",
+            Ty::Trans => "a transformation",
+        }
+    }
+}
+
+/// A variable: its scope and slot (the type is known from where it is used).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct VarRef {
+    pub global: bool,
+    pub slot: u32,
+}
+
+/// A variable or array element to read or write.
+#[derive(Debug, Clone)]
+pub(crate) struct LRef {
+    pub var: VarRef,
+    pub idx: Box<[RExpr]>,
+}
+
+/// Real-valued expressions.
+#[derive(Debug, Clone)]
+pub(crate) enum RExpr {
+    Const(f32),
+    Var(LRef),
+    Neg(Box<RExpr>),
+    Not(Box<RExpr>),
+    Com(Box<RExpr>),
+    Bin(BinOp, Box<RExpr>, Box<RExpr>),
+    StrCmp(BinOp, Box<SExpr>, Box<SExpr>),
+    Func(RFunc, Box<[RExpr]>),
+    Val(Box<SExpr>, Option<Box<RExpr>>),
+    Len(Box<SExpr>),
+    Asc(Box<SExpr>, Option<Box<RExpr>>),
+    Instr(Option<Box<RExpr>>, Box<SExpr>, Box<SExpr>),
+    Dext(Box<Loc>, Box<RExpr>),
+    Switch(SwitchRef),
+    Error,
+}
+
+/// Real functions of real arguments.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum RFunc {
+    Abs,
+    Sqrt,
+    Sin,
+    Cos,
+    Tan,
+    Atan2,
+    Int,
+    MaxVal,
+    MinVal,
+    Sig,
+    Task,
+    Timer,
+}
+
+/// A switch read by `SWITCH(name)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum SwitchRef {
+    Power,
+    Run,
+    Repeat,
+    TeachLock,
+    CycleStart,
+    InError,
+    System(usize),
+}
+
+/// String-valued expressions.
+#[derive(Debug, Clone)]
+pub(crate) enum SExpr {
+    Const(Bytes),
+    Var(LRef),
+    Concat(Box<SExpr>, Box<SExpr>),
+    Mid(Box<SExpr>, Box<RExpr>, Option<Box<RExpr>>),
+    Left(Box<SExpr>, Box<RExpr>),
+    Right(Box<SExpr>, Box<RExpr>),
+    Chr(Box<RExpr>),
+    Encode(Box<[Item]>),
+    Decode(LRef, Box<SExpr>, Box<RExpr>),
+    ErrorMsg(Box<RExpr>),
+}
+
+/// Joint-point expressions.
+#[derive(Debug, Clone)]
+pub(crate) enum JExpr {
+    Var(LRef),
+    PPoint(Box<[RExpr]>),
+    Here,
+}
+
+/// Transformation expressions.
+#[derive(Debug, Clone)]
+pub(crate) enum TExpr {
+    Var(LRef),
+    Trans(Box<[RExpr]>),
+    Here,
+    Compose(Box<TExpr>, Box<TExpr>),
+}
+
+/// A location: joint point or transformation.
+#[derive(Debug, Clone)]
+pub(crate) enum Loc {
+    J(JExpr),
+    T(TExpr),
+}
+
+/// An item of PRINT/TYPE/$ENCODE.
+#[derive(Debug, Clone)]
+pub(crate) enum Item {
+    Real(RExpr),
+    Str(SExpr),
+    Format(FormatCode),
+}
+
+/// A typed expression.
+#[derive(Debug, Clone)]
+pub(crate) enum CExpr {
+    R(RExpr),
+    S(SExpr),
+    J(JExpr),
+    T(TExpr),
+}
+
+impl CExpr {
+    fn ty(&self) -> Ty {
+        match self {
+            CExpr::R(_) => Ty::Real,
+            CExpr::S(_) => Ty::Str,
+            CExpr::J(_) => Ty::Joint,
+            CExpr::T(_) => Ty::Trans,
+        }
+    }
+}
+
+/// An argument of CALL/EXECUTE: a value, and for by-reference parameters the variable.
+#[derive(Debug, Clone)]
+pub(crate) struct CArg {
+    pub value: CExpr,
+    pub var: Option<(Ty, LRef)>,
+}
+
+/// One instruction of the flat code.
+#[derive(Debug, Clone)]
+pub(crate) enum Op {
+    Nop,
+    AssignR(LRef, RExpr),
+    AssignS(LRef, SExpr),
+    AssignJ(LRef, JExpr),
+    AssignT(LRef, TExpr),
+    Jump(usize),
+    JumpIfNot(RExpr, usize),
+    JumpIf(RExpr, usize),
+    /// FOR: set the variable, keep the limit and step in hidden locals, skip the loop when
+    /// already past the limit.
+    ForInit {
+        var: LRef,
+        from: RExpr,
+        to: RExpr,
+        step: Option<RExpr>,
+        limit: u32,
+        step_slot: u32,
+        exit: usize,
+    },
+    ForNext {
+        var: LRef,
+        limit: u32,
+        step_slot: u32,
+        body: usize,
+    },
+    /// CASE: remember the selector (a real or a string) in a hidden local.
+    CaseSelR(RExpr, u32),
+    CaseSelS(SExpr, u32),
+    /// One VALUE arm: when no value equals the selector, jump to `next`.
+    CaseTestR(Box<[RExpr]>, u32, usize),
+    CaseTestS(Box<[SExpr]>, u32, usize),
+    Call(usize, Box<[CArg]>),
+    Return,
+    Print(Box<[Item]>),
+    Twait(RExpr),
+    Wait(RExpr),
+    Halt,
+    Stop,
+    Pause,
+    Signal(Box<[RExpr]>),
+    On {
+        immediate: bool,
+        signal: RExpr,
+        goto: Option<usize>,
+        call: Option<usize>,
+    },
+    Ignore(RExpr),
+    Execute {
+        program: usize,
+        args: Box<[CArg]>,
+        cycles: Option<RExpr>,
+    },
+    PcExecute {
+        task: Option<RExpr>,
+        program: usize,
+        args: Box<[CArg]>,
+        cycles: Option<RExpr>,
+    },
+    PcAbort(Option<RExpr>),
+    McAbort,
+    McHold,
+    McContinue,
+    McSpeed(RExpr),
+    McEreset,
+    SetSwitch(usize, bool),
+    Timer(RExpr, RExpr),
+    Decompose(LRef, Loc),
+    HereJ(LRef),
+    HereT(LRef),
+    Move(bool, Loc),
+    Home,
+    Delay(RExpr),
+    Brake,
+    Break,
+    Speed(RExpr, SpeedUnit, bool),
+    Accuracy(RExpr, bool, bool),
+    AccelDecel(bool, RExpr, bool),
+    Cp(bool),
+    TcpListen(LRef, RExpr),
+    TcpEndListen(LRef, RExpr),
+    TcpAccept {
+        ret: LRef,
+        port: RExpr,
+        timeout: Option<RExpr>,
+        ip: Option<LRef>,
+    },
+    TcpRecv {
+        ret: LRef,
+        sock: RExpr,
+        buf: LRef,
+        count: LRef,
+        timeout: Option<RExpr>,
+        max: Option<RExpr>,
+    },
+    TcpSend {
+        ret: LRef,
+        sock: RExpr,
+        buf: LRef,
+        n: RExpr,
+        timeout: Option<RExpr>,
+    },
+    TcpClose(LRef, RExpr),
+    TcpConnect {
+        ret: LRef,
+        port: RExpr,
+        ip: LRef,
+        timeout: Option<RExpr>,
+    },
+    /// The end of the program (`.END`).
+    End,
+}
+
+/// A parameter of a compiled program.
+#[derive(Debug, Clone)]
+pub(crate) struct CParam {
+    pub ty: Ty,
+    pub slot: u32,
+    pub by_ref: bool,
+}
+
+/// A compiled program.
+#[derive(Debug, Clone)]
+pub(crate) struct CProgram {
+    pub name: String,
+    pub module: usize,
+    pub params: Vec<CParam>,
+    pub ops: Vec<Op>,
+    /// Source line of each op.
+    pub lines: Vec<u32>,
+    /// Number of local slots per type.
+    pub locals: [usize; 4],
+    /// Local names per type (for messages).
+    pub local_names: [Vec<String>; 4],
+}
+
+/// Everything loaded: programs, global names, data to load.
+#[derive(Debug, Clone)]
+pub(crate) struct Code {
+    pub programs: Vec<CProgram>,
+    pub by_name: HashMap<String, usize>,
+    pub globals: [Vec<String>; 4],
+    pub global_index: [HashMap<String, u32>; 4],
+    pub data: Vec<(Ty, u32, Vec<i32>, DataValue)>,
+    pub lines: Vec<Arc<[String]>>,
+    pub warnings: Vec<ParseError>,
+}
+
+impl Code {
+    /// The source text of a line of a program.
+    pub fn line_text(&self, program: usize, line: u32) -> &str {
+        self.programs
+            .get(program)
+            .and_then(|p| self.lines.get(p.module))
+            .and_then(|l| l.get((line as usize).wrapping_sub(1)))
+            .map_or("", |s| s.as_str())
+    }
+
+    pub fn global_name(&self, ty: Ty, slot: u32) -> &str {
+        self.globals[ty as usize]
+            .get(slot as usize)
+            .map_or("?", |s| s.as_str())
+    }
+}
+
+/// The name of a variable as written, from its type, scope and name.
+pub(crate) fn var_display(ty: Ty, global: bool, name: &str) -> String {
+    let sigil = match ty {
+        Ty::Str => "$",
+        Ty::Joint => "#",
+        _ => "",
+    };
+    format!("{}{sigil}{name}", if global { "" } else { "." })
+}
+
+/// Compiles modules (all their programs share the globals).
+pub(crate) fn compile(modules: &[crate::ast::Module]) -> Result<Code, LoadError> {
+    let mut c = Compiler {
+        errors: Vec::new(),
+        file: String::new(),
+        globals: Default::default(),
+        global_index: Default::default(),
+        by_name: HashMap::new(),
+        locals: Default::default(),
+        local_index: Default::default(),
+        ops: Vec::new(),
+        lines: Vec::new(),
+        labels: HashMap::new(),
+        fixups: Vec::new(),
+        hidden: 0,
+    };
+    // Program names first (CALL may name a program defined later or in another file).
+    let mut order = Vec::new();
+    for (mi, m) in modules.iter().enumerate() {
+        for p in &m.programs {
+            if let Some(&prev) = c.by_name.get(&p.name) {
+                let (pm, _): &(usize, &Program) = &order[prev];
+                c.errors.push(ParseError::new(
+                    &m.file,
+                    p.span,
+                    format!(
+                        "program {} is also defined in {}",
+                        p.name, modules[*pm].file
+                    ),
+                ));
+                continue;
+            }
+            c.by_name.insert(p.name.clone(), order.len());
+            order.push((mi, p));
+        }
+    }
+    let mut programs = Vec::new();
+    for &(mi, p) in &order {
+        c.file = modules[mi].file.to_string();
+        programs.push(c.program(mi, p));
+    }
+    // Data sections.
+    let mut data = Vec::new();
+    for m in modules {
+        c.file = m.file.to_string();
+        for d in &m.data {
+            let ty = match d.value {
+                DataValue::Real(_) => Ty::Real,
+                DataValue::Str(_) => Ty::Str,
+                DataValue::Joints(_) => Ty::Joint,
+                DataValue::Trans(_) => Ty::Trans,
+            };
+            let slot = c.global(ty, &d.name.text);
+            data.push((ty, slot, d.indices.clone(), d.value.clone()));
+        }
+    }
+    if !c.errors.is_empty() {
+        c.errors.truncate(MAX_REPORTED);
+        return Err(LoadError { errors: c.errors });
+    }
+    Ok(Code {
+        programs,
+        by_name: c.by_name,
+        globals: c.globals,
+        global_index: c.global_index,
+        data,
+        lines: modules.iter().map(|m| Arc::from(m.lines.clone())).collect(),
+        warnings: modules.iter().flat_map(|m| m.warnings.clone()).collect(),
+    })
+}
+
+struct Compiler {
+    errors: Vec<ParseError>,
+    file: String,
+    globals: [Vec<String>; 4],
+    global_index: [HashMap<String, u32>; 4],
+    by_name: HashMap<String, usize>,
+    // Per program being compiled:
+    locals: [Vec<String>; 4],
+    local_index: [HashMap<String, u32>; 4],
+    ops: Vec<Op>,
+    lines: Vec<u32>,
+    labels: HashMap<String, (usize, Span)>,
+    /// (op index, label) of jumps to resolve.
+    fixups: Vec<(usize, Label)>,
+    hidden: u32,
+}
+
+type CResult<T> = Result<T, ParseError>;
+
+impl Compiler {
+    fn err(&self, span: Span, msg: impl Into<String>) -> ParseError {
+        ParseError::new(&self.file, span, msg)
+    }
+
+    fn global(&mut self, ty: Ty, name: &str) -> u32 {
+        let t = ty as usize;
+        if let Some(&s) = self.global_index[t].get(name) {
+            return s;
+        }
+        let s = self.globals[t].len() as u32;
+        self.globals[t].push(name.to_owned());
+        self.global_index[t].insert(name.to_owned(), s);
+        s
+    }
+
+    fn local(&mut self, ty: Ty, name: &str) -> u32 {
+        let t = ty as usize;
+        if let Some(&s) = self.local_index[t].get(name) {
+            return s;
+        }
+        let s = self.locals[t].len() as u32;
+        self.locals[t].push(name.to_owned());
+        self.local_index[t].insert(name.to_owned(), s);
+        s
+    }
+
+    fn hidden_local(&mut self, ty: Ty) -> u32 {
+        self.hidden += 1;
+        let name = format!("~{}", self.hidden);
+        self.local(ty, &name)
+    }
+
+    fn program(&mut self, module: usize, p: &Program) -> CProgram {
+        self.locals = Default::default();
+        self.local_index = Default::default();
+        self.ops.clear();
+        self.lines.clear();
+        self.labels.clear();
+        self.fixups.clear();
+        self.hidden = 0;
+        let mut params = Vec::new();
+        for prm in &p.params {
+            let ty = match prm.name.sigil {
+                Sigil::None => Ty::Real,
+                Sigil::Dollar => Ty::Str,
+                Sigil::Hash => Ty::Joint,
+            };
+            if self.local_index[ty as usize].contains_key(&prm.name.text) {
+                self.errors
+                    .push(self.err(prm.span, format!("parameter {} appears twice", prm.name)));
+            }
+            let slot = self.local(ty, &prm.name.text);
+            params.push(CParam {
+                ty,
+                slot,
+                by_ref: prm.by_ref,
+            });
+        }
+        self.block(&p.body);
+        self.emit(Op::End, p.end_line);
+        let fixups = std::mem::take(&mut self.fixups);
+        for (at, label) in fixups {
+            match self.labels.get(&label.name) {
+                Some(&(target, _)) => match &mut self.ops[at] {
+                    Op::Jump(t) | Op::JumpIf(_, t) => *t = target,
+                    Op::On { goto, .. } => *goto = Some(target),
+                    _ => {}
+                },
+                None => {
+                    let e = self.err(
+                        label.span,
+                        format!("label {} is not defined in program {}", label.name, p.name),
+                    );
+                    self.errors.push(e);
+                }
+            }
+        }
+        CProgram {
+            name: p.name.clone(),
+            module,
+            params,
+            ops: std::mem::take(&mut self.ops),
+            lines: std::mem::take(&mut self.lines),
+            locals: [
+                self.locals[0].len(),
+                self.locals[1].len(),
+                self.locals[2].len(),
+                self.locals[3].len(),
+            ],
+            local_names: std::mem::take(&mut self.locals),
+        }
+    }
+
+    fn emit(&mut self, op: Op, line: u32) -> usize {
+        self.ops.push(op);
+        self.lines.push(line);
+        self.ops.len() - 1
+    }
+
+    fn block(&mut self, stmts: &[Stmt]) {
+        for s in stmts {
+            if let Err(e) = self.stmt(s) {
+                if self.errors.len() < MAX_REPORTED {
+                    self.errors.push(e);
+                }
+            }
+        }
+    }
+
+    fn set_target(&mut self, at: usize, target: usize) {
+        match &mut self.ops[at] {
+            Op::Jump(t) | Op::JumpIfNot(_, t) | Op::JumpIf(_, t) => *t = target,
+            Op::ForInit { exit, .. } => *exit = target,
+            Op::CaseTestR(_, _, t) | Op::CaseTestS(_, _, t) => *t = target,
+            _ => {}
+        }
+    }
+
+    fn stmt(&mut self, s: &Stmt) -> CResult<()> {
+        let line = s.span.line;
+        if let Some(l) = &s.label {
+            let here = self.ops.len();
+            if let Some((_, prev)) = self.labels.insert(l.name.clone(), (here, l.span)) {
+                return Err(self.err(
+                    l.span,
+                    format!(
+                        "label {} is defined twice (first at line {})",
+                        l.name, prev.line
+                    ),
+                ));
+            }
+        }
+        match &s.kind {
+            StmtKind::Empty => {
+                if s.label.is_some() {
+                    self.emit(Op::Nop, line);
+                }
+            }
+            StmtKind::Assign { target, value } => {
+                let op = self.assign(target, value)?;
+                self.emit(op, line);
+            }
+            StmtKind::If {
+                cond,
+                then,
+                otherwise,
+            } => {
+                let c = self.real(cond)?;
+                let jf = self.emit(Op::JumpIfNot(c, 0), line);
+                self.block(then);
+                if otherwise.is_empty() {
+                    let end = self.ops.len();
+                    self.set_target(jf, end);
+                } else {
+                    let jend = self.emit(Op::Jump(0), line);
+                    let else_at = self.ops.len();
+                    self.set_target(jf, else_at);
+                    self.block(otherwise);
+                    let end = self.ops.len();
+                    self.set_target(jend, end);
+                }
+            }
+            StmtKind::IfGoto { cond, label } => {
+                let c = self.real(cond)?;
+                let at = self.emit(Op::JumpIf(c, 0), line);
+                self.fixups.push((at, label.clone()));
+            }
+            StmtKind::While { cond, body } => {
+                let c = self.real(cond)?;
+                let top = self.emit(Op::JumpIfNot(c, 0), line);
+                self.block(body);
+                let back = self.ops.len();
+                self.emit(Op::Jump(top), line);
+                let _ = back;
+                let end = self.ops.len();
+                self.set_target(top, end);
+            }
+            StmtKind::DoUntil { body, cond } => {
+                let top = self.ops.len();
+                self.emit(Op::Nop, line);
+                self.block(body);
+                let c = self.real(cond)?;
+                let until_line = cond.span.line;
+                self.emit(Op::JumpIfNot(c, top), until_line);
+            }
+            StmtKind::For {
+                var,
+                from,
+                to,
+                step,
+                body,
+            } => {
+                let v = self.lref(var, Ty::Real)?;
+                let from = self.real(from)?;
+                let to = self.real(to)?;
+                let step = step.as_ref().map(|e| self.real(e)).transpose()?;
+                let limit = self.hidden_local(Ty::Real);
+                let step_slot = self.hidden_local(Ty::Real);
+                let init = self.emit(
+                    Op::ForInit {
+                        var: v.clone(),
+                        from,
+                        to,
+                        step,
+                        limit,
+                        step_slot,
+                        exit: 0,
+                    },
+                    line,
+                );
+                let body_at = self.ops.len();
+                self.block(body);
+                self.emit(
+                    Op::ForNext {
+                        var: v,
+                        limit,
+                        step_slot,
+                        body: body_at,
+                    },
+                    line,
+                );
+                let end = self.ops.len();
+                self.set_target(init, end);
+            }
+            StmtKind::Case { selector, arms } => {
+                let sel = self.expr(selector)?;
+                let (is_str, slot) = match sel {
+                    CExpr::R(r) => {
+                        let slot = self.hidden_local(Ty::Real);
+                        self.emit(Op::CaseSelR(r, slot), line);
+                        (false, slot)
+                    }
+                    CExpr::S(sx) => {
+                        let slot = self.hidden_local(Ty::Str);
+                        self.emit(Op::CaseSelS(sx, slot), line);
+                        (true, slot)
+                    }
+                    other => {
+                        return Err(self.err(
+                            selector.span,
+                            format!("CASE needs a real or a string, found {}", other.ty().name()),
+                        ));
+                    }
+                };
+                let mut ends = Vec::new();
+                for arm in arms {
+                    let test = match &arm.values {
+                        Some(values) => {
+                            let at = if is_str {
+                                let v = values
+                                    .iter()
+                                    .map(|e| self.string(e))
+                                    .collect::<CResult<Vec<_>>>()?;
+                                self.emit(Op::CaseTestS(v.into(), slot, 0), arm.span.line)
+                            } else {
+                                let v = values
+                                    .iter()
+                                    .map(|e| self.real(e))
+                                    .collect::<CResult<Vec<_>>>()?;
+                                self.emit(Op::CaseTestR(v.into(), slot, 0), arm.span.line)
+                            };
+                            Some(at)
+                        }
+                        None => None,
+                    };
+                    self.block(&arm.body);
+                    ends.push(self.emit(Op::Jump(0), arm.span.line));
+                    if let Some(at) = test {
+                        let next = self.ops.len();
+                        self.set_target(at, next);
+                    }
+                }
+                let end = self.ops.len();
+                for j in ends {
+                    self.set_target(j, end);
+                }
+            }
+            StmtKind::Goto(label) => {
+                let at = self.emit(Op::Jump(0), line);
+                self.fixups.push((at, label.clone()));
+            }
+            StmtKind::Call { program, args } => {
+                let p = self.program_ref(program, s.span)?;
+                let args = self.args(args)?;
+                self.emit(Op::Call(p, args), line);
+            }
+            StmtKind::Return => {
+                self.emit(Op::Return, line);
+            }
+            StmtKind::Print { items } => {
+                let items = self.items(items)?;
+                self.emit(Op::Print(items), line);
+            }
+            StmtKind::Twait(e) => {
+                let e = self.real(e)?;
+                self.emit(Op::Twait(e), line);
+            }
+            StmtKind::Wait(e) => {
+                let e = self.real(e)?;
+                self.emit(Op::Wait(e), line);
+            }
+            StmtKind::Halt => {
+                self.emit(Op::Halt, line);
+            }
+            StmtKind::Stop => {
+                self.emit(Op::Stop, line);
+            }
+            StmtKind::Pause => {
+                self.emit(Op::Pause, line);
+            }
+            StmtKind::Signal(v) => {
+                let v = v
+                    .iter()
+                    .map(|e| self.real(e))
+                    .collect::<CResult<Vec<_>>>()?;
+                self.emit(Op::Signal(v.into()), line);
+            }
+            StmtKind::On {
+                immediate,
+                signal,
+                action,
+            } => {
+                let signal = self.real(signal)?;
+                match action {
+                    OnAction::Goto(label) => {
+                        let at = self.emit(
+                            Op::On {
+                                immediate: *immediate,
+                                signal,
+                                goto: None,
+                                call: None,
+                            },
+                            line,
+                        );
+                        self.fixups.push((at, label.clone()));
+                    }
+                    OnAction::Call(p) => {
+                        let p = self.program_ref(p, s.span)?;
+                        self.emit(
+                            Op::On {
+                                immediate: *immediate,
+                                signal,
+                                goto: None,
+                                call: Some(p),
+                            },
+                            line,
+                        );
+                    }
+                }
+            }
+            StmtKind::Ignore(e) => {
+                let e = self.real(e)?;
+                self.emit(Op::Ignore(e), line);
+            }
+            StmtKind::Monitor(m) => {
+                let op = match m {
+                    MonitorCommand::Execute {
+                        program,
+                        args,
+                        cycles,
+                    } => Op::Execute {
+                        program: self.program_ref(program, s.span)?,
+                        args: self.args(args)?,
+                        cycles: cycles.as_ref().map(|e| self.real(e)).transpose()?,
+                    },
+                    MonitorCommand::PcExecute {
+                        task,
+                        program,
+                        args,
+                        cycles,
+                    } => Op::PcExecute {
+                        task: task.as_ref().map(|e| self.real(e)).transpose()?,
+                        program: self.program_ref(program, s.span)?,
+                        args: self.args(args)?,
+                        cycles: cycles.as_ref().map(|e| self.real(e)).transpose()?,
+                    },
+                    MonitorCommand::PcAbort { task } => {
+                        Op::PcAbort(task.as_ref().map(|e| self.real(e)).transpose()?)
+                    }
+                    MonitorCommand::Abort => Op::McAbort,
+                    MonitorCommand::Hold => Op::McHold,
+                    MonitorCommand::Continue => Op::McContinue,
+                    MonitorCommand::Speed(e) => Op::McSpeed(self.real(e)?),
+                    MonitorCommand::Ereset => Op::McEreset,
+                };
+                self.emit(op, line);
+            }
+            StmtKind::SetSwitch { name, on } => {
+                let idx = keywords::SYSTEM_SWITCHES
+                    .iter()
+                    .position(|(n, _)| n == name)
+                    .ok_or_else(|| {
+                        self.err(
+                            s.span,
+                            format!("{} is not a system switch", name.to_uppercase()),
+                        )
+                    })?;
+                self.emit(Op::SetSwitch(idx, *on), line);
+            }
+            StmtKind::Timer { timer, value } => {
+                let t = self.real(timer)?;
+                let v = self.real(value)?;
+                self.emit(Op::Timer(t, v), line);
+            }
+            StmtKind::Decompose { target, source } => {
+                let t = self.lref(target, Ty::Real)?;
+                let src = self.loc(source)?;
+                self.emit(Op::Decompose(t, src), line);
+            }
+            StmtKind::Here { target } => {
+                let op = match target.name.sigil {
+                    Sigil::Hash => Op::HereJ(self.lref(target, Ty::Joint)?),
+                    Sigil::None => Op::HereT(self.lref(target, Ty::Trans)?),
+                    Sigil::Dollar => {
+                        return Err(self.err(
+                            target.span,
+                            "HERE needs a location variable (#name or name)",
+                        ))
+                    }
+                };
+                self.emit(op, line);
+            }
+            StmtKind::Point { target, value } => {
+                let op = match target.name.sigil {
+                    Sigil::Hash => {
+                        let t = self.lref(target, Ty::Joint)?;
+                        match self.loc(value)? {
+                            Loc::J(j) => Op::AssignJ(t, j),
+                            Loc::T(_) => return Err(self.err(value.span, "POINT #name needs a joint point on the right (converting a transformation to joint values is not supported)")),
+                        }
+                    }
+                    Sigil::None => {
+                        let t = self.lref(target, Ty::Trans)?;
+                        match self.loc(value)? {
+                            Loc::T(x) => Op::AssignT(t, x),
+                            Loc::J(_) => return Err(self.err(value.span, "POINT name needs a transformation on the right (converting joint values to a transformation is not supported; use HERE)")),
+                        }
+                    }
+                    Sigil::Dollar => {
+                        return Err(self.err(
+                            target.span,
+                            "POINT needs a location variable (#name or name)",
+                        ))
+                    }
+                };
+                self.emit(op, line);
+            }
+            StmtKind::Move { linear, target } => {
+                let l = self.loc(target)?;
+                self.emit(Op::Move(*linear, l), line);
+            }
+            StmtKind::Home(_) => {
+                self.emit(Op::Home, line);
+            }
+            StmtKind::Delay(e) => {
+                let e = self.real(e)?;
+                self.emit(Op::Delay(e), line);
+            }
+            StmtKind::Brake => {
+                self.emit(Op::Brake, line);
+            }
+            StmtKind::Break => {
+                self.emit(Op::Break, line);
+            }
+            StmtKind::Speed {
+                value,
+                unit,
+                always,
+            } => {
+                let v = self.real(value)?;
+                self.emit(Op::Speed(v, *unit, *always), line);
+            }
+            StmtKind::Accuracy {
+                value,
+                fine,
+                always,
+            } => {
+                let v = self.real(value)?;
+                self.emit(Op::Accuracy(v, *fine, *always), line);
+            }
+            StmtKind::AccelDecel {
+                decel,
+                value,
+                always,
+            } => {
+                let v = self.real(value)?;
+                self.emit(Op::AccelDecel(*decel, v, *always), line);
+            }
+            StmtKind::Cp(on) => {
+                self.emit(Op::Cp(*on), line);
+            }
+            StmtKind::Tcp(t) => {
+                let op = self.tcp(t)?;
+                self.emit(op, line);
+            }
+        }
+        Ok(())
+    }
+
+    fn tcp(&mut self, t: &TcpStmt) -> CResult<Op> {
+        Ok(match t {
+            TcpStmt::Listen { ret, port } => {
+                Op::TcpListen(self.lref(ret, Ty::Real)?, self.real(port)?)
+            }
+            TcpStmt::EndListen { ret, port } => {
+                Op::TcpEndListen(self.lref(ret, Ty::Real)?, self.real(port)?)
+            }
+            TcpStmt::Accept {
+                ret,
+                port,
+                timeout,
+                ip,
+            } => Op::TcpAccept {
+                ret: self.lref(ret, Ty::Real)?,
+                port: self.real(port)?,
+                timeout: timeout.as_ref().map(|e| self.real(e)).transpose()?,
+                ip: ip.as_ref().map(|l| self.lref(l, Ty::Real)).transpose()?,
+            },
+            TcpStmt::Recv {
+                ret,
+                sock,
+                buf,
+                count,
+                timeout,
+                max,
+            } => Op::TcpRecv {
+                ret: self.lref(ret, Ty::Real)?,
+                sock: self.real(sock)?,
+                buf: self.lref(buf, Ty::Str)?,
+                count: self.lref(count, Ty::Real)?,
+                timeout: timeout.as_ref().map(|e| self.real(e)).transpose()?,
+                max: max.as_ref().map(|e| self.real(e)).transpose()?,
+            },
+            TcpStmt::Send {
+                ret,
+                sock,
+                buf,
+                n,
+                timeout,
+            } => Op::TcpSend {
+                ret: self.lref(ret, Ty::Real)?,
+                sock: self.real(sock)?,
+                buf: self.lref(buf, Ty::Str)?,
+                n: self.real(n)?,
+                timeout: timeout.as_ref().map(|e| self.real(e)).transpose()?,
+            },
+            TcpStmt::Close { ret, sock } => {
+                Op::TcpClose(self.lref(ret, Ty::Real)?, self.real(sock)?)
+            }
+            TcpStmt::Connect {
+                ret,
+                port,
+                ip,
+                timeout,
+            } => Op::TcpConnect {
+                ret: self.lref(ret, Ty::Real)?,
+                port: self.real(port)?,
+                ip: self.lref(ip, Ty::Real)?,
+                timeout: timeout.as_ref().map(|e| self.real(e)).transpose()?,
+            },
+        })
+    }
+
+    fn program_ref(&self, name: &str, span: Span) -> CResult<usize> {
+        self.by_name.get(name).copied().ok_or_else(|| {
+            self.err(
+                span,
+                format!("program {name} is not defined (load the file that holds it)"),
+            )
+        })
+    }
+
+    fn args(&mut self, args: &[Expr]) -> CResult<Box<[CArg]>> {
+        let mut out = Vec::new();
+        for a in args {
+            let value = self.expr(a)?;
+            let var = match &a.kind {
+                ExprKind::Var(lv) if !is_name_function(&lv.name) => {
+                    let ty = value.ty();
+                    Some((ty, self.lref(lv, ty)?))
+                }
+                _ => None,
+            };
+            out.push(CArg { value, var });
+        }
+        Ok(out.into())
+    }
+
+    fn items(&mut self, items: &[PrintItem]) -> CResult<Box<[Item]>> {
+        items
+            .iter()
+            .map(|it| match it {
+                PrintItem::Format(f, _) => Ok(Item::Format(*f)),
+                PrintItem::Expr(e) => match self.expr(e)? {
+                    CExpr::R(r) => Ok(Item::Real(r)),
+                    CExpr::S(s) => Ok(Item::Str(s)),
+                    other => Err(self.err(e.span, format!("PRINT and $ENCODE take reals and strings, found {} (DECOMPOSE it into reals first)", other.ty().name()))),
+                },
+            })
+            .collect::<CResult<Vec<_>>>()
+            .map(Into::into)
+    }
+
+    fn assign(&mut self, target: &LValue, value: &Expr) -> CResult<Op> {
+        let ty = match target.name.sigil {
+            Sigil::None => Ty::Real,
+            Sigil::Dollar => Ty::Str,
+            Sigil::Hash => Ty::Joint,
+        };
+        if !target.name.local && is_name_function(&target.name) {
+            return Err(self.err(
+                target.span,
+                format!(
+                    "{} is a reserved word and cannot be assigned",
+                    target.name.text.to_uppercase()
+                ),
+            ));
+        }
+        let l = self.lref(target, ty)?;
+        Ok(match ty {
+            Ty::Real => Op::AssignR(l, self.real(value)?),
+            Ty::Str => Op::AssignS(l, self.string(value)?),
+            _ => match self.loc(value)? {
+                Loc::J(j) => Op::AssignJ(l, j),
+                Loc::T(_) => {
+                    return Err(self.err(
+                        value.span,
+                        "a joint point needs a joint value (#PPOINT(…), #HERE or #name)",
+                    ))
+                }
+            },
+        })
+    }
+
+    fn lref(&mut self, lv: &LValue, ty: Ty) -> CResult<LRef> {
+        let want = match ty {
+            Ty::Real | Ty::Trans => Sigil::None,
+            Ty::Str => Sigil::Dollar,
+            Ty::Joint => Sigil::Hash,
+        };
+        if lv.name.sigil != want {
+            return Err(self.err(
+                lv.span,
+                format!("expected {} variable, found {}", ty.name(), lv.name),
+            ));
+        }
+        let idx = lv
+            .indices
+            .iter()
+            .map(|e| self.real(e))
+            .collect::<CResult<Vec<_>>>()?;
+        let var = if lv.name.local {
+            VarRef {
+                global: false,
+                slot: self.local(ty, &lv.name.text),
+            }
+        } else {
+            VarRef {
+                global: true,
+                slot: self.global(ty, &lv.name.text),
+            }
+        };
+        Ok(LRef {
+            var,
+            idx: idx.into(),
+        })
+    }
+
+    fn real(&mut self, e: &Expr) -> CResult<RExpr> {
+        match self.expr(e)? {
+            CExpr::R(r) => Ok(r),
+            other => Err(self.err(
+                e.span,
+                format!("expected a real value, found {}", other.ty().name()),
+            )),
+        }
+    }
+
+    fn string(&mut self, e: &Expr) -> CResult<SExpr> {
+        match self.expr(e)? {
+            CExpr::S(s) => Ok(s),
+            other => Err(self.err(
+                e.span,
+                format!("expected a string, found {}", other.ty().name()),
+            )),
+        }
+    }
+
+    /// A location: a joint point or a transformation (a plain name is a transformation here).
+    fn loc(&mut self, e: &Expr) -> CResult<Loc> {
+        match &e.kind {
+            ExprKind::Var(lv) if lv.name.sigil == Sigil::None && !lv.name.local && lv.name.text == "here" && lv.indices.is_empty() => Ok(Loc::T(TExpr::Here)),
+            ExprKind::Var(lv) if lv.name.sigil == Sigil::None => Ok(Loc::T(TExpr::Var(self.lref(lv, Ty::Trans)?))),
+            ExprKind::Call { name, args } if name.sigil == Sigil::None && name.text == "trans" => {
+                Ok(Loc::T(TExpr::Trans(self.reals_up_to(args, 6, "TRANS", e.span)?)))
+            }
+            ExprKind::Binary(BinOp::Add, a, b) => match (self.loc(a)?, self.loc(b)?) {
+                (Loc::T(x), Loc::T(y)) => Ok(Loc::T(TExpr::Compose(Box::new(x), Box::new(y)))),
+                _ => Err(self.err(e.span, "only transformations can be composed with +")),
+            },
+            _ => match self.expr(e)? {
+                CExpr::J(j) => Ok(Loc::J(j)),
+                CExpr::T(t) => Ok(Loc::T(t)),
+                other => Err(self.err(e.span, format!("expected a location (#point, #PPOINT(…), a transformation, HERE), found {}", other.ty().name()))),
+            },
+        }
+    }
+
+    fn reals_up_to(
+        &mut self,
+        args: &[Arg],
+        n: usize,
+        what: &str,
+        span: Span,
+    ) -> CResult<Box<[RExpr]>> {
+        if args.len() > n {
+            return Err(self.err(span, format!("{what} takes at most {n} values")));
+        }
+        let mut v = Vec::new();
+        for a in args {
+            match a {
+                Arg::Expr(e) => v.push(self.real(e)?),
+                Arg::Format(_, s) => {
+                    return Err(self.err(*s, "a format code is allowed only in $ENCODE"))
+                }
+            }
+        }
+        Ok(v.into())
+    }
+
+    fn expr(&mut self, e: &Expr) -> CResult<CExpr> {
+        match &e.kind {
+            ExprKind::Num(v) => {
+                let f = *v as f32;
+                if !f.is_finite() {
+                    return Err(self.err(e.span, "number too large for an AS real (32-bit)"));
+                }
+                Ok(CExpr::R(RExpr::Const(f)))
+            }
+            ExprKind::Str(s) => Ok(CExpr::S(SExpr::Const(Arc::from(s.as_slice())))),
+            ExprKind::Var(lv) => self.var_expr(lv),
+            ExprKind::Unary(op, a) => {
+                let a = Box::new(self.real(a)?);
+                Ok(CExpr::R(match op {
+                    UnOp::Neg => match *a {
+                        RExpr::Const(v) => RExpr::Const(-v),
+                        a => RExpr::Neg(Box::new(a)),
+                    },
+                    UnOp::Not => RExpr::Not(a),
+                    UnOp::Com => RExpr::Com(a),
+                }))
+            }
+            ExprKind::Binary(op, a, b) => {
+                let x = self.expr(a)?;
+                let y = self.expr(b)?;
+                match (x, y) {
+                    (CExpr::R(x), CExpr::R(y)) => {
+                        Ok(CExpr::R(RExpr::Bin(*op, Box::new(x), Box::new(y))))
+                    }
+                    (CExpr::S(x), CExpr::S(y)) => match op {
+                        BinOp::Add => Ok(CExpr::S(SExpr::Concat(Box::new(x), Box::new(y)))),
+                        BinOp::Eq | BinOp::Ne | BinOp::Lt | BinOp::Gt | BinOp::Le | BinOp::Ge => {
+                            Ok(CExpr::R(RExpr::StrCmp(*op, Box::new(x), Box::new(y))))
+                        }
+                        _ => Err(self.err(e.span, "strings take only + (join) and comparisons")),
+                    },
+                    (CExpr::T(x), CExpr::T(y)) if *op == BinOp::Add => {
+                        Ok(CExpr::T(TExpr::Compose(Box::new(x), Box::new(y))))
+                    }
+                    (x, y) => Err(self.err(
+                        e.span,
+                        format!(
+                            "cannot combine {} and {} with this operator",
+                            x.ty().name(),
+                            y.ty().name()
+                        ),
+                    )),
+                }
+            }
+            ExprKind::Call { name, args } => self.call(name, args, e.span),
+        }
+    }
+
+    fn var_expr(&mut self, lv: &LValue) -> CResult<CExpr> {
+        let n = &lv.name;
+        if !n.local && lv.indices.is_empty() {
+            match (n.sigil, n.text.as_str()) {
+                (Sigil::None, "true" | "on") => return Ok(CExpr::R(RExpr::Const(-1.0))),
+                (Sigil::None, "false" | "off") => return Ok(CExpr::R(RExpr::Const(0.0))),
+                (Sigil::None, "pi") => return Ok(CExpr::R(RExpr::Const(std::f32::consts::PI))),
+                (Sigil::None, "error") => return Ok(CExpr::R(RExpr::Error)),
+                (Sigil::None, "here") => return Ok(CExpr::T(TExpr::Here)),
+                (Sigil::Hash, "here") => return Ok(CExpr::J(JExpr::Here)),
+                _ => {}
+            }
+        }
+        Ok(match n.sigil {
+            Sigil::None => CExpr::R(RExpr::Var(self.lref(lv, Ty::Real)?)),
+            Sigil::Dollar => CExpr::S(SExpr::Var(self.lref(lv, Ty::Str)?)),
+            Sigil::Hash => CExpr::J(JExpr::Var(self.lref(lv, Ty::Joint)?)),
+        })
+    }
+
+    fn arity(&self, name: &Name, args: &[Arg], min: usize, max: usize, span: Span) -> CResult<()> {
+        if args.len() < min || args.len() > max {
+            let want = if min == max {
+                format!("{min}")
+            } else {
+                format!("{min} to {max}")
+            };
+            return Err(self.err(
+                span,
+                format!(
+                    "{} takes {want} argument(s), found {}",
+                    display_fn(name),
+                    args.len()
+                ),
+            ));
+        }
+        for a in args {
+            if let Arg::Format(_, s) = a {
+                return Err(self.err(*s, "a format code is allowed only in $ENCODE"));
+            }
+        }
+        Ok(())
+    }
+
+    fn arg_expr<'e>(&self, a: &'e Arg) -> CResult<&'e Expr> {
+        match a {
+            Arg::Expr(e) => Ok(e),
+            Arg::Format(_, s) => Err(self.err(*s, "a format code is allowed only in $ENCODE")),
+        }
+    }
+
+    fn arg_real(&mut self, a: &Arg) -> CResult<RExpr> {
+        let e = self.arg_expr(a)?.clone();
+        self.real(&e)
+    }
+
+    fn arg_str(&mut self, a: &Arg) -> CResult<SExpr> {
+        let e = self.arg_expr(a)?.clone();
+        self.string(&e)
+    }
+
+    fn call(&mut self, name: &Name, args: &[Arg], span: Span) -> CResult<CExpr> {
+        match (name.sigil, name.text.as_str()) {
+            (
+                Sigil::None,
+                f @ ("abs" | "sqrt" | "sin" | "cos" | "tan" | "int" | "task" | "timer"),
+            ) => {
+                self.arity(name, args, 1, 1, span)?;
+                let a = self.arg_real(&args[0])?;
+                let func = match f {
+                    "abs" => RFunc::Abs,
+                    "sqrt" => RFunc::Sqrt,
+                    "sin" => RFunc::Sin,
+                    "cos" => RFunc::Cos,
+                    "tan" => RFunc::Tan,
+                    "int" => RFunc::Int,
+                    "task" => RFunc::Task,
+                    _ => RFunc::Timer,
+                };
+                Ok(CExpr::R(RExpr::Func(func, vec![a].into())))
+            }
+            (Sigil::None, "atan2") => {
+                self.arity(name, args, 2, 2, span)?;
+                let v = vec![self.arg_real(&args[0])?, self.arg_real(&args[1])?];
+                Ok(CExpr::R(RExpr::Func(RFunc::Atan2, v.into())))
+            }
+            (Sigil::None, f @ ("maxval" | "minval" | "sig")) => {
+                self.arity(name, args, 1, 32, span)?;
+                let v = args
+                    .iter()
+                    .map(|a| self.arg_real(a))
+                    .collect::<CResult<Vec<_>>>()?;
+                let func = match f {
+                    "maxval" => RFunc::MaxVal,
+                    "minval" => RFunc::MinVal,
+                    _ => RFunc::Sig,
+                };
+                Ok(CExpr::R(RExpr::Func(func, v.into())))
+            }
+            (Sigil::None, "val") => {
+                self.arity(name, args, 1, 2, span)?;
+                let s = self.arg_str(&args[0])?;
+                let radix = args.get(1).map(|a| self.arg_real(a)).transpose()?;
+                Ok(CExpr::R(RExpr::Val(Box::new(s), radix.map(Box::new))))
+            }
+            (Sigil::None, "len") => {
+                self.arity(name, args, 1, 1, span)?;
+                Ok(CExpr::R(RExpr::Len(Box::new(self.arg_str(&args[0])?))))
+            }
+            (Sigil::None, "asc") => {
+                self.arity(name, args, 1, 2, span)?;
+                let s = self.arg_str(&args[0])?;
+                let n = args.get(1).map(|a| self.arg_real(a)).transpose()?;
+                Ok(CExpr::R(RExpr::Asc(Box::new(s), n.map(Box::new))))
+            }
+            (Sigil::None, "instr") => {
+                self.arity(name, args, 2, 3, span)?;
+                if args.len() == 3 {
+                    let start = self.arg_real(&args[0])?;
+                    let s = self.arg_str(&args[1])?;
+                    let sub = self.arg_str(&args[2])?;
+                    Ok(CExpr::R(RExpr::Instr(
+                        Some(Box::new(start)),
+                        Box::new(s),
+                        Box::new(sub),
+                    )))
+                } else {
+                    let s = self.arg_str(&args[0])?;
+                    let sub = self.arg_str(&args[1])?;
+                    Ok(CExpr::R(RExpr::Instr(None, Box::new(s), Box::new(sub))))
+                }
+            }
+            (Sigil::None, "dext") => {
+                self.arity(name, args, 2, 2, span)?;
+                let e = self.arg_expr(&args[0])?.clone();
+                let l = self.loc(&e)?;
+                let n = self.arg_real(&args[1])?;
+                Ok(CExpr::R(RExpr::Dext(Box::new(l), Box::new(n))))
+            }
+            (Sigil::None, "switch") => {
+                self.arity(name, args, 1, 1, span)?;
+                let e = self.arg_expr(&args[0])?;
+                let sw = match &e.kind {
+                    ExprKind::Var(lv)
+                        if !lv.name.local
+                            && lv.name.sigil == Sigil::None
+                            && lv.indices.is_empty() =>
+                    {
+                        switch_ref(&lv.name.text)
+                    }
+                    _ => None,
+                };
+                match sw {
+                    Some(s) => Ok(CExpr::R(RExpr::Switch(s))),
+                    None => Err(self.err(
+                        e.span,
+                        "SWITCH takes a switch name: POWER, RUN, REPEAT, TEACH_LOCK, CS, ERROR or a system switch such as ABS.SPEED",
+                    )),
+                }
+            }
+            (Sigil::None, "trans") => Ok(CExpr::T(TExpr::Trans(
+                self.reals_up_to(args, 6, "TRANS", span)?,
+            ))),
+            (Sigil::Hash, "ppoint") => Ok(CExpr::J(JExpr::PPoint(
+                self.reals_up_to(args, 6, "#PPOINT", span)?,
+            ))),
+            (Sigil::Dollar, "mid") => {
+                self.arity(name, args, 2, 3, span)?;
+                let s = self.arg_str(&args[0])?;
+                let start = self.arg_real(&args[1])?;
+                let n = args.get(2).map(|a| self.arg_real(a)).transpose()?;
+                Ok(CExpr::S(SExpr::Mid(
+                    Box::new(s),
+                    Box::new(start),
+                    n.map(Box::new),
+                )))
+            }
+            (Sigil::Dollar, f @ ("left" | "right")) => {
+                self.arity(name, args, 2, 2, span)?;
+                let s = self.arg_str(&args[0])?;
+                let n = self.arg_real(&args[1])?;
+                Ok(CExpr::S(if f == "left" {
+                    SExpr::Left(Box::new(s), Box::new(n))
+                } else {
+                    SExpr::Right(Box::new(s), Box::new(n))
+                }))
+            }
+            (Sigil::Dollar, "chr") => {
+                self.arity(name, args, 1, 1, span)?;
+                Ok(CExpr::S(SExpr::Chr(Box::new(self.arg_real(&args[0])?))))
+            }
+            (Sigil::Dollar, "error") => {
+                self.arity(name, args, 1, 1, span)?;
+                Ok(CExpr::S(SExpr::ErrorMsg(Box::new(
+                    self.arg_real(&args[0])?,
+                ))))
+            }
+            (Sigil::Dollar, "encode") => {
+                let items: Vec<PrintItem> = args
+                    .iter()
+                    .map(|a| match a {
+                        Arg::Expr(e) => PrintItem::Expr(e.clone()),
+                        Arg::Format(f, s) => PrintItem::Format(*f, *s),
+                    })
+                    .collect();
+                Ok(CExpr::S(SExpr::Encode(self.items(&items)?)))
+            }
+            (Sigil::Dollar, "decode") => {
+                self.arity(name, args, 2, 3, span)?;
+                let target =
+                    match self.arg_expr(&args[0])? {
+                        Expr {
+                            kind: ExprKind::Var(lv),
+                            ..
+                        } if lv.name.sigil == Sigil::Dollar => lv.clone(),
+                        other => return Err(self.err(
+                            other.span,
+                            "the first argument of $DECODE must be a string variable (it is cut)",
+                        )),
+                    };
+                let l = self.lref(&target, Ty::Str)?;
+                let delims = self.arg_str(&args[1])?;
+                let mode = match args.get(2) {
+                    Some(a) => self.arg_real(a)?,
+                    None => RExpr::Const(0.0),
+                };
+                Ok(CExpr::S(SExpr::Decode(l, Box::new(delims), Box::new(mode))))
+            }
+            _ => Err(self.err(span, format!("unknown function {}", display_fn(name)))),
+        }
+    }
+}
+
+fn display_fn(name: &Name) -> String {
+    name.to_string().to_uppercase()
+}
+
+/// Names that read as functions without parentheses (reserved, never variables).
+fn is_name_function(n: &Name) -> bool {
+    matches!(
+        (n.sigil, n.text.as_str()),
+        (
+            Sigil::None,
+            "true" | "false" | "on" | "off" | "pi" | "error" | "here"
+        ) | (Sigil::Hash, "here")
+    )
+}
+
+fn switch_ref(name: &str) -> Option<SwitchRef> {
+    Some(match name {
+        "power" => SwitchRef::Power,
+        "run" => SwitchRef::Run,
+        "repeat" => SwitchRef::Repeat,
+        "teach_lock" => SwitchRef::TeachLock,
+        "cs" => SwitchRef::CycleStart,
+        "error" => SwitchRef::InError,
+        other => SwitchRef::System(
+            keywords::SYSTEM_SWITCHES
+                .iter()
+                .position(|(n, _)| *n == other)?,
+        ),
+    })
+}

@@ -1,0 +1,2918 @@
+//! The interpreter: tasks, scheduler, statements and expressions on a clock it is given.
+//!
+//! See the crate documentation for the model (tasks, cost model, look-ahead) and docs/AS.md
+//! for every choice made where the AS manuals are silent.
+
+use std::collections::{HashMap, VecDeque};
+use std::sync::Arc;
+use std::time::Duration;
+
+use fs020n_kin::{Pose, Xyzoat};
+use fs020n_proto::format as fmt;
+use fs020n_proto::number::as_val;
+use fs020n_proto::ErrorCode;
+use serde::Serialize;
+
+use crate::ast::{BinOp, DataValue, FormatCode, Module, SpeedUnit};
+use crate::compile::{
+    compile, var_display, CArg, CExpr, Code, Item, JExpr, LRef, Loc, Op, RExpr, RFunc, SExpr,
+    SwitchRef, TExpr, Ty, VarRef,
+};
+use crate::error::{error_message, LoadError, ParseError, RuntimeError};
+use crate::keywords::SYSTEM_SWITCHES;
+use crate::system::{Issued, MotionKind, MotionRequest, SockPoll, Speed, System, Target, TaskId};
+use crate::value::{Bytes, Store, MAX_ELEMENTS, MAX_INDEX};
+
+/// How long statements take (see docs/AS.md, "Cost model").
+///
+/// Every executed step costs [`CostModel::statement`]; `PRINT`/`TYPE` add
+/// [`CostModel::print`] plus [`CostModel::print_per_byte`] for each byte printed (the terminal
+/// line is the slowest thing an AS loop usually does). Tasks run concurrently, each on its own
+/// timeline: a busy loop advances its own task's time, never freezes the clock, and does not
+/// slow the other tasks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct CostModel {
+    /// One program step (at least 1 µs).
+    pub statement: Duration,
+    /// Extra time of a PRINT/TYPE.
+    pub print: Duration,
+    /// Extra time per byte printed.
+    pub print_per_byte: Duration,
+}
+
+impl Default for CostModel {
+    fn default() -> Self {
+        CostModel {
+            statement: Duration::from_micros(20),
+            print: Duration::from_micros(500),
+            print_per_byte: Duration::from_micros(20),
+        }
+    }
+}
+
+/// Interpreter settings.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Config {
+    /// Statement costs.
+    pub cost: CostModel,
+    /// How often waiting conditions (`WAIT`, a planned motion, `BREAK`, HOLD) are checked; the
+    /// controller's cycle. Default 2 ms.
+    pub poll_period: Duration,
+    /// How long a signal must stay in its new state before `ON`/`ONI` fires (50 ms on the
+    /// controller).
+    pub signal_debounce: Duration,
+    /// Deepest `CALL` nesting before E0109.
+    pub max_call_depth: usize,
+    /// Terminal lines kept for [`Interpreter::terminal`].
+    pub terminal_lines: usize,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            cost: CostModel::default(),
+            poll_period: Duration::from_millis(2),
+            signal_debounce: Duration::from_millis(50),
+            max_call_depth: 32,
+            terminal_lines: 1000,
+        }
+    }
+}
+
+/// What `TASK(n)` returns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TaskState {
+    /// 0: not executing.
+    Idle,
+    /// 1: running.
+    Running,
+    /// 2: paused (HOLD, `MC HOLD`, `PAUSE`).
+    Paused,
+    /// 3: every step done, waiting for the robot's motion to finish.
+    WaitingMotion,
+}
+
+impl TaskState {
+    /// The number `TASK(n)` returns.
+    pub fn number(self) -> f32 {
+        match self {
+            TaskState::Idle => 0.0,
+            TaskState::Running => 1.0,
+            TaskState::Paused => 2.0,
+            TaskState::WaitingMotion => 3.0,
+        }
+    }
+}
+
+/// A task as the pendant shows it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TaskInfo {
+    /// `robot` or `pc1` … `pc5`.
+    pub task: String,
+    /// What `TASK(n)` returns.
+    pub state: TaskState,
+    /// The program (the innermost one when a CALL is in progress).
+    pub program: Option<String>,
+    /// The source line about to execute (or waiting).
+    pub line: Option<u32>,
+    /// Its text.
+    pub text: Option<String>,
+    /// What the task waits for, if anything.
+    pub waiting: Option<String>,
+    /// The error that last stopped it.
+    pub last_error: Option<String>,
+    /// Steps executed since start.
+    pub steps: u64,
+}
+
+/// A terminal line (`PRINT`/`TYPE`, or a controller message).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct TerminalLine {
+    /// When, since the interpreter started.
+    #[serde(serialize_with = "ser_secs")]
+    pub at: Duration,
+    /// Which task printed it.
+    pub task: TaskId,
+    /// The text.
+    pub text: String,
+}
+
+/// One executed step (see [`Interpreter::set_trace`]).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct TraceLine {
+    /// When it executed.
+    #[serde(serialize_with = "ser_secs")]
+    pub at: Duration,
+    /// The task.
+    pub task: TaskId,
+    /// The program.
+    pub program: String,
+    /// The source line.
+    pub line: u32,
+    /// Its text.
+    pub text: String,
+}
+
+impl std::fmt::Display for TraceLine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{:>10.4} {:<5} {}:{} {}",
+            self.at.as_secs_f64(),
+            self.task.to_string(),
+            self.program,
+            self.line,
+            self.text.trim()
+        )
+    }
+}
+
+fn ser_secs<S: serde::Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_f64(d.as_secs_f64())
+}
+
+/// Why a monitor command (`EXECUTE`, `PCEXECUTE`, …) was refused.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum Refusal {
+    /// The controller refuses with a P code (P1000 power off, P1001 TEACH, P1002 teach lock,
+    /// P1013 in error, P1009 already running).
+    #[error("({code}) {message}")]
+    Controller {
+        /// The code.
+        code: ErrorCode,
+        /// Its message.
+        message: String,
+    },
+    /// No program of that name is loaded.
+    #[error("program {0} is not loaded")]
+    NoProgram(String),
+    /// Another refusal (wrong task number, …).
+    #[error("{0}")]
+    Other(String),
+}
+
+fn p_code(code: i32, message: &str) -> Refusal {
+    Refusal::Controller {
+        code: ErrorCode(code),
+        message: message.to_owned(),
+    }
+}
+
+// ---------------------------------------------------------------------------- task internals
+
+#[derive(Debug, Clone)]
+struct ByRef {
+    ty: Ty,
+    param: u32,
+    var: VarRef,
+    idx: Vec<i32>,
+    locals: usize,
+}
+
+#[derive(Debug, Clone)]
+struct Frame {
+    prog: usize,
+    pc: usize,
+    locals: usize,
+    byref: Vec<ByRef>,
+    /// Entered by an `ON … CALL`: on RETURN the caller resumes at its own pc (not pc + 1).
+    interrupt: bool,
+}
+
+#[derive(Debug, Clone)]
+enum Wait {
+    Until(Duration),
+    Cond,
+    MotionPlanned,
+    MotionDone,
+    Held,
+    Paused,
+    Accept {
+        port: u16,
+        deadline: Duration,
+    },
+    Connect {
+        ip: [u8; 4],
+        port: u16,
+        deadline: Duration,
+    },
+    Recv {
+        sock: i32,
+        max: usize,
+        deadline: Duration,
+    },
+    Send {
+        sock: i32,
+        data: Vec<u8>,
+        deadline: Duration,
+    },
+}
+
+impl Wait {
+    fn polled(&self) -> bool {
+        matches!(
+            self,
+            Wait::Cond | Wait::MotionPlanned | Wait::MotionDone | Wait::Held
+        )
+    }
+
+    fn socket(&self) -> bool {
+        matches!(
+            self,
+            Wait::Accept { .. } | Wait::Connect { .. } | Wait::Recv { .. } | Wait::Send { .. }
+        )
+    }
+
+    fn describe(&self) -> String {
+        match self {
+            Wait::Until(_) => "TWAIT".into(),
+            Wait::Cond => "WAIT condition".into(),
+            Wait::MotionPlanned => {
+                "motion: waiting for the current motion to come within ACCURACY".into()
+            }
+            Wait::MotionDone => "BREAK: waiting for the motion to finish".into(),
+            Wait::Held => "HOLD".into(),
+            Wait::Paused => "PAUSE (MC CONTINUE resumes)".into(),
+            Wait::Accept { port, .. } => format!("TCP_ACCEPT on port {port}"),
+            Wait::Connect { port, .. } => format!("TCP_CONNECT to port {port}"),
+            Wait::Recv { sock, .. } => format!("TCP_RECV on socket {sock}"),
+            Wait::Send { sock, .. } => format!("TCP_SEND on socket {sock}"),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Interrupt {
+    signal: i32,
+    immediate: bool,
+    goto: Option<usize>,
+    call: Option<usize>,
+    depth: usize,
+    armed_at: Duration,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct MotionParams {
+    speed: Speed,
+    speed_once: Option<Speed>,
+    accuracy: (f64, bool),
+    accuracy_once: Option<(f64, bool)>,
+    accel: f64,
+    accel_once: Option<f64>,
+    decel: f64,
+    decel_once: Option<f64>,
+}
+
+impl Default for MotionParams {
+    fn default() -> Self {
+        MotionParams {
+            speed: Speed::Percent(100.0),
+            speed_once: None,
+            accuracy: (1.0, false),
+            accuracy_once: None,
+            accel: 100.0,
+            accel_once: None,
+            decel: 100.0,
+            decel_once: None,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Run {
+    Idle,
+    Running,
+    /// Robot task: the program ended, the motion is finishing (TASK = 3).
+    Ending,
+}
+
+#[derive(Debug, Clone)]
+struct Task {
+    id: TaskId,
+    run: Run,
+    frames: Vec<Frame>,
+    ready_at: Duration,
+    wait: Option<Wait>,
+    /// Re-check a socket wait now (another task used a socket).
+    kick: bool,
+    cycles_left: i64,
+    motion: MotionParams,
+    interrupts: Vec<Interrupt>,
+    pending_on: Option<Interrupt>,
+    last_error: Option<String>,
+    steps: u64,
+    line_buf: String,
+}
+
+impl Task {
+    fn new(id: TaskId) -> Task {
+        Task {
+            id,
+            run: Run::Idle,
+            frames: Vec::new(),
+            ready_at: Duration::ZERO,
+            wait: None,
+            kick: false,
+            cycles_left: 0,
+            motion: MotionParams::default(),
+            interrupts: Vec::new(),
+            pending_on: None,
+            last_error: None,
+            steps: 0,
+            line_buf: String::new(),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+struct SignalState {
+    on: bool,
+    changed: Duration,
+}
+
+/// Flow after one step.
+enum Flow {
+    /// Go on (pc already set).
+    Next,
+    /// The task waits (pc already set to where it resumes).
+    Wait(Wait),
+    /// The step may have changed other tasks (sockets, signals, monitor commands).
+    Shared,
+}
+
+/// Evaluated location.
+#[derive(Debug, Clone, Copy)]
+enum LocVal {
+    J([f32; 6]),
+    T([f32; 6]),
+}
+
+/// The AS interpreter: programs, variables and up to six tasks (robot task 1, PC tasks 1–5),
+/// advanced on a clock it is given by [`Interpreter::run_until`].
+///
+/// ```
+/// use std::time::Duration;
+/// use fs020n_as::{Interpreter, Config};
+/// use fs020n_as::testing::VirtualSystem;
+///
+/// let src = ".PROGRAM autostart.pc()\n  count = 0\n  WHILE TRUE DO\n    count = count + 1\n    TWAIT 0.1\n  END\n.END\n";
+/// let mut interp = Interpreter::from_source("demo.as", src, Config::default())?;
+/// let mut sys = VirtualSystem::new();
+/// interp.start(&mut sys);
+/// interp.run_until(&mut sys, Duration::from_millis(1050));
+/// assert_eq!(interp.real("count"), Some(11.0));
+/// # Ok::<(), fs020n_as::LoadError>(())
+/// ```
+#[derive(Debug, Clone)]
+pub struct Interpreter {
+    code: Arc<Code>,
+    cfg: Config,
+    now: Duration,
+    globals: Store,
+    locals: Vec<Store>,
+    /// Per program, per task: index into `locals` (u32::MAX: not yet allocated).
+    locals_index: Vec<[u32; 6]>,
+    elements: usize,
+    tasks: Vec<Task>,
+    signals: HashMap<i32, SignalState>,
+    timers: [Option<Duration>; 11],
+    switches: Vec<bool>,
+    mc_hold: bool,
+    terminal: VecDeque<TerminalLine>,
+    trace: Option<Vec<TraceLine>>,
+}
+
+/// Largest string, bytes.
+pub const MAX_STRING: usize = 255;
+
+/// Most bytes one `TCP_RECV` or `TCP_SEND` moves.
+pub const MAX_TRANSFER: usize = 4096;
+
+type R<T> = Result<T, RuntimeError>;
+
+fn check(v: f32, what: &str) -> R<f32> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(RuntimeError::Overflow(what.to_owned()))
+    }
+}
+
+fn truthy(v: f32) -> bool {
+    v != 0.0
+}
+
+fn as_bool(b: bool) -> f32 {
+    if b {
+        -1.0
+    } else {
+        0.0
+    }
+}
+
+fn to_i32(v: f32) -> i32 {
+    v as i32
+}
+
+fn secs(v: f32, what: &str) -> R<Duration> {
+    if !(v.is_finite() && v >= 0.0) {
+        return Err(RuntimeError::IllegalValue(format!(
+            "{what} {v} (expected seconds ≥ 0)"
+        )));
+    }
+    Ok(Duration::from_secs_f64(f64::from(v).min(1.0e7)))
+}
+
+impl Interpreter {
+    /// Loads parsed modules (all programs share the globals; the data sections are loaded).
+    pub fn new(modules: &[Module], config: Config) -> Result<Interpreter, LoadError> {
+        let code = compile(modules)?;
+        let mut globals = Store::with_sizes([
+            code.globals[0].len(),
+            code.globals[1].len(),
+            code.globals[2].len(),
+            code.globals[3].len(),
+        ]);
+        let mut elements = 0;
+        for (ty, slot, idx, value) in &code.data {
+            let s = *slot as usize;
+            let created = match (ty, value) {
+                (Ty::Real, DataValue::Real(v)) => globals.reals[s].set(idx, *v as f32),
+                (Ty::Str, DataValue::Str(b)) => globals.strs[s].set(idx, Arc::from(b.as_slice())),
+                (Ty::Joint, DataValue::Joints(j)) => {
+                    globals.joints[s].set(idx, j.map(|x| x as f32))
+                }
+                (Ty::Trans, DataValue::Trans(t)) => globals.trans[s].set(idx, t.map(|x| x as f32)),
+                _ => false,
+            };
+            elements += usize::from(created);
+        }
+        let mut cfg = config;
+        cfg.cost.statement = cfg.cost.statement.max(Duration::from_micros(1));
+        if cfg.poll_period.is_zero() {
+            cfg.poll_period = Duration::from_millis(2);
+        }
+        cfg.max_call_depth = cfg.max_call_depth.clamp(1, 1000);
+        Ok(Interpreter {
+            locals_index: vec![[u32::MAX; 6]; code.programs.len()],
+            code: Arc::new(code),
+            cfg,
+            now: Duration::ZERO,
+            globals,
+            locals: Vec::new(),
+            elements,
+            tasks: (0..6).map(|i| Task::new(TaskId::from_index(i))).collect(),
+            signals: HashMap::new(),
+            timers: [None; 11],
+            switches: SYSTEM_SWITCHES.iter().map(|(_, v)| *v).collect(),
+            mc_hold: false,
+            terminal: VecDeque::new(),
+            trace: None,
+        })
+    }
+
+    /// Parses and loads one file.
+    pub fn from_source(file: &str, text: &str, config: Config) -> Result<Interpreter, LoadError> {
+        let m = crate::parse(file, text)?;
+        Interpreter::new(&[m], config)
+    }
+
+    /// Things skipped while loading (unknown sections).
+    pub fn warnings(&self) -> &[ParseError] {
+        &self.code.warnings
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &Config {
+        &self.cfg
+    }
+
+    /// The loaded program names.
+    pub fn programs(&self) -> Vec<&str> {
+        self.code.programs.iter().map(|p| p.name.as_str()).collect()
+    }
+
+    /// Interpreter time (since it was created).
+    pub fn now(&self) -> Duration {
+        self.now
+    }
+
+    /// Controller start: runs `autostart.pc` in PC task 1 and `autostart2.pc` …
+    /// `autostart5.pc` in PC tasks 2–5, those that are loaded.
+    pub fn start(&mut self, sys: &mut dyn System) {
+        for n in 1..=5u8 {
+            let name = if n == 1 {
+                "autostart.pc".to_owned()
+            } else {
+                format!("autostart{n}.pc")
+            };
+            if let Some(&p) = self.code.by_name.get(&name) {
+                self.start_task(usize::from(n), p, &[], 1);
+                self.message(sys, TaskId::Pc(n), format!("{name} started in PC task {n}"));
+            }
+        }
+    }
+
+    /// `EXECUTE program` from outside (the pendant): starts it in robot task 1, with the
+    /// controller's checks.
+    pub fn execute(&mut self, program: &str, sys: &mut dyn System) -> Result<(), Refusal> {
+        let p = *self
+            .code
+            .by_name
+            .get(program)
+            .ok_or_else(|| Refusal::NoProgram(program.to_owned()))?;
+        self.execute_robot(p, Vec::new(), 1, sys)
+    }
+
+    /// `PCEXECUTE n: program` from outside.
+    pub fn pc_execute(&mut self, task: u8, program: &str) -> Result<(), Refusal> {
+        let p = *self
+            .code
+            .by_name
+            .get(program)
+            .ok_or_else(|| Refusal::NoProgram(program.to_owned()))?;
+        self.pc_execute_at(task, p, Vec::new(), 1)
+    }
+
+    /// Stops a task at once (`ABORT`/`PCABORT` from outside, a panel switch that stops the
+    /// robot program). The robot's motion is the system's business.
+    pub fn abort(&mut self, task: TaskId) {
+        let t = &mut self.tasks[task.index()];
+        t.run = Run::Idle;
+        t.frames.clear();
+        t.wait = None;
+        t.interrupts.clear();
+        t.pending_on = None;
+    }
+
+    // ------------------------------------------------------------------ observers
+
+    /// The state of a task as `TASK(n)` reports it now.
+    pub fn task_state(&self, task: TaskId, sys: &dyn System) -> TaskState {
+        let i = task.index();
+        let t = &self.tasks[i];
+        match t.run {
+            Run::Idle => TaskState::Idle,
+            Run::Ending => {
+                if sys.motion_in_progress() {
+                    TaskState::WaitingMotion
+                } else {
+                    TaskState::Idle
+                }
+            }
+            Run::Running => {
+                let held = i == 0 && (self.mc_hold || !sys.panel().run);
+                if held || matches!(t.wait, Some(Wait::Paused | Wait::Held)) {
+                    TaskState::Paused
+                } else {
+                    TaskState::Running
+                }
+            }
+        }
+    }
+
+    /// Every task: program, line, state, what it waits for.
+    pub fn tasks(&self, sys: &dyn System) -> Vec<TaskInfo> {
+        self.tasks
+            .iter()
+            .map(|t| {
+                let frame = t.frames.last();
+                let prog = frame.and_then(|f| self.code.programs.get(f.prog));
+                let line = frame.and_then(|f| prog.and_then(|p| p.lines.get(f.pc).copied()));
+                TaskInfo {
+                    task: t.id.to_string(),
+                    state: self.task_state(t.id, sys),
+                    program: prog.map(|p| p.name.clone()),
+                    line,
+                    text: match (frame, line) {
+                        (Some(f), Some(l)) => {
+                            Some(self.code.line_text(f.prog, l).trim().to_owned())
+                        }
+                        _ => None,
+                    },
+                    waiting: t.wait.as_ref().map(Wait::describe),
+                    last_error: t.last_error.clone(),
+                    steps: t.steps,
+                }
+            })
+            .collect()
+    }
+
+    /// The latest terminal lines (oldest first).
+    pub fn terminal(&self) -> impl Iterator<Item = &TerminalLine> {
+        self.terminal.iter()
+    }
+
+    /// Records every executed step from now on (`true`), or stops (`false`); see
+    /// [`Interpreter::take_trace`].
+    pub fn set_trace(&mut self, on: bool) {
+        self.trace = if on { Some(Vec::new()) } else { None };
+    }
+
+    /// The steps executed since the last call (empty unless tracing).
+    pub fn take_trace(&mut self) -> Vec<TraceLine> {
+        self.trace.as_mut().map(std::mem::take).unwrap_or_default()
+    }
+
+    fn global_slot(&self, ty: Ty, name: &str) -> Option<usize> {
+        self.code.global_index[ty as usize]
+            .get(&name.to_ascii_lowercase())
+            .map(|&s| s as usize)
+    }
+
+    /// A global real (`None`: never assigned or unknown).
+    pub fn real(&self, name: &str) -> Option<f32> {
+        self.real_at(name, &[])
+    }
+
+    /// An element of a global real array.
+    pub fn real_at(&self, name: &str, idx: &[i32]) -> Option<f32> {
+        let s = self.global_slot(Ty::Real, name)?;
+        self.globals.reals[s].get(idx).copied()
+    }
+
+    /// A global string (`name` without `$`).
+    pub fn string(&self, name: &str) -> Option<Vec<u8>> {
+        self.string_at(name, &[])
+    }
+
+    /// An element of a global string array.
+    pub fn string_at(&self, name: &str, idx: &[i32]) -> Option<Vec<u8>> {
+        let s = self.global_slot(Ty::Str, name)?;
+        self.globals.strs[s].get(idx).map(|b| b.to_vec())
+    }
+
+    /// A global joint point (`name` without `#`).
+    pub fn joints(&self, name: &str) -> Option<[f32; 6]> {
+        let s = self.global_slot(Ty::Joint, name)?;
+        self.globals.joints[s].get(&[]).copied()
+    }
+
+    /// Sets a global real that the programs use (returns `false` when no program names it).
+    pub fn set_real(&mut self, name: &str, value: f32) -> bool {
+        match self.global_slot(Ty::Real, name) {
+            Some(s) => {
+                self.globals.reals[s].set(&[], value);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Every global real scalar and array element, by name (for dumps and tests).
+    pub fn globals_dump(&self) -> Vec<(String, f32)> {
+        let mut out = Vec::new();
+        for (i, name) in self.code.globals[0].iter().enumerate() {
+            if let Some(v) = self.globals.reals[i].get(&[]) {
+                out.push((name.clone(), *v));
+            }
+            for (idx, v) in self.globals.reals[i].elements() {
+                let idx: Vec<String> = idx.iter().map(|i| i.to_string()).collect();
+                out.push((format!("{name}[{}]", idx.join(",")), v));
+            }
+        }
+        out
+    }
+
+    /// A signal's state (outputs 1–999, inputs 1001–1999, internal 2001–2960).
+    pub fn signal(&self, n: i32) -> bool {
+        self.signals.get(&n).is_some_and(|s| s.on)
+    }
+
+    /// Sets an external input (1001–1999) or any signal from outside, at the current time.
+    pub fn set_signal(&mut self, n: i32, on: bool) {
+        self.write_signal(n, on);
+    }
+
+    /// A system switch (`ABS.SPEED`, `CP`, …), `None` for an unknown name.
+    pub fn system_switch(&self, name: &str) -> Option<bool> {
+        let name = name.to_ascii_lowercase();
+        SYSTEM_SWITCHES
+            .iter()
+            .position(|(n, _)| *n == name)
+            .map(|i| self.switches[i])
+    }
+
+    /// Sets a system switch from outside (the pendant); `false` for an unknown name.
+    pub fn set_system_switch(&mut self, name: &str, on: bool) -> bool {
+        let name = name.to_ascii_lowercase();
+        match SYSTEM_SWITCHES.iter().position(|(n, _)| *n == name) {
+            Some(i) => {
+                self.switches[i] = on;
+                true
+            }
+            None => false,
+        }
+    }
+
+    fn switch_on(&self, name: &str) -> bool {
+        SYSTEM_SWITCHES
+            .iter()
+            .position(|(n, _)| *n == name)
+            .is_some_and(|i| self.switches[i])
+    }
+
+    /// The time of the next thing the interpreter will do by itself (a step, a timeout, a
+    /// poll of a waiting condition, an interrupt), `None` when every task is idle or waits
+    /// only for outside events.
+    pub fn next_event(&self) -> Option<Duration> {
+        self.next_event_from(None).map(|(t, _)| t)
+    }
+
+    // ------------------------------------------------------------------ scheduler
+
+    fn next_tick(&self, after: Duration) -> Duration {
+        let p = self.cfg.poll_period.as_nanos().max(1);
+        let n = after.as_nanos() / p + 1;
+        Duration::from_nanos((n * p).min(u64::MAX as u128) as u64)
+    }
+
+    fn task_wake(&self, i: usize) -> Option<Duration> {
+        let t = &self.tasks[i];
+        if t.run != Run::Running {
+            return None;
+        }
+        match &t.wait {
+            None => Some(t.ready_at.max(self.now)),
+            Some(w) => {
+                if t.kick && w.socket() {
+                    return Some(self.now);
+                }
+                match w {
+                    Wait::Until(d) => Some((*d).max(t.ready_at)),
+                    w if w.polled() => Some(
+                        self.next_tick(
+                            self.now
+                                .max(t.ready_at)
+                                .saturating_sub(Duration::from_nanos(1)),
+                        )
+                        .max(self.now),
+                    ),
+                    Wait::Paused => None,
+                    Wait::Accept { deadline, .. }
+                    | Wait::Connect { deadline, .. }
+                    | Wait::Recv { deadline, .. }
+                    | Wait::Send { deadline, .. } => Some((*deadline).max(t.ready_at)),
+                    _ => None,
+                }
+            }
+        }
+    }
+
+    fn interrupt_time(&self, i: usize) -> Option<Duration> {
+        let t = &self.tasks[i];
+        if t.run != Run::Running {
+            return None;
+        }
+        t.interrupts
+            .iter()
+            .filter_map(|int| {
+                let n = int.signal.abs();
+                let want = int.signal > 0;
+                let s = self.signals.get(&n)?;
+                (s.on == want && s.changed > int.armed_at)
+                    .then(|| s.changed + self.cfg.signal_debounce)
+            })
+            .min()
+    }
+
+    /// Earliest event, skipping task `skip`'s own steps; ties go to the lower task.
+    fn next_event_from(&self, skip: Option<usize>) -> Option<(Duration, usize)> {
+        let mut best: Option<(Duration, usize)> = None;
+        for i in 0..self.tasks.len() {
+            let mut cands = [self.interrupt_time(i), None];
+            if skip != Some(i) {
+                cands[1] = self.task_wake(i);
+            }
+            for t in cands.into_iter().flatten() {
+                if best.is_none_or(|(b, _)| t < b) {
+                    best = Some((t, i));
+                }
+            }
+        }
+        best
+    }
+
+    /// Runs every task up to `until` (statements, timeouts, waits, interrupts), calling
+    /// [`System::advance_to`] before each step. Events at exactly `until` run.
+    pub fn run_until(&mut self, sys: &mut dyn System, until: Duration) {
+        if until < self.now {
+            return;
+        }
+        // Something outside may have changed since the last call (a client connected, data
+        // arrived, a switch moved): look at every waiting task now.
+        for t in &mut self.tasks {
+            if t.wait.as_ref().is_some_and(Wait::socket) {
+                t.kick = true;
+            }
+        }
+        let mut guard: u64 = 0;
+        while let Some((t, i)) = self.next_event_from(None) {
+            if t > until {
+                break;
+            }
+            guard += 1;
+            if guard > 50_000_000 {
+                break;
+            }
+            if t > self.now {
+                self.now = t;
+                sys.advance_to(t);
+            }
+            if self.interrupt_time(i).is_some_and(|it| it <= self.now) {
+                self.fire_interrupt(i, sys);
+                continue;
+            }
+            self.wake(i, sys, until);
+        }
+        if until > self.now {
+            self.now = until;
+            sys.advance_to(until);
+        }
+    }
+
+    /// Task `i` is due: poll its wait, then run its steps until another event is due.
+    fn wake(&mut self, i: usize, sys: &mut dyn System, until: Duration) {
+        if !self.poll(i, sys) {
+            return;
+        }
+        let mut horizon = self
+            .next_event_from(Some(i))
+            .map_or(until, |(t, _)| t.min(until));
+        loop {
+            let t = &self.tasks[i];
+            if t.run != Run::Running || t.wait.is_some() {
+                return;
+            }
+            let at = t.ready_at.max(self.now);
+            if at > self.now {
+                // Another task (or the same instant of a lower task) goes first.
+                if at >= horizon || at > until {
+                    return;
+                }
+                self.now = at;
+                sys.advance_to(at);
+            }
+            match self.step(i, sys) {
+                Ok(Flow::Next) => {}
+                Ok(Flow::Shared) => {
+                    for (k, t) in self.tasks.iter_mut().enumerate() {
+                        if k != i && t.wait.as_ref().is_some_and(Wait::socket) {
+                            t.kick = true;
+                        }
+                    }
+                    horizon = self
+                        .next_event_from(Some(i))
+                        .map_or(until, |(t, _)| t.min(until));
+                }
+                Ok(Flow::Wait(w)) => {
+                    let t = &mut self.tasks[i];
+                    t.wait = Some(w);
+                    return;
+                }
+                Err(e) => {
+                    self.fail(i, e, sys);
+                    return;
+                }
+            }
+            if self.interrupt_time(i).is_some_and(|it| it <= self.now)
+                || self.tasks[i].pending_on.is_some()
+            {
+                return;
+            }
+        }
+    }
+
+    /// Robot task: stop it when the controller cannot run a program (error, power off, TEACH,
+    /// teach lock); `true` when it may go on.
+    fn robot_allowed(&mut self, sys: &mut dyn System) -> bool {
+        let panel = sys.panel();
+        let err = sys.error();
+        if !err.is_none() || !panel.power || !panel.repeat || panel.teach_lock {
+            let why = if !err.is_none() {
+                format!("program stopped: controller error {err}")
+            } else if !panel.power {
+                "program stopped: motor power OFF".into()
+            } else if !panel.repeat {
+                "program stopped: TEACH mode".into()
+            } else {
+                "program stopped: TEACH LOCK ON".into()
+            };
+            self.abort(TaskId::Robot);
+            self.message(sys, TaskId::Robot, why);
+            return false;
+        }
+        true
+    }
+
+    /// Polls task `i`'s wait; `true` when it may run steps now.
+    fn poll(&mut self, i: usize, sys: &mut dyn System) -> bool {
+        if self.tasks[i].run != Run::Running {
+            return false;
+        }
+        if i == 0 && !self.robot_allowed(sys) {
+            return false;
+        }
+        self.tasks[i].kick = false;
+        let now = self.now;
+        let Some(wait) = self.tasks[i].wait.take() else {
+            return self.deliver_on(i, sys);
+        };
+        let done: R<Option<Wait>> = (|| -> R<Option<Wait>> {
+            Ok(match wait {
+                Wait::Until(t) => (now < t).then_some(Wait::Until(t)),
+                Wait::Cond => {
+                    let e = match self.current_op(i) {
+                        Some(Op::Wait(e)) => e.clone(),
+                        _ => return Ok(None),
+                    };
+                    if truthy(self.eval_r(i, &e, sys)?) {
+                        self.advance_pc(i);
+                        None
+                    } else {
+                        Some(Wait::Cond)
+                    }
+                }
+                Wait::MotionPlanned => sys.motion_planned().then_some(Wait::MotionPlanned),
+                Wait::MotionDone => sys.motion_in_progress().then_some(Wait::MotionDone),
+                Wait::Held => (self.mc_hold || !sys.panel().run).then_some(Wait::Held),
+                Wait::Paused => Some(Wait::Paused),
+                Wait::Accept { port, deadline } => match sys.tcp_accept(port) {
+                    SockPoll::Ready(r) => {
+                        self.finish_accept(i, r, sys)?;
+                        None
+                    }
+                    SockPoll::Pending if now >= deadline => {
+                        self.finish_accept(i, Err(-34024), sys)?;
+                        None
+                    }
+                    SockPoll::Pending => Some(Wait::Accept { port, deadline }),
+                },
+                Wait::Connect { ip, port, deadline } => match sys.tcp_connect(ip, port) {
+                    SockPoll::Ready(r) => {
+                        self.finish_ret(i, r.unwrap_or_else(|e| e) as f32, sys)?;
+                        None
+                    }
+                    SockPoll::Pending if now >= deadline => {
+                        self.finish_ret(i, -34024.0, sys)?;
+                        None
+                    }
+                    SockPoll::Pending => Some(Wait::Connect { ip, port, deadline }),
+                },
+                Wait::Recv {
+                    sock,
+                    max,
+                    deadline,
+                } => match sys.tcp_recv(sock, MAX_TRANSFER) {
+                    SockPoll::Ready(r) => {
+                        self.finish_recv(i, r, max, sys)?;
+                        None
+                    }
+                    SockPoll::Pending if now >= deadline => {
+                        self.finish_recv(i, Err(-34024), max, sys)?;
+                        None
+                    }
+                    SockPoll::Pending => Some(Wait::Recv {
+                        sock,
+                        max,
+                        deadline,
+                    }),
+                },
+                Wait::Send {
+                    sock,
+                    data,
+                    deadline,
+                } => match sys.tcp_send(sock, &data) {
+                    SockPoll::Ready(r) => {
+                        self.finish_ret(i, r.map_or_else(|e| e as f32, |()| 0.0), sys)?;
+                        None
+                    }
+                    SockPoll::Pending if now >= deadline => {
+                        self.finish_ret(i, -34024.0, sys)?;
+                        None
+                    }
+                    SockPoll::Pending => Some(Wait::Send {
+                        sock,
+                        data,
+                        deadline,
+                    }),
+                },
+            })
+        })();
+        match done {
+            Ok(Some(w)) => {
+                self.tasks[i].wait = Some(w);
+                false
+            }
+            Ok(None) => {
+                let t = &mut self.tasks[i];
+                t.ready_at = t.ready_at.max(now);
+                self.deliver_on(i, sys)
+            }
+            Err(e) => {
+                self.fail(i, e, sys);
+                false
+            }
+        }
+    }
+
+    /// Delivers a pending `ON` interrupt at a step boundary; `true` when the task may run.
+    fn deliver_on(&mut self, i: usize, sys: &mut dyn System) -> bool {
+        if let Some(int) = self.tasks[i].pending_on.take() {
+            self.branch(i, int, sys);
+        }
+        self.tasks[i].run == Run::Running && self.tasks[i].wait.is_none()
+    }
+
+    fn fire_interrupt(&mut self, i: usize, sys: &mut dyn System) {
+        let now = self.now;
+        let debounce = self.cfg.signal_debounce;
+        let signals = &self.signals;
+        let pos = self.tasks[i].interrupts.iter().position(|int| {
+            let n = int.signal.abs();
+            signals.get(&n).is_some_and(|s| {
+                s.on == (int.signal > 0) && s.changed > int.armed_at && s.changed + debounce <= now
+            })
+        });
+        let Some(pos) = pos else { return };
+        let int = self.tasks[i].interrupts.remove(pos);
+        if int.immediate {
+            // ONI: the motion stops at once, the program branches now.
+            sys.brake();
+            self.tasks[i].wait = None;
+            self.branch(i, int, sys);
+        } else if self.tasks[i].wait.is_some() {
+            // ON: after the current wait (a motion in progress completes first).
+            self.tasks[i].pending_on = Some(int);
+        } else {
+            self.branch(i, int, sys);
+        }
+    }
+
+    fn branch(&mut self, i: usize, int: Interrupt, sys: &mut dyn System) {
+        let t = &mut self.tasks[i];
+        t.frames.truncate(int.depth.max(1));
+        t.ready_at = self.now;
+        if let Some(target) = int.goto {
+            if let Some(f) = t.frames.last_mut() {
+                f.pc = target;
+            }
+        } else if let Some(p) = int.call {
+            if let Err(e) = self.push_frame(i, p, &[], true) {
+                self.fail(i, e, sys);
+            }
+        }
+    }
+
+    fn current_op(&self, i: usize) -> Option<&Op> {
+        let f = self.tasks[i].frames.last()?;
+        self.code.programs.get(f.prog)?.ops.get(f.pc)
+    }
+
+    fn advance_pc(&mut self, i: usize) {
+        if let Some(f) = self.tasks[i].frames.last_mut() {
+            f.pc += 1;
+        }
+    }
+
+    fn fail(&mut self, i: usize, e: RuntimeError, sys: &mut dyn System) {
+        let id = self.tasks[i].id;
+        let where_ = self.tasks[i].frames.last().map(|f| {
+            let p = &self.code.programs[f.prog];
+            format!(
+                "{} line {}",
+                p.name,
+                p.lines.get(f.pc).copied().unwrap_or(0)
+            )
+        });
+        let text = match &where_ {
+            Some(w) => format!("{e} ({w})"),
+            None => e.to_string(),
+        };
+        self.abort(id);
+        self.tasks[i].last_error = Some(text.clone());
+        self.message(sys, id, text);
+        sys.raise_error(e.code());
+    }
+
+    fn message(&mut self, sys: &mut dyn System, task: TaskId, text: String) {
+        sys.terminal(task, &text);
+        self.terminal.push_back(TerminalLine {
+            at: self.now,
+            task,
+            text,
+        });
+        while self.terminal.len() > self.cfg.terminal_lines {
+            self.terminal.pop_front();
+        }
+    }
+
+    // ------------------------------------------------------------------ starting programs
+
+    fn locals_for(&mut self, task: usize, prog: usize) -> usize {
+        let idx = self.locals_index[prog][task];
+        if idx != u32::MAX {
+            return idx as usize;
+        }
+        let p = &self.code.programs[prog];
+        self.locals.push(Store::with_sizes(p.locals));
+        let idx = self.locals.len() - 1;
+        self.locals_index[prog][task] = idx as u32;
+        idx
+    }
+
+    /// Arguments evaluated in the caller: values, and for by-reference parameters where the
+    /// value goes back.
+    fn push_frame(
+        &mut self,
+        i: usize,
+        prog: usize,
+        args: &[(ArgVal, Option<ByRefTarget>)],
+        interrupt: bool,
+    ) -> R<()> {
+        if self.tasks[i].frames.len() >= self.cfg.max_call_depth {
+            return Err(RuntimeError::CallDepth(self.cfg.max_call_depth));
+        }
+        let locals = self.locals_for(i, prog);
+        let code = self.code.clone();
+        let p = &code.programs[prog];
+        let mut byref = Vec::new();
+        for (k, param) in p.params.iter().enumerate() {
+            let Some((val, target)) = args.get(k) else {
+                continue;
+            };
+            let store = &mut self.locals[locals];
+            let s = param.slot as usize;
+            match (param.ty, val) {
+                (Ty::Real, ArgVal::R(v)) => {
+                    store.reals[s].set(&[], *v);
+                }
+                (Ty::Str, ArgVal::S(v)) => {
+                    store.strs[s].set(&[], v.clone());
+                }
+                (Ty::Joint, ArgVal::J(v)) => {
+                    store.joints[s].set(&[], *v);
+                }
+                (Ty::Trans, ArgVal::T(v)) => {
+                    store.trans[s].set(&[], *v);
+                }
+                _ => {
+                    return Err(RuntimeError::IllegalValue(format!(
+                        "argument {} of {} has the wrong type for parameter {}",
+                        k + 1,
+                        p.name,
+                        var_display(param.ty, false, &p.local_names[param.ty as usize][s])
+                    )))
+                }
+            }
+            if param.by_ref {
+                if let Some(t) = target {
+                    byref.push(ByRef {
+                        ty: param.ty,
+                        param: param.slot,
+                        var: t.var,
+                        idx: t.idx.clone(),
+                        locals: t.locals,
+                    });
+                }
+            }
+        }
+        self.tasks[i].frames.push(Frame {
+            prog,
+            pc: 0,
+            locals,
+            byref,
+            interrupt,
+        });
+        Ok(())
+    }
+
+    fn start_task(
+        &mut self,
+        i: usize,
+        prog: usize,
+        args: &[(ArgVal, Option<ByRefTarget>)],
+        cycles: i64,
+    ) -> bool {
+        let now = self.now;
+        {
+            let t = &mut self.tasks[i];
+            t.frames.clear();
+            t.wait = None;
+            t.kick = false;
+            t.interrupts.clear();
+            t.pending_on = None;
+            t.run = Run::Running;
+            t.ready_at = now;
+            t.cycles_left = if cycles == 0 { 1 } else { cycles };
+            t.motion = MotionParams::default();
+            t.last_error = None;
+            t.line_buf.clear();
+        }
+        match self.push_frame(i, prog, args, false) {
+            Ok(()) => true,
+            Err(_) => {
+                self.tasks[i].run = Run::Idle;
+                false
+            }
+        }
+    }
+
+    fn execute_robot(
+        &mut self,
+        prog: usize,
+        args: Vec<(ArgVal, Option<ByRefTarget>)>,
+        cycles: i64,
+        sys: &mut dyn System,
+    ) -> Result<(), Refusal> {
+        let panel = sys.panel();
+        if !panel.power {
+            return Err(p_code(-11000, "Motor power OFF, cannot execute program."));
+        }
+        if !panel.repeat {
+            return Err(p_code(-11001, "Cannot execute program in TEACH mode."));
+        }
+        if panel.teach_lock {
+            return Err(p_code(-11002, "Teach lock ON, cannot execute program."));
+        }
+        if !sys.error().is_none() {
+            return Err(p_code(
+                -11013,
+                "In error, cannot execute program. Reset the error first.",
+            ));
+        }
+        if self.task_state(TaskId::Robot, sys) != TaskState::Idle {
+            return Err(p_code(-11009, "Program is already running."));
+        }
+        self.mc_hold = false;
+        if self.start_task(0, prog, &args, cycles) {
+            Ok(())
+        } else {
+            Err(Refusal::Other(
+                "the program could not start (argument types)".into(),
+            ))
+        }
+    }
+
+    fn pc_execute_at(
+        &mut self,
+        task: u8,
+        prog: usize,
+        args: Vec<(ArgVal, Option<ByRefTarget>)>,
+        cycles: i64,
+    ) -> Result<(), Refusal> {
+        if !(1..=5).contains(&task) {
+            return Err(Refusal::Other(format!(
+                "PC task {task} does not exist (1 to 5)"
+            )));
+        }
+        if self.tasks[usize::from(task)].run != Run::Idle {
+            return Err(Refusal::Other(format!("PC task {task} is already running")));
+        }
+        if self.start_task(usize::from(task), prog, &args, cycles) {
+            Ok(())
+        } else {
+            Err(Refusal::Other(
+                "the program could not start (argument types)".into(),
+            ))
+        }
+    }
+
+    /// The program of task `i` ended (`.END` or `RETURN` of its first program, `HALT`).
+    fn end_program(&mut self, i: usize, sys: &mut dyn System, repeat: bool) {
+        let t = &mut self.tasks[i];
+        if repeat && t.cycles_left != 1 {
+            if t.cycles_left > 1 {
+                t.cycles_left -= 1;
+            }
+            t.frames.truncate(1);
+            if let Some(f) = t.frames.first_mut() {
+                f.pc = 0;
+            }
+            return;
+        }
+        let id = t.id;
+        self.abort(id);
+        if i == 0 && sys.motion_in_progress() {
+            self.tasks[0].run = Run::Ending;
+        }
+    }
+
+    // ------------------------------------------------------------------ variables
+
+    fn store(&mut self, i: usize, global: bool) -> &mut Store {
+        if global {
+            &mut self.globals
+        } else {
+            let l = self.tasks[i].frames.last().map_or(0, |f| f.locals);
+            if l < self.locals.len() {
+                &mut self.locals[l]
+            } else {
+                &mut self.globals
+            }
+        }
+    }
+
+    fn indices(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<[i32; 3]> {
+        let mut out = [0i32; 3];
+        for (k, e) in l.idx.iter().enumerate().take(3) {
+            let v = self.eval_r(i, e, sys)?;
+            let n = v.trunc();
+            if !(0.0..=MAX_INDEX as f32).contains(&n) {
+                return Err(RuntimeError::IndexRange(format!(
+                    "{} in {}",
+                    v,
+                    self.lref_name(i, l, Ty::Real)
+                )));
+            }
+            out[k] = n as i32;
+        }
+        Ok(out)
+    }
+
+    fn lref_name(&self, i: usize, l: &LRef, ty: Ty) -> String {
+        let name = if l.var.global {
+            self.code.global_name(ty, l.var.slot).to_owned()
+        } else {
+            self.tasks[i]
+                .frames
+                .last()
+                .and_then(|f| self.code.programs.get(f.prog))
+                .and_then(|p| p.local_names[ty as usize].get(l.var.slot as usize))
+                .cloned()
+                .unwrap_or_else(|| "?".into())
+        };
+        var_display(ty, l.var.global, &name)
+    }
+
+    fn undefined(&self, i: usize, l: &LRef, ty: Ty, idx: &[i32]) -> RuntimeError {
+        let mut s = self.lref_name(i, l, ty);
+        if !idx.is_empty() {
+            let v: Vec<String> = idx.iter().map(|x| x.to_string()).collect();
+            s.push_str(&format!("[{}]", v.join(",")));
+        }
+        RuntimeError::Undefined(s)
+    }
+
+    fn count_element(&mut self, created: bool) -> R<()> {
+        if created {
+            self.elements += 1;
+            if self.elements > MAX_ELEMENTS {
+                return Err(RuntimeError::MemoryFull(MAX_ELEMENTS));
+            }
+        }
+        Ok(())
+    }
+
+    fn read_r(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<f32> {
+        let n = l.idx.len().min(3);
+        let idx = self.indices(i, l, sys)?;
+        let slot = l.var.slot as usize;
+        match self
+            .store(i, l.var.global)
+            .reals
+            .get(slot)
+            .and_then(|v| v.get(&idx[..n]))
+        {
+            Some(v) => Ok(*v),
+            None => Err(self.undefined(i, l, Ty::Real, &idx[..n])),
+        }
+    }
+
+    fn write_r(&mut self, i: usize, l: &LRef, v: f32, sys: &mut dyn System) -> R<()> {
+        let n = l.idx.len().min(3);
+        let idx = self.indices(i, l, sys)?;
+        self.write_r_at(i, l.var, &idx[..n], v)
+    }
+
+    fn write_r_at(&mut self, i: usize, var: VarRef, idx: &[i32], v: f32) -> R<()> {
+        let created = match self.store(i, var.global).reals.get_mut(var.slot as usize) {
+            Some(x) => x.set(idx, v),
+            None => false,
+        };
+        self.count_element(created)
+    }
+
+    fn read_s(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<Bytes> {
+        let n = l.idx.len().min(3);
+        let idx = self.indices(i, l, sys)?;
+        let slot = l.var.slot as usize;
+        match self
+            .store(i, l.var.global)
+            .strs
+            .get(slot)
+            .and_then(|v| v.get(&idx[..n]))
+        {
+            Some(v) => Ok(v.clone()),
+            None => Err(self.undefined(i, l, Ty::Str, &idx[..n])),
+        }
+    }
+
+    fn write_s_at(&mut self, i: usize, var: VarRef, idx: &[i32], v: Bytes) -> R<()> {
+        if v.len() > MAX_STRING {
+            return Err(RuntimeError::StringTooLong(v.len()));
+        }
+        let created = match self.store(i, var.global).strs.get_mut(var.slot as usize) {
+            Some(x) => x.set(idx, v),
+            None => false,
+        };
+        self.count_element(created)
+    }
+
+    fn write_s(&mut self, i: usize, l: &LRef, v: Bytes, sys: &mut dyn System) -> R<()> {
+        let n = l.idx.len().min(3);
+        let idx = self.indices(i, l, sys)?;
+        self.write_s_at(i, l.var, &idx[..n], v)
+    }
+
+    fn read_loc_var(&mut self, i: usize, l: &LRef, ty: Ty, sys: &mut dyn System) -> R<[f32; 6]> {
+        let n = l.idx.len().min(3);
+        let idx = self.indices(i, l, sys)?;
+        let slot = l.var.slot as usize;
+        let store = self.store(i, l.var.global);
+        let v = if ty == Ty::Joint {
+            store
+                .joints
+                .get(slot)
+                .and_then(|v| v.get(&idx[..n]))
+                .copied()
+        } else {
+            store
+                .trans
+                .get(slot)
+                .and_then(|v| v.get(&idx[..n]))
+                .copied()
+        };
+        v.ok_or_else(|| self.undefined(i, l, ty, &idx[..n]))
+    }
+
+    fn write_loc_var(
+        &mut self,
+        i: usize,
+        l: &LRef,
+        ty: Ty,
+        v: [f32; 6],
+        sys: &mut dyn System,
+    ) -> R<()> {
+        let n = l.idx.len().min(3);
+        let idx = self.indices(i, l, sys)?;
+        let slot = l.var.slot as usize;
+        let store = self.store(i, l.var.global);
+        let created = if ty == Ty::Joint {
+            store
+                .joints
+                .get_mut(slot)
+                .is_some_and(|x| x.set(&idx[..n], v))
+        } else {
+            store
+                .trans
+                .get_mut(slot)
+                .is_some_and(|x| x.set(&idx[..n], v))
+        };
+        self.count_element(created)
+    }
+
+    fn hidden_r(&mut self, i: usize, slot: u32) -> f32 {
+        let s = slot as usize;
+        self.store(i, false)
+            .reals
+            .get(s)
+            .and_then(|v| v.get(&[]))
+            .copied()
+            .unwrap_or(0.0)
+    }
+
+    fn set_hidden_r(&mut self, i: usize, slot: u32, v: f32) {
+        if let Some(x) = self.store(i, false).reals.get_mut(slot as usize) {
+            x.set(&[], v);
+        }
+    }
+
+    // ------------------------------------------------------------------ signals
+
+    fn signal_number_ok(n: i32, output: bool) -> bool {
+        let n = n.abs();
+        (1..=999).contains(&n)
+            || (2001..=2960).contains(&n)
+            || (!output && (1001..=1999).contains(&n))
+    }
+
+    fn write_signal(&mut self, n: i32, on: bool) {
+        let now = self.now;
+        let e = self.signals.entry(n).or_insert(SignalState {
+            on: false,
+            changed: Duration::ZERO,
+        });
+        if e.on != on {
+            e.on = on;
+            e.changed = now;
+        }
+    }
+
+    // ------------------------------------------------------------------ expressions
+
+    fn eval_r(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<f32> {
+        Ok(match e {
+            RExpr::Const(v) => *v,
+            RExpr::Var(l) => self.read_r(i, l, sys)?,
+            RExpr::Neg(a) => -self.eval_r(i, a, sys)?,
+            RExpr::Not(a) => as_bool(!truthy(self.eval_r(i, a, sys)?)),
+            RExpr::Com(a) => !to_i32(self.eval_r(i, a, sys)?) as f32,
+            RExpr::Bin(op, a, b) => {
+                let x = self.eval_r(i, a, sys)?;
+                // AND/OR evaluate both sides (AS has no short circuit).
+                let y = self.eval_r(i, b, sys)?;
+                match op {
+                    BinOp::Add => check(x + y, "+")?,
+                    BinOp::Sub => check(x - y, "-")?,
+                    BinOp::Mul => check(x * y, "*")?,
+                    BinOp::Div => {
+                        if y == 0.0 {
+                            return Err(RuntimeError::DivisionByZero);
+                        }
+                        check(x / y, "/")?
+                    }
+                    BinOp::Mod => {
+                        if y == 0.0 {
+                            return Err(RuntimeError::DivisionByZero);
+                        }
+                        check(x % y, "MOD")?
+                    }
+                    BinOp::Pow => {
+                        let r = x.powf(y);
+                        if r.is_nan() {
+                            return Err(RuntimeError::IllegalValue(format!("{x} ^ {y}")));
+                        }
+                        check(r, "^")?
+                    }
+                    BinOp::Eq => as_bool(x == y),
+                    BinOp::Ne => as_bool(x != y),
+                    BinOp::Lt => as_bool(x < y),
+                    BinOp::Gt => as_bool(x > y),
+                    BinOp::Le => as_bool(x <= y),
+                    BinOp::Ge => as_bool(x >= y),
+                    BinOp::And => as_bool(truthy(x) && truthy(y)),
+                    BinOp::Or => as_bool(truthy(x) || truthy(y)),
+                    BinOp::Xor => as_bool(truthy(x) != truthy(y)),
+                    BinOp::Band => (to_i32(x) & to_i32(y)) as f32,
+                    BinOp::Bor => (to_i32(x) | to_i32(y)) as f32,
+                    BinOp::Bxor => (to_i32(x) ^ to_i32(y)) as f32,
+                }
+            }
+            RExpr::StrCmp(op, a, b) => {
+                let x = self.eval_s(i, a, sys)?;
+                let y = self.eval_s(i, b, sys)?;
+                let o = x.as_ref().cmp(y.as_ref());
+                as_bool(match op {
+                    BinOp::Eq => o.is_eq(),
+                    BinOp::Ne => o.is_ne(),
+                    BinOp::Lt => o.is_lt(),
+                    BinOp::Gt => o.is_gt(),
+                    BinOp::Le => o.is_le(),
+                    _ => o.is_ge(),
+                })
+            }
+            RExpr::Func(f, args) => self.eval_func(i, *f, args, sys)?,
+            RExpr::Val(s, radix) => {
+                let s = self.eval_s(i, s, sys)?;
+                let radix = match radix {
+                    Some(r) => self.eval_r(i, r, sys)?,
+                    None => 0.0,
+                };
+                val(&s, radix)?
+            }
+            RExpr::Len(s) => self.eval_s(i, s, sys)?.len() as f32,
+            RExpr::Asc(s, n) => {
+                let s = self.eval_s(i, s, sys)?;
+                let n = match n {
+                    Some(n) => self.eval_r(i, n, sys)?.trunc() as i64,
+                    None => 1,
+                };
+                if n >= 1 && (n as usize) <= s.len() {
+                    f32::from(s[n as usize - 1])
+                } else {
+                    -1.0
+                }
+            }
+            RExpr::Instr(start, s, sub) => {
+                let start = match start {
+                    Some(x) => self.eval_r(i, x, sys)?.trunc().max(1.0) as usize,
+                    None => 1,
+                };
+                let s = self.eval_s(i, s, sys)?;
+                let sub = self.eval_s(i, sub, sys)?;
+                instr(&s, &sub, start) as f32
+            }
+            RExpr::Dext(l, n) => {
+                let v = match self.eval_loc(i, l, sys)? {
+                    LocVal::J(v) | LocVal::T(v) => v,
+                };
+                let n = self.eval_r(i, n, sys)?.trunc();
+                if !(1.0..=6.0).contains(&n) {
+                    return Err(RuntimeError::IllegalValue(format!(
+                        "DEXT element {n} (1 to 6)"
+                    )));
+                }
+                v[n as usize - 1]
+            }
+            RExpr::Switch(s) => {
+                let p = sys.panel();
+                as_bool(match s {
+                    SwitchRef::Power => p.power,
+                    SwitchRef::Run => p.run,
+                    SwitchRef::Repeat => p.repeat,
+                    SwitchRef::TeachLock => p.teach_lock,
+                    SwitchRef::CycleStart => self.tasks[0].run == Run::Running,
+                    SwitchRef::InError => !sys.error().is_none(),
+                    SwitchRef::System(k) => self.switches.get(*k).copied().unwrap_or(false),
+                })
+            }
+            RExpr::Error => sys.error().raw() as f32,
+        })
+    }
+
+    fn eval_func(&mut self, i: usize, f: RFunc, args: &[RExpr], sys: &mut dyn System) -> R<f32> {
+        let mut v = [0f32; 32];
+        let n = args.len().min(32);
+        for (k, a) in args.iter().enumerate().take(32) {
+            v[k] = self.eval_r(i, a, sys)?;
+        }
+        let x = v[0];
+        Ok(match f {
+            RFunc::Abs => x.abs(),
+            RFunc::Sqrt => {
+                if x < 0.0 {
+                    return Err(RuntimeError::IllegalValue(format!("SQRT({x})")));
+                }
+                x.sqrt()
+            }
+            RFunc::Sin => (f64::from(x).to_radians().sin()) as f32,
+            RFunc::Cos => (f64::from(x).to_radians().cos()) as f32,
+            RFunc::Tan => check(f64::from(x).to_radians().tan() as f32, "TAN")?,
+            RFunc::Atan2 => (f64::from(x).atan2(f64::from(v[1])).to_degrees()) as f32,
+            RFunc::Int => x.trunc(),
+            RFunc::MaxVal => v[..n].iter().copied().fold(f32::NEG_INFINITY, f32::max),
+            RFunc::MinVal => v[..n].iter().copied().fold(f32::INFINITY, f32::min),
+            RFunc::Sig => {
+                let mut all = true;
+                for s in &v[..n] {
+                    let s = s.trunc() as i32;
+                    if s == 0 || !Self::signal_number_ok(s, false) {
+                        return Err(RuntimeError::IllegalValue(format!("signal number {s}")));
+                    }
+                    all &= self.signal(s.abs()) == (s > 0);
+                }
+                as_bool(all)
+            }
+            RFunc::Task => {
+                let id = match x.trunc() as i64 {
+                    1 => Some(TaskId::Robot),
+                    n @ 1001..=1005 => Some(TaskId::Pc((n - 1000) as u8)),
+                    _ => None,
+                };
+                match id {
+                    Some(id) => {
+                        if id == TaskId::Robot
+                            && self.tasks[0].run == Run::Ending
+                            && !sys.motion_in_progress()
+                        {
+                            self.tasks[0].run = Run::Idle;
+                        }
+                        self.task_state(id, sys).number()
+                    }
+                    None => 0.0,
+                }
+            }
+            RFunc::Timer => {
+                let n = x.trunc();
+                if !(0.0..=10.0).contains(&n) {
+                    return Err(RuntimeError::IllegalValue(format!("TIMER({x}) (0 to 10)")));
+                }
+                let since = if n == 0.0 {
+                    Some(Duration::ZERO)
+                } else {
+                    self.timers[n as usize]
+                };
+                match since {
+                    Some(s) => {
+                        let ms = self.now.saturating_sub(s).as_millis();
+                        (ms as f64 / 1000.0) as f32
+                    }
+                    None => 0.0,
+                }
+            }
+        })
+    }
+
+    fn eval_s(&mut self, i: usize, e: &SExpr, sys: &mut dyn System) -> R<Bytes> {
+        Ok(match e {
+            SExpr::Const(b) => b.clone(),
+            SExpr::Var(l) => self.read_s(i, l, sys)?,
+            SExpr::Concat(a, b) => {
+                let x = self.eval_s(i, a, sys)?;
+                let y = self.eval_s(i, b, sys)?;
+                if x.len() + y.len() > MAX_STRING {
+                    return Err(RuntimeError::StringTooLong(x.len() + y.len()));
+                }
+                let mut v = Vec::with_capacity(x.len() + y.len());
+                v.extend_from_slice(&x);
+                v.extend_from_slice(&y);
+                v.into()
+            }
+            SExpr::Mid(s, start, n) => {
+                let s = self.eval_s(i, s, sys)?;
+                let start = self.eval_r(i, start, sys)?.trunc();
+                let n = match n {
+                    Some(n) => Some(self.eval_r(i, n, sys)?.trunc()),
+                    None => None,
+                };
+                if start < 1.0 || n.is_some_and(|n| n < 0.0) {
+                    return Err(RuntimeError::IllegalValue(format!(
+                        "$MID start {start} (from 1), count {}",
+                        n.unwrap_or(0.0)
+                    )));
+                }
+                let a = (start as usize - 1).min(s.len());
+                let b = match n {
+                    Some(n) => a.saturating_add(n as usize).min(s.len()),
+                    None => s.len(),
+                };
+                Arc::from(&s[a..b])
+            }
+            SExpr::Left(s, n) | SExpr::Right(s, n) => {
+                let s = self.eval_s(i, s, sys)?;
+                let n = self.eval_r(i, n, sys)?.trunc();
+                if n < 0.0 {
+                    return Err(RuntimeError::IllegalValue(format!("count {n}")));
+                }
+                let n = (n as usize).min(s.len());
+                if matches!(e, SExpr::Left(..)) {
+                    Arc::from(&s[..n])
+                } else {
+                    Arc::from(&s[s.len() - n..])
+                }
+            }
+            SExpr::Chr(n) => {
+                let n = self.eval_r(i, n, sys)?.trunc();
+                if !(0.0..=255.0).contains(&n) {
+                    return Err(RuntimeError::IllegalValue(format!("$CHR({n}) (0 to 255)")));
+                }
+                Arc::from(&[n as u8][..])
+            }
+            SExpr::Encode(items) => {
+                let (bytes, _) = self.encode(i, items, sys)?;
+                if bytes.len() > MAX_STRING {
+                    return Err(RuntimeError::StringTooLong(bytes.len()));
+                }
+                bytes.into()
+            }
+            SExpr::Decode(var, delims, mode) => {
+                let s = self.read_s(i, var, sys)?;
+                let d = self.eval_s(i, delims, sys)?;
+                let mode = self.eval_r(i, mode, sys)?;
+                let is_delim = |c: u8| d.iter().any(|x| x.eq_ignore_ascii_case(&c));
+                let cut = if mode <= 0.0 {
+                    s.iter().position(|&c| is_delim(c)).unwrap_or(s.len())
+                } else {
+                    s.iter().position(|&c| !is_delim(c)).unwrap_or(s.len())
+                };
+                let head: Bytes = Arc::from(&s[..cut]);
+                let rest: Bytes = Arc::from(&s[cut..]);
+                self.write_s(i, var, rest, sys)?;
+                head
+            }
+            SExpr::ErrorMsg(code) => {
+                let c = self.eval_r(i, code, sys)?.trunc() as i32;
+                let text = match error_message(c) {
+                    Some(m) => m.to_owned(),
+                    None if c == 0 => String::new(),
+                    None => format!("Error {}", ErrorCode(c)),
+                };
+                Arc::from(text.as_bytes())
+            }
+        })
+    }
+
+    fn eval_loc(&mut self, i: usize, l: &Loc, sys: &mut dyn System) -> R<LocVal> {
+        Ok(match l {
+            Loc::J(j) => LocVal::J(self.eval_j(i, j, sys)?),
+            Loc::T(t) => LocVal::T(self.eval_t(i, t, sys)?),
+        })
+    }
+
+    fn eval_j(&mut self, i: usize, e: &JExpr, sys: &mut dyn System) -> R<[f32; 6]> {
+        Ok(match e {
+            JExpr::Var(l) => self.read_loc_var(i, l, Ty::Joint, sys)?,
+            JExpr::PPoint(args) => {
+                let mut v = [0f32; 6];
+                for (k, a) in args.iter().enumerate().take(6) {
+                    v[k] = self.eval_r(i, a, sys)?;
+                }
+                v
+            }
+            JExpr::Here => sys.joints().map(|x| x as f32),
+        })
+    }
+
+    fn eval_t(&mut self, i: usize, e: &TExpr, sys: &mut dyn System) -> R<[f32; 6]> {
+        Ok(match e {
+            TExpr::Var(l) => self.read_loc_var(i, l, Ty::Trans, sys)?,
+            TExpr::Trans(args) => {
+                let mut v = [0f32; 6];
+                for (k, a) in args.iter().enumerate().take(6) {
+                    v[k] = self.eval_r(i, a, sys)?;
+                }
+                v
+            }
+            TExpr::Here => match sys.pose() {
+                Some(p) => p.map(|x| x as f32),
+                None => {
+                    return Err(RuntimeError::IllegalValue(
+                        "HERE: this controller has no kinematics".into(),
+                    ))
+                }
+            },
+            TExpr::Compose(a, b) => {
+                let x = self.eval_t(i, a, sys)?;
+                let y = self.eval_t(i, b, sys)?;
+                let px = Pose::from_xyzoat(xyzoat(&x));
+                let py = Pose::from_xyzoat(xyzoat(&y));
+                let r = (px * py).to_xyzoat();
+                [r.x_mm, r.y_mm, r.z_mm, r.o_deg, r.a_deg, r.t_deg].map(|v| v as f32)
+            }
+        })
+    }
+
+    /// Formats PRINT/$ENCODE items: the bytes (line feeds for `/C`) and whether `/S` was given.
+    fn encode(&mut self, i: usize, items: &[Item], sys: &mut dyn System) -> R<(Vec<u8>, bool)> {
+        let mut out = String::new();
+        let mut bytes = Vec::new();
+        let mut current = FormatCode::D;
+        let mut no_newline = false;
+        for item in items {
+            match item {
+                Item::Format(f) => match f {
+                    FormatCode::X(n) => out.extend(std::iter::repeat_n(' ', usize::from(*n))),
+                    FormatCode::C(n) => out.extend(std::iter::repeat_n('\n', usize::from(*n))),
+                    FormatCode::S => no_newline = true,
+                    other => current = *other,
+                },
+                Item::Real(e) => {
+                    let v = f64::from(self.eval_r(i, e, sys)?);
+                    match current {
+                        FormatCode::D => {
+                            out.push(' ');
+                            fmt::push_default(&mut out, v);
+                        }
+                        FormatCode::L => fmt::push_default(&mut out, v),
+                        FormatCode::F(w, d) => {
+                            fmt::push_fixed(&mut out, v, usize::from(w), usize::from(d))
+                        }
+                        FormatCode::E(w, d) => {
+                            fmt::push_exponent(&mut out, v, usize::from(w), usize::from(d))
+                        }
+                        FormatCode::G(w, d) => {
+                            fmt::push_general(&mut out, v, usize::from(w), usize::from(d))
+                        }
+                        FormatCode::I(w) => fmt::push_integer(&mut out, v, usize::from(w), false),
+                        FormatCode::K(w) => fmt::push_integer(&mut out, v, usize::from(w), true),
+                        FormatCode::H(w) => fmt::push_hex(&mut out, v, usize::from(w), false),
+                        FormatCode::J(w) => fmt::push_hex(&mut out, v, usize::from(w), true),
+                        FormatCode::X(_) | FormatCode::C(_) | FormatCode::S => {}
+                    }
+                }
+                Item::Str(e) => {
+                    let s = self.eval_s(i, e, sys)?;
+                    bytes.extend_from_slice(out.as_bytes());
+                    out.clear();
+                    bytes.extend_from_slice(&s);
+                }
+            }
+            if out.len() + bytes.len() > 64 * 1024 {
+                return Err(RuntimeError::StringTooLong(out.len() + bytes.len()));
+            }
+        }
+        bytes.extend_from_slice(out.as_bytes());
+        Ok((bytes, no_newline))
+    }
+
+    // ------------------------------------------------------------------ statements
+
+    /// Runs one step of task `i` at `self.now`.
+    fn step(&mut self, i: usize, sys: &mut dyn System) -> R<Flow> {
+        if i == 0 {
+            if !self.robot_allowed(sys) {
+                return Ok(Flow::Next);
+            }
+            if self.mc_hold || !sys.panel().run {
+                return Ok(Flow::Wait(Wait::Held));
+            }
+        }
+        let code = self.code.clone();
+        let Some(frame) = self.tasks[i].frames.last() else {
+            self.abort(TaskId::from_index(i));
+            return Ok(Flow::Next);
+        };
+        let (prog, pc) = (frame.prog, frame.pc);
+        let Some(p) = code.programs.get(prog) else {
+            self.abort(TaskId::from_index(i));
+            return Ok(Flow::Next);
+        };
+        let Some(op) = p.ops.get(pc) else {
+            self.end_program(i, sys, true);
+            return Ok(Flow::Next);
+        };
+        let now = self.now;
+        let mut cost = self.cfg.cost.statement;
+        {
+            let t = &mut self.tasks[i];
+            t.steps += 1;
+        }
+        if let Some(trace) = &mut self.trace {
+            if !matches!(op, Op::Jump(_)) {
+                let line = p.lines.get(pc).copied().unwrap_or(0);
+                trace.push(TraceLine {
+                    at: now,
+                    task: self.tasks[i].id,
+                    program: p.name.clone(),
+                    line,
+                    text: code.line_text(prog, line).to_owned(),
+                });
+                if trace.len() > 1_000_000 {
+                    trace.drain(..trace.len() / 2);
+                }
+            }
+        }
+        // By default the next step is the following op.
+        self.set_pc(i, pc + 1);
+        let robot = i == 0;
+        let flow = match op {
+            Op::Nop => Flow::Next,
+            Op::AssignR(l, e) => {
+                let v = self.eval_r(i, e, sys)?;
+                self.write_r(i, l, v, sys)?;
+                Flow::Next
+            }
+            Op::AssignS(l, e) => {
+                let v = self.eval_s(i, e, sys)?;
+                self.write_s(i, l, v, sys)?;
+                Flow::Next
+            }
+            Op::AssignJ(l, e) => {
+                let v = self.eval_j(i, e, sys)?;
+                self.write_loc_var(i, l, Ty::Joint, v, sys)?;
+                Flow::Next
+            }
+            Op::AssignT(l, e) => {
+                let v = self.eval_t(i, e, sys)?;
+                self.write_loc_var(i, l, Ty::Trans, v, sys)?;
+                Flow::Next
+            }
+            Op::Jump(t) => {
+                self.set_pc(i, *t);
+                Flow::Next
+            }
+            Op::JumpIfNot(c, t) => {
+                if !truthy(self.eval_r(i, c, sys)?) {
+                    self.set_pc(i, *t);
+                }
+                Flow::Next
+            }
+            Op::JumpIf(c, t) => {
+                if truthy(self.eval_r(i, c, sys)?) {
+                    self.set_pc(i, *t);
+                }
+                Flow::Next
+            }
+            Op::ForInit {
+                var,
+                from,
+                to,
+                step,
+                limit,
+                step_slot,
+                exit,
+            } => {
+                let from = self.eval_r(i, from, sys)?;
+                let to = self.eval_r(i, to, sys)?;
+                let step = match step {
+                    Some(s) => self.eval_r(i, s, sys)?,
+                    None => 1.0,
+                };
+                if step == 0.0 {
+                    return Err(RuntimeError::IllegalValue("FOR … STEP 0".into()));
+                }
+                self.write_r(i, var, from, sys)?;
+                self.set_hidden_r(i, *limit, to);
+                self.set_hidden_r(i, *step_slot, step);
+                if (step > 0.0 && from > to) || (step < 0.0 && from < to) {
+                    self.set_pc(i, *exit);
+                }
+                Flow::Next
+            }
+            Op::ForNext {
+                var,
+                limit,
+                step_slot,
+                body,
+            } => {
+                let step = self.hidden_r(i, *step_slot);
+                let to = self.hidden_r(i, *limit);
+                let v = check(self.read_r(i, var, sys)? + step, "FOR")?;
+                self.write_r(i, var, v, sys)?;
+                if (step > 0.0 && v <= to) || (step < 0.0 && v >= to) {
+                    self.set_pc(i, *body);
+                }
+                Flow::Next
+            }
+            Op::CaseSelR(e, slot) => {
+                let v = self.eval_r(i, e, sys)?;
+                self.set_hidden_r(i, *slot, v);
+                Flow::Next
+            }
+            Op::CaseSelS(e, slot) => {
+                let v = self.eval_s(i, e, sys)?;
+                if let Some(x) = self.store(i, false).strs.get_mut(*slot as usize) {
+                    x.set(&[], v);
+                }
+                Flow::Next
+            }
+            Op::CaseTestR(values, slot, next) => {
+                let sel = self.hidden_r(i, *slot);
+                let mut hit = false;
+                for v in values.iter() {
+                    if self.eval_r(i, v, sys)? == sel {
+                        hit = true;
+                        break;
+                    }
+                }
+                if !hit {
+                    self.set_pc(i, *next);
+                }
+                Flow::Next
+            }
+            Op::CaseTestS(values, slot, next) => {
+                let sel = self
+                    .store(i, false)
+                    .strs
+                    .get(*slot as usize)
+                    .and_then(|v| v.get(&[]))
+                    .cloned()
+                    .unwrap_or_else(|| Arc::from(&b""[..]));
+                let mut hit = false;
+                for v in values.iter() {
+                    if self.eval_s(i, v, sys)? == sel {
+                        hit = true;
+                        break;
+                    }
+                }
+                if !hit {
+                    self.set_pc(i, *next);
+                }
+                Flow::Next
+            }
+            Op::Call(prog, args) => {
+                let args = self.eval_args(i, args, sys)?;
+                // The caller resumes after the CALL.
+                self.push_frame(i, *prog, &args, false)?;
+                Flow::Next
+            }
+            Op::Return | Op::End => {
+                self.ret(i, sys)?;
+                Flow::Next
+            }
+            Op::Print(items) => {
+                let (bytes, no_newline) = self.encode(i, items, sys)?;
+                cost += self.cfg.cost.print
+                    + self.cfg.cost.print_per_byte * bytes.len().min(100_000) as u32;
+                let text = String::from_utf8_lossy(&bytes).into_owned();
+                let id = self.tasks[i].id;
+                let mut parts: Vec<&str> = text.split('\n').collect();
+                let last = parts.pop().unwrap_or("");
+                for part in parts {
+                    let mut line = std::mem::take(&mut self.tasks[i].line_buf);
+                    line.push_str(part);
+                    self.message(sys, id, line);
+                }
+                self.tasks[i].line_buf.push_str(last);
+                if !no_newline {
+                    let line = std::mem::take(&mut self.tasks[i].line_buf);
+                    self.message(sys, id, line);
+                } else if self.tasks[i].line_buf.len() > 4096 {
+                    let line = std::mem::take(&mut self.tasks[i].line_buf);
+                    self.message(sys, id, line);
+                }
+                Flow::Next
+            }
+            Op::Twait(e) => {
+                let d = secs(self.eval_r(i, e, sys)?, "TWAIT")?;
+                Flow::Wait(Wait::Until(now + d))
+            }
+            Op::Wait(e) => {
+                if truthy(self.eval_r(i, e, sys)?) {
+                    Flow::Next
+                } else {
+                    self.set_pc(i, pc);
+                    Flow::Wait(Wait::Cond)
+                }
+            }
+            Op::Halt | Op::Stop => {
+                self.end_program(i, sys, false);
+                Flow::Next
+            }
+            Op::Pause => Flow::Wait(Wait::Paused),
+            Op::Signal(v) => {
+                for e in v.iter() {
+                    let s = self.eval_r(i, e, sys)?.trunc() as i32;
+                    if s == 0 || !Self::signal_number_ok(s, true) {
+                        return Err(RuntimeError::IllegalValue(format!(
+                            "SIGNAL {s} (outputs 1–999, internal 2001–2960)"
+                        )));
+                    }
+                    self.write_signal(s.abs(), s > 0);
+                }
+                Flow::Shared
+            }
+            Op::On {
+                immediate,
+                signal,
+                goto,
+                call,
+            } => {
+                if *immediate && !robot {
+                    return Err(RuntimeError::WrongTask(
+                        "ONI is allowed only in robot programs".into(),
+                    ));
+                }
+                let s = self.eval_r(i, signal, sys)?.trunc() as i32;
+                if s == 0 || !Self::signal_number_ok(s, false) {
+                    return Err(RuntimeError::IllegalValue(format!("signal number {s}")));
+                }
+                let depth = self.tasks[i].frames.len();
+                let t = &mut self.tasks[i];
+                t.interrupts.retain(|x| x.signal.abs() != s.abs());
+                t.interrupts.push(Interrupt {
+                    signal: s,
+                    immediate: *immediate,
+                    goto: *goto,
+                    call: *call,
+                    depth,
+                    armed_at: now,
+                });
+                Flow::Next
+            }
+            Op::Ignore(e) => {
+                let s = self.eval_r(i, e, sys)?.trunc() as i32;
+                self.tasks[i]
+                    .interrupts
+                    .retain(|x| x.signal.abs() != s.abs());
+                Flow::Next
+            }
+            Op::Execute {
+                program,
+                args,
+                cycles,
+            } => {
+                if robot {
+                    return Err(RuntimeError::WrongTask(
+                        "EXECUTE/MC is allowed only in PC programs".into(),
+                    ));
+                }
+                let args = self.eval_args(i, args, sys)?;
+                let cycles = match cycles {
+                    Some(c) => self.eval_r(i, c, sys)?.trunc() as i64,
+                    None => 1,
+                };
+                if let Err(r) = self.execute_robot(*program, args, cycles, sys) {
+                    let id = self.tasks[i].id;
+                    self.message(
+                        sys,
+                        id,
+                        format!("EXECUTE {}: {r}", code.programs[*program].name),
+                    );
+                }
+                Flow::Shared
+            }
+            Op::PcExecute {
+                task,
+                program,
+                args,
+                cycles,
+            } => {
+                let n = match task {
+                    Some(t) => self.eval_r(i, t, sys)?.trunc(),
+                    None => 1.0,
+                };
+                let args = self.eval_args(i, args, sys)?;
+                let cycles = match cycles {
+                    Some(c) => self.eval_r(i, c, sys)?.trunc() as i64,
+                    None => 1,
+                };
+                if let Err(r) =
+                    self.pc_execute_at(n.clamp(0.0, 255.0) as u8, *program, args, cycles)
+                {
+                    let id = self.tasks[i].id;
+                    self.message(
+                        sys,
+                        id,
+                        format!("PCEXECUTE {}: {r}", code.programs[*program].name),
+                    );
+                }
+                Flow::Shared
+            }
+            Op::PcAbort(task) => {
+                let n = match task {
+                    Some(t) => self.eval_r(i, t, sys)?.trunc(),
+                    None => 1.0,
+                };
+                if (1.0..=5.0).contains(&n) {
+                    self.abort(TaskId::Pc(n as u8));
+                }
+                Flow::Shared
+            }
+            Op::McAbort | Op::McHold | Op::McContinue | Op::McSpeed(_) | Op::McEreset if robot => {
+                return Err(RuntimeError::WrongTask(
+                    "MC is allowed only in PC programs".into(),
+                ));
+            }
+            Op::McAbort => {
+                if self.tasks[0].run == Run::Running {
+                    self.end_program(0, sys, false);
+                }
+                Flow::Shared
+            }
+            Op::McHold => {
+                self.mc_hold = true;
+                sys.set_program_hold(true);
+                Flow::Shared
+            }
+            Op::McContinue => {
+                self.mc_hold = false;
+                sys.set_program_hold(false);
+                if matches!(self.tasks[0].wait, Some(Wait::Paused)) {
+                    self.tasks[0].wait = None;
+                    self.tasks[0].ready_at = now;
+                }
+                Flow::Shared
+            }
+            Op::McSpeed(e) => {
+                let v = self.eval_r(i, e, sys)?;
+                if let Err(why) = sys.set_monitor_speed(f64::from(v)) {
+                    let id = self.tasks[i].id;
+                    self.message(sys, id, format!("MC SPEED {v}: {why}"));
+                }
+                Flow::Shared
+            }
+            Op::McEreset => {
+                if let Err(why) = sys.reset_error() {
+                    let id = self.tasks[i].id;
+                    self.message(sys, id, format!("MC ERESET: {why}"));
+                }
+                Flow::Shared
+            }
+            Op::SetSwitch(k, on) => {
+                if let Some(s) = self.switches.get_mut(*k) {
+                    *s = *on;
+                }
+                Flow::Next
+            }
+            Op::Timer(n, v) => {
+                let n = self.eval_r(i, n, sys)?.trunc();
+                let v = self.eval_r(i, v, sys)?;
+                if !(1.0..=10.0).contains(&n) {
+                    return Err(RuntimeError::IllegalValue(format!("TIMER {n} (1 to 10)")));
+                }
+                let d = Duration::from_secs_f64(f64::from(v).abs().min(1.0e7));
+                self.timers[n as usize] = Some(if v >= 0.0 {
+                    now.saturating_sub(d)
+                } else {
+                    now + d
+                });
+                Flow::Next
+            }
+            Op::Decompose(target, l) => {
+                let v = match self.eval_loc(i, l, sys)? {
+                    LocVal::J(v) | LocVal::T(v) => v,
+                };
+                let n = target.idx.len().min(3);
+                let idx = self.indices(i, target, sys)?;
+                let dims = n.max(1);
+                for (k, x) in v.iter().enumerate() {
+                    let mut at = idx;
+                    at[0] = idx[0] + k as i32;
+                    if at[0] > MAX_INDEX {
+                        return Err(RuntimeError::IndexRange(format!(
+                            "DECOMPOSE beyond index {MAX_INDEX}"
+                        )));
+                    }
+                    self.write_r_at(i, target.var, &at[..dims], *x)?;
+                }
+                Flow::Next
+            }
+            Op::HereJ(l) => {
+                let v = sys.joints().map(|x| x as f32);
+                self.write_loc_var(i, l, Ty::Joint, v, sys)?;
+                Flow::Next
+            }
+            Op::HereT(l) => {
+                let Some(p) = sys.pose() else {
+                    return Err(RuntimeError::IllegalValue(
+                        "HERE: this controller has no kinematics".into(),
+                    ));
+                };
+                self.write_loc_var(i, l, Ty::Trans, p.map(|x| x as f32), sys)?;
+                Flow::Next
+            }
+            Op::Move(linear, l) => {
+                self.require_robot(robot, "JMOVE/LMOVE")?;
+                let target = match self.eval_loc(i, l, sys)? {
+                    LocVal::J(v) => Target::Joints(v.map(f64::from)),
+                    LocVal::T(v) => Target::Pose(v.map(f64::from)),
+                };
+                let kind = if *linear {
+                    MotionKind::Linear
+                } else {
+                    MotionKind::Joint
+                };
+                self.motion(i, kind, target, 0.0, sys)?
+            }
+            Op::Home => {
+                self.require_robot(robot, "HOME")?;
+                let home = sys.home();
+                self.motion(i, MotionKind::Joint, Target::Joints(home), 0.0, sys)?
+            }
+            Op::Delay(e) => {
+                self.require_robot(robot, "DELAY")?;
+                let d = self.eval_r(i, e, sys)?;
+                if !(d.is_finite() && d >= 0.0) {
+                    return Err(RuntimeError::IllegalValue(format!("DELAY {d}")));
+                }
+                let here = Target::Joints(sys.joints());
+                self.motion(i, MotionKind::Delay, here, f64::from(d), sys)?
+            }
+            Op::Brake => {
+                sys.brake();
+                Flow::Shared
+            }
+            Op::Break => {
+                self.require_robot(robot, "BREAK")?;
+                if sys.motion_in_progress() {
+                    Flow::Wait(Wait::MotionDone)
+                } else {
+                    Flow::Next
+                }
+            }
+            Op::Speed(e, unit, always) => {
+                let v = self.eval_r(i, e, sys)?;
+                let v = f64::from(v);
+                let speed = match unit {
+                    SpeedUnit::Percent => Speed::Percent(v.clamp(0.01, 100.0)),
+                    other => {
+                        if !(v.is_finite() && v > 0.0) {
+                            return Err(RuntimeError::IllegalValue(format!("SPEED {v}")));
+                        }
+                        match other {
+                            SpeedUnit::MmPerS => Speed::MmPerS(v),
+                            SpeedUnit::MmPerMin => Speed::MmPerS(v / 60.0),
+                            _ => Speed::Seconds(v),
+                        }
+                    }
+                };
+                let m = &mut self.tasks[i].motion;
+                if *always {
+                    m.speed = speed;
+                    m.speed_once = None;
+                } else {
+                    m.speed_once = Some(speed);
+                }
+                Flow::Next
+            }
+            Op::Accuracy(e, fine, always) => {
+                let v = f64::from(self.eval_r(i, e, sys)?);
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err(RuntimeError::IllegalValue(format!("ACCURACY {v}")));
+                }
+                let m = &mut self.tasks[i].motion;
+                if *always {
+                    m.accuracy = (v, *fine);
+                    m.accuracy_once = None;
+                } else {
+                    m.accuracy_once = Some((v, *fine));
+                }
+                Flow::Next
+            }
+            Op::AccelDecel(decel, e, always) => {
+                let v = f64::from(self.eval_r(i, e, sys)?).clamp(0.01, 100.0);
+                let m = &mut self.tasks[i].motion;
+                match (decel, always) {
+                    (false, true) => {
+                        m.accel = v;
+                        m.accel_once = None;
+                    }
+                    (false, false) => m.accel_once = Some(v),
+                    (true, true) => {
+                        m.decel = v;
+                        m.decel_once = None;
+                    }
+                    (true, false) => m.decel_once = Some(v),
+                }
+                Flow::Next
+            }
+            Op::Cp(on) => {
+                if let Some(k) = SYSTEM_SWITCHES.iter().position(|(n, _)| *n == "cp") {
+                    self.switches[k] = *on;
+                }
+                Flow::Next
+            }
+            Op::TcpListen(ret, port) => {
+                let port = self.port(i, port, sys)?;
+                let r = sys.tcp_listen(port);
+                self.write_r(i, ret, r as f32, sys)?;
+                Flow::Shared
+            }
+            Op::TcpEndListen(ret, port) => {
+                let port = self.port(i, port, sys)?;
+                let r = sys.tcp_end_listen(port);
+                self.write_r(i, ret, r as f32, sys)?;
+                Flow::Shared
+            }
+            Op::TcpAccept { port, timeout, .. } => {
+                let port = self.port(i, port, sys)?;
+                let deadline = now + self.timeout(i, timeout.as_ref(), sys)?;
+                self.set_pc(i, pc);
+                match sys.tcp_accept(port) {
+                    SockPoll::Ready(r) => {
+                        self.finish_accept(i, r, sys)?;
+                        Flow::Shared
+                    }
+                    SockPoll::Pending => Flow::Wait(Wait::Accept { port, deadline }),
+                }
+            }
+            Op::TcpConnect {
+                port, ip, timeout, ..
+            } => {
+                let port = self.port(i, port, sys)?;
+                let deadline = now + self.timeout(i, timeout.as_ref(), sys)?;
+                let mut addr = [0u8; 4];
+                let n = ip.idx.len().min(3);
+                let base = self.indices(i, ip, sys)?;
+                for (k, b) in addr.iter_mut().enumerate() {
+                    let mut at = base;
+                    at[0] += k as i32;
+                    let v = match self
+                        .store(i, ip.var.global)
+                        .reals
+                        .get(ip.var.slot as usize)
+                        .and_then(|x| x.get(&at[..n.max(1)]))
+                    {
+                        Some(v) => *v,
+                        None => return Err(self.undefined(i, ip, Ty::Real, &at[..n.max(1)])),
+                    };
+                    if !(0.0..=255.0).contains(&v) {
+                        return Err(RuntimeError::IllegalValue(format!("IP address byte {v}")));
+                    }
+                    *b = v as u8;
+                }
+                self.set_pc(i, pc);
+                match sys.tcp_connect(addr, port) {
+                    SockPoll::Ready(r) => {
+                        self.finish_ret(i, r.unwrap_or_else(|e| e) as f32, sys)?;
+                        Flow::Shared
+                    }
+                    SockPoll::Pending => Flow::Wait(Wait::Connect {
+                        ip: addr,
+                        port,
+                        deadline,
+                    }),
+                }
+            }
+            Op::TcpRecv {
+                sock, timeout, max, ..
+            } => {
+                let sock = self.eval_r(i, sock, sys)?.trunc() as i32;
+                let deadline = now + self.timeout(i, timeout.as_ref(), sys)?;
+                let max = match max {
+                    Some(m) => {
+                        let m = self.eval_r(i, m, sys)?.trunc();
+                        if !(1.0..=255.0).contains(&m) {
+                            return Err(RuntimeError::IllegalValue(format!(
+                                "TCP_RECV element size {m} (1 to 255)"
+                            )));
+                        }
+                        m as usize
+                    }
+                    None => 255,
+                };
+                self.set_pc(i, pc);
+                match sys.tcp_recv(sock, MAX_TRANSFER) {
+                    SockPoll::Ready(r) => {
+                        self.finish_recv(i, r, max, sys)?;
+                        Flow::Shared
+                    }
+                    SockPoll::Pending => Flow::Wait(Wait::Recv {
+                        sock,
+                        max,
+                        deadline,
+                    }),
+                }
+            }
+            Op::TcpSend {
+                ret,
+                sock,
+                buf,
+                n,
+                timeout,
+            } => {
+                let sock = self.eval_r(i, sock, sys)?.trunc() as i32;
+                let deadline = now + self.timeout(i, timeout.as_ref(), sys)?;
+                let count = self.eval_r(i, n, sys)?.trunc();
+                if !(0.0..=MAX_INDEX as f32).contains(&count) {
+                    return Err(RuntimeError::IllegalValue(format!(
+                        "TCP_SEND element count {count}"
+                    )));
+                }
+                let dims = buf.idx.len().min(3).max(1);
+                let base = self.indices(i, buf, sys)?;
+                let mut data = Vec::new();
+                for k in 0..count as i32 {
+                    let mut at = base;
+                    at[0] += k;
+                    let v = match self
+                        .store(i, buf.var.global)
+                        .strs
+                        .get(buf.var.slot as usize)
+                        .and_then(|x| x.get(&at[..dims]))
+                    {
+                        Some(v) => v.clone(),
+                        None => return Err(self.undefined(i, buf, Ty::Str, &at[..dims])),
+                    };
+                    data.extend_from_slice(&v);
+                    if data.len() > MAX_TRANSFER {
+                        break;
+                    }
+                }
+                if data.len() > MAX_TRANSFER {
+                    self.write_r(i, ret, -34022.0, sys)?;
+                    return Ok(Flow::Shared);
+                }
+                self.set_pc(i, pc);
+                match sys.tcp_send(sock, &data) {
+                    SockPoll::Ready(r) => {
+                        self.finish_ret(i, r.map_or_else(|e| e as f32, |()| 0.0), sys)?;
+                        Flow::Shared
+                    }
+                    SockPoll::Pending => Flow::Wait(Wait::Send {
+                        sock,
+                        data,
+                        deadline,
+                    }),
+                }
+            }
+            Op::TcpClose(ret, sock) => {
+                let sock = self.eval_r(i, sock, sys)?.trunc() as i32;
+                let r = sys.tcp_close(sock);
+                self.write_r(i, ret, r as f32, sys)?;
+                Flow::Shared
+            }
+        };
+        let t = &mut self.tasks[i];
+        t.ready_at = now + cost;
+        Ok(flow)
+    }
+
+    fn require_robot(&self, robot: bool, what: &str) -> R<()> {
+        if robot {
+            Ok(())
+        } else {
+            Err(RuntimeError::WrongTask(format!(
+                "{what} is allowed only in robot programs"
+            )))
+        }
+    }
+
+    fn set_pc(&mut self, i: usize, pc: usize) {
+        if let Some(f) = self.tasks[i].frames.last_mut() {
+            f.pc = pc;
+        }
+    }
+
+    fn port(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<u16> {
+        let p = self.eval_r(i, e, sys)?.trunc();
+        if !(8192.0..=65535.0).contains(&p) {
+            return Err(RuntimeError::IllegalValue(format!(
+                "port {p} (8192 to 65535)"
+            )));
+        }
+        Ok(p as u16)
+    }
+
+    fn timeout(&mut self, i: usize, e: Option<&RExpr>, sys: &mut dyn System) -> R<Duration> {
+        let v = match e {
+            Some(e) => self.eval_r(i, e, sys)?,
+            None => 1.0,
+        };
+        if !(0.0..=60.0).contains(&v) {
+            return Err(RuntimeError::IllegalValue(format!(
+                "timeout {v} s (0 to 60)"
+            )));
+        }
+        Ok(Duration::from_secs_f64(f64::from(v)))
+    }
+
+    /// Writes a socket instruction's result to its `ret` variable and goes on.
+    fn finish_ret(&mut self, i: usize, v: f32, sys: &mut dyn System) -> R<()> {
+        let ret = match self.current_op(i) {
+            Some(
+                Op::TcpConnect { ret, .. }
+                | Op::TcpSend { ret, .. }
+                | Op::TcpAccept { ret, .. }
+                | Op::TcpRecv { ret, .. },
+            ) => ret.clone(),
+            _ => return Ok(()),
+        };
+        self.write_r(i, &ret, v, sys)?;
+        self.advance_pc(i);
+        Ok(())
+    }
+
+    fn finish_accept(
+        &mut self,
+        i: usize,
+        r: Result<(i32, [u8; 4]), i32>,
+        sys: &mut dyn System,
+    ) -> R<()> {
+        let ip = match self.current_op(i) {
+            Some(Op::TcpAccept { ip, .. }) => ip.clone(),
+            _ => None,
+        };
+        if let (Ok((_, addr)), Some(ip)) = (&r, ip) {
+            let n = ip.idx.len().min(3).max(1);
+            let base = self.indices(i, &ip, sys)?;
+            for (k, b) in addr.iter().enumerate() {
+                let mut at = base;
+                at[0] += k as i32;
+                self.write_r_at(i, ip.var, &at[..n], f32::from(*b))?;
+            }
+        }
+        let v = match r {
+            Ok((id, _)) => id as f32,
+            Err(e) => e as f32,
+        };
+        self.finish_ret(i, v, sys)
+    }
+
+    fn finish_recv(
+        &mut self,
+        i: usize,
+        r: Result<Vec<u8>, i32>,
+        max: usize,
+        sys: &mut dyn System,
+    ) -> R<()> {
+        let (buf, count) = match self.current_op(i) {
+            Some(Op::TcpRecv { buf, count, .. }) => (buf.clone(), count.clone()),
+            _ => return Ok(()),
+        };
+        match r {
+            Ok(bytes) => {
+                let dims = buf.idx.len().min(3).max(1);
+                let base = self.indices(i, &buf, sys)?;
+                let mut n = 0;
+                for (k, chunk) in bytes.chunks(max.max(1)).take(MAX_TRANSFER).enumerate() {
+                    let mut at = base;
+                    at[0] += k as i32;
+                    if at[0] > MAX_INDEX {
+                        break;
+                    }
+                    self.write_s_at(i, buf.var, &at[..dims], Arc::from(chunk))?;
+                    n += 1;
+                }
+                self.write_r(i, &count, n as f32, sys)?;
+                self.finish_ret(i, 0.0, sys)
+            }
+            Err(e) => {
+                self.write_r(i, &count, 0.0, sys)?;
+                self.finish_ret(i, e as f32, sys)
+            }
+        }
+    }
+
+    fn eval_args(
+        &mut self,
+        i: usize,
+        args: &[CArg],
+        sys: &mut dyn System,
+    ) -> R<Vec<(ArgVal, Option<ByRefTarget>)>> {
+        let mut out = Vec::with_capacity(args.len());
+        for a in args {
+            let v = match &a.value {
+                CExpr::R(e) => ArgVal::R(self.eval_r(i, e, sys)?),
+                CExpr::S(e) => ArgVal::S(self.eval_s(i, e, sys)?),
+                CExpr::J(e) => ArgVal::J(self.eval_j(i, e, sys)?),
+                CExpr::T(e) => ArgVal::T(self.eval_t(i, e, sys)?),
+            };
+            let target = match &a.var {
+                Some((_, l)) => {
+                    let n = l.idx.len().min(3);
+                    let idx = self.indices(i, l, sys)?;
+                    let locals = self.tasks[i].frames.last().map_or(0, |f| f.locals);
+                    Some(ByRefTarget {
+                        var: l.var,
+                        idx: idx[..n].to_vec(),
+                        locals,
+                    })
+                }
+                None => None,
+            };
+            out.push((v, target));
+        }
+        Ok(out)
+    }
+
+    /// RETURN (or `.END`): back to the caller, writing by-reference parameters back.
+    fn ret(&mut self, i: usize, sys: &mut dyn System) -> R<()> {
+        if self.tasks[i].frames.len() <= 1 {
+            self.end_program(i, sys, true);
+            return Ok(());
+        }
+        let Some(frame) = self.tasks[i].frames.pop() else {
+            return Ok(());
+        };
+        for b in &frame.byref {
+            let s = b.param as usize;
+            let callee = &self.locals[frame.locals];
+            let val = match b.ty {
+                Ty::Real => callee.reals[s].get(&[]).copied().map(ArgVal::R),
+                Ty::Str => callee.strs[s].get(&[]).cloned().map(ArgVal::S),
+                Ty::Joint => callee.joints[s].get(&[]).copied().map(ArgVal::J),
+                Ty::Trans => callee.trans[s].get(&[]).copied().map(ArgVal::T),
+            };
+            let Some(val) = val else { continue };
+            let store = if b.var.global {
+                &mut self.globals
+            } else {
+                &mut self.locals[b.locals]
+            };
+            let slot = b.var.slot as usize;
+            let created = match val {
+                ArgVal::R(v) => store.reals.get_mut(slot).is_some_and(|x| x.set(&b.idx, v)),
+                ArgVal::S(v) => store.strs.get_mut(slot).is_some_and(|x| x.set(&b.idx, v)),
+                ArgVal::J(v) => store.joints.get_mut(slot).is_some_and(|x| x.set(&b.idx, v)),
+                ArgVal::T(v) => store.trans.get_mut(slot).is_some_and(|x| x.set(&b.idx, v)),
+            };
+            self.count_element(created)?;
+        }
+        if frame.interrupt {
+            // Back where the interrupt found the task.
+        } else {
+            // The caller's pc was moved past its CALL when it executed it.
+        }
+        Ok(())
+    }
+
+    /// Issues a motion with the task's motion parameters (the one-shot ones are used up).
+    fn motion(
+        &mut self,
+        i: usize,
+        kind: MotionKind,
+        target: Target,
+        delay_s: f64,
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        let cp = self.switch_on("cp");
+        let abs_speed = self.switch_on("abs.speed");
+        let m = &mut self.tasks[i].motion;
+        let speed = m.speed_once.take().unwrap_or(m.speed);
+        let (accuracy_mm, fine) = m.accuracy_once.take().unwrap_or(m.accuracy);
+        let accel_percent = m.accel_once.take().unwrap_or(m.accel);
+        let decel_percent = m.decel_once.take().unwrap_or(m.decel);
+        let req = MotionRequest {
+            kind,
+            target,
+            speed,
+            delay_s,
+            accuracy_mm,
+            fine,
+            accel_percent,
+            decel_percent,
+            cp,
+            abs_speed,
+        };
+        match sys.issue_motion(&req) {
+            Ok(Issued::Started) => Ok(Flow::Shared),
+            Ok(Issued::Planned) => Ok(Flow::Wait(Wait::MotionPlanned)),
+            Err(code) => Err(RuntimeError::System(code)),
+        }
+    }
+}
+
+/// An evaluated argument.
+#[derive(Debug, Clone)]
+enum ArgVal {
+    R(f32),
+    S(Bytes),
+    J([f32; 6]),
+    T([f32; 6]),
+}
+
+/// Where a by-reference argument goes back.
+#[derive(Debug, Clone)]
+struct ByRefTarget {
+    var: VarRef,
+    idx: Vec<i32>,
+    locals: usize,
+}
+
+fn xyzoat(v: &[f32; 6]) -> Xyzoat {
+    Xyzoat {
+        x_mm: f64::from(v[0]),
+        y_mm: f64::from(v[1]),
+        z_mm: f64::from(v[2]),
+        o_deg: f64::from(v[3]),
+        a_deg: f64::from(v[4]),
+        t_deg: f64::from(v[5]),
+    }
+}
+
+/// AS `VAL`: decimal through fs020n-proto's `as_val` (the protocol server's own reading),
+/// `^H`/`^B` prefixes, and radix codes 1 (binary) and 2 (hexadecimal).
+fn val(s: &[u8], radix: f32) -> R<f32> {
+    let text = String::from_utf8_lossy(s);
+    let t = text.trim_start_matches([' ', '\t']);
+    let (radix, digits) = if let Some(rest) = t.strip_prefix("^H").or_else(|| t.strip_prefix("^h"))
+    {
+        (16, rest)
+    } else if let Some(rest) = t.strip_prefix("^B").or_else(|| t.strip_prefix("^b")) {
+        (2, rest)
+    } else {
+        match radix.trunc() as i32 {
+            0 => return Ok(as_val(t) as f32),
+            1 => (2, t),
+            2 => (16, t),
+            other => {
+                return Err(RuntimeError::IllegalValue(format!(
+                    "VAL radix code {other} (0, 1 or 2)"
+                )))
+            }
+        }
+    };
+    let end = digits
+        .find(|c: char| !c.is_digit(radix))
+        .unwrap_or(digits.len());
+    Ok(u64::from_str_radix(&digits[..end.min(16)], radix).map_or(0.0, |v| v as f32))
+}
+
+/// `INSTR`: 1-based position of `sub` in `s` at or after `start`, 0 when absent.
+fn instr(s: &[u8], sub: &[u8], start: usize) -> usize {
+    let from = start.saturating_sub(1);
+    if from > s.len() {
+        return 0;
+    }
+    if sub.is_empty() {
+        return 0;
+    }
+    s[from..]
+        .windows(sub.len())
+        .position(|w| w == sub)
+        .map_or(0, |p| p + from + 1)
+}

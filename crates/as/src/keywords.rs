@@ -1,0 +1,254 @@
+//! Keywords and their abbreviations.
+//!
+//! Like the controller, the interpreter accepts a keyword shortened to any prefix at least as
+//! long as its shortest form below (`MC EXEC` = `MC EXECUTE`, `JM` = `JMOVE`). The shortest
+//! forms are chosen so that no prefix is ambiguous among the AS instructions listed here —
+//! including instructions this interpreter does not support, so that `L` is not taken for
+//! `LMOVE` when the controller would also know `LAPPRO`.
+
+/// Program instructions: (keyword, shortest accepted form).
+pub const STATEMENTS: &[(&str, usize)] = &[
+    ("abs.speed", 9),
+    ("accel", 4),
+    ("accuracy", 4),
+    ("any", 3),
+    ("brake", 3),
+    ("break", 3),
+    ("call", 3),
+    ("case", 3),
+    ("cp", 2),
+    ("decel", 5),
+    ("decompose", 4),
+    ("delay", 3),
+    ("disable", 4),
+    ("do", 2),
+    ("else", 4),
+    ("enable", 3),
+    ("end", 3),
+    ("execute", 3),
+    ("for", 3),
+    ("goto", 2),
+    ("halt", 3),
+    ("here", 4),
+    ("home", 3),
+    ("if", 2),
+    ("ignore", 2),
+    ("jmove", 2),
+    ("lmove", 2),
+    ("mc", 2),
+    ("on", 2),
+    ("oni", 3),
+    ("pause", 3),
+    ("pcabort", 4),
+    ("pcexecute", 4),
+    ("point", 3),
+    ("print", 3),
+    ("return", 3),
+    ("signal", 3),
+    ("speed", 2),
+    ("stop", 3),
+    ("tcp_accept", 10),
+    ("tcp_close", 9),
+    ("tcp_connect", 11),
+    ("tcp_end_listen", 14),
+    ("tcp_listen", 10),
+    ("tcp_recv", 8),
+    ("tcp_send", 8),
+    ("timer", 3),
+    ("twait", 2),
+    ("type", 2),
+    ("until", 2),
+    ("value", 3),
+    ("wait", 2),
+    ("while", 3),
+];
+
+/// AS instructions that exist on the controller but not in this interpreter: named in errors
+/// instead of "unknown statement", and they keep abbreviations honest.
+pub const UNSUPPORTED: &[&str] = &[
+    "align",
+    "appro",
+    "base",
+    "bits",
+    "bits32",
+    "c1move",
+    "c2move",
+    "close",
+    "closei",
+    "depart",
+    "dlysig",
+    "draw",
+    "dwrist",
+    "extcall",
+    "hmove",
+    "japro",
+    "jappro",
+    "jdepart",
+    "lappro",
+    "ldepart",
+    "lefty",
+    "open",
+    "openi",
+    "prefetch.sigins",
+    "pulse",
+    "relax",
+    "relaxi",
+    "righty",
+    "runmask",
+    "swait",
+    "tdraw",
+    "tool",
+    "udp_recvfrom",
+    "udp_sendto",
+    "uwrist",
+    "xmove",
+    "above",
+    "below",
+    "tcp_status",
+];
+
+/// Monitor commands accepted after `MC`: (keyword, shortest accepted form).
+pub const MONITOR: &[(&str, usize)] = &[
+    ("abort", 2),
+    ("continue", 4),
+    ("ereset", 3),
+    ("execute", 2),
+    ("hold", 2),
+    ("pcabort", 4),
+    ("pcexecute", 4),
+    ("speed", 2),
+];
+
+/// Monitor commands the controller knows but `MC` here does not run.
+pub const MONITOR_UNSUPPORTED: &[&str] = &[
+    "delete",
+    "directory",
+    "edit",
+    "erase",
+    "kill",
+    "list",
+    "load",
+    "save",
+    "status",
+    "step",
+    "zpower",
+    "pcstatus",
+    "pcend",
+    "pckill",
+    "pcstep",
+    "pccontinue",
+];
+
+/// System switches that `name ON|OFF`, `ENABLE name`, `DISABLE name` and `SWITCH(name)`
+/// know, with their power-on state. Only `ABS.SPEED` changes motion here; the others are
+/// remembered and reported.
+pub const SYSTEM_SWITCHES: &[(&str, bool)] = &[
+    ("abs.speed", false),
+    ("auto_start", false),
+    ("check.hold", false),
+    ("cp", true),
+    ("cyc.stop", false),
+    ("error", false),
+    ("message", true),
+    ("prefetch.sigins", false),
+    ("qtool", false),
+    ("repeatonce", false),
+    ("rps", false),
+    ("screen", true),
+    ("stepone", false),
+];
+
+/// Panel switches read by `SWITCH(name)`.
+pub const PANEL_SWITCHES: &[&str] = &["power", "run", "repeat", "teach_lock", "cs", "error"];
+
+/// Resolves `word` (lower case) against `table`: an exact keyword, or a prefix at least as long
+/// as the keyword's shortest form that matches exactly one keyword of `table` and none of
+/// `others`.
+pub fn resolve(
+    word: &str,
+    table: &[(&'static str, usize)],
+    others: &[&str],
+) -> Option<&'static str> {
+    if let Some((k, _)) = table.iter().find(|(k, _)| *k == word) {
+        return Some(k);
+    }
+    let mut found = None;
+    for (k, min) in table {
+        if word.len() >= *min && k.starts_with(word) {
+            if found.is_some() {
+                return None;
+            }
+            found = Some(*k);
+        }
+    }
+    if found.is_some() && others.iter().any(|o| o.starts_with(word)) {
+        return None;
+    }
+    found
+}
+
+/// Resolves a statement keyword.
+pub fn statement(word: &str) -> Option<&'static str> {
+    resolve(word, STATEMENTS, UNSUPPORTED)
+}
+
+/// Resolves a monitor command after `MC`.
+pub fn monitor(word: &str) -> Option<&'static str> {
+    resolve(word, MONITOR, MONITOR_UNSUPPORTED)
+}
+
+/// The power-on state of a system switch, `None` when the name is not one.
+pub fn system_switch_default(name: &str) -> Option<bool> {
+    SYSTEM_SWITCHES
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, v)| *v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn abbreviations() {
+        assert_eq!(monitor("exec"), Some("execute"));
+        assert_eq!(monitor("ex"), Some("execute"));
+        assert_eq!(monitor("e"), None);
+        assert_eq!(monitor("ere"), Some("ereset"));
+        assert_eq!(monitor("cont"), Some("continue"));
+        assert_eq!(statement("jm"), Some("jmove"));
+        assert_eq!(statement("l"), None);
+        assert_eq!(statement("brake"), Some("brake"));
+        assert_eq!(statement("bre"), Some("break"));
+        assert_eq!(statement("br"), None);
+        assert_eq!(statement("on"), Some("on"));
+        assert_eq!(statement("oni"), Some("oni"));
+        assert_eq!(statement("tw"), Some("twait"));
+        assert_eq!(statement("tcp_recv"), Some("tcp_recv"));
+        assert_eq!(statement("jappro"), None);
+        assert_eq!(statement("pr"), None);
+        assert_eq!(statement("pri"), Some("print"));
+        assert_eq!(statement("en"), None);
+        assert_eq!(statement("dec"), None);
+        assert_eq!(statement("deco"), Some("decompose"));
+        // Every shortest form resolves to its keyword.
+        for (k, min) in STATEMENTS {
+            assert_eq!(statement(&k[..*min]), Some(*k), "{k}");
+        }
+        for (k, min) in MONITOR {
+            assert_eq!(monitor(&k[..*min]), Some(*k), "{k}");
+        }
+        // No shortest form shadows another keyword.
+        for (k, min) in STATEMENTS {
+            for (o, _) in STATEMENTS {
+                if k != o {
+                    assert!(
+                        &k[..*min] == *k || !o.starts_with(&k[..*min]),
+                        "{k} shortest form {} is a prefix of {o}",
+                        &k[..*min]
+                    );
+                }
+            }
+        }
+    }
+}

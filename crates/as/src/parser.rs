@@ -1,0 +1,2020 @@
+//! The parser: AS program files into a [`Module`].
+//!
+//! A file holds `.PROGRAM name(params)` … `.END` blocks and data sections (`.REALS`,
+//! `.STRINGS`, `.JOINTS`, `.TRANS`, each ending with `.END`), in any order, as the controller
+//! saves them. Other sections a controller backup carries (`.AUXDATA`, `.INTER_PANEL_D`, …) are
+//! skipped with a warning; `.*` lines are comments. Lines end with `\n` or `\r\n`; comments
+//! (`;`) may hold any UTF-8 text.
+//!
+//! Every error names the file, line and column and what was expected; parsing goes on after an
+//! error so that one load reports up to [`MAX_REPORTED`] of them.
+
+use crate::ast::*;
+use crate::error::{LoadError, ParseError, MAX_REPORTED};
+use crate::keywords;
+use crate::lexer::{strip_comment, tokenize, Name, Sigil, Tok, Token};
+use crate::span::Span;
+
+/// Deepest nesting of blocks (IF, WHILE, …) and of parentheses accepted.
+pub const MAX_NESTING: usize = 48;
+
+/// Parses one AS file. `file` names it in messages.
+///
+/// ```
+/// let m = fs020n_as::parse("demo.as", ".PROGRAM hello()\r\n  PRINT \"hi\" ; größer\r\n.END\r\n").unwrap();
+/// assert_eq!(m.programs[0].name, "hello");
+/// let e = fs020n_as::parse("bad.as", ".PROGRAM p()\n  IF a THEN\n.END\n").unwrap_err();
+/// assert_eq!(e.to_string(), "bad.as:2:3: expected END to close this IF before .END");
+/// ```
+pub fn parse(file: &str, text: &str) -> Result<Module, LoadError> {
+    let lines: Vec<String> = text
+        .split('\n')
+        .map(|l| l.strip_suffix('\r').unwrap_or(l).to_owned())
+        .collect();
+    let mut p = FileParser {
+        file,
+        errors: Vec::new(),
+        warnings: Vec::new(),
+    };
+    let mut programs: Vec<Program> = Vec::new();
+    let mut data = Vec::new();
+    let mut i = 0;
+    while i < lines.len() {
+        let line_no = i as u32 + 1;
+        let code = strip_comment(&lines[i]);
+        let trimmed = code.trim_start_matches([' ', '\t', '\u{feff}']).trim_end();
+        if trimmed.is_empty() || trimmed.starts_with(".*") {
+            i += 1;
+            continue;
+        }
+        let col = (code.chars().count()
+            - code
+                .trim_start_matches([' ', '\t', '\u{feff}'])
+                .chars()
+                .count()) as u32
+            + 1;
+        let span = Span::new(line_no, col);
+        match directive(trimmed) {
+            Some((word, rest)) if word == "program" => {
+                let end = find_end(&lines, i + 1);
+                match p.program(&lines, i, end, rest, span) {
+                    Some(prog) => {
+                        if let Some(prev) = programs.iter().find(|q| q.name == prog.name) {
+                            p.error(
+                                span,
+                                format!(
+                                    "program {} is defined twice (first at line {})",
+                                    prog.name, prev.span.line
+                                ),
+                            );
+                        } else {
+                            programs.push(prog);
+                        }
+                    }
+                    None => {}
+                }
+                if end >= lines.len() {
+                    p.error(
+                        span,
+                        format!(
+                            "expected .END to close this .PROGRAM (the file ends at line {})",
+                            lines.len()
+                        ),
+                    );
+                }
+                i = end + 1;
+            }
+            Some((word, _))
+                if matches!(word.as_str(), "reals" | "strings" | "joints" | "trans") =>
+            {
+                let end = find_end(&lines, i + 1);
+                for k in i + 1..end.min(lines.len()) {
+                    if let Some(item) = p.data_line(&word, k as u32 + 1, &lines[k]) {
+                        data.push(item);
+                    }
+                }
+                if end >= lines.len() {
+                    p.error(
+                        span,
+                        format!(
+                            "expected .END to close this .{} section",
+                            word.to_uppercase()
+                        ),
+                    );
+                }
+                i = end + 1;
+            }
+            Some((word, _)) if word == "end" => {
+                p.error(span, ".END without a .PROGRAM or a data section to close");
+                i += 1;
+            }
+            Some((word, _)) => {
+                let end = find_end(&lines, i + 1);
+                p.warnings.push(ParseError::new(
+                    file,
+                    span,
+                    format!("section .{} skipped (this interpreter reads .PROGRAM, .REALS, .STRINGS, .JOINTS and .TRANS)", word.to_uppercase()),
+                ));
+                i = end + 1;
+            }
+            None => {
+                p.error(
+                    span,
+                    format!(
+                        "expected .PROGRAM or a data section (.REALS, .STRINGS, .JOINTS, .TRANS), found {:?}",
+                        truncate(trimmed, 40)
+                    ),
+                );
+                i += 1;
+            }
+        }
+        if p.errors.len() >= MAX_REPORTED {
+            break;
+        }
+    }
+    if !p.errors.is_empty() {
+        p.errors.truncate(MAX_REPORTED);
+        return Err(LoadError { errors: p.errors });
+    }
+    Ok(Module {
+        file: file.into(),
+        lines,
+        programs,
+        data,
+        warnings: p.warnings,
+    })
+}
+
+fn truncate(s: &str, n: usize) -> String {
+    if s.chars().count() <= n {
+        s.to_owned()
+    } else {
+        let mut t: String = s.chars().take(n).collect();
+        t.push('…');
+        t
+    }
+}
+
+/// `.WORD rest` → (word in lower case, rest).
+fn directive(trimmed: &str) -> Option<(String, &str)> {
+    let rest = trimmed.strip_prefix('.')?;
+    let end = rest
+        .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+        .unwrap_or(rest.len());
+    if end == 0 || !rest.as_bytes()[0].is_ascii_alphabetic() {
+        return None;
+    }
+    Some((rest[..end].to_ascii_lowercase(), &rest[end..]))
+}
+
+/// `true` when the line is exactly `.END` (any case, comment allowed).
+fn is_end_line(line: &str) -> bool {
+    let t = strip_comment(line).trim_matches([' ', '\t', '\u{feff}']);
+    t.eq_ignore_ascii_case(".end")
+}
+
+/// Index of the `.END` line at or after `from` (`lines.len()` when there is none).
+fn find_end(lines: &[String], from: usize) -> usize {
+    (from..lines.len())
+        .find(|&k| is_end_line(&lines[k]))
+        .unwrap_or(lines.len())
+}
+
+struct FileParser<'a> {
+    file: &'a str,
+    errors: Vec<ParseError>,
+    warnings: Vec<ParseError>,
+}
+
+/// One line of a program before the blocks are assembled.
+#[derive(Debug)]
+struct LineItem {
+    label: Option<Label>,
+    kind: LineKind,
+    span: Span,
+}
+
+#[derive(Debug)]
+enum LineKind {
+    Stmt(StmtKind),
+    IfThen(Expr),
+    Else,
+    End,
+    While(Expr),
+    Do,
+    Until(Expr),
+    For {
+        var: LValue,
+        from: Expr,
+        to: Expr,
+        step: Option<Expr>,
+    },
+    Case(Expr),
+    Value(Vec<Expr>),
+    Any,
+}
+
+impl LineKind {
+    fn name(&self) -> &'static str {
+        match self {
+            LineKind::Stmt(_) => "statement",
+            LineKind::IfThen(_) => "IF",
+            LineKind::Else => "ELSE",
+            LineKind::End => "END",
+            LineKind::While(_) => "WHILE",
+            LineKind::Do => "DO",
+            LineKind::Until(_) => "UNTIL",
+            LineKind::For { .. } => "FOR",
+            LineKind::Case(_) => "CASE",
+            LineKind::Value(_) => "VALUE",
+            LineKind::Any => "ANY",
+        }
+    }
+}
+
+impl<'a> FileParser<'a> {
+    fn error(&mut self, span: Span, msg: impl Into<String>) {
+        self.errors.push(ParseError::new(self.file, span, msg));
+    }
+
+    fn tokens(&mut self, line_no: u32, code: &str) -> Option<Vec<Token>> {
+        match tokenize(self.file, line_no, code) {
+            Ok(t) => Some(t),
+            Err(e) => {
+                self.errors.push(e);
+                None
+            }
+        }
+    }
+
+    /// Parses `.PROGRAM` at `start` (header text `rest`) with its body up to `end`.
+    fn program(
+        &mut self,
+        lines: &[String],
+        start: usize,
+        end: usize,
+        rest: &str,
+        span: Span,
+    ) -> Option<Program> {
+        let line_no = start as u32 + 1;
+        // Columns of the header tokens: `rest` is a slice of the line; count the characters
+        // before it.
+        let line = lines[start].as_str();
+        let byte_offset = (rest.as_ptr() as usize)
+            .saturating_sub(line.as_ptr() as usize)
+            .min(line.len());
+        let offset = line.get(..byte_offset).map_or(0, |s| s.chars().count());
+        let toks = self.tokens(line_no, rest)?;
+        let toks: Vec<Token> = toks
+            .into_iter()
+            .map(|mut t| {
+                t.span.col += offset as u32;
+                t
+            })
+            .collect();
+        let mut c = Cur::new(self.file, &toks, line_no);
+        let header = (|| {
+            let name = match c.next() {
+                Some(Token {
+                    tok: Tok::Name(n), ..
+                }) if !n.local && n.sigil == Sigil::None => n.text,
+                other => {
+                    return Err(c.err_at(
+                        other.as_ref().map(|t| t.span),
+                        format!(
+                            "expected a program name after .PROGRAM, found {}",
+                            describe(other.as_ref())
+                        ),
+                    ))
+                }
+            };
+            let mut params = Vec::new();
+            if c.eat(&Tok::LParen) {
+                if !c.eat(&Tok::RParen) {
+                    loop {
+                        let pspan = c.span();
+                        let mut by_ref = c.eat(&Tok::Amp);
+                        let name = match c.next() {
+                            Some(Token {
+                                tok: Tok::Name(n), ..
+                            }) => n,
+                            other => return Err(c.err_at(
+                                other.as_ref().map(|t| t.span),
+                                format!(
+                                    "expected a parameter name such as .a, .$s or .#p, found {}",
+                                    describe(other.as_ref())
+                                ),
+                            )),
+                        };
+                        // `.&a`: the lexer reads `.` then `&`… accept `&.a` and `.a&`-less forms only.
+                        if !name.local {
+                            return Err(c.err_at(Some(pspan), format!("parameter {name} must be a local variable (start it with a dot: .{name})")));
+                        }
+                        by_ref |= c.eat(&Tok::Amp);
+                        params.push(Param {
+                            name,
+                            by_ref,
+                            span: pspan,
+                        });
+                        if c.eat(&Tok::RParen) {
+                            break;
+                        }
+                        c.expect(&Tok::Comma, "\",\" or \")\" in the parameter list")?;
+                    }
+                }
+            }
+            c.expect_end("the .PROGRAM line")?;
+            Ok((name, params))
+        })();
+        let (name, params) = match header {
+            Ok(h) => h,
+            Err(e) => {
+                self.errors.push(e);
+                return None;
+            }
+        };
+        let mut items = Vec::new();
+        for k in start + 1..end.min(lines.len()) {
+            if let Some(item) = self.line(k as u32 + 1, &lines[k]) {
+                items.push(item);
+            }
+        }
+        let mut it = items.into_iter().peekable();
+        let body = self.block(&mut it, &[], 0, "").map(|(b, _)| b);
+        let body = match body {
+            Ok(b) => b,
+            Err(e) => {
+                self.errors.push(e);
+                return None;
+            }
+        };
+        Some(Program {
+            name,
+            params,
+            body,
+            span,
+            end_line: end as u32 + 1,
+        })
+    }
+
+    /// Assembles statements until one of `closers` (returned) or the end of the program.
+    fn block(
+        &mut self,
+        it: &mut std::iter::Peekable<std::vec::IntoIter<LineItem>>,
+        closers: &[&str],
+        depth: usize,
+        opener: &str,
+    ) -> Result<(Vec<Stmt>, Option<LineItem>), ParseError> {
+        let mut out = Vec::new();
+        while let Some(item) = it.next() {
+            let name = item.kind.name();
+            if closers.contains(&name) {
+                return Ok((out, Some(item)));
+            }
+            if depth >= MAX_NESTING
+                && matches!(
+                    item.kind,
+                    LineKind::IfThen(_)
+                        | LineKind::While(_)
+                        | LineKind::Do
+                        | LineKind::For { .. }
+                        | LineKind::Case(_)
+                )
+            {
+                return Err(ParseError::new(
+                    self.file,
+                    item.span,
+                    format!("blocks nested deeper than {MAX_NESTING} levels"),
+                ));
+            }
+            let LineItem { label, kind, span } = item;
+            let stmt = match kind {
+                LineKind::Stmt(k) => k,
+                LineKind::IfThen(cond) => {
+                    let (then, close) = self.block(it, &["ELSE", "END"], depth + 1, "IF")?;
+                    let close = self.closed(close, span, "IF")?;
+                    let otherwise = if close.kind.name() == "ELSE" {
+                        self.no_label(&close)?;
+                        let (b, close) = self.block(it, &["END"], depth + 1, "IF")?;
+                        let close = self.closed(close, span, "IF")?;
+                        self.no_label(&close)?;
+                        b
+                    } else {
+                        self.no_label(&close)?;
+                        Vec::new()
+                    };
+                    StmtKind::If {
+                        cond,
+                        then,
+                        otherwise,
+                    }
+                }
+                LineKind::While(cond) => {
+                    let (body, close) = self.block(it, &["END"], depth + 1, "WHILE")?;
+                    let close = self.closed(close, span, "WHILE")?;
+                    self.no_label(&close)?;
+                    StmtKind::While { cond, body }
+                }
+                LineKind::Do => {
+                    let (body, close) = self.block(it, &["UNTIL"], depth + 1, "DO")?;
+                    let close = self.closed(close, span, "DO")?;
+                    self.no_label(&close)?;
+                    match close.kind {
+                        LineKind::Until(cond) => StmtKind::DoUntil { body, cond },
+                        other => {
+                            return Err(ParseError::new(
+                                self.file,
+                                close.span,
+                                format!(
+                                    "expected UNTIL to close the DO at line {}, found {}",
+                                    span.line,
+                                    other.name()
+                                ),
+                            ))
+                        }
+                    }
+                }
+                LineKind::For {
+                    var,
+                    from,
+                    to,
+                    step,
+                } => {
+                    let (body, close) = self.block(it, &["END"], depth + 1, "FOR")?;
+                    let close = self.closed(close, span, "FOR")?;
+                    self.no_label(&close)?;
+                    StmtKind::For {
+                        var,
+                        from,
+                        to,
+                        step,
+                        body,
+                    }
+                }
+                LineKind::Case(selector) => {
+                    let mut arms: Vec<CaseArm> = Vec::new();
+                    // Only VALUE/ANY/END may follow CASE … OF.
+                    let mut next = it.next();
+                    loop {
+                        let Some(arm_item) = next.take() else {
+                            return Err(ParseError::new(
+                                self.file,
+                                span,
+                                "expected END to close this CASE before .END",
+                            ));
+                        };
+                        self.no_label(&arm_item)?;
+                        let values = match arm_item.kind {
+                            LineKind::End => break,
+                            LineKind::Value(v) => Some(v),
+                            LineKind::Any => None,
+                            other => {
+                                return Err(ParseError::new(
+                                    self.file,
+                                    arm_item.span,
+                                    format!(
+                                        "expected VALUE …:, ANY: or END in this CASE, found {}",
+                                        other.name()
+                                    ),
+                                ))
+                            }
+                        };
+                        let (body, close) =
+                            self.block(it, &["VALUE", "ANY", "END"], depth + 1, "CASE")?;
+                        arms.push(CaseArm {
+                            values,
+                            body,
+                            span: arm_item.span,
+                        });
+                        match close {
+                            Some(c) => next = Some(c),
+                            None => {
+                                return Err(ParseError::new(
+                                    self.file,
+                                    span,
+                                    "expected END to close this CASE before .END",
+                                ))
+                            }
+                        }
+                    }
+                    StmtKind::Case { selector, arms }
+                }
+                other => {
+                    let msg = match (other.name(), opener) {
+                        (n, "") => format!("{n} without an open block"),
+                        (n, o) => format!("{n} does not belong in this {o} block"),
+                    };
+                    return Err(ParseError::new(self.file, span, msg));
+                }
+            };
+            out.push(Stmt {
+                label,
+                kind: stmt,
+                span,
+            });
+        }
+        Ok((out, None))
+    }
+
+    fn closed(
+        &self,
+        close: Option<LineItem>,
+        open: Span,
+        what: &str,
+    ) -> Result<LineItem, ParseError> {
+        close.ok_or_else(|| {
+            let closer = if what == "DO" { "UNTIL" } else { "END" };
+            ParseError::new(
+                self.file,
+                open,
+                format!("expected {closer} to close this {what} before .END"),
+            )
+        })
+    }
+
+    fn no_label(&self, item: &LineItem) -> Result<(), ParseError> {
+        match &item.label {
+            Some(l) => Err(ParseError::new(
+                self.file,
+                l.span,
+                format!("a label cannot stand on a {} line: put it on a line of its own before the block", item.kind.name()),
+            )),
+            None => Ok(()),
+        }
+    }
+
+    /// One program line (`None`: empty, or an error was recorded).
+    fn line(&mut self, line_no: u32, text: &str) -> Option<LineItem> {
+        let code = strip_comment(text);
+        let toks = self.tokens(line_no, code)?;
+        if toks.is_empty() {
+            return None;
+        }
+        let mut c = Cur::new(self.file, &toks, line_no);
+        let span = toks[0].span;
+        let label = c.label();
+        if c.at_end() {
+            return Some(LineItem {
+                label,
+                kind: LineKind::Stmt(StmtKind::Empty),
+                span,
+            });
+        }
+        match c.statement() {
+            Ok(kind) => Some(LineItem { label, kind, span }),
+            Err(e) => {
+                self.errors.push(e);
+                // Keep the block structure of a line that opens a block, so that its END
+                // does not cause a second, misleading error.
+                let dummy = || Expr {
+                    kind: ExprKind::Num(0.0),
+                    span,
+                };
+                let word = toks.iter().find_map(|t| match &t.tok {
+                    Tok::Name(n) if !n.local && n.sigil == Sigil::None => {
+                        keywords::statement(&n.text)
+                    }
+                    _ => None,
+                });
+                let has_then = toks
+                    .iter()
+                    .any(|t| matches!(&t.tok, Tok::Name(n) if n.text == "then"));
+                let kind = match word {
+                    Some("while") => LineKind::While(dummy()),
+                    Some("if") if has_then => LineKind::IfThen(dummy()),
+                    Some("for") => LineKind::For {
+                        var: LValue {
+                            name: Name {
+                                local: false,
+                                sigil: Sigil::None,
+                                text: "~".into(),
+                            },
+                            indices: Vec::new(),
+                            span,
+                        },
+                        from: dummy(),
+                        to: dummy(),
+                        step: None,
+                    },
+                    Some("case") => LineKind::Case(dummy()),
+                    Some("do") => LineKind::Do,
+                    _ => return None,
+                };
+                Some(LineItem {
+                    label: None,
+                    kind,
+                    span,
+                })
+            }
+        }
+    }
+
+    /// One data-section line.
+    fn data_line(&mut self, section: &str, line_no: u32, text: &str) -> Option<DataItem> {
+        let code = strip_comment(text);
+        if code.trim().is_empty() {
+            return None;
+        }
+        let toks = self.tokens(line_no, code)?;
+        let mut c = Cur::new(self.file, &toks, line_no);
+        match c.data_item(section) {
+            Ok(item) => Some(item),
+            Err(e) => {
+                self.errors.push(e);
+                None
+            }
+        }
+    }
+}
+
+fn describe(t: Option<&Token>) -> String {
+    match t {
+        Some(t) => t.tok.describe(),
+        None => "the end of the line".into(),
+    }
+}
+
+/// A cursor over the tokens of one line.
+struct Cur<'a> {
+    file: &'a str,
+    toks: &'a [Token],
+    pos: usize,
+    line: u32,
+    depth: usize,
+}
+
+type PResult<T> = Result<T, ParseError>;
+
+impl<'a> Cur<'a> {
+    fn new(file: &'a str, toks: &'a [Token], line: u32) -> Cur<'a> {
+        Cur {
+            file,
+            toks,
+            pos: 0,
+            line,
+            depth: 0,
+        }
+    }
+
+    fn peek(&self) -> Option<&Tok> {
+        self.toks.get(self.pos).map(|t| &t.tok)
+    }
+
+    fn peek_at(&self, k: usize) -> Option<&Tok> {
+        self.toks.get(self.pos + k).map(|t| &t.tok)
+    }
+
+    fn span(&self) -> Span {
+        match self.toks.get(self.pos) {
+            Some(t) => t.span,
+            None => match self.toks.last() {
+                Some(t) => Span::new(self.line, t.span.col + 1),
+                None => Span::new(self.line, 1),
+            },
+        }
+    }
+
+    fn next(&mut self) -> Option<Token> {
+        let t = self.toks.get(self.pos).cloned();
+        if t.is_some() {
+            self.pos += 1;
+        }
+        t
+    }
+
+    fn at_end(&self) -> bool {
+        self.pos >= self.toks.len()
+    }
+
+    fn eat(&mut self, t: &Tok) -> bool {
+        if self.peek() == Some(t) {
+            self.pos += 1;
+            true
+        } else {
+            false
+        }
+    }
+
+    fn err(&self, msg: impl Into<String>) -> ParseError {
+        ParseError::new(self.file, self.span(), msg)
+    }
+
+    fn err_at(&self, span: Option<Span>, msg: impl Into<String>) -> ParseError {
+        ParseError::new(self.file, span.unwrap_or_else(|| self.span()), msg)
+    }
+
+    fn found(&self) -> String {
+        match self.peek() {
+            // `IF a = 1 THEN`: a common slip.
+            Some(Tok::Assign) => "\"=\" (a comparison is written ==)".into(),
+            _ => describe(self.toks.get(self.pos)),
+        }
+    }
+
+    fn expect(&mut self, t: &Tok, what: &str) -> PResult<Span> {
+        let span = self.span();
+        if self.eat(t) {
+            Ok(span)
+        } else {
+            Err(self.err(format!("expected {what}, found {}", self.found())))
+        }
+    }
+
+    /// The plain word at the cursor (no sigil, not local), lower case.
+    fn word(&self) -> Option<&str> {
+        match self.peek() {
+            Some(Tok::Name(n)) if !n.local && n.sigil == Sigil::None => Some(&n.text),
+            _ => None,
+        }
+    }
+
+    fn eat_word(&mut self, w: &str) -> bool {
+        if self.word() == Some(w) {
+            self.pos += 1;
+            true
+        } else {
+            false
+        }
+    }
+
+    fn expect_word(&mut self, w: &str, what: &str) -> PResult<()> {
+        if self.eat_word(w) {
+            Ok(())
+        } else {
+            Err(self.err(format!("expected {what}, found {}", self.found())))
+        }
+    }
+
+    fn expect_end(&mut self, what: &str) -> PResult<()> {
+        if self.at_end() {
+            Ok(())
+        } else {
+            Err(self.err(format!(
+                "unexpected {} after the end of {what}",
+                self.found()
+            )))
+        }
+    }
+
+    /// A label at the start of the line: `name:` or a number (with or without `:`).
+    fn label(&mut self) -> Option<Label> {
+        let span = self.span();
+        match (self.peek(), self.peek_at(1)) {
+            (Some(Tok::Name(n)), Some(Tok::Colon))
+                if !n.local
+                    && n.sigil == Sigil::None
+                    && !matches!(n.text.as_str(), "any" | "value") =>
+            {
+                let name = n.text.clone();
+                self.pos += 2;
+                Some(Label { name, span })
+            }
+            (Some(Tok::Num(v)), _) if v.fract() == 0.0 && *v >= 0.0 && *v < 1e9 => {
+                let name = format!("{}", *v as u64);
+                self.pos += 1;
+                self.eat(&Tok::Colon);
+                Some(Label { name, span })
+            }
+            _ => None,
+        }
+    }
+
+    fn label_ref(&mut self, what: &str) -> PResult<Label> {
+        let span = self.span();
+        match self.next().map(|t| t.tok) {
+            Some(Tok::Name(n)) if !n.local && n.sigil == Sigil::None => {
+                Ok(Label { name: n.text, span })
+            }
+            Some(Tok::Num(v)) if v.fract() == 0.0 && v >= 0.0 && v < 1e9 => Ok(Label {
+                name: format!("{}", v as u64),
+                span,
+            }),
+            other => Err(ParseError::new(
+                self.file,
+                span,
+                format!(
+                    "expected a label after {what}, found {}",
+                    other.map_or("the end of the line".into(), |t| t.describe())
+                ),
+            )),
+        }
+    }
+
+    fn program_name(&mut self, what: &str) -> PResult<String> {
+        let span = self.span();
+        match self.next().map(|t| t.tok) {
+            Some(Tok::Name(n)) if !n.local && n.sigil == Sigil::None => Ok(n.text),
+            other => Err(ParseError::new(
+                self.file,
+                span,
+                format!(
+                    "expected a program name after {what}, found {}",
+                    other.map_or("the end of the line".into(), |t| t.describe())
+                ),
+            )),
+        }
+    }
+
+    /// The statement after an optional label.
+    fn statement(&mut self) -> PResult<LineKind> {
+        let span = self.span();
+        // Assignment: a variable followed by `=` or `[`.
+        if let Some(Tok::Name(n)) = self.peek() {
+            let n = n.clone();
+            if matches!(self.peek_at(1), Some(Tok::Assign | Tok::LBracket)) {
+                let target = self.lvalue()?;
+                self.expect(&Tok::Assign, "\"=\" after the variable")?;
+                let value = self.expr()?;
+                self.expect_end("the assignment")?;
+                return Ok(LineKind::Stmt(StmtKind::Assign { target, value }));
+            }
+            if n.local || n.sigil != Sigil::None {
+                return Err(self.err(format!(
+                    "expected \"=\" after {n} (an assignment), found {}",
+                    describe(self.toks.get(self.pos + 1))
+                )));
+            }
+            // A system switch: `ABS.SPEED ON`.
+            if keywords::system_switch_default(&n.text).is_some() && n.text != "cp" {
+                if let Some(Tok::Name(v)) = self.peek_at(1) {
+                    if matches!(v.text.as_str(), "on" | "off") && self.toks.len() == self.pos + 2 {
+                        let on = v.text == "on";
+                        self.pos += 2;
+                        return Ok(LineKind::Stmt(StmtKind::SetSwitch { name: n.text, on }));
+                    }
+                }
+            }
+            let Some(kw) = keywords::statement(&n.text) else {
+                let msg = if keywords::UNSUPPORTED.contains(&n.text.as_str()) {
+                    format!("{} is an AS instruction this interpreter does not support (docs/AS.md lists what it runs)", n.text.to_uppercase())
+                } else if self.peek_at(1).is_none() {
+                    format!(
+                        "unknown instruction {:?} (an assignment needs \"= value\")",
+                        n.text.to_uppercase()
+                    )
+                } else {
+                    format!("unknown instruction {:?}", n.text.to_uppercase())
+                };
+                return Err(ParseError::new(self.file, span, msg));
+            };
+            self.pos += 1;
+            return self.keyword_statement(kw, span);
+        }
+        Err(self.err(format!(
+            "expected an instruction or an assignment, found {}",
+            self.found()
+        )))
+    }
+
+    fn keyword_statement(&mut self, kw: &'static str, span: Span) -> PResult<LineKind> {
+        let simple = |k: StmtKind| Ok(LineKind::Stmt(k));
+        let kind = match kw {
+            "if" => {
+                let cond = self.expr()?;
+                if self.eat_word("then") {
+                    self.expect_end(
+                        "IF … THEN (the statements go on the following lines, up to END)",
+                    )?;
+                    return Ok(LineKind::IfThen(cond));
+                }
+                if self.eat_word("goto") {
+                    let label = self.label_ref("GOTO")?;
+                    self.expect_end("IF … GOTO")?;
+                    return simple(StmtKind::IfGoto { cond, label });
+                }
+                return Err(self.err(format!(
+                    "expected THEN or GOTO after the IF condition, found {}",
+                    self.found()
+                )));
+            }
+            "else" => LineKind::Else,
+            "end" => LineKind::End,
+            "while" => {
+                let cond = self.expr()?;
+                self.expect_word("do", "DO after the WHILE condition")?;
+                LineKind::While(cond)
+            }
+            "do" => LineKind::Do,
+            "until" => LineKind::Until(self.expr()?),
+            "for" => {
+                let var = self.lvalue()?;
+                if var.name.sigil != Sigil::None {
+                    return Err(ParseError::new(
+                        self.file,
+                        var.span,
+                        "the FOR variable must be a real variable",
+                    ));
+                }
+                self.expect(&Tok::Assign, "\"=\" after the FOR variable")?;
+                let from = self.expr()?;
+                self.expect_word("to", "TO in the FOR statement")?;
+                let to = self.expr()?;
+                let step = if self.eat_word("step") {
+                    Some(self.expr()?)
+                } else {
+                    None
+                };
+                LineKind::For {
+                    var,
+                    from,
+                    to,
+                    step,
+                }
+            }
+            "case" => {
+                let e = self.expr()?;
+                self.expect_word("of", "OF after the CASE value")?;
+                LineKind::Case(e)
+            }
+            "value" => {
+                let mut v = vec![self.expr()?];
+                while self.eat(&Tok::Comma) {
+                    v.push(self.expr()?);
+                }
+                self.expect(&Tok::Colon, "\":\" after the VALUE list")?;
+                LineKind::Value(v)
+            }
+            "any" => {
+                self.expect(&Tok::Colon, "\":\" after ANY")?;
+                LineKind::Any
+            }
+            "goto" => LineKind::Stmt(StmtKind::Goto(self.label_ref("GOTO")?)),
+            "call" => {
+                let program = self.program_name("CALL")?;
+                let args = self.call_args()?;
+                LineKind::Stmt(StmtKind::Call { program, args })
+            }
+            "return" => LineKind::Stmt(StmtKind::Return),
+            "print" | "type" => {
+                // An optional device number: `PRINT 2: …`.
+                if matches!(
+                    (self.peek(), self.peek_at(1)),
+                    (Some(Tok::Num(_)), Some(Tok::Colon))
+                ) {
+                    self.pos += 2;
+                }
+                let items = self.print_items(false)?;
+                LineKind::Stmt(StmtKind::Print { items })
+            }
+            "twait" => LineKind::Stmt(StmtKind::Twait(self.expr()?)),
+            "wait" => LineKind::Stmt(StmtKind::Wait(self.expr()?)),
+            "halt" => LineKind::Stmt(StmtKind::Halt),
+            "stop" => LineKind::Stmt(StmtKind::Stop),
+            "pause" => LineKind::Stmt(StmtKind::Pause),
+            "signal" => {
+                let mut v = vec![self.expr()?];
+                while self.eat(&Tok::Comma) {
+                    v.push(self.expr()?);
+                }
+                LineKind::Stmt(StmtKind::Signal(v))
+            }
+            "on" | "oni" => {
+                let signal = self.expr()?;
+                let action = if self.eat_word("goto") {
+                    OnAction::Goto(self.label_ref("GOTO")?)
+                } else if self.eat_word("call") {
+                    OnAction::Call(self.program_name("CALL")?)
+                } else {
+                    return Err(self.err(format!(
+                        "expected GOTO or CALL after the {} signal, found {}",
+                        kw.to_uppercase(),
+                        self.found()
+                    )));
+                };
+                LineKind::Stmt(StmtKind::On {
+                    immediate: kw == "oni",
+                    signal,
+                    action,
+                })
+            }
+            "ignore" => LineKind::Stmt(StmtKind::Ignore(self.expr()?)),
+            "mc" => {
+                let span = self.span();
+                let word = match self.next().map(|t| t.tok) {
+                    Some(Tok::Name(n)) if !n.local && n.sigil == Sigil::None => n.text,
+                    other => {
+                        return Err(ParseError::new(
+                            self.file,
+                            span,
+                            format!("expected a monitor command after MC (EXECUTE, ABORT, HOLD, CONTINUE, SPEED, ERESET, PCEXECUTE, PCABORT), found {}", other.map_or("the end of the line".into(), |t| t.describe())),
+                        ))
+                    }
+                };
+                let Some(cmd) = keywords::monitor(&word) else {
+                    return Err(ParseError::new(
+                        self.file,
+                        span,
+                        format!("MC {} is not a monitor command this interpreter runs (EXECUTE, ABORT, HOLD, CONTINUE, SPEED, ERESET, PCEXECUTE, PCABORT)", word.to_uppercase()),
+                    ));
+                };
+                LineKind::Stmt(StmtKind::Monitor(self.monitor(cmd)?))
+            }
+            "execute" | "pcexecute" | "pcabort" => {
+                LineKind::Stmt(StmtKind::Monitor(self.monitor(kw)?))
+            }
+            "enable" | "disable" => {
+                let nspan = self.span();
+                let name = match self.next().map(|t| t.tok) {
+                    Some(Tok::Name(n)) if !n.local && n.sigil == Sigil::None => n.text,
+                    other => {
+                        return Err(ParseError::new(
+                            self.file,
+                            nspan,
+                            format!(
+                                "expected a system switch name after {}, found {}",
+                                kw.to_uppercase(),
+                                other.map_or("the end of the line".into(), |t| t.describe())
+                            ),
+                        ))
+                    }
+                };
+                if keywords::system_switch_default(&name).is_none() {
+                    return Err(ParseError::new(
+                        self.file,
+                        nspan,
+                        format!(
+                            "{} is not a system switch this interpreter knows",
+                            name.to_uppercase()
+                        ),
+                    ));
+                }
+                LineKind::Stmt(StmtKind::SetSwitch {
+                    name,
+                    on: kw == "enable",
+                })
+            }
+            "abs.speed" => {
+                let on = self.on_off("ABS.SPEED")?;
+                LineKind::Stmt(StmtKind::SetSwitch {
+                    name: "abs.speed".into(),
+                    on,
+                })
+            }
+            "timer" => {
+                let timer = self.expr()?;
+                self.expect(
+                    &Tok::Assign,
+                    "\"=\" after the timer number (TIMER n = seconds)",
+                )?;
+                let value = self.expr()?;
+                LineKind::Stmt(StmtKind::Timer { timer, value })
+            }
+            "decompose" => {
+                let target = self.lvalue()?;
+                self.expect(&Tok::Assign, "\"=\" after the DECOMPOSE array")?;
+                let source = self.expr()?;
+                LineKind::Stmt(StmtKind::Decompose { target, source })
+            }
+            "here" => LineKind::Stmt(StmtKind::Here {
+                target: self.lvalue()?,
+            }),
+            "point" => {
+                let target = self.lvalue()?;
+                self.expect(&Tok::Assign, "\"=\" after the POINT variable")?;
+                let value = self.expr()?;
+                LineKind::Stmt(StmtKind::Point { target, value })
+            }
+            "jmove" | "lmove" => LineKind::Stmt(StmtKind::Move {
+                linear: kw == "lmove",
+                target: self.expr()?,
+            }),
+            "home" => LineKind::Stmt(StmtKind::Home(if self.at_end() {
+                None
+            } else {
+                Some(self.expr()?)
+            })),
+            "delay" => LineKind::Stmt(StmtKind::Delay(self.expr()?)),
+            "brake" => LineKind::Stmt(StmtKind::Brake),
+            "break" => LineKind::Stmt(StmtKind::Break),
+            "speed" => {
+                let value = self.expr()?;
+                let unit = if self.word() == Some("mm") && self.peek_at(1) == Some(&Tok::Slash) {
+                    self.pos += 2;
+                    if self.eat_word("s") {
+                        SpeedUnit::MmPerS
+                    } else if self.eat_word("min") {
+                        SpeedUnit::MmPerMin
+                    } else {
+                        return Err(self.err(format!(
+                            "expected S or MIN after MM/, found {}",
+                            self.found()
+                        )));
+                    }
+                } else if self.eat_word("s") {
+                    SpeedUnit::Seconds
+                } else {
+                    SpeedUnit::Percent
+                };
+                let always = self.eat_word("always");
+                LineKind::Stmt(StmtKind::Speed {
+                    value,
+                    unit,
+                    always,
+                })
+            }
+            "accuracy" => {
+                let value = self.expr()?;
+                let mut fine = false;
+                let mut always = false;
+                loop {
+                    if self.eat_word("fine") {
+                        fine = true;
+                    } else if self.eat_word("always") {
+                        always = true;
+                    } else {
+                        break;
+                    }
+                }
+                LineKind::Stmt(StmtKind::Accuracy {
+                    value,
+                    fine,
+                    always,
+                })
+            }
+            "accel" | "decel" => {
+                let value = self.expr()?;
+                let always = self.eat_word("always");
+                LineKind::Stmt(StmtKind::AccelDecel {
+                    decel: kw == "decel",
+                    value,
+                    always,
+                })
+            }
+            "cp" => LineKind::Stmt(StmtKind::Cp(self.on_off("CP")?)),
+            k if k.starts_with("tcp_") => LineKind::Stmt(StmtKind::Tcp(self.tcp(k)?)),
+            other => {
+                return Err(ParseError::new(
+                    self.file,
+                    span,
+                    format!("{} cannot start a statement here", other.to_uppercase()),
+                ))
+            }
+        };
+        self.expect_end(&format!("the {} statement", kw.to_uppercase()))?;
+        Ok(kind)
+    }
+
+    fn on_off(&mut self, what: &str) -> PResult<bool> {
+        if self.eat_word("on") {
+            Ok(true)
+        } else if self.eat_word("off") {
+            Ok(false)
+        } else {
+            Err(self.err(format!(
+                "expected ON or OFF after {what}, found {}",
+                self.found()
+            )))
+        }
+    }
+
+    fn monitor(&mut self, cmd: &str) -> PResult<MonitorCommand> {
+        Ok(match cmd {
+            "execute" => {
+                let program = self.program_name("EXECUTE")?;
+                let args = self.call_args()?;
+                let cycles = if self.eat(&Tok::Comma) {
+                    Some(self.expr()?)
+                } else {
+                    None
+                };
+                MonitorCommand::Execute {
+                    program,
+                    args,
+                    cycles,
+                }
+            }
+            "pcexecute" => {
+                let task = self.task_prefix()?;
+                let program = self.program_name("PCEXECUTE")?;
+                let args = self.call_args()?;
+                let cycles = if self.eat(&Tok::Comma) {
+                    Some(self.expr()?)
+                } else {
+                    None
+                };
+                MonitorCommand::PcExecute {
+                    task,
+                    program,
+                    args,
+                    cycles,
+                }
+            }
+            "pcabort" => MonitorCommand::PcAbort {
+                task: self.task_prefix()?,
+            },
+            "abort" => MonitorCommand::Abort,
+            "hold" => MonitorCommand::Hold,
+            "continue" => MonitorCommand::Continue,
+            "speed" => MonitorCommand::Speed(self.expr()?),
+            "ereset" => MonitorCommand::Ereset,
+            other => return Err(self.err(format!("MC {} is not supported", other.to_uppercase()))),
+        })
+    }
+
+    /// `n:` before a program name (PC task number).
+    fn task_prefix(&mut self) -> PResult<Option<Expr>> {
+        if self.toks[self.pos.min(self.toks.len())..]
+            .iter()
+            .any(|t| t.tok == Tok::Colon)
+        {
+            let e = self.expr()?;
+            self.expect(&Tok::Colon, "\":\" after the PC task number")?;
+            return Ok(Some(e));
+        }
+        Ok(None)
+    }
+
+    fn call_args(&mut self) -> PResult<Vec<Expr>> {
+        let mut args = Vec::new();
+        if self.eat(&Tok::LParen) {
+            if self.eat(&Tok::RParen) {
+                return Ok(args);
+            }
+            loop {
+                args.push(self.expr()?);
+                if self.eat(&Tok::RParen) {
+                    break;
+                }
+                self.expect(&Tok::Comma, "\",\" or \")\" in the argument list")?;
+            }
+        }
+        Ok(args)
+    }
+
+    fn tcp(&mut self, kw: &str) -> PResult<TcpStmt> {
+        let ret = self.lvalue()?;
+        let comma = |c: &mut Cur, what: &str| c.expect(&Tok::Comma, &format!("\",\" then {what}"));
+        let opt = |c: &mut Cur| -> PResult<Option<Expr>> {
+            if c.eat(&Tok::Comma) {
+                Ok(Some(c.expr()?))
+            } else {
+                Ok(None)
+            }
+        };
+        Ok(match kw {
+            "tcp_listen" => {
+                comma(self, "the port")?;
+                TcpStmt::Listen {
+                    ret,
+                    port: self.expr()?,
+                }
+            }
+            "tcp_end_listen" => {
+                comma(self, "the port")?;
+                TcpStmt::EndListen {
+                    ret,
+                    port: self.expr()?,
+                }
+            }
+            "tcp_accept" => {
+                comma(self, "the port")?;
+                let port = self.expr()?;
+                let timeout = opt(self)?;
+                let ip = if self.eat(&Tok::Comma) {
+                    Some(self.lvalue()?)
+                } else {
+                    None
+                };
+                TcpStmt::Accept {
+                    ret,
+                    port,
+                    timeout,
+                    ip,
+                }
+            }
+            "tcp_recv" => {
+                comma(self, "the socket id")?;
+                let sock = self.expr()?;
+                comma(self, "the string array element to fill")?;
+                let buf = self.lvalue()?;
+                comma(self, "the variable that receives the element count")?;
+                let count = self.lvalue()?;
+                let timeout = opt(self)?;
+                let max = opt(self)?;
+                TcpStmt::Recv {
+                    ret,
+                    sock,
+                    buf,
+                    count,
+                    timeout,
+                    max,
+                }
+            }
+            "tcp_send" => {
+                comma(self, "the socket id")?;
+                let sock = self.expr()?;
+                comma(self, "the string array element to send")?;
+                let buf = self.lvalue()?;
+                comma(self, "the number of elements")?;
+                let n = self.expr()?;
+                let timeout = opt(self)?;
+                TcpStmt::Send {
+                    ret,
+                    sock,
+                    buf,
+                    n,
+                    timeout,
+                }
+            }
+            "tcp_close" => {
+                comma(self, "the socket id")?;
+                TcpStmt::Close {
+                    ret,
+                    sock: self.expr()?,
+                }
+            }
+            "tcp_connect" => {
+                comma(self, "the port")?;
+                let port = self.expr()?;
+                comma(self, "the IP address array element")?;
+                let ip = self.lvalue()?;
+                let timeout = opt(self)?;
+                TcpStmt::Connect {
+                    ret,
+                    port,
+                    ip,
+                    timeout,
+                }
+            }
+            other => return Err(self.err(format!("{} is not supported", other.to_uppercase()))),
+        })
+    }
+
+    fn lvalue(&mut self) -> PResult<LValue> {
+        let span = self.span();
+        let name = match self.next().map(|t| t.tok) {
+            Some(Tok::Name(n)) => n,
+            other => {
+                return Err(ParseError::new(
+                    self.file,
+                    span,
+                    format!(
+                        "expected a variable, found {}",
+                        other.map_or("the end of the line".into(), |t| t.describe())
+                    ),
+                ))
+            }
+        };
+        let indices = self.indices()?;
+        Ok(LValue {
+            name,
+            indices,
+            span,
+        })
+    }
+
+    fn indices(&mut self) -> PResult<Vec<Expr>> {
+        let mut v = Vec::new();
+        if self.eat(&Tok::LBracket) {
+            if self.peek() == Some(&Tok::RBracket) {
+                return Err(self.err("expected an array index between [ and ]"));
+            }
+            loop {
+                if v.len() == 3 {
+                    return Err(self.err("an array has at most 3 dimensions"));
+                }
+                v.push(self.expr()?);
+                if self.eat(&Tok::RBracket) {
+                    break;
+                }
+                self.expect(&Tok::Comma, "\",\" or \"]\" in the array index")?;
+            }
+        }
+        Ok(v)
+    }
+
+    /// Items of PRINT/TYPE (`in_call`: inside `$ENCODE(…)`, ending at `)`).
+    fn print_items(&mut self, in_call: bool) -> PResult<Vec<PrintItem>> {
+        let mut items = Vec::new();
+        let at_stop = |c: &Cur| c.at_end() || (in_call && c.peek() == Some(&Tok::RParen));
+        if at_stop(self) {
+            return Ok(items);
+        }
+        loop {
+            if self.peek() == Some(&Tok::Slash) {
+                let span = self.span();
+                self.pos += 1;
+                items.push(PrintItem::Format(self.format_code(span)?, span));
+            } else {
+                items.push(PrintItem::Expr(self.expr()?));
+            }
+            if at_stop(self) {
+                break;
+            }
+            self.expect(
+                &Tok::Comma,
+                if in_call {
+                    "\",\" or \")\""
+                } else {
+                    "\",\" between PRINT items"
+                },
+            )?;
+        }
+        Ok(items)
+    }
+
+    fn format_code(&mut self, span: Span) -> PResult<FormatCode> {
+        let text = match self.next().map(|t| t.tok) {
+            Some(Tok::Name(n)) if !n.local && n.sigil == Sigil::None => n.text,
+            _ => return Err(ParseError::new(self.file, span, "expected a format code after / (D, L, S, Fm.n, Em.n, Gm.n, Im, Km, Hm, Jm, Xn, Cn)")),
+        };
+        parse_format(&text).ok_or_else(|| {
+            ParseError::new(
+                self.file,
+                span,
+                format!(
+                    "/{} is not a format code (D, L, S, Fm.n, Em.n, Gm.n, Im, Km, Hm, Jm, Xn, Cn)",
+                    text.to_uppercase()
+                ),
+            )
+        })
+    }
+
+    // ------------------------------------------------------------------ expressions
+
+    fn expr(&mut self) -> PResult<Expr> {
+        self.depth += 1;
+        if self.depth > MAX_NESTING {
+            return Err(self.err(format!(
+                "expression nested deeper than {MAX_NESTING} levels"
+            )));
+        }
+        let r = self.or_expr();
+        self.depth -= 1;
+        r
+    }
+
+    fn binary_level(
+        &mut self,
+        ops: &[(&str, BinOp)],
+        sym: &[(Tok, BinOp)],
+        next: fn(&mut Self) -> PResult<Expr>,
+    ) -> PResult<Expr> {
+        let mut left = next(self)?;
+        loop {
+            let span = self.span();
+            let op = if let Some(w) = self.word() {
+                ops.iter().find(|(k, _)| *k == w).map(|(_, o)| *o)
+            } else {
+                self.peek()
+                    .and_then(|t| sym.iter().find(|(k, _)| k == t).map(|(_, o)| *o))
+            };
+            let Some(op) = op else { break };
+            self.pos += 1;
+            let right = next(self)?;
+            left = Expr {
+                kind: ExprKind::Binary(op, Box::new(left), Box::new(right)),
+                span,
+            };
+        }
+        Ok(left)
+    }
+
+    fn or_expr(&mut self) -> PResult<Expr> {
+        self.binary_level(
+            &[("or", BinOp::Or), ("xor", BinOp::Xor)],
+            &[],
+            Self::and_expr,
+        )
+    }
+
+    fn and_expr(&mut self) -> PResult<Expr> {
+        self.binary_level(&[("and", BinOp::And)], &[], Self::not_expr)
+    }
+
+    fn not_expr(&mut self) -> PResult<Expr> {
+        let span = self.span();
+        if self.eat_word("not") {
+            self.depth += 1;
+            if self.depth > MAX_NESTING {
+                return Err(self.err(format!(
+                    "expression nested deeper than {MAX_NESTING} levels"
+                )));
+            }
+            let e = self.not_expr();
+            self.depth -= 1;
+            return Ok(Expr {
+                kind: ExprKind::Unary(UnOp::Not, Box::new(e?)),
+                span,
+            });
+        }
+        self.bor_expr()
+    }
+
+    fn bor_expr(&mut self) -> PResult<Expr> {
+        self.binary_level(
+            &[("bor", BinOp::Bor), ("bxor", BinOp::Bxor)],
+            &[],
+            Self::band_expr,
+        )
+    }
+
+    fn band_expr(&mut self) -> PResult<Expr> {
+        self.binary_level(&[("band", BinOp::Band)], &[], Self::rel_expr)
+    }
+
+    fn rel_expr(&mut self) -> PResult<Expr> {
+        let e = self.binary_level(
+            &[],
+            &[
+                (Tok::Eq, BinOp::Eq),
+                (Tok::Ne, BinOp::Ne),
+                (Tok::Lt, BinOp::Lt),
+                (Tok::Gt, BinOp::Gt),
+                (Tok::Le, BinOp::Le),
+                (Tok::Ge, BinOp::Ge),
+            ],
+            Self::add_expr,
+        )?;
+        Ok(e)
+    }
+
+    fn add_expr(&mut self) -> PResult<Expr> {
+        self.binary_level(
+            &[],
+            &[(Tok::Plus, BinOp::Add), (Tok::Minus, BinOp::Sub)],
+            Self::mul_expr,
+        )
+    }
+
+    fn mul_expr(&mut self) -> PResult<Expr> {
+        self.binary_level(
+            &[("mod", BinOp::Mod)],
+            &[(Tok::Star, BinOp::Mul), (Tok::Slash, BinOp::Div)],
+            Self::unary_expr,
+        )
+    }
+
+    fn unary_expr(&mut self) -> PResult<Expr> {
+        let span = self.span();
+        let op = if self.eat(&Tok::Minus) {
+            Some(UnOp::Neg)
+        } else if self.eat(&Tok::Plus) {
+            return self.unary_expr_nested();
+        } else if self.eat_word("com") {
+            Some(UnOp::Com)
+        } else {
+            None
+        };
+        match op {
+            Some(op) => {
+                let e = self.unary_expr_nested()?;
+                Ok(Expr {
+                    kind: ExprKind::Unary(op, Box::new(e)),
+                    span,
+                })
+            }
+            None => self.pow_expr(),
+        }
+    }
+
+    fn unary_expr_nested(&mut self) -> PResult<Expr> {
+        self.depth += 1;
+        if self.depth > MAX_NESTING {
+            return Err(self.err(format!(
+                "expression nested deeper than {MAX_NESTING} levels"
+            )));
+        }
+        let r = self.unary_expr();
+        self.depth -= 1;
+        r
+    }
+
+    fn pow_expr(&mut self) -> PResult<Expr> {
+        let base = self.primary()?;
+        let span = self.span();
+        if self.eat(&Tok::Caret) {
+            // Right-associative; the exponent may carry a sign.
+            let exp = self.unary_expr_nested()?;
+            return Ok(Expr {
+                kind: ExprKind::Binary(BinOp::Pow, Box::new(base), Box::new(exp)),
+                span,
+            });
+        }
+        Ok(base)
+    }
+
+    fn primary(&mut self) -> PResult<Expr> {
+        let span = self.span();
+        let Some(tok) = self.next() else {
+            return Err(ParseError::new(
+                self.file,
+                span,
+                "expected a value, found the end of the line",
+            ));
+        };
+        let kind = match tok.tok {
+            Tok::Num(v) => ExprKind::Num(v),
+            Tok::Str(s) => ExprKind::Str(s),
+            Tok::LParen => {
+                let e = self.expr()?;
+                self.expect(&Tok::RParen, "\")\" to close the parenthesis")?;
+                return Ok(e);
+            }
+            Tok::Name(name) => {
+                if !name.local && self.peek() == Some(&Tok::LParen) {
+                    self.pos += 1;
+                    let args = self.func_args(&name)?;
+                    ExprKind::Call { name, args }
+                } else {
+                    if !name.local && name.sigil == Sigil::None && is_operator_word(&name.text) {
+                        return Err(ParseError::new(
+                            self.file,
+                            span,
+                            format!(
+                                "expected a value, found the operator {}",
+                                name.text.to_uppercase()
+                            ),
+                        ));
+                    }
+                    let indices = self.indices()?;
+                    ExprKind::Var(LValue {
+                        name,
+                        indices,
+                        span,
+                    })
+                }
+            }
+            Tok::Assign => {
+                return Err(ParseError::new(
+                    self.file,
+                    span,
+                    "expected a value, found \"=\" (a comparison is written ==)",
+                ));
+            }
+            other => {
+                return Err(ParseError::new(
+                    self.file,
+                    span,
+                    format!("expected a value, found {}", other.describe()),
+                ));
+            }
+        };
+        Ok(Expr { kind, span })
+    }
+
+    fn func_args(&mut self, name: &Name) -> PResult<Vec<Arg>> {
+        let mut args = Vec::new();
+        if self.eat(&Tok::RParen) {
+            return Ok(args);
+        }
+        let formats = name.sigil == Sigil::Dollar && name.text == "encode";
+        loop {
+            if formats && self.peek() == Some(&Tok::Slash) {
+                let span = self.span();
+                self.pos += 1;
+                args.push(Arg::Format(self.format_code(span)?, span));
+            } else {
+                args.push(Arg::Expr(self.expr()?));
+            }
+            if self.eat(&Tok::RParen) {
+                break;
+            }
+            self.expect(
+                &Tok::Comma,
+                &format!("\",\" or \")\" in the arguments of {name}"),
+            )?;
+        }
+        Ok(args)
+    }
+
+    // ------------------------------------------------------------------ data sections
+
+    fn signed_number(&mut self, what: &str) -> PResult<f64> {
+        let neg = if self.eat(&Tok::Minus) {
+            true
+        } else {
+            self.eat(&Tok::Plus);
+            false
+        };
+        let span = self.span();
+        match self.next().map(|t| t.tok) {
+            Some(Tok::Num(v)) => Ok(if neg { -v } else { v }),
+            other => Err(ParseError::new(
+                self.file,
+                span,
+                format!(
+                    "expected {what} (a number), found {}",
+                    other.map_or("the end of the line".into(), |t| t.describe())
+                ),
+            )),
+        }
+    }
+
+    fn data_item(&mut self, section: &str) -> PResult<DataItem> {
+        let span = self.span();
+        let name = match self.next().map(|t| t.tok) {
+            Some(Tok::Name(n)) if !n.local => n,
+            other => {
+                return Err(ParseError::new(
+                    self.file,
+                    span,
+                    format!(
+                        "expected a global variable name, found {}",
+                        other.map_or("the end of the line".into(), |t| t.describe())
+                    ),
+                ))
+            }
+        };
+        let (want, what) = match section {
+            "reals" => (Sigil::None, "a real variable such as count = 1"),
+            "strings" => (Sigil::Dollar, "a string variable such as $name = \"text\""),
+            "joints" => (Sigil::Hash, "a joint point such as #home 0 0 -90 0 -90 0"),
+            _ => (
+                Sigil::None,
+                "a transformation such as pick 850 0 1153.5 0 180 0",
+            ),
+        };
+        if name.sigil != want {
+            return Err(ParseError::new(
+                self.file,
+                span,
+                format!(
+                    "the .{} section holds {what}, found {name}",
+                    section.to_uppercase()
+                ),
+            ));
+        }
+        let mut indices = Vec::new();
+        if self.eat(&Tok::LBracket) {
+            loop {
+                let v = self.signed_number("an array index")?;
+                if v.fract() != 0.0 || !(0.0..=9999.0).contains(&v) {
+                    return Err(self.err("an array index is an integer from 0 to 9999"));
+                }
+                indices.push(v as i32);
+                if indices.len() > 3 {
+                    return Err(self.err("an array has at most 3 dimensions"));
+                }
+                if self.eat(&Tok::RBracket) {
+                    break;
+                }
+                self.expect(&Tok::Comma, "\",\" or \"]\" in the array index")?;
+            }
+        }
+        let value = match section {
+            "reals" => {
+                self.expect(&Tok::Assign, "\"=\" after the variable")?;
+                DataValue::Real(self.signed_number("the value")?)
+            }
+            "strings" => {
+                self.expect(&Tok::Assign, "\"=\" after the variable")?;
+                let sspan = self.span();
+                match self.next().map(|t| t.tok) {
+                    Some(Tok::Str(s)) => DataValue::Str(s),
+                    other => {
+                        return Err(ParseError::new(
+                            self.file,
+                            sspan,
+                            format!(
+                                "expected a string in quotes, found {}",
+                                other.map_or("the end of the line".into(), |t| t.describe())
+                            ),
+                        ))
+                    }
+                }
+            }
+            _ => {
+                let mut v = [0.0; 6];
+                let mut n = 0;
+                while !self.at_end() {
+                    self.eat(&Tok::Comma);
+                    if n == 6 {
+                        return Err(self.err("expected at most 6 values"));
+                    }
+                    v[n] = self.signed_number("a value")?;
+                    n += 1;
+                }
+                if n == 0 {
+                    return Err(self.err("expected the values after the name"));
+                }
+                if section == "joints" {
+                    DataValue::Joints(v)
+                } else {
+                    DataValue::Trans(v)
+                }
+            }
+        };
+        self.expect_end("the data line")?;
+        Ok(DataItem {
+            name,
+            indices,
+            value,
+            span,
+        })
+    }
+}
+
+fn is_operator_word(w: &str) -> bool {
+    matches!(
+        w,
+        "and"
+            | "or"
+            | "xor"
+            | "mod"
+            | "band"
+            | "bor"
+            | "bxor"
+            | "then"
+            | "do"
+            | "to"
+            | "step"
+            | "of"
+            | "goto"
+    )
+}
+
+/// Parses a format code's text (lower case, without the `/`): `d`, `f10.3`, `i5`, …
+pub fn parse_format(text: &str) -> Option<FormatCode> {
+    let (letter, rest) = text.split_at(text.char_indices().nth(1).map_or(text.len(), |(i, _)| i));
+    let num = |s: &str| -> Option<u8> {
+        if s.is_empty() || !s.bytes().all(|b| b.is_ascii_digit()) {
+            return None;
+        }
+        s.parse::<u32>().ok().map(|v| v.min(u8::MAX as u32) as u8)
+    };
+    let pair = |s: &str| -> Option<(u8, u8)> {
+        let (w, d) = s.split_once('.').unwrap_or((s, "0"));
+        Some((num(w)?, num(d)?))
+    };
+    let count = |s: &str| -> Option<u8> {
+        if s.is_empty() {
+            Some(1)
+        } else {
+            num(s)
+        }
+    };
+    match letter {
+        "d" if rest.is_empty() => Some(FormatCode::D),
+        "l" if rest.is_empty() => Some(FormatCode::L),
+        "s" if rest.is_empty() => Some(FormatCode::S),
+        "f" => pair(rest).map(|(w, d)| FormatCode::F(w, d)),
+        "e" => pair(rest).map(|(w, d)| FormatCode::E(w, d)),
+        "g" => pair(rest).map(|(w, d)| FormatCode::G(w, d)),
+        "i" => num(rest).map(FormatCode::I),
+        "k" => num(rest).map(FormatCode::K),
+        "h" => num(rest).map(FormatCode::H),
+        "j" => num(rest).map(FormatCode::J),
+        "x" => count(rest).map(FormatCode::X),
+        "c" => count(rest).map(FormatCode::C),
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ok(text: &str) -> Module {
+        match parse("t.as", text) {
+            Ok(m) => m,
+            Err(e) => panic!("{e}"),
+        }
+    }
+
+    fn err(text: &str) -> String {
+        parse("t.as", text).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn programs_blocks_and_data() {
+        let m = ok(".PROGRAM main(.a, .$b)\r\n\
+                    ; comment — ünïcode\r\n\
+                    start:\r\n\
+                      IF .a > 1 THEN\r\n\
+                        .a = .a - 1\r\n\
+                      ELSE\r\n\
+                        WHILE .a < 5 DO\r\n\
+                          .a = .a + 1\r\n\
+                        END\r\n\
+                      END\r\n\
+                      CASE .a OF\r\n\
+                        VALUE 1, 2:\r\n\
+                          PRINT \"one or two\", /F5.1, .a\r\n\
+                        ANY :\r\n\
+                          GOTO start\r\n\
+                      END\r\n\
+                      DO\r\n\
+                        TWAIT 0.1\r\n\
+                      UNTIL .a == 3\r\n\
+                      FOR .i = 1 TO 3 STEP 2\r\n\
+                        SIGNAL 2001, -2002\r\n\
+                      END\r\n\
+                      MC EXEC ros_move\r\n\
+                    .END\r\n\
+                    .REALS\r\n\
+                    count = -2.5\r\n\
+                    tab[1,2] = 3\r\n\
+                    .END\r\n\
+                    .STRINGS\r\n\
+                    $s = \"a;b\"\r\n\
+                    .END\r\n\
+                    .JOINTS\r\n\
+                    #home 0 0 -90 0 -90 0\r\n\
+                    .END\r\n\
+                    .TRANS\r\n\
+                    pick 850 0 1153.5 0 180 0\r\n\
+                    .END\r\n");
+        let p = &m.programs[0];
+        assert_eq!(p.name, "main");
+        assert_eq!(p.params.len(), 2);
+        assert_eq!(p.body.len(), 6);
+        assert_eq!(p.body[0].label.as_ref().unwrap().name, "start");
+        assert!(matches!(p.body[1].kind, StmtKind::If { .. }));
+        let StmtKind::Case { arms, .. } = &p.body[2].kind else {
+            panic!()
+        };
+        assert_eq!(arms.len(), 2);
+        assert!(arms[1].values.is_none());
+        assert!(matches!(
+            &p.body[5].kind,
+            StmtKind::Monitor(MonitorCommand::Execute { program, .. }) if program == "ros_move"
+        ));
+        assert_eq!(m.data.len(), 5);
+        assert_eq!(m.data[1].indices, vec![1, 2]);
+        assert_eq!(m.data[2].value, DataValue::Str(b"a;b".to_vec()));
+        assert_eq!(
+            m.data[3].value,
+            DataValue::Joints([0.0, 0.0, -90.0, 0.0, -90.0, 0.0])
+        );
+    }
+
+    #[test]
+    fn errors_say_where_and_what() {
+        assert_eq!(
+            err(".PROGRAM p()\n  IF a THEN\n.END\n"),
+            "t.as:2:3: expected END to close this IF before .END"
+        );
+        assert_eq!(
+            err(".PROGRAM p()\n  WHILE a\n  END\n.END\n"),
+            "t.as:2:10: expected DO after the WHILE condition, found the end of the line"
+        );
+        assert_eq!(
+            err(".PROGRAM p()\n  a = (1 + 2\n.END\n"),
+            "t.as:2:13: expected \")\" to close the parenthesis, found the end of the line"
+        );
+        assert_eq!(err(".PROGRAM p()\n  IF a = 1 THEN\n  END\n.END\n"), "t.as:2:8: expected THEN or GOTO after the IF condition, found \"=\" (a comparison is written ==)");
+        assert_eq!(
+            err(".PROGRAM p()\n  END\n.END\n"),
+            "t.as:2:3: END without an open block"
+        );
+        assert_eq!(err(".PROGRAM p()\n  JAPPRO a, 10\n.END\n"), "t.as:2:3: JAPPRO is an AS instruction this interpreter does not support (docs/AS.md lists what it runs)");
+        assert_eq!(err(".PROGRAM p()\n  MC FOO\n.END\n"), "t.as:2:6: MC FOO is not a monitor command this interpreter runs (EXECUTE, ABORT, HOLD, CONTINUE, SPEED, ERESET, PCEXECUTE, PCABORT)");
+        assert_eq!(err(".PROGRAM p()\n  PRINT /Q3, a\n.END\n"), "t.as:2:9: /Q3 is not a format code (D, L, S, Fm.n, Em.n, Gm.n, Im, Km, Hm, Jm, Xn, Cn)");
+        assert_eq!(
+            err(".PROGRAM p()\n"),
+            "t.as:1:1: expected .END to close this .PROGRAM (the file ends at line 2)"
+        );
+        assert_eq!(err("x = 1\n"), "t.as:1:1: expected .PROGRAM or a data section (.REALS, .STRINGS, .JOINTS, .TRANS), found \"x = 1\"");
+        assert_eq!(
+            err(".PROGRAM p()\n  a[1,2,3,4] = 0\n.END\n"),
+            "t.as:2:11: an array has at most 3 dimensions"
+        );
+        assert_eq!(
+            err(".PROGRAM p()\n.END\n.PROGRAM p()\n.END\n"),
+            "t.as:3:1: program p is defined twice (first at line 1)"
+        );
+        // Several errors at once.
+        assert_eq!(
+            err(".PROGRAM p()\n  a = \n  b = )\n.END\n").lines().count(),
+            2
+        );
+    }
+
+    #[test]
+    fn nesting_is_bounded() {
+        let deep = format!(
+            ".PROGRAM p()\n  a = {}1{}\n.END\n",
+            "(".repeat(200),
+            ")".repeat(200)
+        );
+        assert!(err(&deep).contains("nested deeper"));
+        let mut blocks = String::from(".PROGRAM p()\n");
+        for _ in 0..100 {
+            blocks.push_str("IF 1 THEN\n");
+        }
+        for _ in 0..100 {
+            blocks.push_str("END\n");
+        }
+        blocks.push_str(".END\n");
+        assert!(err(&blocks).contains("nested deeper"));
+        assert!(err(".PROGRAM p()\n a = ----------------------------------------------------------1\n.END\n").contains("nested deeper"));
+    }
+
+    #[test]
+    fn skipped_sections_and_comments() {
+        let m = ok(".*=== header ===\n.AUXDATA\nwhatever 1 2\n.END\n.PROGRAM q() ;c\n.END\n");
+        assert_eq!(m.programs.len(), 1);
+        assert_eq!(m.warnings.len(), 1);
+        assert!(m.warnings[0].to_string().contains(".AUXDATA skipped"));
+    }
+
+    #[test]
+    fn formats() {
+        assert_eq!(parse_format("f10.3"), Some(FormatCode::F(10, 3)));
+        assert_eq!(parse_format("f8"), Some(FormatCode::F(8, 0)));
+        assert_eq!(parse_format("x"), Some(FormatCode::X(1)));
+        assert_eq!(parse_format("i"), None);
+        assert_eq!(parse_format("dd"), None);
+    }
+}

@@ -1,0 +1,510 @@
+//! A minimal [`System`] for tests of AS programs and of the interpreter itself (feature
+//! `testing`): an FS020N model for ranges, HOME and the forward kinematics of `HERE`, a
+//! deliberately simple motion (each joint moves linearly, all arriving together, at
+//! `max_speed_deg_s` × the effective speed), an in-process TCP stack with test clients, and a
+//! terminal that keeps every line.
+//!
+//! It is **not** the emulator: `fs020n-sim` implements [`System`] with the real motion planner
+//! (trapezoidal joint moves, straight lines through inverse kinematics, blending, braking),
+//! panel, pendant and TCP server. Use this one when a program's logic is under test, the
+//! emulator when its motion or the protocol is.
+
+use std::collections::{HashMap, VecDeque};
+use std::time::Duration;
+
+use fs020n_kin::{Pose, RobotModel, Xyzoat};
+use fs020n_proto::{ErrorCode, JointsDeg};
+
+use crate::system::{
+    Issued, Joints, MotionKind, MotionRequest, PanelState, SockPoll, Speed, System, Target, TaskId,
+    Trans,
+};
+
+#[derive(Debug, Clone)]
+struct Seg {
+    from: Joints,
+    to: Joints,
+    start: Duration,
+    dur: Duration,
+    accuracy: f64,
+    fine: bool,
+    cp: bool,
+}
+
+impl Seg {
+    fn pos(&self, t: Duration) -> Joints {
+        if self.dur.is_zero() || t >= self.start + self.dur {
+            return self.to;
+        }
+        let u = t.saturating_sub(self.start).as_secs_f64() / self.dur.as_secs_f64();
+        let mut q = self.from;
+        for (k, x) in q.iter_mut().enumerate() {
+            *x += (self.to[k] - self.from[k]) * u;
+        }
+        q
+    }
+
+    fn end(&self) -> Duration {
+        self.start + self.dur
+    }
+
+    /// When the next motion may blend in: once every joint is within `accuracy` degrees of
+    /// the target (the toy's ACCURACY, in degrees), and never with FINE or CP OFF.
+    fn ready_time(&self) -> Duration {
+        let dist = max_abs_diff(&self.from, &self.to);
+        if self.fine || !self.cp || dist <= 0.0 || self.accuracy <= 0.0 {
+            return self.end();
+        }
+        let frac = (1.0 - self.accuracy / dist).clamp(0.0, 1.0);
+        self.start + self.dur.mul_f64(frac)
+    }
+}
+
+fn max_abs_diff(a: &Joints, b: &Joints) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
+#[derive(Debug, Clone, Default)]
+struct Sock {
+    inbox: VecDeque<u8>,
+    peer: Option<i32>,
+    peer_closed: bool,
+}
+
+/// The test system (see the module documentation). Its fields are public so that a test can
+/// set the panel, read the terminal and the issued motions.
+#[derive(Debug, Clone)]
+pub struct VirtualSystem {
+    /// Time of the latest [`System::advance_to`].
+    pub now: Duration,
+    /// The robot model (ranges, HOME, kinematics for `HERE` and transformation targets).
+    pub model: RobotModel,
+    /// Panel switches.
+    pub panel: PanelState,
+    /// The controller error.
+    pub error: ErrorCode,
+    /// Monitor speed, percent.
+    pub monitor_speed: f64,
+    /// Joint speed at 100 %, degrees per second (the toy motion's only parameter).
+    pub max_speed_deg_s: f64,
+    /// Every line printed, with its task.
+    pub terminal: Vec<(TaskId, String)>,
+    /// Every motion issued, with when.
+    pub motions: Vec<(Duration, MotionRequest)>,
+    /// Bytes a socket's receive buffer holds before `TCP_SEND` to it waits.
+    pub socket_capacity: usize,
+    /// `MC HOLD` in force.
+    pub held: bool,
+    /// Errors raised, in order.
+    pub raised: Vec<ErrorCode>,
+    joints: Joints,
+    current: Option<Seg>,
+    planned: Option<(Seg, Duration)>,
+    listeners: HashMap<u16, VecDeque<i32>>,
+    sockets: HashMap<i32, Sock>,
+    next_socket: i32,
+}
+
+impl Default for VirtualSystem {
+    fn default() -> Self {
+        VirtualSystem::new()
+    }
+}
+
+impl VirtualSystem {
+    /// A ready controller (power ON, RUN, REPEAT, lock OFF, no error) at HOME, monitor speed
+    /// 100 %, joints moving at 100 °/s at 100 %.
+    pub fn new() -> VirtualSystem {
+        let model = RobotModel::fs020n();
+        VirtualSystem {
+            now: Duration::ZERO,
+            joints: model.home.0,
+            model,
+            panel: PanelState {
+                power: true,
+                run: true,
+                repeat: true,
+                teach_lock: false,
+            },
+            error: ErrorCode::NONE,
+            monitor_speed: 100.0,
+            max_speed_deg_s: 100.0,
+            terminal: Vec::new(),
+            motions: Vec::new(),
+            socket_capacity: 64 * 1024,
+            held: false,
+            raised: Vec::new(),
+            current: None,
+            planned: None,
+            listeners: HashMap::new(),
+            sockets: HashMap::new(),
+            next_socket: 1,
+        }
+    }
+
+    /// The terminal lines printed by `task`.
+    pub fn lines_of(&self, task: TaskId) -> Vec<&str> {
+        self.terminal
+            .iter()
+            .filter(|(t, _)| *t == task)
+            .map(|(_, s)| s.as_str())
+            .collect()
+    }
+
+    /// A test client connects to `port`: its socket id, `None` when nothing listens.
+    pub fn connect(&mut self, port: u16) -> Option<i32> {
+        let backlog = self.listeners.get_mut(&port)?;
+        let client = self.next_socket;
+        let server = self.next_socket + 1;
+        self.next_socket += 2;
+        backlog.push_back(server);
+        self.sockets.insert(
+            client,
+            Sock {
+                peer: Some(server),
+                ..Sock::default()
+            },
+        );
+        self.sockets.insert(
+            server,
+            Sock {
+                peer: Some(client),
+                ..Sock::default()
+            },
+        );
+        Some(client)
+    }
+
+    /// A test client sends bytes (`false` when its socket is gone or the peer closed).
+    pub fn send(&mut self, client: i32, bytes: &[u8]) -> bool {
+        let Some(peer) = self.sockets.get(&client).and_then(|s| s.peer) else {
+            return false;
+        };
+        match self.sockets.get_mut(&peer) {
+            Some(p) => {
+                p.inbox.extend(bytes);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Everything a test client has received so far.
+    pub fn recv(&mut self, client: i32) -> Vec<u8> {
+        self.sockets
+            .get_mut(&client)
+            .map(|s| s.inbox.drain(..).collect())
+            .unwrap_or_default()
+    }
+
+    /// `true` when the program closed the other end of a test client's connection.
+    pub fn peer_closed(&self, client: i32) -> bool {
+        self.sockets.get(&client).is_none_or(|s| s.peer_closed)
+    }
+
+    /// A test client closes its connection.
+    pub fn close(&mut self, client: i32) {
+        if let Some(s) = self.sockets.remove(&client) {
+            if let Some(p) = s.peer.and_then(|p| self.sockets.get_mut(&p)) {
+                p.peer_closed = true;
+                p.peer = None;
+            }
+        }
+    }
+
+    /// `true` while `port` listens.
+    pub fn listening(&self, port: u16) -> bool {
+        self.listeners.contains_key(&port)
+    }
+
+    fn settle(&mut self, t: Duration) {
+        loop {
+            if let Some((p, issued)) = &self.planned {
+                let start = match &self.current {
+                    Some(c) => c.ready_time().max(*issued),
+                    None => *issued,
+                };
+                if start <= t {
+                    let from = match &self.current {
+                        Some(c) => c.pos(start),
+                        None => self.joints,
+                    };
+                    let mut seg = p.clone();
+                    seg.from = from;
+                    seg.start = start;
+                    self.current = Some(seg);
+                    self.planned = None;
+                    continue;
+                }
+            }
+            if let Some(c) = &self.current {
+                if c.end() <= t {
+                    self.joints = c.to;
+                    self.current = None;
+                    continue;
+                }
+                self.joints = c.pos(t);
+            }
+            break;
+        }
+    }
+
+    fn duration(&self, req: &MotionRequest, from: &Joints, to: &Joints) -> Duration {
+        let monitor = self.monitor_speed.clamp(0.01, 100.0);
+        let secs = match (req.kind, req.speed) {
+            (MotionKind::Delay, _) => req.delay_s,
+            (_, Speed::Seconds(s)) => s * 100.0 / monitor,
+            (_, speed) => {
+                let program = match speed {
+                    Speed::Percent(p) => p,
+                    // The toy treats mm/s as °/s of the fastest joint.
+                    Speed::MmPerS(v) => 100.0 * v / self.max_speed_deg_s,
+                    Speed::Seconds(_) => 100.0,
+                };
+                let eff = if req.abs_speed {
+                    program.min(monitor)
+                } else {
+                    program * monitor / 100.0
+                };
+                max_abs_diff(from, to) / (self.max_speed_deg_s * eff.max(0.01) / 100.0)
+            }
+        };
+        Duration::from_secs_f64(secs.clamp(0.0, 1.0e6))
+    }
+
+    fn final_target(&self) -> Joints {
+        match (&self.planned, &self.current) {
+            (Some((p, _)), _) => p.to,
+            (None, Some(c)) => c.to,
+            (None, None) => self.joints,
+        }
+    }
+}
+
+impl System for VirtualSystem {
+    fn advance_to(&mut self, t: Duration) {
+        if t <= self.now {
+            return;
+        }
+        if self.held || !self.panel.run {
+            // Motion pauses: shift everything in progress by the held time.
+            let dt = t - self.now;
+            if let Some(c) = &mut self.current {
+                c.start += dt;
+            }
+            if let Some((_, issued)) = &mut self.planned {
+                *issued += dt;
+            }
+        }
+        self.now = t;
+        self.settle(t);
+    }
+
+    fn joints(&self) -> Joints {
+        match &self.current {
+            Some(c) => c.pos(self.now),
+            None => self.joints,
+        }
+    }
+
+    fn pose(&self) -> Option<Trans> {
+        let x = self
+            .model
+            .forward(&JointsDeg(self.joints()).to_rad())
+            .to_xyzoat();
+        Some([x.x_mm, x.y_mm, x.z_mm, x.o_deg, x.a_deg, x.t_deg])
+    }
+
+    fn home(&self) -> Joints {
+        self.model.home.0
+    }
+
+    fn issue_motion(&mut self, req: &MotionRequest) -> Result<Issued, ErrorCode> {
+        self.motions.push((self.now, *req));
+        let from = self.final_target();
+        let to = match (req.kind, req.target) {
+            (MotionKind::Delay, _) => from,
+            (_, Target::Joints(j)) => j,
+            (_, Target::Pose(p)) => {
+                let pose = Pose::from_xyzoat(Xyzoat {
+                    x_mm: p[0],
+                    y_mm: p[1],
+                    z_mm: p[2],
+                    o_deg: p[3],
+                    a_deg: p[4],
+                    t_deg: p[5],
+                });
+                match self.model.inverse_nearest(&pose, &JointsDeg(from).to_rad()) {
+                    Ok(q) => q.to_deg().0,
+                    Err(_) => return Err(ErrorCode::DESTINATION_OUT_OF_RANGE),
+                }
+            }
+        };
+        if !to.iter().all(|v| v.is_finite()) || !self.model.within_limits(&JointsDeg(to)) {
+            return Err(ErrorCode::DESTINATION_OUT_OF_RANGE);
+        }
+        let seg = Seg {
+            from,
+            to,
+            start: self.now,
+            dur: self.duration(req, &from, &to),
+            accuracy: req.accuracy_mm,
+            fine: req.fine,
+            cp: req.cp,
+        };
+        self.settle(self.now);
+        let ready = match &self.current {
+            None => true,
+            Some(c) => c.ready_time() <= self.now,
+        };
+        if ready && self.planned.is_none() {
+            let mut seg = seg;
+            seg.from = self.joints();
+            self.current = Some(seg);
+            Ok(Issued::Started)
+        } else {
+            self.planned = Some((seg, self.now));
+            Ok(Issued::Planned)
+        }
+    }
+
+    fn motion_planned(&self) -> bool {
+        self.planned.is_some()
+    }
+
+    fn motion_in_progress(&self) -> bool {
+        self.current.is_some() || self.planned.is_some()
+    }
+
+    fn brake(&mut self) {
+        self.joints = self.joints();
+        self.current = None;
+        self.planned = None;
+    }
+
+    fn set_program_hold(&mut self, held: bool) {
+        self.held = held;
+    }
+
+    fn panel(&self) -> PanelState {
+        self.panel
+    }
+
+    fn error(&self) -> ErrorCode {
+        self.error
+    }
+
+    fn raise_error(&mut self, code: ErrorCode) {
+        self.error = code;
+        self.raised.push(code);
+        self.brake();
+    }
+
+    fn reset_error(&mut self) -> Result<(), String> {
+        self.error = ErrorCode::NONE;
+        Ok(())
+    }
+
+    fn monitor_speed(&self) -> f64 {
+        self.monitor_speed
+    }
+
+    fn set_monitor_speed(&mut self, percent: f64) -> Result<(), String> {
+        if !(percent.is_finite() && percent > 0.0) {
+            return Err(format!("monitor speed {percent} is not above 0"));
+        }
+        self.monitor_speed = percent.min(100.0);
+        Ok(())
+    }
+
+    fn tcp_listen(&mut self, port: u16) -> i32 {
+        if self.listeners.contains_key(&port) {
+            return -34055;
+        }
+        self.listeners.insert(port, VecDeque::new());
+        0
+    }
+
+    fn tcp_end_listen(&mut self, port: u16) -> i32 {
+        match self.listeners.remove(&port) {
+            Some(backlog) => {
+                // Connections never accepted are reset.
+                for s in backlog {
+                    self.tcp_close(s);
+                }
+                0
+            }
+            None => -34056,
+        }
+    }
+
+    fn tcp_accept(&mut self, port: u16) -> SockPoll<(i32, [u8; 4])> {
+        match self.listeners.get_mut(&port) {
+            None => SockPoll::Ready(Err(-34056)),
+            Some(b) => match b.pop_front() {
+                Some(s) => SockPoll::Ready(Ok((s, [127, 0, 0, 1]))),
+                None => SockPoll::Pending,
+            },
+        }
+    }
+
+    fn tcp_connect(&mut self, _ip: [u8; 4], port: u16) -> SockPoll<i32> {
+        match self.connect(port) {
+            Some(id) => SockPoll::Ready(Ok(id)),
+            None => SockPoll::Ready(Err(-34025)),
+        }
+    }
+
+    fn tcp_recv(&mut self, sock: i32, max: usize) -> SockPoll<Vec<u8>> {
+        let Some(s) = self.sockets.get_mut(&sock) else {
+            return SockPoll::Ready(Err(-34057));
+        };
+        if s.inbox.is_empty() {
+            return if s.peer_closed {
+                SockPoll::Ready(Err(-34025))
+            } else {
+                SockPoll::Pending
+            };
+        }
+        let n = s.inbox.len().min(max);
+        SockPoll::Ready(Ok(s.inbox.drain(..n).collect()))
+    }
+
+    fn tcp_send(&mut self, sock: i32, data: &[u8]) -> SockPoll<()> {
+        let Some(s) = self.sockets.get(&sock) else {
+            return SockPoll::Ready(Err(-34057));
+        };
+        let Some(peer) = s.peer.filter(|_| !s.peer_closed) else {
+            return SockPoll::Ready(Err(-34025));
+        };
+        let cap = self.socket_capacity;
+        match self.sockets.get_mut(&peer) {
+            Some(p) if p.inbox.len() + data.len() <= cap => {
+                p.inbox.extend(data);
+                SockPoll::Ready(Ok(()))
+            }
+            Some(_) => SockPoll::Pending,
+            None => SockPoll::Ready(Err(-34025)),
+        }
+    }
+
+    fn tcp_close(&mut self, sock: i32) -> i32 {
+        match self.sockets.remove(&sock) {
+            Some(s) => {
+                if let Some(p) = s.peer.and_then(|p| self.sockets.get_mut(&p)) {
+                    p.peer_closed = true;
+                    p.peer = None;
+                }
+                0
+            }
+            None => -34057,
+        }
+    }
+
+    fn terminal(&mut self, task: TaskId, line: &str) {
+        self.terminal.push((task, line.to_owned()));
+    }
+}

@@ -1,0 +1,155 @@
+//! Variable storage: scalars and sparse arrays of up to 3 dimensions whose elements exist once
+//! assigned (reading one that was never assigned is E0102, like any undefined variable).
+
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+use std::sync::Arc;
+
+/// An AS string: bytes (ASCII on the controller; the network may deliver any byte).
+pub type Bytes = Arc<[u8]>;
+
+/// Largest array index in each dimension.
+pub const MAX_INDEX: i32 = 9999;
+
+/// Most array elements the whole interpreter holds (a runaway loop that fills arrays stops
+/// with E0110 instead of exhausting memory).
+pub const MAX_ELEMENTS: usize = 200_000;
+
+/// A multiplicative hasher for packed array indices (fast, deterministic, good enough for
+/// small integer keys).
+#[derive(Default, Clone, Copy)]
+pub(crate) struct IndexHasher(u64);
+
+impl Hasher for IndexHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0.rotate_left(5) ^ u64::from(b)).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        }
+    }
+
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (v ^ (v >> 29)).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    }
+}
+
+type IndexMap<T> = HashMap<u64, T, BuildHasherDefault<IndexHasher>>;
+
+/// Packs up to 3 indices (each 0..=9999) into one key.
+pub(crate) fn pack(idx: &[i32]) -> u64 {
+    let mut key = 0u64;
+    for (k, &i) in idx.iter().enumerate() {
+        key |= (i as u64 & 0xFFFF) << (16 * k);
+    }
+    key | ((idx.len() as u64) << 48)
+}
+
+/// The indices of a packed key.
+pub(crate) fn unpack(key: u64) -> Vec<i32> {
+    let n = ((key >> 48) & 0xF) as usize;
+    (0..n.min(3))
+        .map(|k| ((key >> (16 * k)) & 0xFFFF) as i32)
+        .collect()
+}
+
+/// One variable: its scalar value and its array elements.
+#[derive(Debug, Clone)]
+pub(crate) struct Var<T> {
+    pub scalar: Option<T>,
+    pub array: Option<Box<IndexMap<T>>>,
+}
+
+impl<T> Default for Var<T> {
+    fn default() -> Self {
+        Var {
+            scalar: None,
+            array: None,
+        }
+    }
+}
+
+impl<T: Clone> Var<T> {
+    pub fn get(&self, idx: &[i32]) -> Option<&T> {
+        if idx.is_empty() {
+            self.scalar.as_ref()
+        } else {
+            self.array.as_ref()?.get(&pack(idx))
+        }
+    }
+
+    /// Sets a value; `true` when a new array element was created.
+    pub fn set(&mut self, idx: &[i32], v: T) -> bool {
+        if idx.is_empty() {
+            self.scalar = Some(v);
+            false
+        } else {
+            self.array
+                .get_or_insert_with(Default::default)
+                .insert(pack(idx), v)
+                .is_none()
+        }
+    }
+
+    /// Every element, sorted by index (for dumps).
+    pub fn elements(&self) -> Vec<(Vec<i32>, T)> {
+        let mut v: Vec<(u64, T)> = self
+            .array
+            .as_ref()
+            .map(|a| a.iter().map(|(k, v)| (*k, v.clone())).collect())
+            .unwrap_or_default();
+        v.sort_by_key(|(k, _)| {
+            (
+                ((k >> 48) & 0xF),
+                k & 0xFFFF,
+                (k >> 16) & 0xFFFF,
+                (k >> 32) & 0xFFFF,
+            )
+        });
+        v.into_iter().map(|(k, t)| (unpack(k), t)).collect()
+    }
+}
+
+/// The variables of one scope (the globals, or one program's locals in one task), by type.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Store {
+    pub reals: Vec<Var<f32>>,
+    pub strs: Vec<Var<Bytes>>,
+    pub joints: Vec<Var<[f32; 6]>>,
+    pub trans: Vec<Var<[f32; 6]>>,
+}
+
+impl Store {
+    pub fn with_sizes(sizes: [usize; 4]) -> Store {
+        Store {
+            reals: (0..sizes[0]).map(|_| Var::default()).collect(),
+            strs: (0..sizes[1]).map(|_| Var::default()).collect(),
+            joints: (0..sizes[2]).map(|_| Var::default()).collect(),
+            trans: (0..sizes[3]).map(|_| Var::default()).collect(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sparse_arrays() {
+        let mut v: Var<f32> = Var::default();
+        assert!(v.get(&[]).is_none());
+        assert!(v.get(&[1]).is_none());
+        assert!(v.set(&[1], 2.0));
+        assert!(!v.set(&[1], 3.0));
+        assert!(v.set(&[1, 0], 4.0));
+        assert_eq!(v.get(&[1]), Some(&3.0));
+        assert_eq!(v.get(&[1, 0]), Some(&4.0));
+        assert!(v.get(&[0]).is_none());
+        v.set(&[9999, 9999, 9999], 1.0);
+        assert_eq!(v.elements().len(), 3);
+        assert_eq!(unpack(pack(&[9999, 5, 7])), vec![9999, 5, 7]);
+        assert_eq!(v.elements()[0].0, vec![1]);
+    }
+}
