@@ -416,7 +416,8 @@ pub struct Interpreter {
     elements: usize,
     tasks: Vec<Task>,
     signals: HashMap<i32, SignalState>,
-    timers: [Option<Duration>; 11],
+    /// TIMER n: the time (ns, may be negative) at which it read 0.
+    timers: [Option<i128>; 11],
     switches: Vec<bool>,
     mc_hold: bool,
     terminal: VecDeque<TerminalLine>,
@@ -1730,13 +1731,14 @@ impl Interpreter {
                     return Err(RuntimeError::IllegalValue(format!("TIMER({x}) (0 to 10)")));
                 }
                 let since = if n == 0.0 {
-                    Some(Duration::ZERO)
+                    Some(0)
                 } else {
                     self.timers[n as usize]
                 };
                 match since {
                     Some(s) => {
-                        let ms = self.now.saturating_sub(s).as_millis();
+                        // 1 ms resolution, truncated.
+                        let ms = (self.now.as_nanos() as i128 - s).div_euclid(1_000_000);
                         (ms as f64 / 1000.0) as f32
                     }
                     None => 0.0,
@@ -1964,11 +1966,8 @@ impl Interpreter {
             return Ok(Flow::Next);
         };
         let now = self.now;
-        let mut cost = self.cfg.cost.statement;
-        {
-            let t = &mut self.tasks[i];
-            t.steps += 1;
-        }
+        let cost = self.cfg.cost.statement;
+        self.tasks[i].steps += 1;
         if let Some(trace) = &mut self.trace {
             if !matches!(op, Op::Jump(_)) {
                 let line = p.lines.get(pc).copied().unwrap_or(0);
@@ -1986,6 +1985,19 @@ impl Interpreter {
         }
         // By default the next step is the following op.
         self.set_pc(i, pc + 1);
+        let depth = self.tasks[i].frames.len();
+        let r = self.exec(i, sys, &code, prog, pc, now, cost);
+        if r.is_err() && self.tasks[i].frames.len() == depth {
+            // Errors name the step that failed.
+            self.set_pc(i, pc);
+        }
+        r
+    }
+
+    fn exec(&mut self, i: usize, sys: &mut dyn System, code: &Code, prog: usize, pc: usize, now: Duration, mut cost: Duration) -> R<Flow> {
+        let Some(op) = code.programs.get(prog).and_then(|p| p.ops.get(pc)) else {
+            return Ok(Flow::Next);
+        };
         let robot = i == 0;
         let flow = match op {
             Op::Nop => Flow::Next,
@@ -2323,12 +2335,8 @@ impl Interpreter {
                 if !(1.0..=10.0).contains(&n) {
                     return Err(RuntimeError::IllegalValue(format!("TIMER {n} (1 to 10)")));
                 }
-                let d = Duration::from_secs_f64(f64::from(v).abs().min(1.0e7));
-                self.timers[n as usize] = Some(if v >= 0.0 {
-                    now.saturating_sub(d)
-                } else {
-                    now + d
-                });
+                let offset = (f64::from(v).clamp(-1.0e9, 1.0e9) * 1e9) as i128;
+                self.timers[n as usize] = Some(now.as_nanos() as i128 - offset);
                 Flow::Next
             }
             Op::Decompose(target, l) => {

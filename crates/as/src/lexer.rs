@@ -249,6 +249,11 @@ pub fn tokenize(file: &str, line_no: u32, code: &str) -> Result<Vec<Token>, Pars
                 if chars[j] == '.' {
                     local = true;
                     j += 1;
+                    // `.&name`: a by-reference parameter.
+                    if chars.get(j) == Some(&'&') {
+                        out.push(Token { tok: Tok::Amp, span });
+                        j += 1;
+                    }
                 }
                 let sigil = match chars.get(j) {
                     Some('$') => {
