@@ -336,6 +336,8 @@ struct Task {
     wait: Option<Wait>,
     /// Re-check a socket wait now (another task used a socket).
     kick: bool,
+    /// Next poll of a polled wait (a grid point of the poll period).
+    poll_at: Duration,
     cycles_left: i64,
     motion: MotionParams,
     interrupts: Vec<Interrupt>,
@@ -354,6 +356,7 @@ impl Task {
             ready_at: Duration::ZERO,
             wait: None,
             kick: false,
+            poll_at: Duration::ZERO,
             cycles_left: 0,
             motion: MotionParams::default(),
             interrupts: Vec::new(),
@@ -774,31 +777,39 @@ impl Interpreter {
         if t.run != Run::Running {
             return None;
         }
-        match &t.wait {
-            None => Some(t.ready_at.max(self.now)),
-            Some(w) => {
-                if t.kick && w.socket() {
-                    return Some(self.now);
-                }
-                match w {
-                    Wait::Until(d) => Some((*d).max(t.ready_at)),
-                    w if w.polled() => Some(
-                        self.next_tick(
-                            self.now
-                                .max(t.ready_at)
-                                .saturating_sub(Duration::from_nanos(1)),
-                        )
-                        .max(self.now),
-                    ),
-                    Wait::Paused => None,
-                    Wait::Accept { deadline, .. }
-                    | Wait::Connect { deadline, .. }
-                    | Wait::Recv { deadline, .. }
-                    | Wait::Send { deadline, .. } => Some((*deadline).max(t.ready_at)),
-                    _ => None,
-                }
-            }
+        let Some(w) = &t.wait else {
+            return Some(t.ready_at.max(self.now));
+        };
+        if t.kick && w.socket() {
+            return Some(self.now);
         }
+        let own = match w {
+            Wait::Until(d) => Some((*d).max(t.ready_at)),
+            Wait::Accept { deadline, .. }
+            | Wait::Connect { deadline, .. }
+            | Wait::Recv { deadline, .. }
+            | Wait::Send { deadline, .. } => Some((*deadline).max(t.ready_at)),
+            _ => None,
+        };
+        // The robot task also watches the panel and the error while it waits.
+        let poll = (i == 0 || w.polled()).then_some(t.poll_at);
+        match (own, poll) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
+    /// Stores a wait of task `i` and schedules its next poll.
+    fn set_wait(&mut self, i: usize, w: Wait) {
+        let base = self.now.max(
+            self.tasks[i]
+                .ready_at
+                .saturating_sub(Duration::from_nanos(1)),
+        );
+        let at = self.next_tick(base);
+        let t = &mut self.tasks[i];
+        t.poll_at = at;
+        t.wait = Some(w);
     }
 
     fn interrupt_time(&self, i: usize) -> Option<Duration> {
@@ -908,8 +919,7 @@ impl Interpreter {
                         .map_or(until, |(t, _)| t.min(until));
                 }
                 Ok(Flow::Wait(w)) => {
-                    let t = &mut self.tasks[i];
-                    t.wait = Some(w);
+                    self.set_wait(i, w);
                     return;
                 }
                 Err(e) => {
@@ -1043,7 +1053,7 @@ impl Interpreter {
         })();
         match done {
             Ok(Some(w)) => {
-                self.tasks[i].wait = Some(w);
+                self.set_wait(i, w);
                 false
             }
             Ok(None) => {
@@ -1994,7 +2004,16 @@ impl Interpreter {
         r
     }
 
-    fn exec(&mut self, i: usize, sys: &mut dyn System, code: &Code, prog: usize, pc: usize, now: Duration, mut cost: Duration) -> R<Flow> {
+    fn exec(
+        &mut self,
+        i: usize,
+        sys: &mut dyn System,
+        code: &Code,
+        prog: usize,
+        pc: usize,
+        now: Duration,
+        mut cost: Duration,
+    ) -> R<Flow> {
         let Some(op) = code.programs.get(prog).and_then(|p| p.ops.get(pc)) else {
             return Ok(Flow::Next);
         };

@@ -251,7 +251,10 @@ pub fn tokenize(file: &str, line_no: u32, code: &str) -> Result<Vec<Token>, Pars
                     j += 1;
                     // `.&name`: a by-reference parameter.
                     if chars.get(j) == Some(&'&') {
-                        out.push(Token { tok: Tok::Amp, span });
+                        out.push(Token {
+                            tok: Tok::Amp,
+                            span,
+                        });
                         j += 1;
                     }
                 }

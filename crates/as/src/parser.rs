@@ -298,13 +298,15 @@ impl<'a> FileParser<'a> {
                             Some(Token {
                                 tok: Tok::Name(n), ..
                             }) => n,
-                            other => return Err(c.err_at(
-                                other.as_ref().map(|t| t.span),
-                                format!(
+                            other => {
+                                return Err(c.err_at(
+                                    other.as_ref().map(|t| t.span),
+                                    format!(
                                     "expected a parameter name such as .a, .$s or .#p, found {}",
                                     describe(other.as_ref())
                                 ),
-                            )),
+                                ))
+                            }
                         };
                         // `.&a`: the lexer reads `.` then `&`… accept `&.a` and `.a&`-less forms only.
                         if !name.local {

@@ -26,6 +26,8 @@ struct Seg {
     to: Joints,
     start: Duration,
     dur: Duration,
+    /// Joint-space speed, °/s (`None`: a time-based motion keeps its duration).
+    rate: Option<f64>,
     accuracy: f64,
     fine: bool,
     cp: bool,
@@ -215,6 +217,11 @@ impl VirtualSystem {
         }
     }
 
+    /// The joint angles now.
+    pub fn joints_now(&self) -> Joints {
+        System::joints(self)
+    }
+
     /// `true` while `port` listens.
     pub fn listening(&self, port: u16) -> bool {
         self.listeners.contains_key(&port)
@@ -235,6 +242,11 @@ impl VirtualSystem {
                     let mut seg = p.clone();
                     seg.from = from;
                     seg.start = start;
+                    if let Some(rate) = seg.rate {
+                        seg.dur = Duration::from_secs_f64(
+                            (max_abs_diff(&seg.from, &seg.to) / rate).min(1.0e6),
+                        );
+                    }
                     self.current = Some(seg);
                     self.planned = None;
                     continue;
@@ -252,8 +264,10 @@ impl VirtualSystem {
         }
     }
 
-    fn duration(&self, req: &MotionRequest, from: &Joints, to: &Joints) -> Duration {
+    /// The motion's duration and, for a speed (not a time), its joint rate in °/s.
+    fn duration(&self, req: &MotionRequest, from: &Joints, to: &Joints) -> (Duration, Option<f64>) {
         let monitor = self.monitor_speed.clamp(0.01, 100.0);
+        let mut rate = None;
         let secs = match (req.kind, req.speed) {
             (MotionKind::Delay, _) => req.delay_s,
             (_, Speed::Seconds(s)) => s * 100.0 / monitor,
@@ -269,10 +283,12 @@ impl VirtualSystem {
                 } else {
                     program * monitor / 100.0
                 };
-                max_abs_diff(from, to) / (self.max_speed_deg_s * eff.max(0.01) / 100.0)
+                let r = self.max_speed_deg_s * eff.max(0.01) / 100.0;
+                rate = Some(r);
+                max_abs_diff(from, to) / r
             }
         };
-        Duration::from_secs_f64(secs.clamp(0.0, 1.0e6))
+        (Duration::from_secs_f64(secs.clamp(0.0, 1.0e6)), rate)
     }
 
     fn final_target(&self) -> Joints {
@@ -346,11 +362,13 @@ impl System for VirtualSystem {
         if !to.iter().all(|v| v.is_finite()) || !self.model.within_limits(&JointsDeg(to)) {
             return Err(ErrorCode::DESTINATION_OUT_OF_RANGE);
         }
+        let (dur, rate) = self.duration(req, &from, &to);
         let seg = Seg {
             from,
             to,
             start: self.now,
-            dur: self.duration(req, &from, &to),
+            dur,
+            rate,
             accuracy: req.accuracy_mm,
             fine: req.fine,
             cp: req.cp,
@@ -363,6 +381,10 @@ impl System for VirtualSystem {
         if ready && self.planned.is_none() {
             let mut seg = seg;
             seg.from = self.joints();
+            if let Some(rate) = seg.rate {
+                seg.dur =
+                    Duration::from_secs_f64((max_abs_diff(&seg.from, &seg.to) / rate).min(1.0e6));
+            }
             self.current = Some(seg);
             Ok(Issued::Started)
         } else {

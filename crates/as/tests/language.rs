@@ -117,7 +117,8 @@ fn strings_and_decode() {
         0.1,
     );
     assert!(s.raised.is_empty(), "{:?}", s.terminal);
-    let st = |n: &str| String::from_utf8(i.string(n).unwrap_or_else(|| panic!("${n} not set"))).unwrap();
+    let st =
+        |n: &str| String::from_utf8(i.string(n).unwrap_or_else(|| panic!("${n} not set"))).unwrap();
     assert_eq!(st("s"), "hello world");
     assert_eq!(st("m"), "world");
     assert_eq!(st("l"), "heldhello world");
@@ -149,7 +150,11 @@ fn encode_formats() {
     assert!(s.raised.is_empty(), "{:?}", s.terminal);
     let st = |n: &str| String::from_utf8(i.string(n).unwrap()).unwrap();
     assert_eq!(st("a"), " 1040 0 -1 12.5");
-    assert_eq!(st("b"), "    12.500   -90.000**********", "a format carries on within a call");
+    assert_eq!(
+        st("b"),
+        "    12.500   -90.000**********",
+        "a format carries on within a call"
+    );
     assert_eq!(st("c"), "x=  42 37  |");
     assert_eq!(st("d"), "  1.23E+0312.67*****");
     assert_eq!(st("e"), "  FF00FF-0070000");
@@ -166,7 +171,10 @@ fn print_and_type() {
          PRINT\n",
         0.1,
     );
-    assert_eq!(printed(&s), vec!["a 1  2.00", "no line feed joined", "device", "second", ""]);
+    assert_eq!(
+        printed(&s),
+        vec!["a 1  2.00", "no line feed joined", "device", "second", ""]
+    );
 }
 
 #[test]
@@ -288,37 +296,107 @@ fn calls_parameters_and_locals() {
     assert_eq!(i.real("a"), Some(1.0));
     assert_eq!(i.real("last"), Some(12.0));
     assert_eq!(i.string("last"), Some(b"t".to_vec()));
-    assert_eq!(i.real("v"), Some(20.0), "by-reference parameter written back");
-    assert_eq!(i.real("total"), Some(5.0), "a program's locals keep their values between calls");
+    assert_eq!(
+        i.real("v"),
+        Some(20.0),
+        "by-reference parameter written back"
+    );
+    assert_eq!(
+        i.real("total"),
+        Some(5.0),
+        "a program's locals keep their values between calls"
+    );
     // Runaway recursion stops with E0109 at the CALL depth limit (32 frames).
     assert_eq!(i.real("depth"), Some(30.0));
     assert_eq!(s.raised, vec![ErrorCode(-30109)]);
-    assert!(s.lines_of(TaskId::Pc(1)).iter().any(|l| l.starts_with("(E0109)")), "{:?}", s.terminal);
+    assert!(
+        s.lines_of(TaskId::Pc(1))
+            .iter()
+            .any(|l| l.starts_with("(E0109)")),
+        "{:?}",
+        s.terminal
+    );
 }
 
 #[test]
 fn runtime_errors_stop_the_task_with_their_code() {
     let cases: &[(&str, i32, &str)] = &[
-        ("  a = b + 1", -30102, "(E0102) variable not defined: b (autostart.pc line 2)"),
-        ("  x[1] = 1\n  a = x[2]", -30102, "(E0102) variable not defined: x[2] (autostart.pc line 3)"),
-        ("  .l = .m", -30102, "(E0102) variable not defined: .m (autostart.pc line 2)"),
-        ("  $s = $t", -30102, "(E0102) variable not defined: $t (autostart.pc line 2)"),
-        ("  a = 1 / 0", -30103, "(E0103) division by zero (autostart.pc line 2)"),
-        ("  a = 1 MOD 0", -30103, "(E0103) division by zero (autostart.pc line 2)"),
-        ("  a[-1] = 0", -30104, "(E0104) array index out of range: -1 in a (autostart.pc line 2)"),
-        ("  a[10000] = 0", -30104, "(E0104) array index out of range: 10000 in a (autostart.pc line 2)"),
-        ("  a = SQRT(-1)", -30105, "(E0105) illegal value: SQRT(-1) (autostart.pc line 2)"),
-        ("  a = 1E30 * 1E30", -30106, "(E0106) value out of range: * (autostart.pc line 2)"),
-        ("  JMOVE #PPOINT()", -30108, "(E0108) JMOVE/LMOVE is allowed only in robot programs (autostart.pc line 2)"),
-        ("  $s = $CHR(65)\n  FOR .i = 1 TO 8\n    $s = $s + $s\n  END", -30107, "(E0107) string too long (256 characters, at most 255) (autostart.pc line 4)"),
-        ("  TCP_LISTEN .r, 80", -30105, "(E0105) illegal value: port 80 (8192 to 65535) (autostart.pc line 2)"),
+        (
+            "  a = b + 1",
+            -30102,
+            "(E0102) variable not defined: b (autostart.pc line 2)",
+        ),
+        (
+            "  x[1] = 1\n  a = x[2]",
+            -30102,
+            "(E0102) variable not defined: x[2] (autostart.pc line 3)",
+        ),
+        (
+            "  .l = .m",
+            -30102,
+            "(E0102) variable not defined: .m (autostart.pc line 2)",
+        ),
+        (
+            "  $s = $t",
+            -30102,
+            "(E0102) variable not defined: $t (autostart.pc line 2)",
+        ),
+        (
+            "  a = 1 / 0",
+            -30103,
+            "(E0103) division by zero (autostart.pc line 2)",
+        ),
+        (
+            "  a = 1 MOD 0",
+            -30103,
+            "(E0103) division by zero (autostart.pc line 2)",
+        ),
+        (
+            "  a[-1] = 0",
+            -30104,
+            "(E0104) array index out of range: -1 in a (autostart.pc line 2)",
+        ),
+        (
+            "  a[10000] = 0",
+            -30104,
+            "(E0104) array index out of range: 10000 in a (autostart.pc line 2)",
+        ),
+        (
+            "  a = SQRT(-1)",
+            -30105,
+            "(E0105) illegal value: SQRT(-1) (autostart.pc line 2)",
+        ),
+        (
+            "  a = 1E30 * 1E30",
+            -30106,
+            "(E0106) value out of range: * (autostart.pc line 2)",
+        ),
+        (
+            "  JMOVE #PPOINT()",
+            -30108,
+            "(E0108) JMOVE/LMOVE is allowed only in robot programs (autostart.pc line 2)",
+        ),
+        (
+            "  $s = $CHR(65)\n  FOR .i = 1 TO 8\n    $s = $s + $s\n  END",
+            -30107,
+            "(E0107) string too long (256 characters, at most 255) (autostart.pc line 4)",
+        ),
+        (
+            "  TCP_LISTEN .r, 80",
+            -30105,
+            "(E0105) illegal value: port 80 (8192 to 65535) (autostart.pc line 2)",
+        ),
     ];
     for (body, code, message) in cases {
         let (i, s) = run_pc(&format!("{body}\n  done = 1"), 0.1);
         assert_eq!(s.raised, vec![ErrorCode(*code)], "{body}");
         assert_eq!(s.error, ErrorCode(*code));
         assert_eq!(i.real("done"), None, "{body}: the task stopped");
-        assert!(printed(&s).contains(&message.to_string()), "{body}: {:?}", printed(&s));
+        assert!(
+            printed(&s).contains(&message.to_string()),
+            "{body}: {:?}",
+            printed(&s)
+        );
         let info = i.tasks(&s);
         assert_eq!(info[1].last_error.as_deref(), Some(*message));
         assert_eq!(info[1].state, fs020n_as::TaskState::Idle);
@@ -329,7 +407,10 @@ fn runtime_errors_stop_the_task_with_their_code() {
 fn error_and_error_message_functions() {
     let (i, _) = run_pc("  e = ERROR\n  $m = $ERROR(-31088)\n  $z = $ERROR(0)", 0.1);
     assert_eq!(i.real("e"), Some(0.0));
-    assert_eq!(i.string("m"), Some(b"Destination is out of motion range".to_vec()));
+    assert_eq!(
+        i.string("m"),
+        Some(b"Destination is out of motion range".to_vec())
+    );
     assert_eq!(i.string("z"), Some(Vec::new()));
 }
 
