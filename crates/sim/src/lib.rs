@@ -24,8 +24,9 @@ pub mod server;
 pub mod snapshot;
 
 pub use controller::{
-    Controller, ControllerConfig, Counters, Handled, MoveKind, PanelChange, PanelError, PassInfo,
-    PassMotion, Refused, SessionEnd, SessionGone, SessionId, TaskState, Timing, TICK,
+    Behaviour, Controller, ControllerConfig, Counters, Handled, MoveKind, PanelChange, PanelError,
+    PassInfo, PassMotion, PlannedAfterBrake, Refused, SessionEnd, SessionGone, SessionId,
+    TaskState, Timing, PASS_TIME, SIGNAL_EDGE, TICK,
 };
 pub use fault::{Fault, ReplyFault};
 pub use motion::MotionPhase;

@@ -142,7 +142,7 @@ impl Snapshot {
                 timer1_s: session_open.then(|| c.timer1_s()),
                 newest_command: c.newest_command().map(|cmd| CommandInfo {
                     number: cmd.number(),
-                    command: cmd.clone(),
+                    command: cmd,
                 }),
                 newest_index: c.newest_index(),
                 listening: c.is_listening(),

@@ -104,7 +104,14 @@ async fn tcp_session_one_client_255_and_relisten() {
     assert!(st.task_running, "reply to 255 is still sent");
     let mut buf = [0u8; 16];
     assert_eq!(s.read(&mut buf).await.unwrap(), 0, "then the socket closes");
-    assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
+    // then signal 2007 ends the program once stable for 50 ms
+    assert!(emu.with(|c| c.stop_signal()));
+    let mut waited = 0;
+    while emu.with(|c| c.task()) != TaskState::NotRunning {
+        assert!(waited < 200, "the program did not end");
+        tokio::time::sleep(Duration::from_millis(10)).await;
+        waited += 1;
+    }
     let mut again = None;
     for _ in 0..100 {
         if let Ok(c) = TcpStream::connect(server.local_addr()).await {
