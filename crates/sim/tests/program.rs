@@ -837,3 +837,96 @@ fn a_first_7_at_the_current_joints_issues_no_motion() {
     );
     assert!(c.counters().passes > 0);
 }
+
+// ------------------------------------------------------------------ stale arguments (spec §2)
+
+#[test]
+fn arguments_beyond_count_are_stale_not_zero() {
+    let (mut c, id) = running();
+    raw(&mut c, id, "1040 3 1 100");
+    jmove(&mut c, id, [10.0, 5.0, -80.0, 4.0, -70.0, 3.0]);
+    until(&mut c, ms(5000), |c| {
+        c.joints() == JointsDeg::new([10.0, 5.0, -80.0, 4.0, -70.0, 3.0])
+    });
+    // COUNT 6: ARG4–ARG6 (JT1–JT3) come from this request, JT4–JT6 keep the local array's
+    // values from the previous 6: the robot goes to (20, 15, -60, 4, -70, 3), not to zeros.
+    raw(&mut c, id, "1040 6 6 0 0 0 20 15 -60");
+    let expected = JointsDeg::new([20.0, 15.0, -60.0, 4.0, -70.0, 3.0]);
+    until(&mut c, ms(5000), |c| c.joints() == expected);
+    assert!(c.error().is_none());
+}
+
+#[test]
+fn a_short_command_7_extrapolates_with_old_velocities() {
+    let start = [0.0, 10.0, -80.0, 0.0, -80.0, 0.0];
+    let (mut c, id) = streaming_at(start, 100.0);
+    let t = c.timer1_s();
+    let full = sample(t, 0.0, start, [10.0, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0; 6]);
+    cmd(&mut c, id, Command::StreamedMove(full));
+    c.advance_by(ms(3));
+    // now a 7 with COUNT 9 (positions only): the velocities are the previous pass's 10 deg/s
+    let t = c.timer1_s();
+    raw(
+        &mut c,
+        id,
+        &format!("1040 7 9 {:.3} 0 0 1 10 -80 0 -80 0", t - 0.2),
+    );
+    c.advance_by(ms(4));
+    let pass = c.last_pass().unwrap();
+    let m = pass.motion.expect("a motion");
+    // dt = clamp(tm − t0) + 0 ≈ 0.2 s (+ the ms since): JT1 = 1 + 10 × dt, not 1
+    let dt = (pass.tm_s - (t - 0.2)).clamp(-0.5, 0.5);
+    assert!((m.target[0] - (1.0 + 10.0 * dt)).abs() < 1e-3, "{:?}", m.target);
+    assert!(c.error().is_none());
+}
+
+#[test]
+fn an_argument_never_assigned_stops_the_program_with_e0102() {
+    // A fresh controller: the motion program's local array holds nothing yet.
+    let (mut c, id) = running();
+    let s = raw(&mut c, id, "1040 6 3 0 0 0");
+    assert!(s.error.is_none(), "the communication task stores it without complaint");
+    c.advance_by(ms(10));
+    assert_eq!(c.error(), ErrorCode::VARIABLE_NOT_DEFINED);
+    assert_eq!(c.error().to_string(), "E0102");
+    assert_eq!(c.task(), TaskState::NotRunning);
+    assert_eq!(c.counters().undefined_arguments, 1);
+    let s = raw(&mut c, id, "0 0 0");
+    assert_eq!(s.error.raw(), -30102);
+    assert_eq!(c.joints(), HOME, "nothing moved");
+}
+
+#[test]
+fn the_full_count_never_reads_stale_values() {
+    // What the client always sends: 9 arguments for 6, 21 for 7.
+    let (mut c, id) = running();
+    raw(&mut c, id, "1040 3 1 100");
+    jmove(&mut c, id, [10.0, 5.0, -80.0, 4.0, -70.0, 3.0]);
+    c.advance_by(ms(20));
+    jmove(&mut c, id, [0.0, 0.0, -90.0, 0.0, -90.0, 0.0]);
+    until(&mut c, ms(10_000), |c| c.joints() == HOME);
+}
+
+#[test]
+fn locals_start_undefined_after_a_restart_unless_configured_to_survive() {
+    for survive in [false, true] {
+        let mut cfg = ControllerConfig::default();
+        cfg.behaviour.locals_survive_restart = survive;
+        let mut c = Controller::new(cfg);
+        let id = c.try_accept().unwrap();
+        raw(&mut c, id, "1040 1 0");
+        jmove(&mut c, id, [1.0, 0.0, -90.0, 0.0, -90.0, 0.0]);
+        c.advance_by(ms(20));
+        raw(&mut c, id, "1040 2 0");
+        c.advance_by(ms(100));
+        assert_eq!(c.task(), TaskState::NotRunning);
+        raw(&mut c, id, "1040 1 0");
+        raw(&mut c, id, "1040 6 6 0 0 0 2 0 -90");
+        c.advance_by(ms(10));
+        if survive {
+            assert!(c.error().is_none(), "JT4–JT6 from the earlier execution");
+        } else {
+            assert_eq!(c.error(), ErrorCode::VARIABLE_NOT_DEFINED);
+        }
+    }
+}
