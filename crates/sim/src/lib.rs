@@ -31,7 +31,7 @@ pub use controller::{
 pub use fault::{Fault, ReplyFault};
 pub use motion::MotionPhase;
 pub use panel::Panel;
-pub use pendant::{pendant_router, serve_pendant, PendantServer};
+pub use pendant::{pendant_router, serve_pendant, PendantAccess, PendantServer};
 pub use run::{run_robot, RunningRobot, SimOptions};
 pub use server::{Emulator, TcpServer};
 pub use snapshot::{CommandInfo, ErrorInfo, LastEnd, SessionInfo, Snapshot};
