@@ -36,7 +36,10 @@ fn background_sim() -> (Child, u32) {
     let (mut pid, mut serving) = (None, false);
     while pid.is_none() || !serving {
         let mut line = String::new();
-        assert!(out.read_line(&mut line).expect("read") > 0, "sh ended early");
+        assert!(
+            out.read_line(&mut line).expect("read") > 0,
+            "sh ended early"
+        );
         if let Some(p) = line.trim().strip_prefix("pid ") {
             pid = Some(p.parse().expect("pid"));
         } else if line.contains("\"listen\"") {

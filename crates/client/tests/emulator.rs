@@ -361,7 +361,11 @@ async fn start_confirms_the_program_runs() {
     robot.stop_program().await.expect("stop");
     robot.start().await.expect("start at once after a stop");
     sleep_ms(200).await;
-    assert_eq!(emu.with(|c| c.task()), TaskState::Running, "not ended by the old signal");
+    assert_eq!(
+        emu.with(|c| c.task()),
+        TaskState::Running,
+        "not ended by the old signal"
+    );
 }
 
 #[tokio::test(start_paused = true)]
@@ -373,7 +377,10 @@ async fn start_in_a_new_session_does_not_trust_the_old_sessions_program() {
     robot.start().await.expect("start");
     robot.close().await.expect("close");
     let robot = connect(&emu).await;
-    assert!(emu.with(|c| c.task()) == TaskState::Running, "still on its way out");
+    assert!(
+        emu.with(|c| c.task()) == TaskState::Running,
+        "still on its way out"
+    );
     robot.start().await.expect("start");
     sleep_ms(500).await;
     assert_eq!(emu.with(|c| c.task()), TaskState::Running);
@@ -565,10 +572,7 @@ async fn hold_mid_move_fails_the_wait_and_the_move_does_not_resume() {
     );
     assert!(err.to_string().contains("switch RUN/HOLD to RUN"), "{err}");
     // The wait cancelled the move (command 5): back on RUN, the robot stays where it is.
-    assert_eq!(
-        emu.with(|c| c.newest_command()),
-        Some(Command::StopProgram)
-    );
+    assert_eq!(emu.with(|c| c.newest_command()), Some(Command::StopProgram));
     sleep_ms(1000).await;
     emu.with(|c| c.set_run(true));
     sleep_ms(5000).await;
@@ -589,10 +593,7 @@ async fn a_move_that_cannot_finish_in_time_is_cancelled() {
         .await
         .unwrap_err();
     assert!(matches!(err, ClientError::MoveTimeout { .. }), "{err:?}");
-    assert_eq!(
-        emu.with(|c| c.newest_command()),
-        Some(Command::StopProgram)
-    );
+    assert_eq!(emu.with(|c| c.newest_command()), Some(Command::StopProgram));
 }
 
 #[tokio::test(start_paused = true)]
@@ -676,10 +677,7 @@ async fn cancelling_a_stream_brakes_and_reports() {
     handle.cancel();
     let report = handle.wait().await.unwrap();
     assert_eq!(report.outcome, StreamOutcome::Cancelled);
-    assert_eq!(
-        emu.with(|c| c.newest_command()),
-        Some(Command::StopProgram)
-    );
+    assert_eq!(emu.with(|c| c.newest_command()), Some(Command::StopProgram));
     sleep_ms(2000).await;
     let j = emu.with(|c| c.joints())[0];
     assert!(j > 1.0 && j < 20.0, "stopped part-way: {j}");
@@ -702,10 +700,7 @@ async fn robot_cancel_stops_a_stream() {
     robot.cancel().await.unwrap();
     let report = handle.wait().await.unwrap();
     assert_eq!(report.outcome, StreamOutcome::Cancelled);
-    assert_eq!(
-        emu.with(|c| c.newest_command()),
-        Some(Command::StopProgram)
-    );
+    assert_eq!(emu.with(|c| c.newest_command()), Some(Command::StopProgram));
 }
 
 #[tokio::test(start_paused = true)]
@@ -782,10 +777,7 @@ async fn a_slow_controller_mid_stream_is_an_underrun() {
     assert!(matches!(err, ClientError::StreamUnderrun { .. }), "{err:?}");
     assert!(robot.stats().stream_underruns >= 1);
     sleep_ms(10).await;
-    assert_eq!(
-        emu.with(|c| c.newest_command()),
-        Some(Command::StopProgram)
-    );
+    assert_eq!(emu.with(|c| c.newest_command()), Some(Command::StopProgram));
     assert!(robot.is_connected(), "a late reply is not a lost link");
 }
 

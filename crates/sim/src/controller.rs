@@ -18,6 +18,8 @@ use serde::Serialize;
 use crate::fault::{Fault, FaultQueue, ReplyFault};
 use crate::motion::{LinearPath, Motion, MotionPhase, Robot, Shape};
 use crate::panel::Panel;
+use crate::snapshot::{CommandInfo, LastEnd, SessionInfo, Snapshot};
+pub use crate::snapshot::{Counters, MoveKind, PassInfo, PassMotion, SessionEnd, TaskState};
 
 /// Timing choices of the emulator (see docs/EMULATOR.md for the reasoning behind each).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -144,22 +146,6 @@ pub enum Refused {
     SessionOpen,
 }
 
-/// Why a session ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SessionEnd {
-    /// The client sent 255.
-    EndCommand,
-    /// No request for 5 s.
-    ReceiveTimeout,
-    /// A reply could not be delivered within 2 s.
-    SendTimeout,
-    /// The client closed or reset the connection.
-    Disconnected,
-    /// Closed by fault injection.
-    Fault,
-}
-
 /// The request was for a session that has ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[error("the session has ended")]
@@ -174,106 +160,6 @@ pub struct Handled {
     pub fault: Option<ReplyFault>,
     /// After sending the reply, close the connection (command 255).
     pub close: bool,
-}
-
-/// State of the motion program (robot task 1).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum TaskState {
-    /// Not executing.
-    NotRunning,
-    /// Running.
-    Running,
-    /// Paused by HOLD.
-    Paused,
-    /// The program's steps are done (its loop ended after command 2 cleared the running flag)
-    /// and it waits for the robot's last motion to finish.
-    Finishing,
-}
-
-impl TaskState {
-    /// The value of AS `TASK(1)`: 0 not executing, 1 running, 2 paused, 3 steps done and
-    /// waiting for the last motion.
-    pub fn as_task_value(self) -> i32 {
-        match self {
-            TaskState::NotRunning => 0,
-            TaskState::Running => 1,
-            TaskState::Paused => 2,
-            TaskState::Finishing => 3,
-        }
-    }
-}
-
-/// Counters, for observers and tests.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
-pub struct Counters {
-    /// Connections accepted.
-    pub sessions: u64,
-    /// Connections refused (gap or session open).
-    pub refused: u64,
-    /// Requests received.
-    pub requests: u64,
-    /// Requests with version 1040.
-    pub effective_requests: u64,
-    /// Sessions ended by the receive timeout.
-    pub receive_timeouts: u64,
-    /// Passes of the motion program.
-    pub passes: u64,
-    /// Motions started (including blended ones).
-    pub motions: u64,
-    /// Errors raised.
-    pub errors: u64,
-    /// Times command 1 was ignored because the server's own test failed (a switch, TASK(1) = 1
-    /// or an error).
-    pub starts_ignored: u64,
-    /// Times command 1 passed the server's test but `MC EXECUTE` was refused by the controller
-    /// because the program was still executing (TASK(1) = 2 or 3: P1009).
-    pub starts_refused: u64,
-    /// Times the motion program stopped with E0102 because it read an argument never assigned
-    /// since the controller started.
-    pub undefined_arguments: u64,
-}
-
-/// What one pass of the motion program decided (for observers and tests).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct PassInfo {
-    /// Controller time at the start of the pass.
-    #[serde(serialize_with = "ser_duration_s")]
-    pub at: Duration,
-    /// The server clock `tm` the pass used (TIMER(2), seconds since accept, 1 ms resolution).
-    pub tm_s: f64,
-    /// `step` as the pass used it (before this pass updated it), seconds.
-    pub step_s: f64,
-    /// The command number the pass read (0 right after accept).
-    pub command: f64,
-    /// The motion the pass issued, if any.
-    pub motion: Option<PassMotion>,
-}
-
-/// A motion issued by a pass.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct PassMotion {
-    /// The target, degrees (for command 7: the extrapolated point `pt`).
-    pub target: JointsDeg,
-    /// JMOVE (`joint`) or LMOVE (`linear`).
-    pub kind: MoveKind,
-    /// For a JMOVE, the effective speed in percent of the joints' maximum speeds; for an
-    /// LMOVE, the planned duration in seconds before stretching to respect joint speeds.
-    pub speed: f64,
-}
-
-/// Interpolation of a motion.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum MoveKind {
-    /// Joint-interpolated (JMOVE).
-    Joint,
-    /// Straight tool line (LMOVE).
-    Linear,
-}
-
-fn ser_duration_s<S: serde::Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
-    s.serialize_f64(d.as_secs_f64())
 }
 
 #[derive(Debug, Clone)]
@@ -542,7 +428,9 @@ impl Controller {
     /// The newest command of the ring as the motion program reads it (command 0 right after
     /// accept), while a session is open.
     pub fn newest_command(&self) -> Option<Command> {
-        self.session.as_ref().map(|_| self.ring[self.newest].command())
+        self.session
+            .as_ref()
+            .map(|_| self.ring[self.newest].command())
     }
 
     /// The ring index of the newest command, while a session is open.
@@ -587,8 +475,50 @@ impl Controller {
     }
 
     /// A serializable picture of the whole state now.
-    pub fn snapshot(&self) -> crate::snapshot::Snapshot {
-        crate::snapshot::Snapshot::of(self)
+    pub fn snapshot(&self) -> Snapshot {
+        let model = self.model();
+        let joints = self.joints();
+        let x = model.forward(&joints.to_rad()).to_xyzoat();
+        let session_open = self.session().is_some();
+        Snapshot {
+            time_s: self.now().as_secs_f64(),
+            model: model.name().to_owned(),
+            panel: self.panel(),
+            error: self.error().into(),
+            joints_deg: joints,
+            velocities_deg_s: self.velocity(),
+            tool: x,
+            task: self.task(),
+            motion: self.motion_phase(),
+            motion_planned: self.robot().has_planned(),
+            motion_target_deg: self.robot().target(),
+            monitor_speed_percent: self.monitor_speed(),
+            abs_speed: self.abs_speed(),
+            step_s: self.step_s(),
+            last_pass: self.last_pass(),
+            start_blockers: self
+                .start_blockers()
+                .into_iter()
+                .map(str::to_owned)
+                .collect(),
+            session: SessionInfo {
+                open: session_open,
+                id: self.session().map(|s| s.0),
+                timer1_s: session_open.then(|| self.timer1_s()),
+                newest_command: self.newest_command().map(|cmd| CommandInfo {
+                    number: cmd.number(),
+                    command: cmd,
+                }),
+                newest_index: self.newest_index(),
+                listening: self.is_listening(),
+                reading_paused: self.reading_paused_until().is_some(),
+                last_end: self
+                    .last_session_end()
+                    .map(|(id, reason)| LastEnd { id: id.0, reason }),
+            },
+            pending_faults: self.pending_faults(),
+            counters: self.counters(),
+        }
     }
 
     /// Reply faults waiting.
@@ -735,9 +665,10 @@ impl Controller {
                     self.finish_pass(blocked.tm_s, t);
                 }
             }
-            let due = self.program.as_ref().is_some_and(|r| {
-                r.blocked.is_none() && !r.finishing && t >= r.next_pass_at
-            });
+            let due = self
+                .program
+                .as_ref()
+                .is_some_and(|r| r.blocked.is_none() && !r.finishing && t >= r.next_pass_at);
             if due {
                 self.program_pass(t);
             }
@@ -929,7 +860,8 @@ impl Controller {
     /// then `TASK(1) <> 1 AND ERROR == 0`; then `ros_move_run = 1` and `MC EXECUTE ros_move`,
     /// which the controller refuses (P1009) while the program still executes (TASK 2 or 3).
     fn start_program(&mut self) {
-        let switches = self.panel.power && self.panel.run && self.panel.repeat && !self.panel.teach_lock;
+        let switches =
+            self.panel.power && self.panel.run && self.panel.repeat && !self.panel.teach_lock;
         if !switches || self.task() == TaskState::Running || !self.error.is_none() {
             self.counters.starts_ignored += 1;
             tracing::info!(blockers = ?self.start_blockers(), "command 1 ignored");

@@ -111,9 +111,7 @@ impl Fault {
             )),
             Fault::SplitReply { parts, gap_ms } => {
                 if *parts < 2 {
-                    return Err(format!(
-                        "parts {parts}: a split reply has at least 2 parts"
-                    ));
+                    return Err(format!("parts {parts}: a split reply has at least 2 parts"));
                 }
                 if *parts as usize > MAX_FAULT_BYTES {
                     return Err(format!(

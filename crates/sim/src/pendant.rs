@@ -179,7 +179,10 @@ pub fn pendant_router(emulator: Emulator, token: Option<String>, bound: SocketAd
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(middleware::from_fn_with_state(state.clone(), auth))
-        .layer(middleware::from_fn_with_state(state.clone(), browser_checks))
+        .layer(middleware::from_fn_with_state(
+            state.clone(),
+            browser_checks,
+        ))
         .with_state(state)
 }
 

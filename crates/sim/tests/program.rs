@@ -303,7 +303,10 @@ fn brake_drops_the_planned_motion_when_so_configured() {
     assert!(!c.robot().has_planned());
     until(&mut c, ms(3000), is_still);
     c.advance_by(ms(500));
-    assert!(c.joints()[0] < 90.0, "braked short of A; the re-issued A never ran");
+    assert!(
+        c.joints()[0] < 90.0,
+        "braked short of A; the re-issued A never ran"
+    );
     assert!(c.joints()[1].abs() < 1e-9, "B never ran");
 }
 
@@ -313,11 +316,16 @@ fn by_default_the_planned_motion_runs_after_the_brake() {
     // a 6 that motion is the program's re-issue of the same target: the arm brakes, then goes
     // on to A anyway. B, never read, never runs. (Why a client that must stop sends 2.)
     let (mut c, _) = brake_with_a_planned_motion(Behaviour::default());
-    assert!(c.robot().has_planned(), "kept, re-planned from where the brake stops");
+    assert!(
+        c.robot().has_planned(),
+        "kept, re-planned from where the brake stops"
+    );
     let rest = c.robot().target();
     assert!(rest[0] < 90.0 && rest[1] == 0.0);
     // it starts only once the arm has stopped, then goes to the planned target
-    until(&mut c, ms(3000), |c| c.motion_phase() != MotionPhase::Braking);
+    until(&mut c, ms(3000), |c| {
+        c.motion_phase() != MotionPhase::Braking
+    });
     let planned = JointsDeg::new([90.0, 0.0, -90.0, 0.0, -90.0, 0.0]);
     until(&mut c, ms(10_000), |c| c.joints() == planned);
     // the program then goes on with the next step: the newest is the 5, passes do nothing
@@ -470,10 +478,7 @@ fn command_7_extrapolates_exactly_as_the_formula_says() {
     // step follows 0.9 step + 0.1 (tm − last_tm): the loop overhead (4 ms), never the motion
     // wait — though these passes waited for their LMOVEs to blend in
     let overhead = fs020n_sim::PASS_TIME.as_secs_f64();
-    assert!(
-        steps.iter().all(|&s| s <= overhead + 0.001),
-        "{steps:?}"
-    );
+    assert!(steps.iter().all(|&s| s <= overhead + 0.001), "{steps:?}");
     assert!(c.step_s() >= overhead * 0.5, "{}", c.step_s());
     assert!(c.error().is_none());
 }
@@ -526,14 +531,20 @@ fn a_large_lookahead_extrapolates_by_the_loop_overhead_not_the_motion_wait() {
                     panic!("newest is not a 7")
                 };
                 let dt_clamp = (pass.tm_s - parsed.t0_s).clamp(-0.5, 0.5);
-                distances.push(((m.target[0] - parsed.position[0]) / v - dt_clamp, pass.step_s));
+                distances.push((
+                    (m.target[0] - parsed.position[0]) / v - dt_clamp,
+                    pass.step_s,
+                ));
             }
         }
     }
     assert!(distances.len() > 20, "{}", distances.len());
     let overhead = fs020n_sim::PASS_TIME.as_secs_f64();
     for (ahead_s, step) in &distances {
-        assert!((ahead_s - lookahead * step).abs() < 1e-3, "{ahead_s} vs {lookahead} × {step}");
+        assert!(
+            (ahead_s - lookahead * step).abs() < 1e-3,
+            "{ahead_s} vs {lookahead} × {step}"
+        );
         assert!(
             (step - overhead).abs() < 0.0015,
             "step {step} is the loop overhead, not the motion wait"
@@ -876,7 +887,11 @@ fn a_short_command_7_extrapolates_with_old_velocities() {
     let m = pass.motion.expect("a motion");
     // dt = clamp(tm − t0) + 0 ≈ 0.2 s (+ the ms since): JT1 = 1 + 10 × dt, not 1
     let dt = (pass.tm_s - (t - 0.2)).clamp(-0.5, 0.5);
-    assert!((m.target[0] - (1.0 + 10.0 * dt)).abs() < 1e-3, "{:?}", m.target);
+    assert!(
+        (m.target[0] - (1.0 + 10.0 * dt)).abs() < 1e-3,
+        "{:?}",
+        m.target
+    );
     assert!(c.error().is_none());
 }
 
@@ -885,7 +900,10 @@ fn an_argument_never_assigned_stops_the_program_with_e0102() {
     // A fresh controller: the motion program's local array holds nothing yet.
     let (mut c, id) = running();
     let s = raw(&mut c, id, "1040 6 3 0 0 0");
-    assert!(s.error.is_none(), "the communication task stores it without complaint");
+    assert!(
+        s.error.is_none(),
+        "the communication task stores it without complaint"
+    );
     c.advance_by(ms(10));
     assert_eq!(c.error(), ErrorCode::VARIABLE_NOT_DEFINED);
     assert_eq!(c.error().to_string(), "E0102");

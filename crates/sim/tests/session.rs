@@ -293,7 +293,10 @@ fn a_1_sent_right_after_a_2_is_lost() {
     assert!(!raw(&mut c, id, "0 0 0").task_running);
     // after the edge, a 1 starts it again
     assert!(raw(&mut c, id, "1040 1 0").task_running);
-    assert!(!c.stop_signal(), "the program clears signal 2007 when it starts");
+    assert!(
+        !c.stop_signal(),
+        "the program clears signal 2007 when it starts"
+    );
 }
 
 #[test]

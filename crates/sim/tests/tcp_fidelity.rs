@@ -82,7 +82,10 @@ async fn a_client_that_stops_reading_loses_its_session_within_seconds() {
         ended < Duration::from_secs(8),
         "the session lasted {ended:?} without the client reading"
     );
-    assert!(ended >= Duration::from_secs(2), "the 2 s send timeout ran: {ended:?}");
+    assert!(
+        ended >= Duration::from_secs(2),
+        "the 2 s send timeout ran: {ended:?}"
+    );
     let end = emu.with(|c| c.last_session_end()).unwrap();
     assert_eq!(end.1, SessionEnd::SendTimeout);
     server.stop();

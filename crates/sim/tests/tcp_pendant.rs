@@ -35,7 +35,15 @@ async fn http(
     body: Option<&str>,
     token: Option<&str>,
 ) -> (u16, Value) {
-    http_with(addr, method, path, body, token, &[("Host", &addr.to_string())]).await
+    http_with(
+        addr,
+        method,
+        path,
+        body,
+        token,
+        &[("Host", &addr.to_string())],
+    )
+    .await
 }
 
 /// Like [`http`] with the given extra headers (a `Host` among them replaces the default).
@@ -56,11 +64,18 @@ async fn http_with(
         req.push_str(&format!("Authorization: Bearer {t}\r\n"));
     }
     if let Some(b) = body {
-        if !headers.iter().any(|(k, _)| k.eq_ignore_ascii_case("content-type")) {
+        if !headers
+            .iter()
+            .any(|(k, _)| k.eq_ignore_ascii_case("content-type"))
+        {
             req.push_str("Content-Type: application/json\r\n");
         }
         req.push_str(&format!("Content-Length: {}\r\n\r\n{b}", b.len()));
-    } else if method == "POST" && !headers.iter().any(|(k, _)| k.eq_ignore_ascii_case("content-type")) {
+    } else if method == "POST"
+        && !headers
+            .iter()
+            .any(|(k, _)| k.eq_ignore_ascii_case("content-type"))
+    {
         req.push_str("Content-Type: application/json\r\nContent-Length: 0\r\n\r\n");
     } else {
         req.push_str("Content-Length: 0\r\n\r\n");
@@ -416,24 +431,81 @@ async fn pendant_refuses_what_a_foreign_web_page_can_send() {
     let own = format!("http://{addr}");
     let port = addr.port();
     // DNS rebinding: a page of evil.example resolved to 127.0.0.1 sends its own Host
-    let (st, v) = http_with(addr, "POST", "/estop/press", None, None, &[("Host", &format!("evil.example:{port}"))]).await;
+    let (st, v) = http_with(
+        addr,
+        "POST",
+        "/estop/press",
+        None,
+        None,
+        &[("Host", &format!("evil.example:{port}"))],
+    )
+    .await;
     assert_eq!(st, 421, "{v}");
-    assert!(v["remedy"].as_str().unwrap().contains("address it listens on"));
+    assert!(v["remedy"]
+        .as_str()
+        .unwrap()
+        .contains("address it listens on"));
     let (st, _) = http_with(addr, "GET", "/state", None, None, &[]).await;
     assert_eq!(st, 421, "no Host at all");
     // a cross-site fetch from another origin
-    let (st, v) = http_with(addr, "POST", "/estop/press", None, None, &[("Host", &addr.to_string()), ("Origin", "http://evil.example")]).await;
+    let (st, v) = http_with(
+        addr,
+        "POST",
+        "/estop/press",
+        None,
+        None,
+        &[
+            ("Host", &addr.to_string()),
+            ("Origin", "http://evil.example"),
+        ],
+    )
+    .await;
     assert_eq!(st, 403, "{v}");
-    let (st, _) = http_with(addr, "POST", "/estop/press", None, None, &[("Host", &addr.to_string()), ("Origin", "null")]).await;
+    let (st, _) = http_with(
+        addr,
+        "POST",
+        "/estop/press",
+        None,
+        None,
+        &[("Host", &addr.to_string()), ("Origin", "null")],
+    )
+    .await;
     assert_eq!(st, 403);
     // a form post (text/plain or urlencoded) — the kind a page can send without a preflight
-    for ct in ["text/plain", "application/x-www-form-urlencoded", "multipart/form-data; boundary=x"] {
-        let (st, v) = http_with(addr, "POST", "/estop/press", Some("{}"), None, &[("Host", &addr.to_string()), ("Content-Type", ct)]).await;
+    for ct in [
+        "text/plain",
+        "application/x-www-form-urlencoded",
+        "multipart/form-data; boundary=x",
+    ] {
+        let (st, v) = http_with(
+            addr,
+            "POST",
+            "/estop/press",
+            Some("{}"),
+            None,
+            &[("Host", &addr.to_string()), ("Content-Type", ct)],
+        )
+        .await;
         assert_eq!(st, 415, "{ct}: {v}");
     }
-    assert!(!emu.with(|c| c.panel().estop), "nothing above pressed the E-stop");
+    assert!(
+        !emu.with(|c| c.panel().estop),
+        "nothing above pressed the E-stop"
+    );
     // the pendant's own page (same origin, JSON) and curl (no Origin) are served
-    let (st, _) = http_with(addr, "POST", "/estop/press", None, None, &[("Host", &format!("localhost:{port}")), ("Origin", &own), ("Content-Type", "application/json; charset=utf-8")]).await;
+    let (st, _) = http_with(
+        addr,
+        "POST",
+        "/estop/press",
+        None,
+        None,
+        &[
+            ("Host", &format!("localhost:{port}")),
+            ("Origin", &own),
+            ("Content-Type", "application/json; charset=utf-8"),
+        ],
+    )
+    .await;
     assert_eq!(st, 200);
     assert!(emu.with(|c| c.panel().estop));
     let (st, _) = http(addr, "POST", "/estop/release", None, None).await;
@@ -446,7 +518,10 @@ async fn pendant_validates_fault_parameters_and_switches_abs_speed_off() {
     let emu = Emulator::new(ControllerConfig::default());
     let pendant = serve_pendant(emu.clone(), local(), None).await.unwrap();
     let addr = pendant.local_addr();
-    for bad in [r#"{"kind": "split_reply", "parts": 0, "gap_ms": 10}"#, r#"{"kind": "split_reply", "parts": 1, "gap_ms": 10}"#] {
+    for bad in [
+        r#"{"kind": "split_reply", "parts": 0, "gap_ms": 10}"#,
+        r#"{"kind": "split_reply", "parts": 1, "gap_ms": 10}"#,
+    ] {
         let (st, v) = http(addr, "POST", "/faults", Some(bad), None).await;
         assert_eq!(st, 422, "{bad}: {v}");
     }
