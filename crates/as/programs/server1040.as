@@ -35,7 +35,6 @@
   WHILE ros_srv_run == 1 DO
     ; 1. Stop the motion program, listen, accept within 3 s, stop listening.
     SIGNAL 2007
-    ros_move_run = 0
     TCP_LISTEN .ret, .port
     TCP_ACCEPT .sock, .port, 3
     TCP_END_LISTEN .ret, .port
@@ -96,7 +95,9 @@
                 END
               END
             VALUE 2:
-              ; Stop ros_move: its ONI on signal 2007 stops the robot at once.
+              ; Stop ros_move: the loop ends at its next pass (the motion in progress
+              ; finishes: TASK(1) = 3), and its ONI on signal 2007 stops the robot once the
+              ; signal has been on for 50 ms.
               SIGNAL 2007
               ros_move_run = 0
             VALUE 3:
@@ -126,17 +127,17 @@
         IF .ret < 0 GOTO closing
       END
 closing:
-      ; 5. Stop the motion program (the robot stops at once), close, listen again.
+      ; 5. Stop the motion program (its ONI stops the robot at once), close, listen again.
       SIGNAL 2007
-      ros_move_run = 0
       TCP_CLOSE .ret, .sock
       PRINT "session closed (", .ret, ")"
     END
   END
 .END
 .PROGRAM ros_move() ; protocol-1040 server: motion program (robot task 1)
-  ; Started by command 1. Stopped by signal 2007 (command 2, 255, timeouts, a new
-  ; connection): its ONI stops the motion at once and ends the program.
+  ; Started by command 1. Stopped by signal 2007 (command 2, 255, timeouts, a lost
+  ; connection): its ONI stops the motion at once and ends the program, also while the
+  ; last motion finishes after the loop ended (command 2 also ends the loop).
   SIGNAL -2007
   ONI 2007 GOTO stopped
   CP ON
@@ -201,6 +202,5 @@ closing:
     PRINT "ros_move cmd", .cmd, " step", .step
   END
 stopped:
-  ; Whichever way the loop ended, the robot stops at once.
-  BRAKE
+  ; The ONI stopped the robot at once; the program ends.
 .END

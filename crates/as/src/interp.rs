@@ -65,6 +65,11 @@ pub struct Config {
     pub max_call_depth: usize,
     /// Terminal lines kept for [`Interpreter::terminal`].
     pub terminal_lines: usize,
+    /// `false` (default): a program's dot-locals are created for each execution and each
+    /// `CALL` and start undefined. `true`: they belong to the program in its task and keep
+    /// their values across calls and new executions (the controller's behaviour is not
+    /// documented; see docs/AS.md).
+    pub persistent_locals: bool,
 }
 
 impl Default for Config {
@@ -75,6 +80,7 @@ impl Default for Config {
             signal_debounce: Duration::from_millis(50),
             max_call_depth: 32,
             terminal_lines: 1000,
+            persistent_locals: false,
         }
     }
 }
@@ -207,17 +213,16 @@ struct ByRef {
     param: u32,
     var: VarRef,
     idx: Vec<i32>,
-    locals: usize,
+    /// The caller's frame (index in the task's stack) for a local variable.
+    frame: usize,
 }
 
 #[derive(Debug, Clone)]
 struct Frame {
     prog: usize,
     pc: usize,
-    locals: usize,
+    locals: Store,
     byref: Vec<ByRef>,
-    /// Entered by an `ON … CALL`: on RETURN the caller resumes at its own pc (not pc + 1).
-    interrupt: bool,
 }
 
 #[derive(Debug, Clone)]
@@ -413,9 +418,8 @@ pub struct Interpreter {
     cfg: Config,
     now: Duration,
     globals: Store,
-    locals: Vec<Store>,
-    /// Per program, per task: index into `locals` (u32::MAX: not yet allocated).
-    locals_index: Vec<[u32; 6]>,
+    /// With [`Config::persistent_locals`]: the locals of (task, program) between executions.
+    kept: HashMap<(usize, usize), Store>,
     elements: usize,
     tasks: Vec<Task>,
     signals: HashMap<i32, SignalState>,
@@ -499,12 +503,11 @@ impl Interpreter {
         }
         cfg.max_call_depth = cfg.max_call_depth.clamp(1, 1000);
         Ok(Interpreter {
-            locals_index: vec![[u32::MAX; 6]; code.programs.len()],
             code: Arc::new(code),
             cfg,
             now: Duration::ZERO,
             globals,
-            locals: Vec::new(),
+            kept: HashMap::new(),
             elements,
             tasks: (0..6).map(|i| Task::new(TaskId::from_index(i))).collect(),
             signals: HashMap::new(),
@@ -582,9 +585,10 @@ impl Interpreter {
     /// Stops a task at once (`ABORT`/`PCABORT` from outside, a panel switch that stops the
     /// robot program). The robot's motion is the system's business.
     pub fn abort(&mut self, task: TaskId) {
-        let t = &mut self.tasks[task.index()];
+        let i = task.index();
+        self.release_frames(i, 0);
+        let t = &mut self.tasks[i];
         t.run = Run::Idle;
-        t.frames.clear();
         t.wait = None;
         t.interrupts.clear();
         t.pending_on = None;
@@ -774,6 +778,9 @@ impl Interpreter {
 
     fn task_wake(&self, i: usize) -> Option<Duration> {
         let t = &self.tasks[i];
+        if t.run == Run::Ending {
+            return Some(t.poll_at);
+        }
         if t.run != Run::Running {
             return None;
         }
@@ -814,7 +821,7 @@ impl Interpreter {
 
     fn interrupt_time(&self, i: usize) -> Option<Duration> {
         let t = &self.tasks[i];
-        if t.run != Run::Running {
+        if t.run == Run::Idle {
             return None;
         }
         t.interrupts
@@ -959,6 +966,18 @@ impl Interpreter {
 
     /// Polls task `i`'s wait; `true` when it may run steps now.
     fn poll(&mut self, i: usize, sys: &mut dyn System) -> bool {
+        if self.tasks[i].run == Run::Ending {
+            // TASK(1) = 3 until the last motion is done.
+            if !self.robot_allowed(sys) {
+                return false;
+            }
+            if sys.motion_in_progress() {
+                self.tasks[i].poll_at = self.next_tick(self.now);
+            } else {
+                self.abort(TaskId::Robot);
+            }
+            return false;
+        }
         if self.tasks[i].run != Run::Running {
             return false;
         }
@@ -1089,10 +1108,15 @@ impl Interpreter {
         let Some(pos) = pos else { return };
         let int = self.tasks[i].interrupts.remove(pos);
         if int.immediate {
-            // ONI: the motion stops at once, the program branches now.
-            sys.brake();
+            // ONI: the motion stops at once (the planned one is dropped), the program
+            // branches now — also while it was finishing (TASK(1) = 3).
+            sys.cut_motion();
             self.tasks[i].wait = None;
+            self.tasks[i].run = Run::Running;
             self.branch(i, int, sys);
+        } else if self.tasks[i].run == Run::Ending {
+            // ON while finishing: the program branches after the last motion is done…
+            // which ends it first: the interrupt is lost.
         } else if self.tasks[i].wait.is_some() {
             // ON: after the current wait (a motion in progress completes first).
             self.tasks[i].pending_on = Some(int);
@@ -1102,15 +1126,15 @@ impl Interpreter {
     }
 
     fn branch(&mut self, i: usize, int: Interrupt, sys: &mut dyn System) {
+        self.release_frames(i, int.depth.max(1));
         let t = &mut self.tasks[i];
-        t.frames.truncate(int.depth.max(1));
         t.ready_at = self.now;
         if let Some(target) = int.goto {
             if let Some(f) = t.frames.last_mut() {
                 f.pc = target;
             }
         } else if let Some(p) = int.call {
-            if let Err(e) = self.push_frame(i, p, &[], true) {
+            if let Err(e) = self.push_frame(i, p, &[]) {
                 self.fail(i, e, sys);
             }
         }
@@ -1161,16 +1185,31 @@ impl Interpreter {
 
     // ------------------------------------------------------------------ starting programs
 
-    fn locals_for(&mut self, task: usize, prog: usize) -> usize {
-        let idx = self.locals_index[prog][task];
-        if idx != u32::MAX {
-            return idx as usize;
+    fn new_locals(&mut self, task: usize, prog: usize) -> Store {
+        if self.cfg.persistent_locals {
+            if let Some(s) = self.kept.remove(&(task, prog)) {
+                return s;
+            }
         }
-        let p = &self.code.programs[prog];
-        self.locals.push(Store::with_sizes(p.locals));
-        let idx = self.locals.len() - 1;
-        self.locals_index[prog][task] = idx as u32;
-        idx
+        Store::with_sizes(self.code.programs[prog].locals)
+    }
+
+    /// Pops task `i`'s frames down to `keep`, releasing their locals.
+    fn release_frames(&mut self, i: usize, keep: usize) {
+        while self.tasks[i].frames.len() > keep {
+            let Some(f) = self.tasks[i].frames.pop() else {
+                break;
+            };
+            self.release(i, f);
+        }
+    }
+
+    fn release(&mut self, i: usize, f: Frame) {
+        if self.cfg.persistent_locals {
+            self.kept.insert((i, f.prog), f.locals);
+        } else {
+            self.elements = self.elements.saturating_sub(f.locals.element_count());
+        }
     }
 
     /// Arguments evaluated in the caller: values, and for by-reference parameters where the
@@ -1180,12 +1219,11 @@ impl Interpreter {
         i: usize,
         prog: usize,
         args: &[(ArgVal, Option<ByRefTarget>)],
-        interrupt: bool,
     ) -> R<()> {
         if self.tasks[i].frames.len() >= self.cfg.max_call_depth {
             return Err(RuntimeError::CallDepth(self.cfg.max_call_depth));
         }
-        let locals = self.locals_for(i, prog);
+        let mut store = self.new_locals(i, prog);
         let code = self.code.clone();
         let p = &code.programs[prog];
         let mut byref = Vec::new();
@@ -1193,7 +1231,7 @@ impl Interpreter {
             let Some((val, target)) = args.get(k) else {
                 continue;
             };
-            let store = &mut self.locals[locals];
+            let store = &mut store;
             let s = param.slot as usize;
             match (param.ty, val) {
                 (Ty::Real, ArgVal::R(v)) => {
@@ -1224,7 +1262,7 @@ impl Interpreter {
                         param: param.slot,
                         var: t.var,
                         idx: t.idx.clone(),
-                        locals: t.locals,
+                        frame: t.frame,
                     });
                 }
             }
@@ -1232,9 +1270,8 @@ impl Interpreter {
         self.tasks[i].frames.push(Frame {
             prog,
             pc: 0,
-            locals,
+            locals: store,
             byref,
-            interrupt,
         });
         Ok(())
     }
@@ -1247,9 +1284,9 @@ impl Interpreter {
         cycles: i64,
     ) -> bool {
         let now = self.now;
+        self.release_frames(i, 0);
         {
             let t = &mut self.tasks[i];
-            t.frames.clear();
             t.wait = None;
             t.kick = false;
             t.interrupts.clear();
@@ -1261,7 +1298,7 @@ impl Interpreter {
             t.last_error = None;
             t.line_buf.clear();
         }
-        match self.push_frame(i, prog, args, false) {
+        match self.push_frame(i, prog, args) {
             Ok(()) => true,
             Err(_) => {
                 self.tasks[i].run = Run::Idle;
@@ -1331,23 +1368,32 @@ impl Interpreter {
     }
 
     /// The program of task `i` ended (`.END` or `RETURN` of its first program, `HALT`).
+    /// A robot program whose last motion still runs is "finishing" (TASK(1) = 3): its
+    /// interrupts stay armed until the motion is done.
     fn end_program(&mut self, i: usize, sys: &mut dyn System, repeat: bool) {
         let t = &mut self.tasks[i];
         if repeat && t.cycles_left != 1 {
             if t.cycles_left > 1 {
                 t.cycles_left -= 1;
             }
-            t.frames.truncate(1);
-            if let Some(f) = t.frames.first_mut() {
+            self.release_frames(i, 1);
+            if let Some(f) = self.tasks[i].frames.first_mut() {
                 f.pc = 0;
             }
             return;
         }
-        let id = t.id;
-        self.abort(id);
         if i == 0 && sys.motion_in_progress() {
-            self.tasks[0].run = Run::Ending;
+            self.release_frames(i, 1);
+            let at = self.next_tick(self.now);
+            let t = &mut self.tasks[0];
+            t.run = Run::Ending;
+            t.wait = None;
+            t.pending_on = None;
+            t.poll_at = at;
+            return;
         }
+        let id = self.tasks[i].id;
+        self.abort(id);
     }
 
     // ------------------------------------------------------------------ variables
@@ -1356,11 +1402,9 @@ impl Interpreter {
         if global {
             &mut self.globals
         } else {
-            let l = self.tasks[i].frames.last().map_or(0, |f| f.locals);
-            if l < self.locals.len() {
-                &mut self.locals[l]
-            } else {
-                &mut self.globals
+            match self.tasks[i].frames.last_mut() {
+                Some(f) => &mut f.locals,
+                None => &mut self.globals,
             }
         }
     }
@@ -2146,7 +2190,7 @@ impl Interpreter {
             Op::Call(prog, args) => {
                 let args = self.eval_args(i, args, sys)?;
                 // The caller resumes after the CALL.
-                self.push_frame(i, *prog, &args, false)?;
+                self.push_frame(i, *prog, &args)?;
                 Flow::Next
             }
             Op::Return | Op::End => {
@@ -2782,11 +2826,11 @@ impl Interpreter {
                 Some((_, l)) => {
                     let n = l.idx.len().min(3);
                     let idx = self.indices(i, l, sys)?;
-                    let locals = self.tasks[i].frames.last().map_or(0, |f| f.locals);
+                    let frame = self.tasks[i].frames.len().saturating_sub(1);
                     Some(ByRefTarget {
                         var: l.var,
                         idx: idx[..n].to_vec(),
-                        locals,
+                        frame,
                     })
                 }
                 None => None,
@@ -2805,9 +2849,10 @@ impl Interpreter {
         let Some(frame) = self.tasks[i].frames.pop() else {
             return Ok(());
         };
+        let mut result = Ok(());
         for b in &frame.byref {
             let s = b.param as usize;
-            let callee = &self.locals[frame.locals];
+            let callee = &frame.locals;
             let val = match b.ty {
                 Ty::Real => callee.reals[s].get(&[]).copied().map(ArgVal::R),
                 Ty::Str => callee.strs[s].get(&[]).cloned().map(ArgVal::S),
@@ -2818,7 +2863,10 @@ impl Interpreter {
             let store = if b.var.global {
                 &mut self.globals
             } else {
-                &mut self.locals[b.locals]
+                match self.tasks[i].frames.get_mut(b.frame) {
+                    Some(f) => &mut f.locals,
+                    None => continue,
+                }
             };
             let slot = b.var.slot as usize;
             let created = match val {
@@ -2827,14 +2875,14 @@ impl Interpreter {
                 ArgVal::J(v) => store.joints.get_mut(slot).is_some_and(|x| x.set(&b.idx, v)),
                 ArgVal::T(v) => store.trans.get_mut(slot).is_some_and(|x| x.set(&b.idx, v)),
             };
-            self.count_element(created)?;
+            if let Err(e) = self.count_element(created) {
+                result = Err(e);
+            }
         }
-        if frame.interrupt {
-            // Back where the interrupt found the task.
-        } else {
-            // The caller's pc was moved past its CALL when it executed it.
-        }
-        Ok(())
+        // A CALL's caller resumes after its CALL (its pc moved when it executed it); an
+        // `ON … CALL` returns to where the interrupt found the task.
+        self.release(i, frame);
+        result
     }
 
     /// Issues a motion with the task's motion parameters (the one-shot ones are used up).
@@ -2887,7 +2935,7 @@ enum ArgVal {
 struct ByRefTarget {
     var: VarRef,
     idx: Vec<i32>,
-    locals: usize,
+    frame: usize,
 }
 
 fn xyzoat(v: &[f32; 6]) -> Xyzoat {

@@ -200,8 +200,14 @@ pub trait System {
     /// `true` while the robot moves or a motion waits (for `BREAK` and `TASK(1) = 3`).
     fn motion_in_progress(&self) -> bool;
 
-    /// BRAKE: stop the motion at once and drop the planned one.
+    /// `BRAKE`: stop the current motion at once. Whether a motion planned by look-ahead is
+    /// then executed or dropped is the system's documented choice (the manuals are silent);
+    /// the program waiting at it goes on once [`System::motion_planned`] is false.
     fn brake(&mut self);
+
+    /// An `ONI` (or a stop of the robot program): stop the motion at once and drop the
+    /// planned one — the program has left the instruction that waited for it.
+    fn cut_motion(&mut self);
 
     /// `MC HOLD` (`true`) / `MC CONTINUE` (`false`): pause or resume the motion, as the panel's
     /// HOLD does.

@@ -407,6 +407,10 @@ impl System for VirtualSystem {
         self.planned = None;
     }
 
+    fn cut_motion(&mut self) {
+        self.brake();
+    }
+
     fn set_program_hold(&mut self, held: bool) {
         self.held = held;
     }

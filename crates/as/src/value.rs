@@ -71,6 +71,12 @@ impl<T> Default for Var<T> {
     }
 }
 
+impl<T> Var<T> {
+    pub fn element_count(&self) -> usize {
+        self.array.as_ref().map_or(0, |a| a.len())
+    }
+}
+
 impl<T: Clone> Var<T> {
     pub fn get(&self, idx: &[i32]) -> Option<&T> {
         if idx.is_empty() {
@@ -129,6 +135,14 @@ impl Store {
             joints: (0..sizes[2]).map(|_| Var::default()).collect(),
             trans: (0..sizes[3]).map(|_| Var::default()).collect(),
         }
+    }
+
+    /// Array elements held (for the interpreter's memory limit).
+    pub fn element_count(&self) -> usize {
+        self.reals.iter().map(Var::element_count).sum::<usize>()
+            + self.strs.iter().map(Var::element_count).sum::<usize>()
+            + self.joints.iter().map(Var::element_count).sum::<usize>()
+            + self.trans.iter().map(Var::element_count).sum::<usize>()
     }
 }
 

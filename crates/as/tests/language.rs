@@ -265,8 +265,6 @@ fn calls_parameters_and_locals() {
                  CALL sub(6, \"t\")\n\
                  v = 10\n\
                  CALL twice(v)\n\
-                 CALL acc(2, TRUE)\n\
-                 CALL acc(3, FALSE)\n\
                  CALL deep(0)\n\
                .END\n\
                .PROGRAM sub(.n, .$s)\n\
@@ -278,13 +276,6 @@ fn calls_parameters_and_locals() {
                .END\n\
                .PROGRAM twice(.&v)\n\
                  .v = .v * 2\n\
-               .END\n\
-               .PROGRAM acc(.n, .first)\n\
-                 IF .first THEN\n\
-                   .total = 0\n\
-                 END\n\
-                 .total = .total + .n\n\
-                 total = .total\n\
                .END\n\
                .PROGRAM deep(.d)\n\
                  depth = .d\n\
@@ -300,11 +291,6 @@ fn calls_parameters_and_locals() {
         i.real("v"),
         Some(20.0),
         "by-reference parameter written back"
-    );
-    assert_eq!(
-        i.real("total"),
-        Some(5.0),
-        "a program's locals keep their values between calls"
     );
     // Runaway recursion stops with E0109 at the CALL depth limit (32 frames).
     assert_eq!(i.real("depth"), Some(30.0));
@@ -484,4 +470,30 @@ fn abbreviated_keywords() {
     assert_eq!(printed(&s), vec!["typed", "printed"]);
     assert_eq!(s.monitor_speed, 50.0);
     assert_eq!(s.motions.len(), 1);
+}
+
+#[test]
+fn locals_start_undefined_in_each_call_unless_persistent() {
+    let src = ".PROGRAM autostart.pc()\n  CALL acc(2, TRUE)\n  CALL acc(3, FALSE)\n.END\n\
+               .PROGRAM acc(.n, .first)\n  IF .first THEN\n    .total = 0\n  END\n  .total = .total + .n\n  total = .total\n.END\n";
+    let (mut i, mut s) = start(src);
+    i.run_until(&mut s, ms(10));
+    assert_eq!(i.real("total"), Some(2.0));
+    assert_eq!(
+        s.raised,
+        vec![ErrorCode(-30102)],
+        "the second call's .total is a new, undefined local"
+    );
+    let cfg = fs020n_as::Config {
+        persistent_locals: true,
+        ..fs020n_as::Config::default()
+    };
+    let (mut i, mut s) = start_with(src, cfg);
+    i.run_until(&mut s, ms(10));
+    assert_eq!(
+        i.real("total"),
+        Some(5.0),
+        "persistent locals keep their values between calls"
+    );
+    assert!(s.raised.is_empty());
 }

@@ -126,9 +126,14 @@ fn an_argument_never_assigned_stops_ros_move_with_e0102() {
     assert_eq!(st.error, ErrorCode(-30102));
     assert!(!st.task_running);
     let info = &r.i.tasks(&r.s)[0];
+    let line = SERVER_1040
+        .lines()
+        .position(|l| l.contains("JMOVE #PPOINT(.arg[4]"))
+        .unwrap()
+        + 1;
     assert_eq!(
         info.last_error.as_deref(),
-        Some("(E0102) variable not defined: .arg[4] (ros_move line 165)")
+        Some(format!("(E0102) variable not defined: .arg[4] (ros_move line {line})").as_str())
     );
     // In error, command 1 does nothing; the communication task keeps serving.
     assert!(!r.status("1040 1 0").task_running);
@@ -194,6 +199,9 @@ fn command_255_replies_then_closes_and_the_server_listens_again() {
     assert!(reply.starts_with(" 1040 0 -1 -1 0 -1"), "{reply:?}");
     r.wait(ms(5));
     assert!(r.s.peer_closed(r.c));
+    // Signal 2007 must be on for 50 ms before ros_move's ONI stops it.
+    assert_eq!(r.i.task_state(TaskId::Robot, &r.s), TaskState::Running);
+    r.wait(ms(50));
     assert_eq!(r.i.task_state(TaskId::Robot, &r.s), TaskState::Idle);
     r.wait(ms(10));
     let c2 = r.s.connect(10050).expect("listening again");
