@@ -20,7 +20,9 @@ use crate::compile::{
 };
 use crate::error::{error_message, LoadError, ParseError, RuntimeError};
 use crate::keywords::SYSTEM_SWITCHES;
-use crate::system::{Issued, MotionKind, MotionRequest, SockPoll, Speed, System, Target, TaskId};
+use crate::system::{
+    Issued, MotionKind, MotionRequest, PanelState, SockPoll, Speed, System, Target, TaskId,
+};
 use crate::value::{Bytes, Store, MAX_ELEMENTS, MAX_INDEX};
 
 /// How long statements take (see docs/AS.md, "Cost model").
@@ -598,19 +600,25 @@ impl Interpreter {
 
     /// The state of a task as `TASK(n)` reports it now.
     pub fn task_state(&self, task: TaskId, sys: &dyn System) -> TaskState {
+        self.task_state_at(task, sys.panel(), sys.motion_in_progress())
+    }
+
+    /// The state of a task given the panel and whether the robot moves (for observers that
+    /// hold the system's state rather than a [`System`]).
+    pub fn task_state_at(&self, task: TaskId, panel: PanelState, moving: bool) -> TaskState {
         let i = task.index();
         let t = &self.tasks[i];
         match t.run {
             Run::Idle => TaskState::Idle,
             Run::Ending => {
-                if sys.motion_in_progress() {
+                if moving {
                     TaskState::WaitingMotion
                 } else {
                     TaskState::Idle
                 }
             }
             Run::Running => {
-                let held = i == 0 && (self.mc_hold || !sys.panel().run);
+                let held = i == 0 && (self.mc_hold || !panel.run);
                 if held || matches!(t.wait, Some(Wait::Paused | Wait::Held)) {
                     TaskState::Paused
                 } else {
@@ -622,6 +630,11 @@ impl Interpreter {
 
     /// Every task: program, line, state, what it waits for.
     pub fn tasks(&self, sys: &dyn System) -> Vec<TaskInfo> {
+        self.tasks_at(sys.panel(), sys.motion_in_progress())
+    }
+
+    /// [`Interpreter::tasks`] given the panel and whether the robot moves.
+    pub fn tasks_at(&self, panel: PanelState, moving: bool) -> Vec<TaskInfo> {
         self.tasks
             .iter()
             .map(|t| {
@@ -630,7 +643,7 @@ impl Interpreter {
                 let line = frame.and_then(|f| prog.and_then(|p| p.lines.get(f.pc).copied()));
                 TaskInfo {
                     task: t.id.to_string(),
-                    state: self.task_state(t.id, sys),
+                    state: self.task_state_at(t.id, panel, moving),
                     program: prog.map(|p| p.name.clone()),
                     line,
                     text: match (frame, line) {
@@ -721,6 +734,19 @@ impl Interpreter {
             }
         }
         out
+    }
+
+    /// `TIMER(n)` now (0 for a timer never set or out of range), seconds, 1 ms resolution.
+    pub fn timer(&self, n: usize) -> f32 {
+        let since = match n {
+            0 => Some(0),
+            1..=10 => self.timers[n],
+            _ => None,
+        };
+        since.map_or(0.0, |s| {
+            let ms = (self.now.as_nanos() as i128 - s).div_euclid(1_000_000);
+            (ms as f64 / 1000.0) as f32
+        })
     }
 
     /// A signal's state (outputs 1–999, inputs 1001–1999, internal 2001–2960).

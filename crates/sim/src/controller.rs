@@ -256,6 +256,10 @@ pub struct Controller {
     stop_reading_until: Option<Duration>,
     faults: FaultQueue,
     counters: Counters,
+    /// An AS program run instead of the native server (`crate::as_host`).
+    pub(crate) as_runtime: Option<Box<crate::as_host::AsRuntime>>,
+    /// What the motion tick needs from the AS program (inactive without one).
+    pub(crate) as_link: crate::as_host::Link,
     last_pass: Option<PassInfo>,
 }
 
@@ -308,6 +312,8 @@ impl Controller {
             last_session_end: None,
             stop_reading_until: None,
             faults: FaultQueue::default(),
+            as_runtime: None,
+            as_link: crate::as_host::Link::default(),
             counters: Counters::default(),
             last_pass: None,
         }
@@ -352,6 +358,9 @@ impl Controller {
 
     /// `true` once command 3 has switched ABS.SPEED on.
     pub fn abs_speed(&self) -> bool {
+        if let Some(rt) = &self.as_runtime {
+            return rt.abs_speed();
+        }
         self.abs_speed
     }
 
@@ -377,6 +386,9 @@ impl Controller {
 
     /// State of the motion program.
     pub fn task(&self) -> TaskState {
+        if self.as_link.active {
+            return self.as_link.task;
+        }
         match &self.program {
             None => TaskState::NotRunning,
             Some(run) if run.finishing => TaskState::Finishing,
@@ -501,24 +513,64 @@ impl Controller {
                 .into_iter()
                 .map(str::to_owned)
                 .collect(),
-            session: SessionInfo {
-                open: session_open,
-                id: self.session().map(|s| s.0),
-                timer1_s: session_open.then(|| self.timer1_s()),
-                newest_command: self.newest_command().map(|cmd| CommandInfo {
-                    number: cmd.number(),
-                    command: cmd,
-                }),
-                newest_index: self.newest_index(),
-                listening: self.is_listening(),
-                reading_paused: self.reading_paused_until().is_some(),
-                last_end: self
-                    .last_session_end()
-                    .map(|(id, reason)| LastEnd { id: id.0, reason }),
+            session: match &self.as_runtime {
+                Some(rt) => rt.session_info(self),
+                None => SessionInfo {
+                    open: session_open,
+                    id: self.session().map(|s| s.0),
+                    timer1_s: session_open.then(|| self.timer1_s()),
+                    newest_command: self.newest_command().map(|cmd| CommandInfo {
+                        number: cmd.number(),
+                        command: cmd,
+                    }),
+                    newest_index: self.newest_index(),
+                    listening: self.is_listening(),
+                    reading_paused: self.reading_paused_until().is_some(),
+                    last_end: self
+                        .last_session_end()
+                        .map(|(id, reason)| LastEnd { id: id.0, reason }),
+                },
             },
             pending_faults: self.pending_faults(),
             counters: self.counters(),
+            program: self.as_runtime.as_ref().map(|rt| rt.info(self)),
         }
+    }
+
+    /// The fault for the next reply, if any (an AS program's replies: `crate::as_host`).
+    pub(crate) fn next_reply_fault(&mut self) -> Option<ReplyFault> {
+        self.faults.next_reply()
+    }
+
+    /// Starts a motion now (an AS program's motions: `crate::as_host`).
+    pub(crate) fn robot_start(&mut self, m: Motion) {
+        self.robot.start(m);
+        self.counters.motions += 1;
+    }
+
+    /// Plans a motion to blend in (an AS program's look-ahead).
+    pub(crate) fn robot_plan(&mut self, m: Motion) {
+        self.robot.plan(m);
+    }
+
+    /// `true` when a new motion may start now (the tool within `accuracy_mm` of the target).
+    pub(crate) fn robot_ready_for_next(&self, accuracy_mm: f64) -> bool {
+        self.robot.ready_for_next(&self.model, accuracy_mm)
+    }
+
+    /// BRAKE: stops the motion at once and drops the planned one.
+    pub(crate) fn robot_brake(&mut self) {
+        self.robot.brake(&self.model);
+    }
+
+    /// Pauses (HOLD) or resumes the motion.
+    pub(crate) fn robot_set_hold(&mut self, held: bool) {
+        self.robot.set_hold(held);
+    }
+
+    /// Counters, to count an AS program's sessions and motions.
+    pub(crate) fn counters_mut(&mut self) -> &mut Counters {
+        &mut self.counters
     }
 
     /// Reply faults waiting.
@@ -603,6 +655,18 @@ impl Controller {
     /// motion tick by tick, runs program passes, and ends the session on the receive timeout.
     /// Idle stretches are skipped in one step.
     pub fn advance_to(&mut self, t: Duration) {
+        // With an AS program, its interpreter drives: it integrates motion up to each of its
+        // steps (`integrate_to`).
+        if let Some(mut rt) = self.as_runtime.take() {
+            rt.run_until(self, t);
+            self.as_runtime = Some(rt);
+            return;
+        }
+        self.integrate_to(t);
+    }
+
+    /// Integrates motion (and runs the native program) up to `t`.
+    pub(crate) fn integrate_to(&mut self, t: Duration) {
         if t <= self.now {
             return;
         }
@@ -663,6 +727,17 @@ impl Controller {
                     self.robot.start(m);
                     self.counters.motions += 1;
                     self.finish_pass(blocked.tm_s, t);
+                }
+            }
+            // An AS program's planned motion blends in once the tool is within its ACCURACY.
+            if self.as_link.active {
+                if let Some(m) = self
+                    .robot
+                    .take_planned_if_ready(&self.model, self.as_link.accuracy_mm)
+                {
+                    self.as_link.accuracy_mm = self.as_link.planned_accuracy_mm;
+                    self.robot.start(m);
+                    self.counters.motions += 1;
                 }
             }
             let due = self
@@ -917,7 +992,7 @@ impl Controller {
         }
     }
 
-    fn raise(&mut self, code: ErrorCode) {
+    pub(crate) fn raise(&mut self, code: ErrorCode) {
         self.counters.errors += 1;
         self.error = code;
         self.stop_program_now();
@@ -1142,6 +1217,9 @@ impl Controller {
     /// Switches ABS.SPEED (a system switch) on or off, as the pendant can. Command 3 switches
     /// it on; only the pendant switches it off.
     pub fn set_abs_speed(&mut self, on: bool) {
+        if let Some(rt) = &mut self.as_runtime {
+            rt.set_abs_speed(on);
+        }
         self.abs_speed = on;
     }
 
@@ -1185,7 +1263,12 @@ impl Controller {
     pub fn inject(&mut self, fault: Fault) {
         tracing::info!(?fault, "fault injected");
         match &fault {
-            Fault::CloseConnection => self.end_session(SessionEnd::Fault),
+            Fault::CloseConnection => {
+                if let Some(rt) = &mut self.as_runtime {
+                    rt.close_clients();
+                }
+                self.end_session(SessionEnd::Fault)
+            }
             Fault::StopReading { duration_ms } => {
                 let ms = (*duration_ms).min(crate::fault::MAX_FAULT_MS);
                 self.stop_reading_until = Some(self.now + Duration::from_millis(ms));

@@ -14,6 +14,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod as_host;
 pub mod controller;
 pub mod fault;
 pub mod motion;

@@ -167,6 +167,10 @@ pub struct Snapshot {
     pub pending_faults: usize,
     /// Counters since start.
     pub counters: Counters,
+    /// The AS program the controller runs instead of the native server (absent without one):
+    /// its tasks, their lines and states, and the terminal.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub program: Option<crate::as_host::ProgramInfo>,
 }
 
 /// An error as the pendant shows it.
