@@ -176,6 +176,7 @@ pub fn pendant_router(emulator: Emulator, token: Option<String>, bound: SocketAd
         .route("/speed", post(speed))
         .route("/faults", post(faults_post).delete(faults_delete))
         .route("/abs_speed", get(abs_speed_get).post(abs_speed_post))
+        .route("/tasks", get(tasks_get))
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(middleware::from_fn_with_state(state.clone(), auth))
@@ -277,7 +278,8 @@ async fn index() -> Json<Value> {
         "endpoints": [
             "GET /state", "GET /model", "GET /panel", "POST /panel",
             "POST /estop/press", "POST /estop/release", "POST /reset", "POST /speed",
-            "GET /abs_speed", "POST /abs_speed", "POST /faults", "DELETE /faults"
+            "GET /abs_speed", "POST /abs_speed", "POST /faults", "DELETE /faults",
+            "GET /tasks"
         ],
         "docs": "docs/EMULATOR.md"
     }))
@@ -352,6 +354,19 @@ async fn speed(
 #[serde(deny_unknown_fields)]
 struct AbsSpeedBody {
     on: bool,
+}
+
+/// The AS program's tasks (program, line, state, what they wait for) and terminal.
+async fn tasks_get(
+    State(st): State<AppState>,
+) -> Result<Json<crate::as_host::ProgramInfo>, ApiError> {
+    st.emulator.snapshot().program.map(Json).ok_or_else(|| {
+        ApiError::new(
+            StatusCode::NOT_FOUND,
+            "this emulator runs the native server, not an AS program",
+            "start the emulator with an AS program (fs020n sim --as-program FILE) to see its tasks",
+        )
+    })
 }
 
 async fn abs_speed_get(State(st): State<AppState>) -> Json<Value> {

@@ -37,6 +37,9 @@ pub struct SimOptions {
     pub joints: Option<JointsDeg>,
     /// Initial error (default none).
     pub error: ErrorCode,
+    /// An AS program file to run instead of the native server (`None`: the native server).
+    /// The first port it listens on is served at [`SimOptions::listen`].
+    pub program: Option<PathBuf>,
 }
 
 impl Default for SimOptions {
@@ -51,11 +54,18 @@ impl Default for SimOptions {
             monitor_speed_percent: None,
             joints: None,
             error: ErrorCode::NONE,
+            program: None,
         }
     }
 }
 
 impl SimOptions {
+    /// Runs this AS program file instead of the native server.
+    pub fn program(mut self, path: impl Into<PathBuf>) -> Self {
+        self.program = Some(path.into());
+        self
+    }
+
     /// Sets the robot port address.
     pub fn listen(mut self, addr: SocketAddr) -> Self {
         self.listen = addr;
@@ -197,8 +207,26 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
             ));
         }
     }
-    let emulator = Emulator::new(config);
-    let robot = emulator.serve_tcp(opts.listen).await.map_err(|e| {
+    let (emulator, robot) = match &opts.program {
+        None => {
+            let emulator = Emulator::new(config);
+            let robot = emulator.serve_tcp(opts.listen).await;
+            (emulator, robot)
+        }
+        Some(path) => {
+            let program = crate::as_host::ServerProgram::from_file(path).map_err(|e| {
+                let kind = match &e {
+                    crate::as_host::ProgramError::Read { source, .. } => source.kind(),
+                    crate::as_host::ProgramError::Load(_) => io::ErrorKind::InvalidData,
+                };
+                io::Error::new(kind, e.to_string())
+            })?;
+            let emulator = Emulator::with_program(config, program);
+            let robot = emulator.serve_program_tcp(opts.listen).await;
+            (emulator, robot)
+        }
+    };
+    let robot = robot.map_err(|e| {
         io::Error::new(
             e.kind(),
             format!("cannot listen on robot port {}: {e}", opts.listen),

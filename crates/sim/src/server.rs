@@ -71,6 +71,30 @@ impl Emulator {
         }
     }
 
+    /// An emulator of an existing controller (e.g. one running an AS program:
+    /// [`Controller::with_program`]), started now.
+    pub fn from_controller(controller: Controller) -> Emulator {
+        let (changed, _) = watch::channel(0);
+        Emulator {
+            inner: Arc::new(Inner {
+                controller: Mutex::new(controller),
+                epoch: Instant::now(),
+                changed,
+            }),
+        }
+    }
+
+    /// A handle that does not keep the emulator alive.
+    pub(crate) fn downgrade(&self) -> WeakEmulator {
+        WeakEmulator(Arc::downgrade(&self.inner))
+    }
+
+    /// Notified whenever a session, the reading pause or a program's client-visible socket
+    /// state changes.
+    pub(crate) fn changes(&self) -> watch::Receiver<u64> {
+        self.inner.changed.subscribe()
+    }
+
     /// Time since the emulator started, by the runtime's clock.
     pub fn elapsed(&self) -> Duration {
         self.inner.epoch.elapsed()
@@ -92,10 +116,19 @@ impl Emulator {
         let (r, changed) = {
             let mut c = self.lock();
             // Taken before advancing: a session that times out while advancing is a change.
-            let before = (c.session(), c.reading_paused_until());
+            let before = (
+                c.session(),
+                c.reading_paused_until(),
+                c.program_io_generation(),
+            );
             c.advance_to(now);
             let r = f(&mut c);
-            (r, before != (c.session(), c.reading_paused_until()))
+            let after = (
+                c.session(),
+                c.reading_paused_until(),
+                c.program_io_generation(),
+            );
+            (r, before != after)
         };
         if changed {
             self.inner.changed.send_modify(|g| *g = g.wrapping_add(1));
@@ -108,7 +141,7 @@ impl Emulator {
         self.with(|c| c.snapshot())
     }
 
-    fn instant_of(&self, t: Duration) -> Instant {
+    pub(crate) fn instant_of(&self, t: Duration) -> Instant {
         self.inner.epoch + t
     }
 
@@ -286,7 +319,7 @@ impl Emulator {
 }
 
 /// Binds the robot port with the controller's small send buffer (accepted sockets inherit it).
-fn bind_robot_port(addr: SocketAddr) -> io::Result<TcpListener> {
+pub(crate) fn bind_robot_port(addr: SocketAddr) -> io::Result<TcpListener> {
     let socket = if addr.is_ipv4() {
         TcpSocket::new_v4()?
     } else {
@@ -298,7 +331,7 @@ fn bind_robot_port(addr: SocketAddr) -> io::Result<TcpListener> {
     socket.listen(16)
 }
 
-async fn sleep_until_opt(t: Option<Instant>) {
+pub(crate) async fn sleep_until_opt(t: Option<Instant>) {
     match t {
         Some(t) => tokio::time::sleep_until(t).await,
         None => std::future::pending().await,
@@ -318,6 +351,16 @@ async fn send<W: AsyncWrite + Unpin>(wr: &mut W, bytes: &[u8]) -> Result<(), Ses
     }
 }
 
+/// An [`Emulator`] that does not keep it alive (for its background tasks).
+#[derive(Clone)]
+pub(crate) struct WeakEmulator(std::sync::Weak<Inner>);
+
+impl WeakEmulator {
+    pub(crate) fn upgrade(&self) -> Option<Emulator> {
+        self.0.upgrade().map(|inner| Emulator { inner })
+    }
+}
+
 /// A running TCP robot port. Dropping it does not stop it; call [`TcpServer::stop`].
 #[derive(Debug)]
 pub struct TcpServer {
@@ -326,6 +369,10 @@ pub struct TcpServer {
 }
 
 impl TcpServer {
+    pub(crate) fn new(addr: SocketAddr, task: JoinHandle<()>) -> TcpServer {
+        TcpServer { addr, task }
+    }
+
     /// The bound address (useful with port 0).
     pub fn local_addr(&self) -> SocketAddr {
         self.addr
