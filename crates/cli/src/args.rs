@@ -221,6 +221,13 @@ pub struct SimArgs {
     /// An error present at start, e.g. E1088.
     #[arg(long)]
     pub error: Option<String>,
+    /// Run this AS program file (e.g. a modified protocol-1040 server) instead of the native
+    /// server; the first port it listens on is served at --listen.
+    #[arg(long, value_name = "FILE")]
+    pub as_program: Option<std::path::PathBuf>,
+    /// With --as-program: print every executed program line (time, task, program:line, text).
+    #[arg(long, requires = "as_program")]
+    pub trace: bool,
 }
 
 fn on_off(s: &str) -> Result<bool, String> {

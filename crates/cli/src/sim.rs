@@ -77,14 +77,66 @@ pub fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOptions>>
             monitor_speed_percent: args.monitor_speed,
             joints,
             error,
+            program: args.as_program.clone(),
         });
     }
     Ok(out)
 }
 
+/// Loads `--as-program` once before anything starts: a program that does not load is refused
+/// with every error (file:line:column).
+fn check_program(args: &SimArgs) -> CliResult<Option<String>> {
+    let Some(path) = &args.as_program else {
+        return Ok(None);
+    };
+    let program = fs020n_sim::as_host::ServerProgram::from_file(path)
+        .map_err(|e| CliError::input(format!("--as-program: {e}")))?;
+    for w in program.warnings() {
+        eprintln!("warning: {w}");
+    }
+    Ok(Some(program.name().to_owned()))
+}
+
+/// `--trace`: prints the executed program lines of every robot as they run.
+async fn print_trace(emulators: Vec<fs020n_sim::Emulator>, as_json: bool) {
+    for e in &emulators {
+        e.with(|c| c.set_program_trace(true));
+    }
+    let mut tick = tokio::time::interval(std::time::Duration::from_millis(20));
+    loop {
+        tick.tick().await;
+        for (i, e) in emulators.iter().enumerate() {
+            let lines = e.with(|c| c.take_program_trace());
+            let mut out = String::new();
+            for l in lines {
+                if as_json {
+                    out.push_str(&json!({"robot": i + 1, "trace": l}).to_string());
+                } else if emulators.len() > 1 {
+                    out.push_str(&format!("[robot {}] {l}", i + 1));
+                } else {
+                    out.push_str(&l.to_string());
+                }
+                out.push('\n');
+            }
+            if !out.is_empty() {
+                use std::io::Write as _;
+                let mut stdout = std::io::stdout().lock();
+                if stdout
+                    .write_all(out.as_bytes())
+                    .and_then(|_| stdout.flush())
+                    .is_err()
+                {
+                    return;
+                }
+            }
+        }
+    }
+}
+
 /// `sim`.
 pub fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
     let all = options(args, model)?;
+    let program = check_program(args)?;
     let rt = runtime()?;
     rt.block_on(async {
         // Handlers first: a signal that arrives as soon as the addresses are printed must
@@ -129,16 +181,30 @@ pub fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
             }
         }
         if !as_json {
-            println!(
-                "{} emulated {} running; Ctrl-C to stop",
-                robots.len(),
-                model.name()
-            );
+            match &program {
+                Some(p) => println!(
+                    "{} emulated {} running the AS program {p}; Ctrl-C to stop",
+                    robots.len(),
+                    model.name()
+                ),
+                None => println!(
+                    "{} emulated {} running; Ctrl-C to stop",
+                    robots.len(),
+                    model.name()
+                ),
+            }
         }
+        let tracer = args.trace.then(|| {
+            let emulators = robots.iter().map(|r| r.emulator().clone()).collect();
+            tokio::spawn(print_trace(emulators, as_json))
+        });
         use std::io::Write as _;
         let _ = std::io::stdout().flush();
         let signal = signals.recv().await;
         tracing::info!("{signal}: stopping the emulator");
+        if let Some(t) = tracer {
+            t.abort();
+        }
         for r in robots {
             r.stop();
         }

@@ -857,6 +857,19 @@ impl Controller {
             .and_then(|rt| rt.interp.next_event())
     }
 
+    /// A signal of the program (outputs 1–999, inputs 1001–1999, internal 2001–2960);
+    /// `None` without a program.
+    pub fn program_signal(&self, n: i32) -> Option<bool> {
+        self.as_runtime.as_ref().map(|rt| rt.interp.signal(n))
+    }
+
+    /// Sets an external input signal (1001–1999) of the program, as wiring would.
+    pub fn set_program_input(&mut self, n: i32, on: bool) {
+        if let Some(rt) = &mut self.as_runtime {
+            rt.interp.set_signal(n, on);
+        }
+    }
+
     /// A global real of the program (`None`: unknown or never assigned).
     pub fn program_real(&self, name: &str) -> Option<f32> {
         self.as_runtime.as_ref().and_then(|rt| rt.interp.real(name))

@@ -138,3 +138,55 @@ async fn the_interpreted_server_over_loopback_tcp() {
     assert!(!rest.is_empty(), "the reply to 255, then the end");
     srv.stop();
 }
+
+/// A user's modification (`crates/as/programs/examples/gripper.as`: the server plus command 8)
+/// tested from Rust on virtual time, with the controller directly.
+#[test]
+fn a_modified_server_with_an_extra_command() {
+    use fs020n_sim::Controller;
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../as/programs/examples/gripper.as"
+    );
+    let program = ServerProgram::from_file(std::path::Path::new(path)).unwrap();
+    let mut c = Controller::with_program(ControllerConfig::default(), program);
+    c.advance_by(Duration::from_millis(10));
+    let client = c.program_connect(None, [127, 0, 0, 1]).unwrap();
+    let mut request = |c: &mut Controller, text: &str| {
+        assert!(c.program_send(client, text.as_bytes()));
+        for _ in 0..100 {
+            c.advance_by(Duration::from_millis(1));
+            let r = c.program_recv(client);
+            if !r.bytes.is_empty() {
+                return String::from_utf8(r.bytes).unwrap();
+            }
+        }
+        panic!("no reply to {text}");
+    };
+    let reply = request(&mut c, "1040 8 1 1");
+    assert!(reply.starts_with(" 1040 0 -1 -1 0 -1 0 "), "{reply:?}");
+    assert_eq!(c.program_signal(1), Some(true), "gripper open: output 1 on");
+    assert_eq!(c.program_signal(2), Some(false));
+    request(&mut c, "1040 8 1 0");
+    assert_eq!(
+        (c.program_signal(1), c.program_signal(2)),
+        (Some(false), Some(true))
+    );
+    assert!(c
+        .program_terminal()
+        .iter()
+        .any(|l| l.text == "gripper closed"));
+    // Everything else is the protocol-1040 server.
+    request(&mut c, "1040 3 1 100");
+    request(&mut c, "1040 1 0");
+    request(&mut c, "1040 6 9 0 0 0 20 0 -90 0 -90 0");
+    c.advance_by(Duration::from_secs(2));
+    let st = Status::decode(&request(&mut c, "0 0 0")).unwrap();
+    assert_eq!(st.joints[0], 20.0);
+    // The example is the server text plus the command: nothing else changed.
+    let text = std::fs::read_to_string(path).unwrap();
+    let server: Vec<&str> = fs020n_as::SERVER_1040.lines().collect();
+    let example: Vec<&str> = text.lines().collect();
+    let kept = server.iter().filter(|l| example.contains(l)).count();
+    assert!(kept >= server.len() - 1, "only the first line differs");
+}

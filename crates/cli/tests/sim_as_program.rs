@@ -1,0 +1,105 @@
+//! `fs020n sim --as-program FILE`: a program that does not load is refused with
+//! file:line:column; a user's modified server (an extra command) serves at --listen, the CLI's
+//! own client talks to it, and `--trace` prints the executed lines.
+#![cfg(unix)]
+
+use std::io::{BufRead, BufReader};
+use std::process::{Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+fn bin() -> std::path::PathBuf {
+    assert_cmd::cargo::cargo_bin("fs020n")
+}
+
+#[test]
+fn a_program_that_does_not_load_is_refused_with_its_position() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("bad.as");
+    std::fs::write(
+        &file,
+        ".PROGRAM autostart.pc()\n  IF a = 1 THEN\n  END\n.END\n",
+    )
+    .unwrap();
+    let out = Command::new(bin())
+        .args(["sim", "--listen", "127.0.0.1:0", "--as-program"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("bad.as:2:8: expected THEN or GOTO after the IF condition, found \"=\" (a comparison is written ==)"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_modified_server_runs_and_traces() {
+    let example = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../as/programs/examples/gripper.as"
+    );
+    let mut child = Command::new(bin())
+        .args([
+            "sim",
+            "--listen",
+            "127.0.0.1:0",
+            "--trace",
+            "--as-program",
+            example,
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let out = BufReader::new(child.stdout.take().unwrap());
+    let (tx, rx) = mpsc::channel::<String>();
+    std::thread::spawn(move || {
+        for line in out.lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                return;
+            }
+        }
+    });
+    let wait_for = |pred: &dyn Fn(&str) -> bool| -> String {
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(30) {
+            if let Ok(l) = rx.recv_timeout(Duration::from_millis(200)) {
+                if pred(&l) {
+                    return l;
+                }
+            }
+        }
+        panic!("no such line");
+    };
+    let line = wait_for(&|l| l.starts_with("robot 1: protocol 1040 on "));
+    let addr = line
+        .trim_start_matches("robot 1: protocol 1040 on ")
+        .split(',')
+        .next()
+        .unwrap()
+        .to_owned();
+    wait_for(&|l| l.contains("running the AS program"));
+    let raw = Command::new(bin())
+        .args(["--robot", &addr, "raw", "1040 8 1 1", "--yes"])
+        .output()
+        .unwrap();
+    assert!(
+        raw.status.success(),
+        "{}",
+        String::from_utf8_lossy(&raw.stderr)
+    );
+    assert!(String::from_utf8_lossy(&raw.stdout).contains("reply    \" 1040 0 -1 -1 0 -1 0 "));
+    // The trace shows the added command executing.
+    let traced = wait_for(&|l| l.contains("autostart.pc:") && l.contains("SIGNAL 1, -2"));
+    assert!(traced.contains("pc1"), "{traced}");
+    let _ = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status();
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        assert!(start.elapsed() < Duration::from_secs(20), "did not stop");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
