@@ -302,6 +302,10 @@ pub(crate) struct CProgram {
     pub ops: Vec<Op>,
     /// Source line of each op.
     pub lines: Vec<u32>,
+    /// Whether each op reads or changes the system (motion, panel, error, sockets, the end
+    /// of a program): the interpreter brings the system to the op's time first. Pure
+    /// computation runs without it.
+    pub touches: Vec<bool>,
     /// Number of local slots per type.
     pub locals: [usize; 4],
     /// Local names per type (for messages).
@@ -515,10 +519,12 @@ impl Compiler {
                 }
             }
         }
+        let touches = self.ops.iter().map(op_touches).collect();
         CProgram {
             name: p.name.clone(),
             module,
             params,
+            touches,
             ops: std::mem::take(&mut self.ops),
             lines: std::mem::take(&mut self.lines),
             locals: [
@@ -1483,4 +1489,120 @@ fn switch_ref(name: &str) -> Option<SwitchRef> {
                 .position(|(n, _)| *n == other)?,
         ),
     })
+}
+
+fn any_r(v: &[RExpr]) -> bool {
+    v.iter().any(r_touches)
+}
+
+fn l_touches(l: &LRef) -> bool {
+    any_r(&l.idx)
+}
+
+fn r_touches(e: &RExpr) -> bool {
+    match e {
+        RExpr::Const(_) => false,
+        RExpr::Var(l) => l_touches(l),
+        RExpr::Neg(a) | RExpr::Not(a) | RExpr::Com(a) => r_touches(a),
+        RExpr::Bin(_, a, b) => r_touches(a) || r_touches(b),
+        RExpr::StrCmp(_, a, b) => s_touches(a) || s_touches(b),
+        RExpr::Func(f, args) => *f == RFunc::Task || any_r(args),
+        RExpr::Val(a, b) | RExpr::Asc(a, b) => s_touches(a) || b.as_deref().is_some_and(r_touches),
+        RExpr::Len(a) => s_touches(a),
+        RExpr::Instr(a, b, c) => {
+            a.as_deref().is_some_and(r_touches) || s_touches(b) || s_touches(c)
+        }
+        RExpr::Dext(l, n) => loc_touches(l) || r_touches(n),
+        RExpr::Switch(_) | RExpr::Error => true,
+    }
+}
+
+fn s_touches(e: &SExpr) -> bool {
+    match e {
+        SExpr::Const(_) => false,
+        SExpr::Var(l) => l_touches(l),
+        SExpr::Concat(a, b) => s_touches(a) || s_touches(b),
+        SExpr::Mid(a, b, c) => s_touches(a) || r_touches(b) || c.as_deref().is_some_and(r_touches),
+        SExpr::Left(a, b) | SExpr::Right(a, b) => s_touches(a) || r_touches(b),
+        SExpr::Chr(a) | SExpr::ErrorMsg(a) => r_touches(a),
+        SExpr::Encode(items) => items_touch(items),
+        SExpr::Decode(l, d, m) => l_touches(l) || s_touches(d) || r_touches(m),
+    }
+}
+
+fn items_touch(items: &[Item]) -> bool {
+    items.iter().any(|i| match i {
+        Item::Real(e) => r_touches(e),
+        Item::Str(e) => s_touches(e),
+        Item::Format(_) => false,
+    })
+}
+
+fn loc_touches(l: &Loc) -> bool {
+    match l {
+        Loc::J(j) => j_touches(j),
+        Loc::T(t) => t_touches(t),
+    }
+}
+
+fn j_touches(e: &JExpr) -> bool {
+    match e {
+        JExpr::Var(l) => l_touches(l),
+        JExpr::PPoint(a) => any_r(a),
+        JExpr::Here => true,
+    }
+}
+
+fn t_touches(e: &TExpr) -> bool {
+    match e {
+        TExpr::Var(l) => l_touches(l),
+        TExpr::Trans(a) => any_r(a),
+        TExpr::Here => true,
+        TExpr::Compose(a, b) => t_touches(a) || t_touches(b),
+    }
+}
+
+fn c_touches(e: &CExpr) -> bool {
+    match e {
+        CExpr::R(r) => r_touches(r),
+        CExpr::S(s) => s_touches(s),
+        CExpr::J(j) => j_touches(j),
+        CExpr::T(t) => t_touches(t),
+    }
+}
+
+/// See [`CProgram::touches`].
+fn op_touches(op: &Op) -> bool {
+    let opt = |e: &Option<RExpr>| e.as_ref().is_some_and(r_touches);
+    match op {
+        Op::Nop | Op::Jump(_) | Op::Pause | Op::SetSwitch(..) | Op::Cp(_) => false,
+        Op::AssignR(l, e) => l_touches(l) || r_touches(e),
+        Op::AssignS(l, e) => l_touches(l) || s_touches(e),
+        Op::AssignJ(l, e) => l_touches(l) || j_touches(e),
+        Op::AssignT(l, e) => l_touches(l) || t_touches(e),
+        Op::JumpIfNot(c, _) | Op::JumpIf(c, _) | Op::Twait(c) | Op::Ignore(c) => r_touches(c),
+        Op::ForInit {
+            var,
+            from,
+            to,
+            step,
+            ..
+        } => l_touches(var) || r_touches(from) || r_touches(to) || opt(step),
+        Op::ForNext { var, .. } => l_touches(var),
+        Op::CaseSelR(e, _) => r_touches(e),
+        Op::CaseSelS(e, _) => s_touches(e),
+        Op::CaseTestR(v, _, _) => any_r(v),
+        Op::CaseTestS(v, _, _) => v.iter().any(s_touches),
+        Op::Call(_, args) => args
+            .iter()
+            .any(|a| c_touches(&a.value) || a.var.as_ref().is_some_and(|(_, l)| l_touches(l))),
+        Op::Print(items) => items_touch(items),
+        Op::Signal(v) => any_r(v),
+        Op::On { signal, .. } => r_touches(signal),
+        Op::Timer(a, b) => r_touches(a) || r_touches(b),
+        Op::Speed(e, _, _) | Op::Accuracy(e, _, _) | Op::AccelDecel(_, e, _) => r_touches(e),
+        Op::Decompose(l, loc) => l_touches(l) || loc_touches(loc),
+        // The end of a program, motion, the panel, the error, sockets, other tasks.
+        _ => true,
+    }
 }

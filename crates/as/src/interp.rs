@@ -29,7 +29,10 @@ use crate::value::{Bytes, Store, MAX_ELEMENTS, MAX_INDEX};
 ///
 /// Every executed step costs [`CostModel::statement`]; `PRINT`/`TYPE` add
 /// [`CostModel::print`] plus [`CostModel::print_per_byte`] for each byte printed (the terminal
-/// line is the slowest thing an AS loop usually does). Tasks run concurrently, each on its own
+/// line is the slowest thing an AS loop usually does: 100 µs per byte is a serial console at
+/// about 115 200 baud). With these defaults the protocol-1040 server's motion loop has the
+/// 4 ms loop overhead the native emulator assumes, and a request takes its communication task
+/// about 1–3 ms. Tasks run concurrently, each on its own
 /// timeline: a busy loop advances its own task's time, never freezes the clock, and does not
 /// slow the other tasks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -46,8 +49,8 @@ impl Default for CostModel {
     fn default() -> Self {
         CostModel {
             statement: Duration::from_micros(20),
-            print: Duration::from_micros(500),
-            print_per_byte: Duration::from_micros(20),
+            print: Duration::from_millis(1),
+            print_per_byte: Duration::from_micros(100),
         }
     }
 }
@@ -429,6 +432,10 @@ pub struct Interpreter {
     timers: [Option<i128>; 11],
     switches: Vec<bool>,
     mc_hold: bool,
+    /// Bumped whenever a signal or an armed interrupt changes.
+    int_epoch: u64,
+    /// `interrupt_time` per task, valid for `int_epoch`.
+    int_cache: std::cell::Cell<(u64, [Option<Duration>; 6])>,
     terminal: VecDeque<TerminalLine>,
     trace: Option<Vec<TraceLine>>,
 }
@@ -516,6 +523,8 @@ impl Interpreter {
             timers: [None; 11],
             switches: SYSTEM_SWITCHES.iter().map(|(_, v)| *v).collect(),
             mc_hold: false,
+            int_epoch: 1,
+            int_cache: std::cell::Cell::new((0, [None; 6])),
             terminal: VecDeque::new(),
             trace: None,
         })
@@ -594,6 +603,7 @@ impl Interpreter {
         t.wait = None;
         t.interrupts.clear();
         t.pending_on = None;
+        self.int_epoch += 1;
     }
 
     // ------------------------------------------------------------------ observers
@@ -846,20 +856,27 @@ impl Interpreter {
     }
 
     fn interrupt_time(&self, i: usize) -> Option<Duration> {
-        let t = &self.tasks[i];
-        if t.run == Run::Idle {
+        if self.tasks[i].run == Run::Idle {
             return None;
         }
-        t.interrupts
-            .iter()
-            .filter_map(|int| {
-                let n = int.signal.abs();
-                let want = int.signal > 0;
-                let s = self.signals.get(&n)?;
-                (s.on == want && s.changed > int.armed_at)
-                    .then(|| s.changed + self.cfg.signal_debounce)
-            })
-            .min()
+        let (epoch, mut times) = self.int_cache.get();
+        if epoch != self.int_epoch {
+            for (k, t) in self.tasks.iter().enumerate() {
+                times[k] = t
+                    .interrupts
+                    .iter()
+                    .filter_map(|int| {
+                        let n = int.signal.abs();
+                        let want = int.signal > 0;
+                        let s = self.signals.get(&n)?;
+                        (s.on == want && s.changed > int.armed_at)
+                            .then(|| s.changed + self.cfg.signal_debounce)
+                    })
+                    .min();
+            }
+            self.int_cache.set((self.int_epoch, times));
+        }
+        times[i]
     }
 
     /// Earliest event, skipping task `skip`'s own steps; ties go to the lower task.
@@ -925,6 +942,13 @@ impl Interpreter {
         let mut horizon = self
             .next_event_from(Some(i))
             .map_or(until, |(t, _)| t.min(until));
+        let code = Arc::clone(&self.code);
+        let poll = self.cfg.poll_period;
+        // The system is brought to a step's time only when the step touches it, or once per
+        // poll period (pure computation does not need the arm's state).
+        let mut synced = self.now;
+        let mut first = true;
+        let mut epoch = self.int_epoch;
         loop {
             let t = &self.tasks[i];
             if t.run != Run::Running || t.wait.is_some() {
@@ -937,9 +961,19 @@ impl Interpreter {
                     return;
                 }
                 self.now = at;
-                sys.advance_to(at);
             }
-            match self.step(i, sys) {
+            let touches = t
+                .frames
+                .last()
+                .and_then(|f| code.programs.get(f.prog)?.touches.get(f.pc).copied())
+                .unwrap_or(true);
+            let sync = first || touches || at >= synced + poll;
+            if sync {
+                sys.advance_to(at);
+                synced = at;
+                first = false;
+            }
+            match self.step(i, sys, &code, sync) {
                 Ok(Flow::Next) => {}
                 Ok(Flow::Shared) => {
                     for (k, t) in self.tasks.iter_mut().enumerate() {
@@ -960,9 +994,17 @@ impl Interpreter {
                     return;
                 }
             }
-            if self.interrupt_time(i).is_some_and(|it| it <= self.now)
-                || self.tasks[i].pending_on.is_some()
-            {
+            if self.int_epoch != epoch {
+                // A signal or an interrupt changed: an interrupt may be due, others may run.
+                epoch = self.int_epoch;
+                if self.interrupt_time(i).is_some_and(|it| it <= self.now) {
+                    return;
+                }
+                horizon = self
+                    .next_event_from(Some(i))
+                    .map_or(until, |(t, _)| t.min(until));
+            }
+            if self.tasks[i].pending_on.is_some() {
                 return;
             }
         }
@@ -1133,6 +1175,7 @@ impl Interpreter {
         });
         let Some(pos) = pos else { return };
         let int = self.tasks[i].interrupts.remove(pos);
+        self.int_epoch += 1;
         if int.immediate {
             // ONI: the motion stops at once (the planned one is dropped), the program
             // branches now — also while it was finishing (TASK(1) = 3).
@@ -1178,6 +1221,7 @@ impl Interpreter {
     }
 
     fn fail(&mut self, i: usize, e: RuntimeError, sys: &mut dyn System) {
+        sys.advance_to(self.now);
         let id = self.tasks[i].id;
         let where_ = self.tasks[i].frames.last().map(|f| {
             let p = &self.code.programs[f.prog];
@@ -1324,6 +1368,7 @@ impl Interpreter {
             t.last_error = None;
             t.line_buf.clear();
         }
+        self.int_epoch += 1;
         match self.push_frame(i, prog, args) {
             Ok(()) => true,
             Err(_) => {
@@ -1487,6 +1532,18 @@ impl Interpreter {
     }
 
     fn read_r(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<f32> {
+        if l.idx.is_empty() {
+            let slot = l.var.slot as usize;
+            return match self
+                .store(i, l.var.global)
+                .reals
+                .get(slot)
+                .and_then(|v| v.scalar)
+            {
+                Some(v) => Ok(v),
+                None => Err(self.undefined(i, l, Ty::Real, &[])),
+            };
+        }
         let n = l.idx.len().min(3);
         let idx = self.indices(i, l, sys)?;
         let slot = l.var.slot as usize;
@@ -1502,6 +1559,16 @@ impl Interpreter {
     }
 
     fn write_r(&mut self, i: usize, l: &LRef, v: f32, sys: &mut dyn System) -> R<()> {
+        if l.idx.is_empty() {
+            if let Some(x) = self
+                .store(i, l.var.global)
+                .reals
+                .get_mut(l.var.slot as usize)
+            {
+                x.scalar = Some(v);
+            }
+            return Ok(());
+        }
         let n = l.idx.len().min(3);
         let idx = self.indices(i, l, sys)?;
         self.write_r_at(i, l.var, &idx[..n], v)
@@ -1628,6 +1695,7 @@ impl Interpreter {
         if e.on != on {
             e.on = on;
             e.changed = now;
+            self.int_epoch += 1;
         }
     }
 
@@ -2022,8 +2090,8 @@ impl Interpreter {
     // ------------------------------------------------------------------ statements
 
     /// Runs one step of task `i` at `self.now`.
-    fn step(&mut self, i: usize, sys: &mut dyn System) -> R<Flow> {
-        if i == 0 {
+    fn step(&mut self, i: usize, sys: &mut dyn System, code: &Arc<Code>, sync: bool) -> R<Flow> {
+        if i == 0 && sync {
             if !self.robot_allowed(sys) {
                 return Ok(Flow::Next);
             }
@@ -2031,7 +2099,6 @@ impl Interpreter {
                 return Ok(Flow::Wait(Wait::Held));
             }
         }
-        let code = self.code.clone();
         let Some(frame) = self.tasks[i].frames.last() else {
             self.abort(TaskId::from_index(i));
             return Ok(Flow::Next);
@@ -2301,6 +2368,7 @@ impl Interpreter {
                     depth,
                     armed_at: now,
                 });
+                self.int_epoch += 1;
                 Flow::Next
             }
             Op::Ignore(e) => {
@@ -2308,6 +2376,7 @@ impl Interpreter {
                 self.tasks[i]
                     .interrupts
                     .retain(|x| x.signal.abs() != s.abs());
+                self.int_epoch += 1;
                 Flow::Next
             }
             Op::Execute {

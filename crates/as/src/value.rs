@@ -55,17 +55,38 @@ pub(crate) fn unpack(key: u64) -> Vec<i32> {
         .collect()
 }
 
-/// One variable: its scalar value and its array elements.
+/// Dense storage for the common small indices: 1-D below this index…
+const DENSE1: i32 = 1024;
+/// …and 2-D with the first index below this and the second below [`DENSE2_COLS`].
+const DENSE2_ROWS: i32 = 32;
+const DENSE2_COLS: i32 = 256;
+
+fn dense_slot(idx: &[i32]) -> Option<(bool, usize)> {
+    match *idx {
+        [i] if (0..DENSE1).contains(&i) => Some((false, i as usize)),
+        [r, c] if (0..DENSE2_ROWS).contains(&r) && (0..DENSE2_COLS).contains(&c) => {
+            Some((true, (r * DENSE2_COLS + c) as usize))
+        }
+        _ => None,
+    }
+}
+
+/// One variable: its scalar value and its array elements (small 1-D and 2-D indices in dense
+/// vectors, the others in a map).
 #[derive(Debug, Clone)]
 pub(crate) struct Var<T> {
     pub scalar: Option<T>,
-    pub array: Option<Box<IndexMap<T>>>,
+    dense1: Vec<Option<T>>,
+    dense2: Vec<Option<T>>,
+    array: Option<Box<IndexMap<T>>>,
 }
 
 impl<T> Default for Var<T> {
     fn default() -> Self {
         Var {
             scalar: None,
+            dense1: Vec::new(),
+            dense2: Vec::new(),
             array: None,
         }
     }
@@ -73,16 +94,21 @@ impl<T> Default for Var<T> {
 
 impl<T> Var<T> {
     pub fn element_count(&self) -> usize {
-        self.array.as_ref().map_or(0, |a| a.len())
+        self.dense1.iter().filter(|v| v.is_some()).count()
+            + self.dense2.iter().filter(|v| v.is_some()).count()
+            + self.array.as_ref().map_or(0, |a| a.len())
     }
 }
 
 impl<T: Clone> Var<T> {
     pub fn get(&self, idx: &[i32]) -> Option<&T> {
         if idx.is_empty() {
-            self.scalar.as_ref()
-        } else {
-            self.array.as_ref()?.get(&pack(idx))
+            return self.scalar.as_ref();
+        }
+        match dense_slot(idx) {
+            Some((false, k)) => self.dense1.get(k)?.as_ref(),
+            Some((true, k)) => self.dense2.get(k)?.as_ref(),
+            None => self.array.as_ref()?.get(&pack(idx)),
         }
     }
 
@@ -90,12 +116,25 @@ impl<T: Clone> Var<T> {
     pub fn set(&mut self, idx: &[i32], v: T) -> bool {
         if idx.is_empty() {
             self.scalar = Some(v);
-            false
-        } else {
-            self.array
+            return false;
+        }
+        let dense = match dense_slot(idx) {
+            Some((false, k)) => Some((&mut self.dense1, k)),
+            Some((true, k)) => Some((&mut self.dense2, k)),
+            None => None,
+        };
+        match dense {
+            Some((vec, k)) => {
+                if vec.len() <= k {
+                    vec.resize_with(k + 1, || None);
+                }
+                vec[k].replace(v).is_none()
+            }
+            None => self
+                .array
                 .get_or_insert_with(Default::default)
                 .insert(pack(idx), v)
-                .is_none()
+                .is_none(),
         }
     }
 
@@ -106,6 +145,17 @@ impl<T: Clone> Var<T> {
             .as_ref()
             .map(|a| a.iter().map(|(k, v)| (*k, v.clone())).collect())
             .unwrap_or_default();
+        for (k, x) in self.dense1.iter().enumerate() {
+            if let Some(x) = x {
+                v.push((pack(&[k as i32]), x.clone()));
+            }
+        }
+        for (k, x) in self.dense2.iter().enumerate() {
+            if let Some(x) = x {
+                let k = k as i32;
+                v.push((pack(&[k / DENSE2_COLS, k % DENSE2_COLS]), x.clone()));
+            }
+        }
         v.sort_by_key(|(k, _)| {
             (
                 ((k >> 48) & 0xF),

@@ -290,7 +290,7 @@ fn step_converges_to_the_loop_overhead() {
             .unwrap();
     let step: f64 = line.rsplit(' ').next().unwrap().parse().unwrap();
     // From the end of one pass (last_tm) to the start of the next (tm): the PRINT of the
-    // pass and the loop test, about 1.5 ms with the default cost model, measured with the
-    // 1 ms TIMER resolution.
-    assert!((0.0009..0.0025).contains(&step), "{line}");
+    // pass (1 ms + 29 bytes at 100 µs) and the loop test, about 4 ms with the default cost
+    // model, measured with the 1 ms TIMER resolution.
+    assert!((0.0035..0.0045).contains(&step), "{line}");
 }

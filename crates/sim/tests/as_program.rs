@@ -55,7 +55,7 @@ async fn the_interpreted_server_serves_in_memory_clients() {
     assert!(program
         .terminal
         .iter()
-        .any(|l| l.text.starts_with("ros_move cmd")));
+        .any(|l| l.text.starts_with("ros_move: cmd")));
     assert!(snap.session.open);
     assert_eq!(snap.session.newest_command.unwrap().number, 6.0);
     // The receive timeout ends the session; the robot program stops 50 ms later.

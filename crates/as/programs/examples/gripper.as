@@ -212,7 +212,7 @@ closing:
     ; time from the end of the previous pass to the start of this one (the loop overhead).
     .step = 0.9*.step+0.1*(.tm-.last_tm)
     .last_tm = TIMER(2)
-    PRINT "ros_move cmd", .cmd, " step", .step
+    PRINT "ros_move: cmd ", /I3, .cmd, " step ", /F6.4, .step
   END
 stopped:
   ; The ONI stopped the robot at once; the program ends.

@@ -1,0 +1,135 @@
+//! The interpreted protocol-1040 server (`fs020n_as::SERVER_1040` on `as_host`) streaming
+//! command 7 at 100 Hz on virtual time (results in docs/PERFORMANCE.md, "AS interpreter").
+//!
+//! One simulated second = 100 × (the client sends a command 7, the controller advances 10 ms
+//! with the interpreter running both tasks, the client reads the reply). Goal ≥ 500 simulated
+//! seconds per wall second.
+
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use fs020n_as::Config;
+use fs020n_proto::JointsDeg;
+use fs020n_sim::as_host::{ClientId, ServerProgram};
+use fs020n_sim::{Controller, ControllerConfig};
+
+struct Streamer {
+    c: Controller,
+    id: ClientId,
+    t: f64,
+    timer0: f64,
+}
+
+/// The bytes a client sends (3 decimals, trailing zeros trimmed), with integer formatting.
+fn push_num(out: &mut String, v: f64) {
+    use std::fmt::Write;
+    let m = (v * 1000.0).round() as i64;
+    let (sign, m) = if m < 0 { ("-", -m) } else { ("", m) };
+    let (int, frac) = (m / 1000, m % 1000);
+    if frac == 0 {
+        let _ = write!(out, " {sign}{int}");
+    } else {
+        let f = format!("{frac:03}");
+        let _ = write!(out, " {sign}{int}.{}", f.trim_end_matches('0'));
+    }
+}
+
+impl Streamer {
+    fn new(monitor_percent: f64) -> Streamer {
+        let program = ServerProgram::from_source_with(
+            "server1040.as",
+            fs020n_as::SERVER_1040,
+            Config::default(),
+        )
+        .unwrap();
+        let mut c = Controller::with_program(
+            ControllerConfig {
+                joints: JointsDeg::new([0.0, 10.0, -80.0, 0.0, -80.0, 0.0]),
+                ..ControllerConfig::default()
+            },
+            program,
+        );
+        c.advance_by(Duration::from_millis(10));
+        let id = c.program_connect(None, [127, 0, 0, 1]).unwrap();
+        let mut s = Streamer {
+            c,
+            id,
+            t: 0.0,
+            timer0: 0.0,
+        };
+        s.request("1040 1 0");
+        s.request(&format!("1040 3 1 {monitor_percent}"));
+        s.timer0 = s.c.now().as_secs_f64() - 0.01;
+        s
+    }
+
+    fn request(&mut self, text: &str) {
+        assert!(self.c.program_send(self.id, text.as_bytes()));
+        for _ in 0..20 {
+            self.c.advance_by(Duration::from_millis(1));
+            if !self.c.program_recv(self.id).bytes.is_empty() {
+                return;
+            }
+        }
+        panic!("no reply");
+    }
+
+    /// One simulated second: 100 command-7 samples of a smooth multi-joint trajectory, one
+    /// every 10 ms, each reply read.
+    fn second(&mut self) {
+        for _ in 0..100 {
+            let t = self.t;
+            let w = 0.8;
+            let amp = [30.0, 10.0, 10.0, 20.0, 15.0, 40.0];
+            let base = [0.0, 10.0, -80.0, 0.0, -80.0, 0.0];
+            let mut req = String::with_capacity(200);
+            req.push_str("1040 7 21");
+            push_num(&mut req, self.c.now().as_secs_f64() - self.timer0);
+            push_num(&mut req, 1.0);
+            push_num(&mut req, 0.0);
+            for k in 0..3 {
+                for j in 0..6 {
+                    let ph = w * t + j as f64;
+                    let v = match k {
+                        0 => base[j] + amp[j] * ph.sin() - amp[j] * (j as f64).sin(),
+                        1 => amp[j] * w * ph.cos(),
+                        _ => -amp[j] * w * w * ph.sin(),
+                    };
+                    push_num(&mut req, v);
+                }
+            }
+            assert!(self.c.program_send(self.id, req.as_bytes()));
+            self.c.advance_by(Duration::from_millis(10));
+            black_box(self.c.program_recv(self.id));
+            self.t += 0.01;
+        }
+        assert!(self.c.error().is_none(), "{}", self.c.error());
+    }
+}
+
+fn stream(c: &mut Criterion) {
+    let mut g = c.benchmark_group("as_stream_100hz");
+    g.sample_size(20);
+    for monitor in [100.0, 10.0] {
+        let name = format!("sim_second_monitor_{monitor}");
+        let mut s = Streamer::new(monitor);
+        g.bench_function(&name, |b| b.iter(|| s.second()));
+        // The headline figure, printed plainly.
+        let mut s = Streamer::new(monitor);
+        let t = Instant::now();
+        for _ in 0..30 {
+            s.second();
+        }
+        let factor = 30.0 / t.elapsed().as_secs_f64();
+        let steps: u64 = s.c.program_tasks().unwrap().iter().map(|t| t.steps).sum();
+        println!(
+            "{name}: {factor:.0} simulated s per wall s ({} motions, {steps} AS steps in 30 s)",
+            s.c.counters().motions,
+        );
+    }
+    g.finish();
+}
+
+criterion_group!(benches, stream);
+criterion_main!(benches);
