@@ -1183,7 +1183,7 @@ impl Compiler {
                 }
                 Ok(CExpr::R(RExpr::Const(f)))
             }
-            ExprKind::Str(s) => Ok(CExpr::S(SExpr::Const(Arc::from(s.as_slice())))),
+            ExprKind::Str(s) => Ok(CExpr::S(SExpr::Const(Bytes::from(s.as_slice())))),
             ExprKind::Var(lv) => self.var_expr(lv),
             ExprKind::Unary(op, a) => {
                 let a = Box::new(self.real(a)?);

@@ -468,6 +468,11 @@ fn as_bool(b: bool) -> f32 {
     }
 }
 
+/// A signal number from a real (bounded, so that its absolute value always exists).
+fn signal_number(v: f32) -> i32 {
+    v.trunc().clamp(-1.0e6, 1.0e6) as i32
+}
+
 fn to_i32(v: f32) -> i32 {
     v as i32
 }
@@ -496,7 +501,7 @@ impl Interpreter {
             let s = *slot as usize;
             let created = match (ty, value) {
                 (Ty::Real, DataValue::Real(v)) => globals.reals[s].set(idx, *v as f32),
-                (Ty::Str, DataValue::Str(b)) => globals.strs[s].set(idx, Arc::from(b.as_slice())),
+                (Ty::Str, DataValue::Str(b)) => globals.strs[s].set(idx, Bytes::from(b.as_slice())),
                 (Ty::Joint, DataValue::Joints(j)) => {
                     globals.joints[s].set(idx, j.map(|x| x as f32))
                 }
@@ -1752,7 +1757,7 @@ impl Interpreter {
             RExpr::StrCmp(op, a, b) => {
                 let x = self.eval_s(i, a, sys)?;
                 let y = self.eval_s(i, b, sys)?;
-                let o = x.as_ref().cmp(y.as_ref());
+                let o = (*x).cmp(&*y);
                 as_bool(match op {
                     BinOp::Eq => o.is_eq(),
                     BinOp::Ne => o.is_ne(),
@@ -1846,7 +1851,7 @@ impl Interpreter {
             RFunc::Sig => {
                 let mut all = true;
                 for s in &v[..n] {
-                    let s = s.trunc() as i32;
+                    let s = signal_number(*s);
                     if s == 0 || !Self::signal_number_ok(s, false) {
                         return Err(RuntimeError::IllegalValue(format!("signal number {s}")));
                     }
@@ -1928,7 +1933,7 @@ impl Interpreter {
                     Some(n) => a.saturating_add(n as usize).min(s.len()),
                     None => s.len(),
                 };
-                Arc::from(&s[a..b])
+                s.slice(a, b)
             }
             SExpr::Left(s, n) | SExpr::Right(s, n) => {
                 let s = self.eval_s(i, s, sys)?;
@@ -1938,9 +1943,9 @@ impl Interpreter {
                 }
                 let n = (n as usize).min(s.len());
                 if matches!(e, SExpr::Left(..)) {
-                    Arc::from(&s[..n])
+                    s.slice(0, n)
                 } else {
-                    Arc::from(&s[s.len() - n..])
+                    s.slice(s.len() - n, s.len())
                 }
             }
             SExpr::Chr(n) => {
@@ -1948,7 +1953,7 @@ impl Interpreter {
                 if !(0.0..=255.0).contains(&n) {
                     return Err(RuntimeError::IllegalValue(format!("$CHR({n}) (0 to 255)")));
                 }
-                Arc::from(&[n as u8][..])
+                Bytes::from(&[n as u8][..])
             }
             SExpr::Encode(items) => {
                 let (bytes, _) = self.encode(i, items, sys)?;
@@ -1967,8 +1972,8 @@ impl Interpreter {
                 } else {
                     s.iter().position(|&c| !is_delim(c)).unwrap_or(s.len())
                 };
-                let head: Bytes = Arc::from(&s[..cut]);
-                let rest: Bytes = Arc::from(&s[cut..]);
+                let head: Bytes = s.slice(0, cut);
+                let rest: Bytes = s.slice(cut, s.len());
                 self.write_s(i, var, rest, sys)?;
                 head
             }
@@ -1979,7 +1984,7 @@ impl Interpreter {
                     None if c == 0 => String::new(),
                     None => format!("Error {}", ErrorCode(c)),
                 };
-                Arc::from(text.as_bytes())
+                Bytes::from(text.as_bytes())
             }
         })
     }
@@ -2267,7 +2272,7 @@ impl Interpreter {
                     .get(*slot as usize)
                     .and_then(|v| v.get(&[]))
                     .cloned()
-                    .unwrap_or_else(|| Arc::from(&b""[..]));
+                    .unwrap_or_else(|| Bytes::from(&b""[..]));
                 let mut hit = false;
                 for v in values.iter() {
                     if self.eval_s(i, v, sys)? == sel {
@@ -2332,7 +2337,7 @@ impl Interpreter {
             Op::Pause => Flow::Wait(Wait::Paused),
             Op::Signal(v) => {
                 for e in v.iter() {
-                    let s = self.eval_r(i, e, sys)?.trunc() as i32;
+                    let s = signal_number(self.eval_r(i, e, sys)?);
                     if s == 0 || !Self::signal_number_ok(s, true) {
                         return Err(RuntimeError::IllegalValue(format!(
                             "SIGNAL {s} (outputs 1–999, internal 2001–2960)"
@@ -2353,7 +2358,7 @@ impl Interpreter {
                         "ONI is allowed only in robot programs".into(),
                     ));
                 }
-                let s = self.eval_r(i, signal, sys)?.trunc() as i32;
+                let s = signal_number(self.eval_r(i, signal, sys)?);
                 if s == 0 || !Self::signal_number_ok(s, false) {
                     return Err(RuntimeError::IllegalValue(format!("signal number {s}")));
                 }
@@ -2372,7 +2377,7 @@ impl Interpreter {
                 Flow::Next
             }
             Op::Ignore(e) => {
-                let s = self.eval_r(i, e, sys)?.trunc() as i32;
+                let s = signal_number(self.eval_r(i, e, sys)?);
                 self.tasks[i]
                     .interrupts
                     .retain(|x| x.signal.abs() != s.abs());
@@ -2890,7 +2895,7 @@ impl Interpreter {
                     if at[0] > MAX_INDEX {
                         break;
                     }
-                    self.write_s_at(i, buf.var, &at[..dims], Arc::from(chunk))?;
+                    self.write_s_at(i, buf.var, &at[..dims], Bytes::from(chunk))?;
                     n += 1;
                 }
                 self.write_r(i, &count, n as f32, sys)?;

@@ -5,8 +5,68 @@ use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 use std::sync::Arc;
 
-/// An AS string: bytes (ASCII on the controller; the network may deliver any byte).
-pub type Bytes = Arc<[u8]>;
+/// An AS string: bytes (ASCII on the controller; the network may deliver any byte), as a
+/// shared buffer and a range of it, so that cutting a string (`$DECODE`, `$MID`, `$LEFT`,
+/// `$RIGHT`) never copies it.
+#[derive(Clone)]
+pub struct Bytes {
+    buf: Arc<[u8]>,
+    start: u32,
+    end: u32,
+}
+
+impl Bytes {
+    /// The bytes `a..b` of this string (clamped).
+    pub fn slice(&self, a: usize, b: usize) -> Bytes {
+        let len = self.len();
+        let b = b.min(len);
+        let a = a.min(b);
+        Bytes {
+            buf: Arc::clone(&self.buf),
+            start: self.start + a as u32,
+            end: self.start + b as u32,
+        }
+    }
+}
+
+impl std::ops::Deref for Bytes {
+    type Target = [u8];
+    fn deref(&self) -> &[u8] {
+        &self.buf[self.start as usize..self.end as usize]
+    }
+}
+
+impl From<&[u8]> for Bytes {
+    fn from(v: &[u8]) -> Bytes {
+        Bytes {
+            end: v.len() as u32,
+            buf: Arc::from(v),
+            start: 0,
+        }
+    }
+}
+
+impl From<Vec<u8>> for Bytes {
+    fn from(v: Vec<u8>) -> Bytes {
+        Bytes {
+            end: v.len() as u32,
+            buf: Arc::from(v),
+            start: 0,
+        }
+    }
+}
+
+impl PartialEq for Bytes {
+    fn eq(&self, other: &Bytes) -> bool {
+        **self == **other
+    }
+}
+
+impl std::fmt::Debug for Bytes {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{:?}", String::from_utf8_lossy(self))
+    }
+}
 
 /// Largest array index in each dimension.
 pub const MAX_INDEX: i32 = 9999;
