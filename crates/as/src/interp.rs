@@ -887,8 +887,12 @@ impl Interpreter {
     /// Earliest event, skipping task `skip`'s own steps; ties go to the lower task.
     fn next_event_from(&self, skip: Option<usize>) -> Option<(Duration, usize)> {
         let mut best: Option<(Duration, usize)> = None;
+        let any_interrupts = self.tasks.iter().any(|t| !t.interrupts.is_empty());
         for i in 0..self.tasks.len() {
-            let mut cands = [self.interrupt_time(i), None];
+            let mut cands = [None, None];
+            if any_interrupts {
+                cands[0] = self.interrupt_time(i);
+            }
             if skip != Some(i) {
                 cands[1] = self.task_wake(i);
             }
@@ -1588,6 +1592,18 @@ impl Interpreter {
     }
 
     fn read_s(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<Bytes> {
+        if l.idx.is_empty() {
+            let slot = l.var.slot as usize;
+            return match self
+                .store(i, l.var.global)
+                .strs
+                .get(slot)
+                .and_then(|v| v.scalar.clone())
+            {
+                Some(v) => Ok(v),
+                None => Err(self.undefined(i, l, Ty::Str, &[])),
+            };
+        }
         let n = l.idx.len().min(3);
         let idx = self.indices(i, l, sys)?;
         let slot = l.var.slot as usize;
@@ -1614,6 +1630,19 @@ impl Interpreter {
     }
 
     fn write_s(&mut self, i: usize, l: &LRef, v: Bytes, sys: &mut dyn System) -> R<()> {
+        if l.idx.is_empty() {
+            if v.len() > MAX_STRING {
+                return Err(RuntimeError::StringTooLong(v.len()));
+            }
+            if let Some(x) = self
+                .store(i, l.var.global)
+                .strs
+                .get_mut(l.var.slot as usize)
+            {
+                x.scalar = Some(v);
+            }
+            return Ok(());
+        }
         let n = l.idx.len().min(3);
         let idx = self.indices(i, l, sys)?;
         self.write_s_at(i, l.var, &idx[..n], v)
