@@ -860,13 +860,11 @@ impl Interpreter {
         t.wait = Some(w);
     }
 
-    fn interrupt_time(&self, i: usize) -> Option<Duration> {
-        if self.tasks[i].run == Run::Idle {
-            return None;
-        }
+    /// When each task's earliest armed interrupt fires (idle tasks: never).
+    fn interrupt_times(&self) -> [Option<Duration>; 6] {
         let (epoch, mut times) = self.int_cache.get();
         if epoch != self.int_epoch {
-            for (k, t) in self.tasks.iter().enumerate() {
+            for (k, t) in self.tasks.iter().enumerate().take(6) {
                 times[k] = t
                     .interrupts
                     .iter()
@@ -881,18 +879,28 @@ impl Interpreter {
             }
             self.int_cache.set((self.int_epoch, times));
         }
-        times[i]
+        for (k, t) in self.tasks.iter().enumerate().take(6) {
+            if t.run == Run::Idle {
+                times[k] = None;
+            }
+        }
+        times
+    }
+
+    fn interrupt_time(&self, i: usize) -> Option<Duration> {
+        self.interrupt_times().get(i).copied().flatten()
     }
 
     /// Earliest event, skipping task `skip`'s own steps; ties go to the lower task.
     fn next_event_from(&self, skip: Option<usize>) -> Option<(Duration, usize)> {
         let mut best: Option<(Duration, usize)> = None;
-        let any_interrupts = self.tasks.iter().any(|t| !t.interrupts.is_empty());
+        let ints = if self.tasks.iter().any(|t| !t.interrupts.is_empty()) {
+            self.interrupt_times()
+        } else {
+            [None; 6]
+        };
         for i in 0..self.tasks.len() {
-            let mut cands = [None, None];
-            if any_interrupts {
-                cands[0] = self.interrupt_time(i);
-            }
+            let mut cands = [ints.get(i).copied().flatten(), None];
             if skip != Some(i) {
                 cands[1] = self.task_wake(i);
             }
@@ -3043,7 +3051,7 @@ impl Interpreter {
             abs_speed,
         };
         match sys.issue_motion(&req) {
-            Ok(Issued::Started) => Ok(Flow::Shared),
+            Ok(Issued::Started) => Ok(Flow::Next),
             Ok(Issued::Planned) => Ok(Flow::Wait(Wait::MotionPlanned)),
             Err(code) => Err(RuntimeError::System(code)),
         }
