@@ -2175,7 +2175,7 @@ impl Interpreter {
         // By default the next step is the following op.
         self.set_pc(i, pc + 1);
         let depth = self.tasks[i].frames.len();
-        let r = self.exec(i, sys, &code, prog, pc, now, cost);
+        let r = self.exec(i, sys, code, prog, pc, now, cost);
         if r.is_err() && self.tasks[i].frames.len() == depth {
             // Errors name the step that failed.
             self.set_pc(i, pc);
@@ -2183,6 +2183,8 @@ impl Interpreter {
         r
     }
 
+    // The step's context (program, pc, time, cost) travels as arguments: the hot path.
+    #[allow(clippy::too_many_arguments)]
     fn exec(
         &mut self,
         i: usize,
@@ -2346,10 +2348,8 @@ impl Interpreter {
                     self.message(sys, id, line);
                 }
                 self.tasks[i].line_buf.push_str(last);
-                if !no_newline {
-                    let line = std::mem::take(&mut self.tasks[i].line_buf);
-                    self.message(sys, id, line);
-                } else if self.tasks[i].line_buf.len() > 4096 {
+                // A line ends unless /S says otherwise (and never grows without bound).
+                if !no_newline || self.tasks[i].line_buf.len() > 4096 {
                     let line = std::mem::take(&mut self.tasks[i].line_buf);
                     self.message(sys, id, line);
                 }
@@ -2780,7 +2780,7 @@ impl Interpreter {
                         "TCP_SEND element count {count}"
                     )));
                 }
-                let dims = buf.idx.len().min(3).max(1);
+                let dims = buf.idx.len().clamp(1, 3);
                 let base = self.indices(i, buf, sys)?;
                 let mut data = Vec::new();
                 for k in 0..count as i32 {
@@ -2895,7 +2895,7 @@ impl Interpreter {
             _ => None,
         };
         if let (Ok((_, addr)), Some(ip)) = (&r, ip) {
-            let n = ip.idx.len().min(3).max(1);
+            let n = ip.idx.len().clamp(1, 3);
             let base = self.indices(i, &ip, sys)?;
             for (k, b) in addr.iter().enumerate() {
                 let mut at = base;
@@ -2923,7 +2923,7 @@ impl Interpreter {
         };
         match r {
             Ok(bytes) => {
-                let dims = buf.idx.len().min(3).max(1);
+                let dims = buf.idx.len().clamp(1, 3);
                 let base = self.indices(i, &buf, sys)?;
                 let mut n = 0;
                 for (k, chunk) in bytes.chunks(max.max(1)).take(MAX_TRANSFER).enumerate() {

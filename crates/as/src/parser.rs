@@ -57,21 +57,18 @@ pub fn parse(file: &str, text: &str) -> Result<Module, LoadError> {
         match directive(trimmed) {
             Some((word, rest)) if word == "program" => {
                 let end = find_end(&lines, i + 1);
-                match p.program(&lines, i, end, rest, span) {
-                    Some(prog) => {
-                        if let Some(prev) = programs.iter().find(|q| q.name == prog.name) {
-                            p.error(
-                                span,
-                                format!(
-                                    "program {} is defined twice (first at line {})",
-                                    prog.name, prev.span.line
-                                ),
-                            );
-                        } else {
-                            programs.push(prog);
-                        }
+                if let Some(prog) = p.program(&lines, i, end, rest, span) {
+                    if let Some(prev) = programs.iter().find(|q| q.name == prog.name) {
+                        p.error(
+                            span,
+                            format!(
+                                "program {} is defined twice (first at line {})",
+                                prog.name, prev.span.line
+                            ),
+                        );
+                    } else {
+                        programs.push(prog);
                     }
-                    None => {}
                 }
                 if end >= lines.len() {
                     p.error(
@@ -88,8 +85,8 @@ pub fn parse(file: &str, text: &str) -> Result<Module, LoadError> {
                 if matches!(word.as_str(), "reals" | "strings" | "joints" | "trans") =>
             {
                 let end = find_end(&lines, i + 1);
-                for k in i + 1..end.min(lines.len()) {
-                    if let Some(item) = p.data_line(&word, k as u32 + 1, &lines[k]) {
+                for (k, line) in lines.iter().enumerate().take(end).skip(i + 1) {
+                    if let Some(item) = p.data_line(&word, k as u32 + 1, line) {
                         data.push(item);
                     }
                 }
@@ -289,8 +286,8 @@ impl<'a> FileParser<'a> {
                 }
             };
             let mut params = Vec::new();
-            if c.eat(&Tok::LParen) {
-                if !c.eat(&Tok::RParen) {
+            if c.eat(&Tok::LParen) && !c.eat(&Tok::RParen) {
+                {
                     loop {
                         let pspan = c.span();
                         let mut by_ref = c.eat(&Tok::Amp);
@@ -336,8 +333,8 @@ impl<'a> FileParser<'a> {
             }
         };
         let mut items = Vec::new();
-        for k in start + 1..end.min(lines.len()) {
-            if let Some(item) = self.line(k as u32 + 1, &lines[k]) {
+        for (k, line) in lines.iter().enumerate().take(end).skip(start + 1) {
+            if let Some(item) = self.line(k as u32 + 1, line) {
                 items.push(item);
             }
         }
@@ -787,7 +784,7 @@ impl<'a> Cur<'a> {
             Some(Tok::Name(n)) if !n.local && n.sigil == Sigil::None => {
                 Ok(Label { name: n.text, span })
             }
-            Some(Tok::Num(v)) if v.fract() == 0.0 && v >= 0.0 && v < 1e9 => Ok(Label {
+            Some(Tok::Num(v)) if v.fract() == 0.0 && (0.0..1e9).contains(&v) => Ok(Label {
                 name: format!("{}", v as u64),
                 span,
             }),
