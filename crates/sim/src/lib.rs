@@ -11,6 +11,9 @@
 //!   speed, fault injection ([`Fault`]).
 //! - [`run_robot`] with [`SimOptions`]: a whole robot (robot port + pendant) for a command line.
 //! - [`Snapshot`]: the serializable state.
+//! - [`as_host`]: the controller running an AS program ([`ServerProgram`], e.g. this project's
+//!   AS text of the protocol-1040 server, or a user's modified copy) instead of the native
+//!   server, on the same motion planner, panel, pendant and faults (docs/AS.md).
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
@@ -24,6 +27,7 @@ pub mod run;
 pub mod server;
 pub mod snapshot;
 
+pub use as_host::{ClientId, ClientRead, ProgramError, ProgramInfo, ServerProgram};
 pub use controller::{
     Behaviour, Controller, ControllerConfig, Counters, Handled, MoveKind, PanelChange, PanelError,
     PassInfo, PassMotion, PlannedAfterBrake, Refused, SessionEnd, SessionGone, SessionId,
