@@ -34,6 +34,7 @@ mod motion;
 mod record;
 mod robot;
 mod safety;
+pub mod servo;
 mod session;
 mod stats;
 mod stream;
@@ -48,6 +49,9 @@ pub use robot::Robot;
 pub use safety::{
     blockers, check_stream_sample, extrapolation_window, Blocker, SampleError, ESTOP_REMEDY,
     EXTRAPOLATION_STEP_BOUND_S, MAX_LOOKAHEAD_PASSES,
+};
+pub use servo::{
+    ServoHandle, ServoOptions, ServoOutcome, ServoReport, ServoSample, ServoStats, WatchdogAction,
 };
 pub use session::StatusSnapshot;
 pub use stats::{RttStats, Stats, RTT_WINDOW};

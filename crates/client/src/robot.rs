@@ -344,6 +344,27 @@ impl Robot {
         )
     }
 
+    /// Opens an online servo ([`ServoHandle`](crate::ServoHandle)): push samples at your own
+    /// rate, each sent as command 7 stamped with the estimated controller time of the push,
+    /// with the checks of [`stream`](Self::stream) on every push and a watchdog that stops the
+    /// program (command 2, by default) when the pushes stop. Refused like a stream while the
+    /// status blocks motion or another stream or servo runs. See [`crate::servo`].
+    pub async fn servo(
+        &self,
+        options: crate::servo::ServoOptions,
+    ) -> Result<crate::servo::ServoHandle, ClientError> {
+        let epoch = self.link.shared.current_epoch();
+        self.not_streaming()?;
+        let current = self.poll().await?;
+        crate::servo::open(
+            self.link.clone(),
+            self.common.config.model.clone(),
+            options,
+            epoch,
+            &current,
+        )
+    }
+
     /// Sends a request as typed (for a CLI `raw` command) and returns the reply. Refused:
     /// non-ASCII or control characters, empty text, more than 255 bytes, and — unless
     /// `allow_motion` — anything the controller would execute as a motion (1040 6 / 1040 7,
