@@ -293,8 +293,10 @@ async fn bad_pushes_are_refused_before_sending() {
 async fn an_extrapolation_that_could_leave_the_range_is_refused() {
     let model = fs020n_kin::RobotModel::fs020n();
     let max1 = model.joints[0].max_deg;
-    let mut cfg = fs020n_sim::ControllerConfig::default();
-    cfg.joints = with_jt1(max1 - 1.0);
+    let cfg = fs020n_sim::ControllerConfig {
+        joints: with_jt1(max1 - 1.0),
+        ..fs020n_sim::ControllerConfig::default()
+    };
     let emu = Emulator::new(cfg);
     let robot = ready(&emu, 100.0).await;
     let servo = robot.servo(ServoOptions::default()).await.unwrap();
