@@ -19,7 +19,7 @@
 //!
 //! * the position is finite and inside the joint ranges;
 //! * the whole command-7 sample, as the controller can extrapolate it
-//!   ([`check_stream_sample`](crate::check_stream_sample)): velocity and acceleration within the
+//!   ([`check_stream_sample`]): velocity and acceleration within the
 //!   model's, every target within the [`extrapolation_window`](crate::extrapolation_window)
 //!   inside the ranges;
 //! * the first sample is within [`ServoOptions::start_tolerance_deg`] of the current joints;

@@ -283,7 +283,9 @@ impl Emulator {
     /// `"withhold_replies"` (count), `"garbage_reply"` (text), `"split_reply"` (parts,
     /// gap_ms), `"close_connection"`, `"stop_reading"` (duration_ms), `"raise_error"` (code).
     ///
-    /// >>> emu.inject("delay_replies", count=1, delay_ms=400)
+    /// ```python
+    /// emu.inject("delay_replies", count=1, delay_ms=400)
+    /// ```
     #[pyo3(signature = (kind, **params))]
     fn inject(
         &self,

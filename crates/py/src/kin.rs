@@ -14,8 +14,10 @@ fn model() -> &'static RobotModel {
 /// The flange pose (X, Y, Z in mm; O, A, T in degrees, AS convention) of the FS020N at
 /// these joints (degrees).
 ///
-/// >>> fs020n.fk([0, 0, -90, 0, -90, 0])
+/// ```python
+/// fs020n.fk([0, 0, -90, 0, -90, 0])
 /// (850.0, 0.0, 1153.5, 0.0, 180.0, 0.0)
+/// ```
 #[pyfunction]
 #[pyo3(signature = (joints))]
 pub fn fk(py: Python<'_>, joints: &Bound<'_, PyAny>) -> PyResult<(f64, f64, f64, f64, f64, f64)> {
@@ -39,8 +41,10 @@ pub(crate) fn pose_of(q: &JointsDeg) -> (f64, f64, f64, f64, f64, f64) {
 /// sorted nearest first (the first is what `Robot.move_pose` would use). An unreachable pose
 /// gives an empty list; non-finite values raise `LimitError`.
 ///
-/// >>> fs020n.ik((850, 0, 1153.5, 0, 180, 0), near=[0, 0, -90, 0, -90, 0])[0]
+/// ```python
+/// fs020n.ik((850, 0, 1153.5, 0, 180, 0), near=[0, 0, -90, 0, -90, 0])[0]
 /// [0.0, 0.0, -90.0, 0.0, -90.0, 0.0]
+/// ```
 #[pyfunction]
 #[pyo3(signature = (pose, near=None))]
 pub fn ik(

@@ -497,7 +497,9 @@ impl Robot {
     /// nearest to the current joints. `wait`, `timeout`, `tolerance`, `settle` as in
     /// `move_joints`.
     ///
-    /// >>> robot.move_pose(850, 0, 1153.5, 0, 180, 0)
+    /// ```python
+    /// robot.move_pose(850, 0, 1153.5, 0, 180, 0)
+    /// ```
     #[pyo3(signature = (*pose, wait=true, timeout=None, tolerance=0.1, settle=0.1))]
     fn move_pose(
         slf: &Bound<'_, Self>,
