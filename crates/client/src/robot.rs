@@ -374,7 +374,7 @@ impl Robot {
     /// Opens an online servo ([`ServoHandle`](crate::ServoHandle)): push samples at your own
     /// rate, each sent as command 7 stamped with the estimated controller time of the push,
     /// with the checks of [`stream`](Self::stream) on every push and a watchdog that stops the
-    /// program (command 2, by default) when the pushes stop. Refused like a stream while the
+    /// arm for sure (commands 5 then 2, by default) when the pushes stop. Refused like a stream while the
     /// status blocks motion or another stream or servo runs. See [`crate::servo`].
     pub async fn servo(
         &self,

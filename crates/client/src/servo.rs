@@ -32,25 +32,27 @@
 //! The latest status is checked again by the session task right before each write (no motion
 //! while it shows an error, HOLD, TEACH, the lock, power off or the program not running).
 //!
-//! # The watchdog: 2, not 5
+//! # The watchdog: a sure stop (5 then 2), not a brake alone
 //!
 //! When no sample has been accepted for [`ServoOptions::watchdog`] (default 200 ms) after the
 //! first one, the caller is taken to have stopped driving (a crash, a hung loop, a long pause)
-//! and the servo ends with [`ServoOutcome::Watchdog`]. By default it then sends **command 2**
-//! (stop the motion program), not 5: the spec (§2.1) says that after a `BRAKE` (5) a motion the
-//! program had already planned by look-ahead may still be executed on a real controller, and
-//! that *a client that must be sure the arm stays still sends 2*. Nobody is watching the arm at
-//! that moment, so the client fails closed. The price is that the program must be started again
-//! ([`Robot::start`](crate::Robot::start)) before the next motion.
-//! [`WatchdogAction::Brake`] sends 5 instead, for setups that accept that risk to keep the
-//! program running. Meanwhile the controller never extrapolates a sample by more than 0.5 s plus
-//! the look-ahead, and every such target was checked to be inside the ranges.
+//! and the servo ends with [`ServoOutcome::Watchdog`]. By default it then stops the arm for
+//! sure, as every cancel of this client does: **command 5** (`BRAKE`, the motion stops at once)
+//! **then command 2** (the motion program ends). A 5 alone is not enough: the spec (§2.1) says
+//! that after a `BRAKE` a motion the program had already planned by look-ahead may still be
+//! executed on a real controller, and that *a client that must be sure the arm stays still
+//! sends 2*. Nobody is watching the arm at that moment, so the client fails closed. The price is
+//! that the program must be started again ([`Robot::start`](crate::Robot::start)) before the
+//! next motion. [`WatchdogAction::Brake`] sends only 5, for setups that accept that risk to keep
+//! the program running. Until the watchdog fires, the controller never extrapolates a sample by
+//! more than 0.5 s plus the look-ahead, and every such target was checked to be inside the
+//! ranges.
 //!
-//! An explicit [`ServoHandle::stop`] (or dropping the handle) brakes with **command 5**, as
-//! cancelling a stream does: the caller is present and the program keeps running. A fault while
-//! servoing (an error, HOLD, E-stop, …) ends the servo with [`ClientError::Aborted`] after a
-//! 5, so that the motion does not resume when the switch is turned back; a lost link ends it
-//! with [`ClientError::LinkLost`].
+//! [`ServoHandle::stop`] (or dropping the handle) and a fault while servoing (an error, HOLD,
+//! E-stop, …, reported as [`ClientError::Aborted`]) stop the arm the same way (5 then 2), as
+//! cancelling a stream does, so that nothing resumes when a switch is turned back. A cancel,
+//! stop or close of the robot ends the servo with [`ServoOutcome::Cancelled`] (the cancel itself
+//! stops the arm); a lost link ends it with [`ClientError::LinkLost`].
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -78,12 +80,13 @@ pub const SERVO_WATCHDOG_MAX: Duration = Duration::from_millis(500);
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum WatchdogAction {
-    /// Command 2: stop the motion program. The arm stays still for sure; the program must be
-    /// started again before the next motion. The default (the client fails closed).
+    /// Commands 5 then 2: brake, then stop the motion program. The arm stays still for sure;
+    /// the program must be started again before the next motion. The default (the client
+    /// fails closed).
     #[default]
     StopProgram,
-    /// Command 5: brake. The program keeps running, but a motion it had already planned may
-    /// still be executed on a real controller (spec §2.1).
+    /// Command 5 only: brake. The program keeps running, but a motion it had already planned
+    /// may still be executed (spec §2.1).
     Brake,
 }
 
@@ -95,7 +98,7 @@ pub struct ServoOptions {
     /// Longest time without an accepted push (after the first) before the watchdog ends the
     /// servo. 10–500 ms; default 200 ms.
     pub watchdog: Duration,
-    /// What the watchdog sends. Default [`WatchdogAction::StopProgram`] (command 2).
+    /// What the watchdog sends. Default [`WatchdogAction::StopProgram`] (commands 5 then 2).
     pub on_watchdog: WatchdogAction,
     /// Largest jump of a joint between two pushes beyond what the joint can travel at its
     /// maximum speed in the time between them, degrees. Default 2°.
@@ -193,7 +196,7 @@ impl From<JointsDeg> for ServoSample {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ServoOutcome {
-    /// [`ServoHandle::stop`] or the handle was dropped: command 5 sent.
+    /// [`ServoHandle::stop`] or the handle was dropped: commands 5 then 2 sent.
     Stopped,
     /// A cancel, stop or close of the robot ([`Robot::cancel`](crate::Robot::cancel),
     /// [`Robot::stop_program`](crate::Robot::stop_program), [`Robot::close`](crate::Robot::close)).
@@ -252,7 +255,8 @@ pub struct ServoReport {
 fn ended_message(outcome: ServoOutcome, action: WatchdogAction) -> &'static str {
     match (outcome, action) {
         (ServoOutcome::Stopped, _) => {
-            "the servo was stopped (ServoHandle::stop); open a new servo to move again"
+            "the servo was stopped (ServoHandle::stop; the motion program was stopped too); start \
+             it again (Robot::start) and open a new servo to move again"
         }
         (ServoOutcome::Cancelled, _) => {
             "the servo was cancelled (a cancel, stop or close of the robot); open a new servo to \
@@ -260,7 +264,7 @@ fn ended_message(outcome: ServoOutcome, action: WatchdogAction) -> &'static str 
         }
         (ServoOutcome::Watchdog, WatchdogAction::StopProgram) => {
             "the servo's watchdog fired: no sample was pushed within its watchdog time, so the \
-             motion program was stopped (command 2); start it again (Robot::start) and open a new \
+             robot was braked and the motion program stopped (commands 5 and 2); start it again (Robot::start) and open a new \
              servo, pushing at least once per watchdog period"
         }
         (ServoOutcome::Watchdog, WatchdogAction::Brake) => {
@@ -333,7 +337,8 @@ struct ServoState {
 }
 
 /// A running servo: push samples with [`push`](Self::push), end it with
-/// [`stop`](Self::stop) and [`wait`](Self::wait). Dropping the handle stops it (command 5).
+/// [`stop`](Self::stop) and [`wait`](Self::wait). Dropping the handle stops it (commands 5
+/// then 2).
 ///
 /// ```no_run
 /// use fs020n_client::{ClientConfig, JointsDeg, Robot, ServoOptions};
@@ -561,7 +566,8 @@ impl ServoHandle {
         })
     }
 
-    /// Asks the servo to end: no further sample is sent and command 5 brakes the robot.
+    /// Asks the servo to end: no further sample is sent, command 5 brakes the robot and command
+    /// 2 ends the motion program (start it again to move).
     /// [`wait`](Self::wait) then returns a report with [`ServoOutcome::Stopped`].
     pub fn stop(&self) {
         self.state.stop.store(true, Ordering::SeqCst);
@@ -627,12 +633,14 @@ impl Servo {
         self.link.shared.current_epoch() != self.epoch
     }
 
-    async fn send_best_effort(&self, command: Command) {
+    /// Stops the arm for sure (commands 5 then 2, as every cancel of the client does); best
+    /// effort: what ended the servo is what gets reported.
+    async fn halt_best_effort(&self) {
         if self.link.shared.is_dead() {
             return;
         }
-        if let Err(e) = self.link.command(&Request::new(command)).await {
-            tracing::warn!(error = %e, "could not send the end of a servo");
+        if let Err(e) = self.link.halt().await {
+            tracing::warn!(error = %e, "could not stop the arm at the end of a servo");
         }
     }
 
@@ -649,29 +657,35 @@ impl Servo {
         let end = self.send_loop().await;
         match end {
             Ok(ServoOutcome::Watchdog) => {
-                let command = match self.state.options.on_watchdog {
-                    WatchdogAction::StopProgram => Command::StopProgram,
-                    WatchdogAction::Brake => Command::CancelMotion,
-                };
                 tracing::warn!(
-                    ?command,
+                    action = ?self.state.options.on_watchdog,
                     "servo watchdog: no sample within {:?}",
                     self.state.options.watchdog
                 );
-                // Nothing queued before this may be sent any more.
-                self.link.shared.bump_epoch();
-                self.link.command(&Request::new(command)).await?;
+                match self.state.options.on_watchdog {
+                    WatchdogAction::StopProgram => {
+                        self.link.halt().await?;
+                    }
+                    WatchdogAction::Brake => {
+                        // Nothing queued before this may be sent any more.
+                        self.link.shared.bump_epoch();
+                        self.link
+                            .command(&Request::new(Command::CancelMotion))
+                            .await?;
+                    }
+                }
                 Ok(self.report(ServoOutcome::Watchdog))
             }
-            Ok(outcome) => {
-                // Stopped by the caller, or cancelled (the cancel sends its own command; a
-                // second 5 does nothing more on the controller).
-                self.send_best_effort(Command::CancelMotion).await;
-                Ok(self.report(outcome))
+            Ok(ServoOutcome::Stopped) => {
+                self.halt_best_effort().await;
+                Ok(self.report(ServoOutcome::Stopped))
             }
+            // Whoever cancelled stops the arm (Robot::cancel: 5 then 2; stop_program: 2;
+            // close: 255).
+            Ok(ServoOutcome::Cancelled) => Ok(self.report(ServoOutcome::Cancelled)),
             Err(e) => {
                 if !e.is_link_dead() {
-                    self.send_best_effort(Command::CancelMotion).await;
+                    self.halt_best_effort().await;
                 }
                 Err(e)
             }
@@ -837,7 +851,7 @@ mod tests {
     fn the_watchdog_message_names_the_restart_only_after_command_2() {
         let stop = ended_message(ServoOutcome::Watchdog, WatchdogAction::StopProgram);
         assert!(
-            stop.contains("command 2") && stop.contains("Robot::start"),
+            stop.contains("commands 5 and 2") && stop.contains("Robot::start"),
             "{stop}"
         );
         let brake = ended_message(ServoOutcome::Watchdog, WatchdogAction::Brake);

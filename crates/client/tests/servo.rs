@@ -50,11 +50,11 @@ async fn push_cosine(
 }
 
 fn newest(emu: &Emulator) -> Option<Command> {
-    emu.with(|c| c.newest_command().cloned())
+    emu.with(|c| c.newest_command())
 }
 
 #[tokio::test(start_paused = true)]
-async fn pushed_samples_are_followed_and_stop_brakes() {
+async fn pushed_samples_are_followed_and_stop_halts() {
     let emu = emulator();
     let robot = ready(&emu, 100.0).await;
     let servo = robot.servo(ServoOptions::default()).await.unwrap();
@@ -81,11 +81,13 @@ async fn pushed_samples_are_followed_and_stop_brakes() {
     assert!(s.tracking_error_max_deg < 1.5, "{s:?}");
     let j = emu.with(|c| c.joints());
     assert!((j[0] - 20.0).abs() < 0.3, "{j}");
-    // The stop braked (5); the program keeps running.
-    assert_eq!(newest(&emu), Some(Command::CancelMotion));
-    assert_eq!(emu.with(|c| c.task()), TaskState::Running);
+    // The stop braked and ended the program (5 then 2): a sure stop.
+    assert_eq!(newest(&emu), Some(Command::StopProgram));
+    sleep_ms(100).await; // signal 2007 acts once stable for 50 ms
+    assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
     assert_eq!(robot.stats().stream_samples, s.sent);
     // The motion channel is free again.
+    robot.start().await.unwrap();
     assert!(robot.move_joints(home()).await.is_ok());
 }
 
@@ -333,6 +335,7 @@ async fn one_motion_source_at_a_time() {
         Err(ClientError::Busy(_))
     ));
     servo.finish().await.unwrap();
+    robot.start().await.unwrap();
     assert!(robot.servo(ServoOptions::default()).await.is_ok());
 }
 
@@ -394,7 +397,7 @@ async fn hold_mid_servo_aborts_and_does_not_resume() {
     );
     assert!(err.to_string().contains("switch RUN/HOLD to RUN"), "{err}");
     assert_eq!(servo.wait().await.unwrap_err(), err);
-    assert_eq!(newest(&emu), Some(Command::CancelMotion));
+    assert_eq!(newest(&emu), Some(Command::StopProgram));
     let held = emu.with(|c| c.joints());
     emu.with(|c| c.set_run(true));
     sleep_ms(3000).await;
@@ -413,18 +416,20 @@ async fn robot_cancel_ends_the_servo() {
     assert!(matches!(servo.push(home()), Err(ClientError::Cancelled(_))));
     let report = servo.wait().await.unwrap();
     assert_eq!(report.outcome, ServoOutcome::Cancelled);
-    assert_eq!(newest(&emu), Some(Command::CancelMotion));
+    // Robot::cancel stops for sure (5 then 2); the servo adds nothing.
+    assert_eq!(newest(&emu), Some(Command::StopProgram));
 }
 
 #[tokio::test(start_paused = true)]
-async fn dropping_the_handle_brakes() {
+async fn dropping_the_handle_halts() {
     let emu = emulator();
     let robot = ready(&emu, 100.0).await;
     let servo = robot.servo(ServoOptions::default()).await.unwrap();
     push_cosine(&servo, 10.0, 0.5, 50.0, true).await;
     drop(servo);
     sleep_ms(50).await;
-    assert_eq!(newest(&emu), Some(Command::CancelMotion));
+    assert_eq!(newest(&emu), Some(Command::StopProgram));
+    robot.start().await.unwrap();
     assert!(robot.move_joints(home()).await.is_ok(), "channel freed");
 }
 
