@@ -22,6 +22,7 @@ def main() -> None:
             print(f"HOLD:   {e}\n        remedy: {e.remedy}")
         emu.set_panel(run=True)
         robot.preflight()  # a fresh status: nothing blocks any more
+        robot.start()  # the failed wait stopped the program (a sure stop: 5 then 2)
 
         move = robot.move_joints(TARGET, wait=False)
         time.sleep(0.5)
@@ -43,6 +44,7 @@ def main() -> None:
         except fs020n.LinkLostError as e:
             print(f"link:   {e}")
         robot.reconnect()
+        time.sleep(0.3)  # a new session stops the program (signal 2007 acts after 50 ms)
         print("reconnected: program running =", robot.status().program_running,
               "(nothing resumes by itself)")
 

@@ -247,7 +247,7 @@ impl Emulator {
     /// before the first session.
     #[getter]
     fn newest_command(&self) -> Option<f64> {
-        self.with(|c| c.newest_command().map(fs020n_proto::Command::number))
+        self.with(|c| c.newest_command().map(|cmd| cmd.number()))
     }
 
     /// How the latest session ended: `"end_command"` (the client sent 255),

@@ -59,7 +59,8 @@ pub(crate) enum OnInterrupt {
     /// Nothing but abandoning the wait.
     #[default]
     Nothing,
-    /// Cancel the motion (command 5) and close the session (255), then re-raise.
+    /// Stop the motion for sure (commands 5 then 2) and close the session (255), then
+    /// re-raise.
     CancelAndClose(Arc<fs020n_client::Robot>),
 }
 

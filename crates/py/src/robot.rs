@@ -6,9 +6,9 @@ use std::sync::{Arc, Mutex, MutexGuard, RwLock};
 use std::time::{Duration, Instant};
 
 use fs020n_client::{
-    self as client, ClientConfig, ClientError, Completion, RecordFormat, Recording, ServoOptions,
-    ServoSample, StreamMode, StreamOptions, StreamOutcome, Trajectory, TrajectoryPoint,
-    WatchdogAction,
+    self as client, ClientConfig, ClientError, Completion, LagCompensation, RecordFormat,
+    Recording, ServoOptions, ServoSample, StreamMode, StreamOptions, StreamOutcome, Trajectory,
+    TrajectoryPoint, WatchdogAction,
 };
 use fs020n_kin::Xyzoat;
 use fs020n_proto::JointsDeg;
@@ -167,6 +167,11 @@ pub struct StreamReport {
     pub rtt_mean_s: f64,
     /// Slowest round trip of the samples, seconds.
     pub rtt_max_s: f64,
+    /// The time shift that best aligns the arm with the trajectory, seconds (positive: the
+    /// arm is behind); `None` when it could not be estimated.
+    pub lag_s: Option<f64>,
+    /// The lead command 7 was stamped with at the end, seconds.
+    pub lead_s: f64,
 }
 
 impl StreamReport {
@@ -188,6 +193,8 @@ impl StreamReport {
             duration_s: r.duration.as_secs_f64(),
             rtt_mean_s: r.rtt_mean.as_secs_f64(),
             rtt_max_s: r.rtt_max.as_secs_f64(),
+            lag_s: r.lag_s,
+            lead_s: r.lead_s,
         }
     }
 }
@@ -275,8 +282,8 @@ fn servo_stats<'py>(py: Python<'py>, s: &client::ServoStats) -> PyResult<Bound<'
 ///
 /// Every value is checked before it is sent (`LimitError`); a lost link raises
 /// `LinkLostError` and is never recovered silently (`reconnect()` is explicit and resumes
-/// nothing). Blocking calls release the GIL; Ctrl-C during one cancels the motion (command
-/// 5), closes the session (255) and re-raises `KeyboardInterrupt`. The keep-alive runs in
+/// nothing). Blocking calls release the GIL; Ctrl-C during one stops the motion (commands 5
+/// then 2), closes the session (255) and re-raises `KeyboardInterrupt`. The keep-alive runs in
 /// the background whatever Python does.
 #[pyclass(module = "fs020n", frozen)]
 pub struct Robot {
@@ -327,6 +334,31 @@ fn completion(
     };
     c.validate().map_err(|e| client_error(py, &e))?;
     Ok(c)
+}
+
+/// `None`/`"online"`, `"off"` or a fixed lead in seconds.
+fn lag_compensation_arg(py: Python<'_>, v: Option<&Bound<'_, PyAny>>) -> PyResult<LagCompensation> {
+    let bad = || {
+        limit_error(
+            py,
+            "lag_compensation must be \"online\", \"off\" or a lead in seconds from 0 to 0.5",
+        )
+    };
+    let Some(v) = v.filter(|v| !v.is_none()) else {
+        return Ok(LagCompensation::default());
+    };
+    if let Ok(s) = v.extract::<String>() {
+        return match s.as_str() {
+            "online" => Ok(LagCompensation::default()),
+            "off" => Ok(LagCompensation::Off),
+            _ => Err(bad()),
+        };
+    }
+    let lead: f64 = v.extract().map_err(|_| bad())?;
+    if !(lead.is_finite() && (0.0..=LagCompensation::LIMIT.as_secs_f64()).contains(&lead)) {
+        return Err(bad());
+    }
+    Ok(LagCompensation::Fixed(Duration::from_secs_f64(lead)))
 }
 
 fn record_config(
@@ -461,8 +493,10 @@ impl Robot {
         Ok(Status::of(&s, Duration::ZERO))
     }
 
-    /// Cancels the current motion (command 5): the robot brakes to a stop, the program keeps
-    /// running. A running stream or servo ends; a waiting move returns `reached=False`.
+    /// Cancels the current motion for sure: command 5 (the robot brakes at once), then command
+    /// 2 (the program ends, so no motion the controller had already planned runs after the
+    /// brake); `start()` again to move. A running stream or servo ends; a waiting move returns
+    /// `reached=False`.
     fn cancel(&self, py: Python<'_>) -> PyResult<Status> {
         let s = self.call(py, |r| Box::pin(async move { r.cancel().await }))?;
         Ok(Status::of(&s, Duration::ZERO))
@@ -530,9 +564,11 @@ impl Robot {
     /// estimated controller clock, `mode="cmd6"` joint-move waypoints; `rate` samples per
     /// second. Everything is checked before the first sample (ranges, speeds, the step per
     /// cycle, every target the controller can extrapolate to, the start within
-    /// `start_tolerance_deg` of the robot). With `wait=True` returns a `StreamReport`; with
-    /// `wait=False` a `Stream` (keep it: dropping it cancels the stream).
-    #[pyo3(signature = (times, positions, velocities=None, accelerations=None, *, mode="cmd7", rate=50.0, lookahead=2.0, max_step_deg=2.0, start_tolerance_deg=1.0, end_tolerance_deg=0.5, end_timeout=3.0, wait=true))]
+    /// `start_tolerance_deg` of the robot). `lag_compensation` (command 7): `"online"` (the
+    /// lead follows the lag estimated from the replies, up to 0.3 s), `"off"`, or a fixed lead
+    /// in seconds (0–0.5). With `wait=True` returns a `StreamReport`; with `wait=False` a
+    /// `Stream` (keep it: dropping it cancels the stream).
+    #[pyo3(signature = (times, positions, velocities=None, accelerations=None, *, mode="cmd7", rate=50.0, lookahead=2.0, max_step_deg=2.0, start_tolerance_deg=1.0, end_tolerance_deg=0.5, end_timeout=3.0, lag_compensation=None, wait=true))]
     #[allow(clippy::too_many_arguments)]
     fn stream(
         slf: &Bound<'_, Self>,
@@ -548,8 +584,10 @@ impl Robot {
         start_tolerance_deg: f64,
         end_tolerance_deg: f64,
         end_timeout: f64,
+        lag_compensation: Option<&Bound<'_, PyAny>>,
         wait: bool,
     ) -> PyResult<Py<PyAny>> {
+        let lag_compensation = lag_compensation_arg(py, lag_compensation)?;
         let t = numbers(times, "times")?;
         let q = rows(positions, "positions")?;
         let v = velocities.map(|v| rows(v, "velocities")).transpose()?;
@@ -610,6 +648,7 @@ impl Robot {
             max_gap: (period * 5 / 2)
                 .max(StreamOptions::default().max_gap)
                 .min(Duration::from_millis(500)),
+            lag_compensation,
         };
         let handle = slf.get().call(py, |r| {
             Box::pin(async move { r.stream(trajectory, options).await })
@@ -630,8 +669,9 @@ impl Robot {
     /// own rate (each is checked at once and sent as command 7, stamped with the controller
     /// time of the push; faster pushes are coalesced, the newest wins). When no push arrives
     /// for `watchdog` seconds (0.01–0.5, default 0.2) after the first, the watchdog stops the
-    /// program (`on_watchdog="stop_program"`, command 2: the arm surely stays still; call
-    /// `start()` again) or brakes (`"brake"`, command 5). `lookahead` is command 7's ARG2;
+    /// arm for sure (`on_watchdog="stop_program"`, commands 5 then 2: the arm surely stays
+    /// still; call `start()` again) or only brakes (`"brake"`, command 5: the program keeps running, but a
+    /// motion it had already planned may still run). `lookahead` is command 7's ARG2;
     /// `max_step_deg` bounds a jump between pushes beyond the joint's top speed;
     /// `start_tolerance_deg` the first sample's distance from the robot.
     #[pyo3(signature = (*, lookahead=2.0, watchdog=0.2, on_watchdog="stop_program", max_step_deg=2.0, start_tolerance_deg=1.0, estimate_velocity=true))]
@@ -823,7 +863,7 @@ impl Move {
     /// when the move was cancelled or superseded). `timeout` (seconds) overrides the one
     /// given to `move_joints`. Raises `MotionError` when the controller stopped the move
     /// (error, HOLD, E-stop, …) and `MoveTimeoutError` when it did not finish in time; in both
-    /// cases the move was cancelled (command 5) so that it cannot resume.
+    /// cases the move was stopped for sure (commands 5 then 2) so that it cannot resume.
     #[pyo3(signature = (timeout=None))]
     fn wait(&self, py: Python<'_>, timeout: Option<f64>) -> PyResult<MoveReport> {
         if let Some(r) = lock(&self.report).clone() {
@@ -862,7 +902,8 @@ impl Move {
         Ok(report)
     }
 
-    /// Cancels the move (command 5): the robot brakes to a stop; `wait()` then returns
+    /// Cancels the move for sure (commands 5 then 2: the robot brakes, the program ends;
+    /// `robot.start()` again to move); `wait()` then returns
     /// `reached=False`.
     fn cancel(&self, py: Python<'_>) -> PyResult<()> {
         let handle = self.handle.clone();
@@ -947,7 +988,8 @@ impl Stream {
         Ok(report)
     }
 
-    /// Cancels the stream: no further sample is sent and command 5 brakes the robot.
+    /// Cancels the stream: no further sample is sent, command 5 brakes the robot and command 2
+    /// ends the program (`robot.start()` again to move).
     fn cancel(&self) {
         if let Some(h) = lock(&self.handle).as_ref() {
             h.cancel();
@@ -1048,7 +1090,8 @@ impl Servo {
         }
     }
 
-    /// Stops the servo (command 5; no further sample is sent), waits for its end and returns
+    /// Stops the servo (no further sample is sent; commands 5 then 2 stop the arm for sure and
+    /// end the program: `robot.start()` again to move), waits for its end and returns
     /// the `ServoReport`. If it had already ended by a fault, raises that fault. Calling it
     /// again returns the same report.
     fn stop(&self, py: Python<'_>) -> PyResult<ServoReport> {

@@ -48,7 +48,7 @@ def test_cancelling_a_waiting_coroutine_cancels_the_motion(emu):
         task.cancel()
         with pytest.raises(asyncio.CancelledError):
             await task
-        assert emu.newest_command == 5
+        assert emu.newest_command == 2  # robot.cancel(): 5 then 2
         await asyncio.sleep(0.5)
         j = emu.joints[0]
         assert 0.5 < j < 30

@@ -101,8 +101,9 @@ def test_move_without_waiting_then_wait_cancel_and_done(robot, emu):
     move.cancel()
     report = move.wait()
     assert report.reached is False and report.error_deg > 1.0
-    assert emu.newest_command == 5
+    assert emu.newest_command == 2, "a sure stop: 5 then 2"
     robot.set_speed(100)
+    robot.start()
     move = robot.move_joints(HOME, wait=False)
     report = move.wait(timeout=20)
     assert report.reached and move.done()
@@ -184,15 +185,19 @@ def test_stream_refusals_and_cancel(robot, emu):
     report = stream.wait()
     assert report.outcome == "cancelled"
     assert stream.done()
-    assert emu.newest_command == 5
+    assert emu.newest_command == 2
     assert 0.5 < emu.joints[0] < 19.0
 
 
 def test_stop_and_cancel(robot, emu):
     s = robot.cancel()
-    assert isinstance(s, fs020n.Status) and emu.newest_command == 5
+    assert isinstance(s, fs020n.Status) and emu.newest_command == 2  # 5 then 2
+    time.sleep(0.1)
+    assert emu.program_running is False
+    robot.start()
     s = robot.stop()
     assert emu.newest_command == 2
+    time.sleep(0.1)  # the program ends once signal 2007 has been stable for 50 ms
     assert robot.status().program_running is False
     with pytest.raises(fs020n.NotReadyError, match="robot.start"):
         robot.move_joints(HOME)

@@ -112,6 +112,8 @@ class StreamReport:
     duration_s: float
     rtt_mean_s: float
     rtt_max_s: float
+    lag_s: Optional[float]
+    lead_s: float
 
 class Stream:
     def wait(self) -> StreamReport: ...
@@ -195,6 +197,7 @@ class Robot:
         start_tolerance_deg: float = 1.0,
         end_tolerance_deg: float = 0.5,
         end_timeout: float = 3.0,
+        lag_compensation: Union[Literal["online", "off"], float, None] = None,
         wait: bool = True,
     ) -> Any:
         """StreamReport with wait=True, Stream with wait=False."""

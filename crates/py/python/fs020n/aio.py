@@ -10,7 +10,8 @@ Rust client releases the GIL while it waits, so the event loop keeps running. Th
 thread hop per call (tens of microseconds) and no extra dependency, which is why the flavour
 is built this way rather than on native Rust futures. Cancelling a coroutine that waits for a
 motion (``move_joints``, ``move_pose``, ``stream``, ``Move.wait``, ``Stream.wait``) cancels
-the motion on the robot (command 5) before ``CancelledError`` propagates. ``Servo.push``
+the motion on the robot (commands 5 then 2, as ``Robot.cancel``) before ``CancelledError``
+propagates. ``Servo.push``
 never blocks and stays a plain method.
 """
 
@@ -35,7 +36,7 @@ async def _run(fn: Callable[..., T], *args: Any, **kwargs: Any) -> T:
 async def _motion(
     robot: "_fs020n.Robot", fn: Callable[..., T], *args: Any, **kwargs: Any
 ) -> T:
-    """Runs a blocking motion call; a cancelled coroutine cancels the motion (command 5)."""
+    """Runs a blocking motion call; a cancelled coroutine cancels the motion (5 then 2)."""
     loop = asyncio.get_running_loop()
     fut = loop.run_in_executor(None, functools.partial(fn, *args, **kwargs))
     try:

@@ -86,7 +86,7 @@ class MotionError(Error):
 
 
 class MoveTimeoutError(MotionError, TimeoutError):
-    """A move did not reach its target in time; it was cancelled (command 5)."""
+    """A move did not reach its target in time; it was stopped (commands 5 then 2)."""
 
 
 class BusyError(Error):
