@@ -144,6 +144,18 @@ def test_stream_command_7_tracks(robot, emu):
     assert report.final_error_deg <= 0.5
     assert emu.joints[0] == pytest.approx(10.0, abs=0.5)
     assert robot.stats()["stream_samples"] == report.samples_sent
+    assert report.lag_s is None or -0.5 < report.lag_s < 0.5
+    assert 0.0 <= report.lead_s <= 0.3
+
+
+def test_stream_lag_compensation_choices(robot, emu):
+    times, positions = ramp()
+    back = [times, positions[::-1]]
+    assert robot.stream(times, positions, lag_compensation="off").lead_s == 0.0
+    assert robot.stream(*back, lag_compensation=0.1).lead_s == pytest.approx(0.1)
+    for bad in ["sometimes", 0.6, -0.1, math.nan]:
+        with pytest.raises(fs020n.LimitError, match="lag_compensation"):
+            robot.stream(times, positions, lag_compensation=bad)
 
 
 def test_stream_numpy_command_6_and_velocities(robot, emu):
