@@ -19,7 +19,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
   fs020n play path.csv --mode stream
   fs020n decode ' 1040 -31088 -1 -1 0 -1 0     1.500     0.000     0.000   -90.000     0.000   -90.000     0.000 '
   fs020n ik 850 0 1153.5 0 180 0 --json")]
-pub struct Cli {
+pub(crate) struct Cli {
     /// The robot's address (HOST:PORT); default 127.0.0.1:10050, where `fs020n sim` listens.
     /// `demo` and `bench` use an embedded emulator when it is not given.
     #[arg(long, global = true, env = "FS020N_ROBOT", value_name = "HOST:PORT")]
@@ -43,7 +43,7 @@ pub struct Cli {
 
 /// Subcommands.
 #[derive(Debug, Subcommand)]
-pub enum Cmd {
+pub(crate) enum Cmd {
     /// Show the robot's status (switches, error, program, timer, joints).
     Status {
         /// Redraw the status continuously until Ctrl-C.
@@ -129,7 +129,7 @@ pub enum Cmd {
 
 /// `move` arguments.
 #[derive(Debug, Args)]
-pub struct MoveArgs {
+pub(crate) struct MoveArgs {
     /// JT1..JT6, degrees.
     #[arg(num_args = 6, value_names = ["J1", "J2", "J3", "J4", "J5", "J6"], required = true, allow_negative_numbers = true)]
     pub joints: Vec<f64>,
@@ -149,7 +149,7 @@ pub struct MoveArgs {
 
 /// How `play` sends the trajectory.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum PlayMode {
+pub(crate) enum PlayMode {
     /// Command 7: time-stamped samples extrapolated by the controller.
     Stream,
     /// Command 6: joint-move waypoints at a fixed rate.
@@ -158,7 +158,7 @@ pub enum PlayMode {
 
 /// `play` arguments.
 #[derive(Debug, Args)]
-pub struct PlayArgs {
+pub(crate) struct PlayArgs {
     /// Trajectory file: CSV (`time_s,j1..j6[,v1..v6,a1..a6]`) or JSON.
     pub file: PathBuf,
     /// Streaming mode.
@@ -177,7 +177,7 @@ pub struct PlayArgs {
 
 /// `decode` arguments.
 #[derive(Debug, Args)]
-pub struct DecodeArgs {
+pub(crate) struct DecodeArgs {
     /// The text to decode (quote it: replies start with a blank).
     pub text: String,
     /// Decode as a reply.
@@ -190,7 +190,7 @@ pub struct DecodeArgs {
 
 /// `sim` arguments.
 #[derive(Debug, Args)]
-pub struct SimArgs {
+pub(crate) struct SimArgs {
     /// Robot port(s); repeat for several robots in one process.
     #[arg(long, default_value = "127.0.0.1:10050", value_name = "HOST:PORT")]
     pub listen: Vec<String>,

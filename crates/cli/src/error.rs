@@ -4,7 +4,7 @@ use std::fmt;
 
 /// Exit codes (documented in docs/CLI.md).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Exit {
+pub(crate) enum Exit {
     /// 1: a failure not covered below (I/O, internal).
     Failure = 1,
     /// 2: bad arguments or input (malformed file, target out of range, undecodable text,
@@ -22,7 +22,7 @@ pub enum Exit {
 
 /// An error to report to the user: what happened and, when known, what to do.
 #[derive(Debug)]
-pub struct CliError {
+pub(crate) struct CliError {
     /// Exit code.
     pub exit: Exit,
     /// What happened.
@@ -31,7 +31,7 @@ pub struct CliError {
 
 impl CliError {
     /// A new error.
-    pub fn new(exit: Exit, message: impl Into<String>) -> CliError {
+    pub(crate) fn new(exit: Exit, message: impl Into<String>) -> CliError {
         CliError {
             exit,
             message: message.into(),
@@ -39,12 +39,12 @@ impl CliError {
     }
 
     /// Bad input.
-    pub fn input(message: impl Into<String>) -> CliError {
+    pub(crate) fn input(message: impl Into<String>) -> CliError {
         CliError::new(Exit::Input, message)
     }
 
     /// Other failure.
-    pub fn failure(message: impl Into<String>) -> CliError {
+    pub(crate) fn failure(message: impl Into<String>) -> CliError {
         CliError::new(Exit::Failure, message)
     }
 }
@@ -62,4 +62,4 @@ impl From<std::io::Error> for CliError {
 }
 
 /// Result of a command.
-pub type CliResult<T = ()> = Result<T, CliError>;
+pub(crate) type CliResult<T = ()> = Result<T, CliError>;

@@ -5,12 +5,12 @@ use fs020n_proto::{JointsDeg, Status, Timer};
 use serde_json::{json, Value};
 
 /// Joint angles as a JSON array.
-pub fn joints_json(j: &JointsDeg) -> Value {
+pub(crate) fn joints_json(j: &JointsDeg) -> Value {
     json!(j.values())
 }
 
 /// A reply as JSON with exactly the documented keys.
-pub fn status_json(s: &Status) -> Value {
+pub(crate) fn status_json(s: &Status) -> Value {
     json!({
         "version": s.version,
         "error_code": s.error.raw(),
@@ -26,7 +26,7 @@ pub fn status_json(s: &Status) -> Value {
 }
 
 /// A reply as a table for people.
-pub fn status_table(s: &Status) -> String {
+pub(crate) fn status_table(s: &Status) -> String {
     let yes = |b: bool, on: &str, off: &str| if b { on.to_owned() } else { off.to_owned() };
     let error = if s.error.is_none() {
         "none".to_owned()
@@ -67,7 +67,7 @@ pub fn status_table(s: &Status) -> String {
 }
 
 /// Round-trip figures for people: `min … µs, mean … µs, p99 … µs, max … µs`.
-pub fn rtt_line(r: &RttStats) -> String {
+pub(crate) fn rtt_line(r: &RttStats) -> String {
     let us = |d: std::time::Duration| d.as_secs_f64() * 1e6;
     format!(
         "min {:.0} µs, mean {:.0} µs, p99 {:.0} µs, max {:.0} µs",

@@ -53,10 +53,10 @@ fn bar(len: u64, template: &str) -> ProgressBar {
 }
 
 /// Lowest sampling rate of `status --watch` and `record`, Hz.
-pub const MIN_RATE_HZ: f64 = 0.01;
+pub(crate) const MIN_RATE_HZ: f64 = 0.01;
 
 /// `status`.
-pub fn status(ctx: &Ctx, watch: bool, rate: f64) -> CliResult {
+pub(crate) fn status(ctx: &Ctx, watch: bool, rate: f64) -> CliResult {
     if watch && !(rate.is_finite() && (MIN_RATE_HZ..=100.0).contains(&rate)) {
         return Err(CliError::input(format!(
             "--rate must be from {MIN_RATE_HZ} to 100 Hz"
@@ -104,7 +104,7 @@ fn print_status(s: &Status, as_json: bool, redraw: bool) -> std::io::Result<()> 
 }
 
 /// `speed`.
-pub fn speed(ctx: &Ctx, percent: f64) -> CliResult {
+pub(crate) fn speed(ctx: &Ctx, percent: f64) -> CliResult {
     let percent = check_speed(percent)?;
     with_robot(ctx, async |robot: &Robot, _stop: &Interrupt| {
         robot.set_speed(percent).await.map_err(client_error)?;
@@ -118,11 +118,11 @@ pub fn speed(ctx: &Ctx, percent: f64) -> CliResult {
 }
 
 /// Largest `--tolerance` of `move`, degrees.
-pub const MAX_TOLERANCE_DEG: f64 = 5.0;
+pub(crate) const MAX_TOLERANCE_DEG: f64 = 5.0;
 
 /// `move`: preflight, start, move, wait, close — in one session (the controller stops the
 /// robot when the session ends, so the command always waits for the motion to finish).
-pub fn move_joints(ctx: &Ctx, args: &MoveArgs) -> CliResult {
+pub(crate) fn move_joints(ctx: &Ctx, args: &MoveArgs) -> CliResult {
     let target = check_target(&ctx.model, &args.joints)?;
     let speed = args.speed.map(check_speed).transpose()?;
     if !(args.tolerance.is_finite() && args.tolerance > 0.0 && args.tolerance <= MAX_TOLERANCE_DEG)
@@ -213,7 +213,7 @@ fn to_trajectory(points: &[trajectory_file::FilePoint]) -> CliResult<Trajectory>
 
 /// `play`: everything that can be checked is checked before connecting; then the start
 /// position before anything is sent that acts; then preflight, speed, start, (approach), stream.
-pub fn play(ctx: &Ctx, args: &PlayArgs, approach: bool) -> CliResult {
+pub(crate) fn play(ctx: &Ctx, args: &PlayArgs, approach: bool) -> CliResult {
     let speed = check_speed(args.speed)?;
     if !(args.rate.is_finite() && args.rate >= MIN_PLAY_RATE_HZ && args.rate <= MAX_PLAY_RATE_HZ) {
         return Err(CliError::input(format!(
@@ -311,12 +311,12 @@ pub fn play(ctx: &Ctx, args: &PlayArgs, approach: bool) -> CliResult {
 }
 
 /// Lowest `play --rate`, Hz (the client allows at most 500 ms between samples).
-pub const MIN_PLAY_RATE_HZ: f64 = 4.0;
+pub(crate) const MIN_PLAY_RATE_HZ: f64 = 4.0;
 /// Highest `play --rate`, Hz.
-pub const MAX_PLAY_RATE_HZ: f64 = 500.0;
+pub(crate) const MAX_PLAY_RATE_HZ: f64 = 500.0;
 
 /// A stream report as JSON, durations in seconds.
-pub fn stream_report_json(r: &StreamReport) -> serde_json::Value {
+pub(crate) fn stream_report_json(r: &StreamReport) -> serde_json::Value {
     json!({
         "outcome": r.outcome,
         "samples_sent": r.samples_sent,
@@ -334,7 +334,7 @@ pub fn stream_report_json(r: &StreamReport) -> serde_json::Value {
 }
 
 /// Prints a stream report.
-pub fn print_stream_report(r: &StreamReport, as_json: bool) {
+pub(crate) fn print_stream_report(r: &StreamReport, as_json: bool) {
     if as_json {
         println!("{}", stream_report_json(r));
         return;
@@ -359,7 +359,12 @@ pub fn print_stream_report(r: &StreamReport, as_json: bool) {
 }
 
 /// `record`.
-pub fn record(ctx: &Ctx, file: &std::path::Path, rate: f64, duration: Option<f64>) -> CliResult {
+pub(crate) fn record(
+    ctx: &Ctx,
+    file: &std::path::Path,
+    rate: f64,
+    duration: Option<f64>,
+) -> CliResult {
     if !(rate.is_finite() && (MIN_RATE_HZ..=1000.0).contains(&rate)) {
         return Err(CliError::input(format!(
             "--rate must be from {MIN_RATE_HZ} to 1000 Hz"
@@ -437,7 +442,7 @@ pub fn record(ctx: &Ctx, file: &std::path::Path, rate: f64, duration: Option<f64
 }
 
 /// `raw`.
-pub fn raw(ctx: &Ctx, text: &str, yes: bool) -> CliResult {
+pub(crate) fn raw(ctx: &Ctx, text: &str, yes: bool) -> CliResult {
     with_robot(ctx, async |robot: &Robot, _stop: &Interrupt| {
         let frame = robot.send_raw(text, yes).await.map_err(|e| {
             let request = ServerRequest::parse(text.as_bytes());
@@ -465,7 +470,7 @@ pub fn raw(ctx: &Ctx, text: &str, yes: bool) -> CliResult {
 
 /// Round-trip statistics of `count` status polls.
 #[derive(Debug, Clone, serde::Serialize)]
-pub struct BenchResult {
+pub(crate) struct BenchResult {
     /// Round trips.
     pub count: u32,
     /// Round trips per second.
@@ -476,7 +481,7 @@ pub struct BenchResult {
 
 /// Round-trip times in microseconds.
 #[derive(Debug, Clone, serde::Serialize)]
-pub struct RttUs {
+pub(crate) struct RttUs {
     /// Fastest.
     pub min: f64,
     /// Mean.
@@ -488,7 +493,7 @@ pub struct RttUs {
 }
 
 /// Measures `count` lock-step `0 0 0` polls.
-pub async fn measure(robot: &Robot, count: u32) -> CliResult<BenchResult> {
+pub(crate) async fn measure(robot: &Robot, count: u32) -> CliResult<BenchResult> {
     let mut rtts = Vec::with_capacity(count as usize);
     let start = Instant::now();
     for _ in 0..count {
@@ -513,7 +518,7 @@ pub async fn measure(robot: &Robot, count: u32) -> CliResult<BenchResult> {
 }
 
 /// `bench`: against `--robot`, or the embedded emulator when none is given.
-pub fn bench(ctx: &Ctx, count: u32) -> CliResult {
+pub(crate) fn bench(ctx: &Ctx, count: u32) -> CliResult {
     if count == 0 {
         return Err(CliError::input("--count must be at least 1"));
     }

@@ -11,10 +11,10 @@ use fs020n_sim::{ControllerConfig, Emulator, TcpServer};
 use crate::error::{CliError, CliResult, Exit};
 
 /// Default robot address when `--robot` is not given (where `fs020n sim` listens).
-pub const DEFAULT_ROBOT: &str = "127.0.0.1:10050";
+pub(crate) const DEFAULT_ROBOT: &str = "127.0.0.1:10050";
 
 /// What every robot command needs.
-pub struct Ctx {
+pub(crate) struct Ctx {
     /// The robot's address.
     pub addr: Option<String>,
     /// Print JSON.
@@ -27,14 +27,14 @@ pub struct Ctx {
 
 impl Ctx {
     /// The address to use: `--robot`, else the default.
-    pub fn addr_or_default(&self) -> String {
+    pub(crate) fn addr_or_default(&self) -> String {
         self.addr
             .clone()
             .unwrap_or_else(|| DEFAULT_ROBOT.to_owned())
     }
 
     /// The client configuration for this robot.
-    pub fn client_config(&self) -> ClientConfig {
+    pub(crate) fn client_config(&self) -> ClientConfig {
         ClientConfig {
             model: self.model.clone(),
             connect_timeout: self.connect_timeout,
@@ -45,7 +45,7 @@ impl Ctx {
 
 /// A tokio runtime with worker threads, so the client's keep-alive runs while the main thread
 /// waits for input.
-pub fn runtime() -> CliResult<tokio::runtime::Runtime> {
+pub(crate) fn runtime() -> CliResult<tokio::runtime::Runtime> {
     tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
@@ -54,14 +54,14 @@ pub fn runtime() -> CliResult<tokio::runtime::Runtime> {
 }
 
 /// Connects to `addr`.
-pub async fn connect(addr: &str, ctx: &Ctx) -> CliResult<Robot> {
+pub(crate) async fn connect(addr: &str, ctx: &Ctx) -> CliResult<Robot> {
     Robot::connect(addr, ctx.client_config())
         .await
         .map_err(client_error)
 }
 
 /// An emulator inside this process on a free loopback port.
-pub struct Embedded {
+pub(crate) struct Embedded {
     /// The emulator (for observing it).
     pub emulator: Emulator,
     /// Its robot port.
@@ -70,7 +70,7 @@ pub struct Embedded {
 
 impl Embedded {
     /// Starts the embedded emulator (call inside the runtime).
-    pub async fn start(model: &RobotModel) -> CliResult<Embedded> {
+    pub(crate) async fn start(model: &RobotModel) -> CliResult<Embedded> {
         let emulator = Emulator::new(ControllerConfig::new(model.clone()));
         let addr: SocketAddr = ([127, 0, 0, 1], 0).into();
         let server = emulator
@@ -81,14 +81,14 @@ impl Embedded {
     }
 
     /// Its address as HOST:PORT.
-    pub fn addr(&self) -> String {
+    pub(crate) fn addr(&self) -> String {
         self.server.local_addr().to_string()
     }
 }
 
 /// The robot of `demo` and `bench`: `--robot` if given, else an embedded emulator (returned so
 /// that it lives as long as the session).
-pub async fn robot_or_embedded(ctx: &Ctx) -> CliResult<(String, Option<Embedded>)> {
+pub(crate) async fn robot_or_embedded(ctx: &Ctx) -> CliResult<(String, Option<Embedded>)> {
     match &ctx.addr {
         Some(addr) => Ok((addr.clone(), None)),
         None => {
@@ -99,7 +99,7 @@ pub async fn robot_or_embedded(ctx: &Ctx) -> CliResult<(String, Option<Embedded>
 }
 
 /// Lists blockers with their remedies, one per line.
-pub fn blocker_lines(blockers: &[Blocker]) -> String {
+pub(crate) fn blocker_lines(blockers: &[Blocker]) -> String {
     blockers
         .iter()
         .map(|b| {
@@ -116,7 +116,7 @@ pub fn blocker_lines(blockers: &[Blocker]) -> String {
 }
 
 /// Maps a client error to what the user reads and the exit code.
-pub fn client_error(e: ClientError) -> CliError {
+pub(crate) fn client_error(e: ClientError) -> CliError {
     let exit = match &e {
         ClientError::Connect { .. } | ClientError::LinkLost(_) | ClientError::Closed => Exit::Link,
         ClientError::Blocked(_) | ClientError::StartFailed { .. } => Exit::NotReady,
@@ -155,11 +155,11 @@ pub fn client_error(e: ClientError) -> CliError {
 /// Ctrl-C, remembered: once pressed it stays pressed, so a signal that arrives while a command
 /// is busy (in a poll, a move) is never lost. Install it once per command, inside the runtime.
 #[derive(Clone)]
-pub struct Interrupt(std::sync::Arc<tokio::sync::watch::Sender<bool>>);
+pub(crate) struct Interrupt(std::sync::Arc<tokio::sync::watch::Sender<bool>>);
 
 impl Interrupt {
     /// Starts listening for Ctrl-C.
-    pub fn install() -> Interrupt {
+    pub(crate) fn install() -> Interrupt {
         let tx = std::sync::Arc::new(tokio::sync::watch::Sender::new(false));
         let listener = tx.clone();
         tokio::spawn(async move {
@@ -171,7 +171,7 @@ impl Interrupt {
     }
 
     /// Resolves once Ctrl-C has been pressed (and not cleared since).
-    pub async fn wait(&self) {
+    pub(crate) async fn wait(&self) {
         let mut rx = self.0.subscribe();
         if rx.wait_for(|pressed| *pressed).await.is_err() {
             std::future::pending::<()>().await;
@@ -179,20 +179,20 @@ impl Interrupt {
     }
 
     /// Forgets a Ctrl-C already handled (the shell goes on after one).
-    pub fn clear(&self) {
+    pub(crate) fn clear(&self) {
         self.0.send_replace(false);
     }
 }
 
 /// Resolves when the user presses Ctrl-C (for `sim`, which has no session to close).
-pub async fn ctrl_c() {
+pub(crate) async fn ctrl_c() {
     if tokio::signal::ctrl_c().await.is_err() {
         std::future::pending::<()>().await;
     }
 }
 
 /// Ends the session cleanly (255), reporting but not failing on a dead link.
-pub async fn close_quietly(robot: &Robot) {
+pub(crate) async fn close_quietly(robot: &Robot) {
     if let Err(e) = tokio::time::timeout(Duration::from_secs(3), robot.close())
         .await
         .unwrap_or(Err(ClientError::Closed))
@@ -202,7 +202,10 @@ pub async fn close_quietly(robot: &Robot) {
 }
 
 /// Checks a joint target against the model before any connection is made.
-pub fn check_target(model: &RobotModel, values: &[f64]) -> CliResult<fs020n_proto::JointsDeg> {
+pub(crate) fn check_target(
+    model: &RobotModel,
+    values: &[f64],
+) -> CliResult<fs020n_proto::JointsDeg> {
     let arr: [f64; 6] = values
         .try_into()
         .map_err(|_| CliError::input("expected 6 joint angles"))?;
@@ -217,10 +220,10 @@ pub fn check_target(model: &RobotModel, values: &[f64]) -> CliResult<fs020n_prot
 }
 
 /// Longest `--timeout` accepted, seconds (a day).
-pub const MAX_TIMEOUT_S: f64 = 86_400.0;
+pub(crate) const MAX_TIMEOUT_S: f64 = 86_400.0;
 
 /// Checks a `--timeout` in seconds.
-pub fn check_timeout(seconds: f64) -> CliResult<Duration> {
+pub(crate) fn check_timeout(seconds: f64) -> CliResult<Duration> {
     if seconds.is_finite() && seconds > 0.0 && seconds <= MAX_TIMEOUT_S {
         Ok(Duration::from_secs_f64(seconds))
     } else {
@@ -231,7 +234,7 @@ pub fn check_timeout(seconds: f64) -> CliResult<Duration> {
 }
 
 /// Checks a speed percent before any connection is made.
-pub fn check_speed(percent: f64) -> CliResult<f64> {
+pub(crate) fn check_speed(percent: f64) -> CliResult<f64> {
     if percent.is_finite() && (1.0..=100.0).contains(&percent) {
         Ok(percent)
     } else {

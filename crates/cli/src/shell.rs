@@ -74,7 +74,7 @@ fn history_path() -> Option<std::path::PathBuf> {
 }
 
 /// `shell`.
-pub fn shell(ctx: &Ctx) -> CliResult {
+pub(crate) fn shell(ctx: &Ctx) -> CliResult {
     let rt = runtime()?;
     let addr = ctx.addr_or_default();
     let mut robot = rt.block_on(connect(&addr, ctx))?;

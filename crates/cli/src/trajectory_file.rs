@@ -14,7 +14,7 @@ use crate::error::{CliError, CliResult};
 
 /// One point of a trajectory file.
 #[derive(Debug, Clone, PartialEq)]
-pub struct FilePoint {
+pub(crate) struct FilePoint {
     /// Time from the start, seconds.
     pub time_s: f64,
     /// Joint positions, degrees.
@@ -28,7 +28,7 @@ pub struct FilePoint {
 }
 
 /// Reads and validates a trajectory file.
-pub fn load(path: &Path, model: &RobotModel) -> CliResult<Vec<FilePoint>> {
+pub(crate) fn load(path: &Path, model: &RobotModel) -> CliResult<Vec<FilePoint>> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| CliError::input(format!("cannot read {}: {e}", path.display())))?;
     let is_json = path
@@ -51,7 +51,7 @@ const NAMES: [&str; 19] = [
 ];
 
 /// Parses CSV text.
-pub fn parse_csv(text: &str) -> Result<Vec<FilePoint>, String> {
+pub(crate) fn parse_csv(text: &str) -> Result<Vec<FilePoint>, String> {
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)
         .trim(csv::Trim::All)
@@ -149,7 +149,7 @@ enum JsonFile {
 }
 
 /// Parses JSON text.
-pub fn parse_json(text: &str) -> Result<Vec<FilePoint>, String> {
+pub(crate) fn parse_json(text: &str) -> Result<Vec<FilePoint>, String> {
     // First a syntax check, which reports line and column.
     let value: serde_json::Value = serde_json::from_str(text).map_err(|e| {
         format!(
@@ -178,7 +178,7 @@ pub fn parse_json(text: &str) -> Result<Vec<FilePoint>, String> {
 }
 
 /// Checks times, finiteness, ranges and speeds between points.
-pub fn validate(points: &[FilePoint], model: &RobotModel) -> Result<(), String> {
+pub(crate) fn validate(points: &[FilePoint], model: &RobotModel) -> Result<(), String> {
     if points.is_empty() {
         return Err("no points".to_owned());
     }

@@ -1,4 +1,5 @@
 //! CLI tests against the emulator (`fs020n sim` in a child process, on loopback).
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use std::io::{BufRead, BufReader, Write};
 use std::process::{Child, Command as StdCommand, Stdio};
