@@ -141,6 +141,7 @@ async fn tour(ctx: &Ctx, robot: &Robot, speed: f64) -> CliResult<serde_json::Val
                 tolerance_deg: 0.05,
                 settle: Duration::from_millis(50),
                 timeout: Some(timeout),
+                hold_timeout: None,
             })
             .await
             .map_err(client_error)?;

@@ -146,6 +146,7 @@ pub(crate) fn move_joints(ctx: &Ctx, args: &MoveArgs) -> CliResult {
             tolerance_deg: args.tolerance,
             settle: Duration::from_millis(100),
             timeout: Some(timeout),
+            hold_timeout: None,
         };
         let pb = if args.wait && !ctx.json {
             bar(1000, "{spinner} moving [{bar:40}] {percent:>3}% {msg}")
@@ -234,18 +235,8 @@ pub(crate) fn play(ctx: &Ctx, args: &PlayArgs, approach: bool) -> CliResult {
         max_gap: defaults.max_gap.max(period * 2),
         ..defaults
     };
-    let checked = match options.mode {
-        StreamMode::Extrapolated { lookahead_passes } => trajectory.validate_extrapolated(
-            &ctx.model,
-            period.as_secs_f64(),
-            options.max_step_deg,
-            lookahead_passes,
-        ),
-        StreamMode::Waypoints => {
-            trajectory.validate(&ctx.model, period.as_secs_f64(), options.max_step_deg)
-        }
-    };
-    checked.map_err(|e| CliError::input(format!("{}: {e}", args.file.display())))?;
+    options
+        .validate(&ctx.model, &trajectory).map_err(|e| CliError::input(format!("{}: {e}", args.file.display())))?;
     with_robot(ctx, async |robot: &Robot, stop: &Interrupt| {
         let first = trajectory.first();
         let here = robot.poll().await.map_err(client_error)?.joints;
@@ -294,8 +285,7 @@ pub(crate) fn play(ctx: &Ctx, args: &PlayArgs, approach: bool) -> CliResult {
                 }
                 _ = stop.wait() => {
                     pb.abandon_with_message("cancelled");
-                    handle.cancel();
-                    let _ = robot.cancel().await;
+                    let _ = handle.cancel().await;
                     return Err(interrupted());
                 }
             }
