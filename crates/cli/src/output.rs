@@ -1,6 +1,7 @@
 //! Formatting of statuses and numbers for people and for `--json`.
 
 use fs020n_client::RttStats;
+use fs020n_kin::{RobotModel, Xyzoat};
 use fs020n_proto::{JointsDeg, Status, Timer};
 use serde_json::{json, Value};
 
@@ -23,6 +24,42 @@ pub(crate) fn status_json(s: &Status) -> Value {
         "timer_s": match s.timer { Timer::Seconds(t) => json!(t), Timer::Overflow => Value::Null },
         "joints_deg": joints_json(&s.joints),
     })
+}
+
+/// The flange pose of `joints` (forward kinematics).
+pub(crate) fn flange_pose(model: &RobotModel, joints: &JointsDeg) -> Xyzoat {
+    model.forward(&joints.to_rad()).to_xyzoat()
+}
+
+/// A pose as JSON: `{"x", "y", "z"}` in mm, `{"o", "a", "t"}` in degrees.
+pub(crate) fn pose_json(p: &Xyzoat) -> Value {
+    json!({ "x": p.x_mm, "y": p.y_mm, "z": p.z_mm, "o": p.o_deg, "a": p.a_deg, "t": p.t_deg })
+}
+
+/// A pose for people.
+pub(crate) fn pose_line(p: &Xyzoat) -> String {
+    format!(
+        "X={:.3} Y={:.3} Z={:.3} mm  O={:.3} A={:.3} T={:.3} deg",
+        p.x_mm, p.y_mm, p.z_mm, p.o_deg, p.a_deg, p.t_deg
+    )
+}
+
+/// A robot's status as JSON: the reply's keys ([`status_json`]) and `pose`, the flange pose
+/// computed from the joints with the robot model.
+pub(crate) fn robot_status_json(s: &Status, model: &RobotModel) -> Value {
+    let mut v = status_json(s);
+    v["pose"] = pose_json(&flange_pose(model, &s.joints));
+    v
+}
+
+/// A robot's status for people: the reply's table and the flange pose.
+pub(crate) fn robot_status_table(s: &Status, model: &RobotModel) -> String {
+    let mut t = status_table(s);
+    t.push_str(&format!(
+        "  flange pose    {}\n",
+        pose_line(&flange_pose(model, &s.joints))
+    ));
+    t
 }
 
 /// A reply as a table for people.

@@ -141,12 +141,10 @@ struct JsonPoint {
     acceleration_deg_s2: Option<[f64; 6]>,
 }
 
-#[derive(Deserialize)]
-#[serde(untagged)]
-enum JsonFile {
-    Points(Vec<JsonPoint>),
-    Wrapped { points: Vec<JsonPoint> },
-}
+/// What a JSON trajectory file must look like (for messages).
+const JSON_SHAPE: &str = "an array of points (or {\"points\": [...]}), each \
+    {\"time_s\": number, \"position_deg\": [6 numbers], optional \"velocity_deg_s\": [6 numbers], \
+    optional \"acceleration_deg_s2\": [6 numbers]}";
 
 /// Parses JSON text.
 pub(crate) fn parse_json(text: &str) -> Result<Vec<FilePoint>, String> {
@@ -158,23 +156,29 @@ pub(crate) fn parse_json(text: &str) -> Result<Vec<FilePoint>, String> {
             e.column()
         )
     })?;
-    let file: JsonFile = serde_json::from_value(value).map_err(|e| {
-        format!("unexpected JSON structure ({e}); expected an array of {{\"time_s\", \"position_deg\": [6 numbers], optional \"velocity_deg_s\", \"acceleration_deg_s2\"}}")
-    })?;
-    let pts = match file {
-        JsonFile::Points(p) | JsonFile::Wrapped { points: p } => p,
+    let items = match value {
+        serde_json::Value::Array(items) => items,
+        serde_json::Value::Object(mut map) => match map.remove("points") {
+            Some(serde_json::Value::Array(items)) if map.is_empty() => items,
+            _ => return Err(format!("expected {JSON_SHAPE}")),
+        },
+        _ => return Err(format!("expected {JSON_SHAPE}")),
     };
-    Ok(pts
+    items
         .into_iter()
         .enumerate()
-        .map(|(i, p)| FilePoint {
-            time_s: p.time_s,
-            position: JointsDeg::new(p.position_deg),
-            velocity: p.velocity_deg_s.map(JointsDeg::new),
-            acceleration: p.acceleration_deg_s2.map(JointsDeg::new),
-            origin: format!("point {}", i + 1),
+        .map(|(i, item)| {
+            let p: JsonPoint = serde_json::from_value(item)
+                .map_err(|e| format!("point {}: {e}; expected {JSON_SHAPE}", i + 1))?;
+            Ok(FilePoint {
+                time_s: p.time_s,
+                position: JointsDeg::new(p.position_deg),
+                velocity: p.velocity_deg_s.map(JointsDeg::new),
+                acceleration: p.acceleration_deg_s2.map(JointsDeg::new),
+                origin: format!("point {}", i + 1),
+            })
         })
-        .collect())
+        .collect()
 }
 
 /// Checks times, finiteness, ranges and speeds between points.
@@ -281,5 +285,17 @@ mod tests {
         assert_eq!(p[0].velocity.unwrap()[0], 1.0);
         let e = parse_json("[{\"time_s\":0,\n\"position_deg\":[0,0]]").unwrap_err();
         assert!(e.contains("line 2"), "{e}");
+        // Structure errors name the point and the field, never the parser's own types.
+        let e = parse_json(r#"[{"time_s":0,"position_deg":[0,0,-90,0,-90,0]},{"time_s":1}]"#)
+            .unwrap_err();
+        assert!(
+            e.starts_with("point 2: missing field `position_deg`"),
+            "{e}"
+        );
+        assert!(!e.contains("untagged") && !e.contains("JsonFile"), "{e}");
+        let e = parse_json(r#"{"pts": []}"#).unwrap_err();
+        assert!(e.starts_with("expected an array of points"), "{e}");
+        let e = parse_json(r#"[{"time_s":0,"position_deg":[0,0,-90,0,-90]}]"#).unwrap_err();
+        assert!(e.contains("point 1") && e.contains("6"), "{e}");
     }
 }
