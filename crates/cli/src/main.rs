@@ -22,18 +22,24 @@ use fs020n_kin::RobotModel;
 use crate::args::{Cli, Cmd, ColorWhen};
 use crate::error::{CliError, CliResult};
 
-/// Global options that mean nothing to `sim` (it has no robot to reach): hidden from its help.
-const NOT_FOR_SIM: [&str; 2] = ["robot", "connect_timeout"];
-
-/// The command line, with `sim --help` showing only what applies to the emulator.
+/// The command line, with `sim --help` showing only what applies to the emulator: the global
+/// options that mean nothing to it (it has no robot to reach) get hidden twins in `sim`, which
+/// clap then does not replace by the visible global ones.
 fn command() -> clap::Command {
-    let mut cmd = Cli::command();
-    // Propagates the global options into every subcommand, so that they can be hidden there.
-    cmd.build();
-    cmd.mut_subcommand("sim", |sim| {
-        NOT_FOR_SIM
-            .iter()
-            .fold(sim, |sim, id| sim.mut_arg(*id, |a| a.hide(true)))
+    use clap::{value_parser, Arg};
+    Cli::command().mut_subcommand("sim", |sim| {
+        sim.arg(
+            Arg::new("robot")
+                .long("robot")
+                .hide(true)
+                .value_parser(value_parser!(String)),
+        )
+        .arg(
+            Arg::new("connect_timeout")
+                .long("connect-timeout")
+                .hide(true)
+                .value_parser(value_parser!(f64)),
+        )
     })
 }
 
@@ -46,7 +52,12 @@ fn main() -> ExitCode {
     let color = use_color(cli.color);
     init_logging(cli.verbose, color);
     let json = cli.json;
-    match run(cli) {
+    // `--robot` typed for `sim` (not from FS020N_ROBOT, which may be set for other commands).
+    let typed = |m: &clap::ArgMatches| {
+        m.value_source("robot") == Some(clap::parser::ValueSource::CommandLine)
+    };
+    let robot_typed = typed(&matches) || matches.subcommand().is_some_and(|(_, m)| typed(m));
+    match run(cli, robot_typed) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             report(&e, json, color);
@@ -116,7 +127,7 @@ fn ctx(cli: &Cli, model: RobotModel) -> session::Ctx {
     }
 }
 
-fn run(cli: Cli) -> CliResult {
+fn run(cli: Cli, robot_typed: bool) -> CliResult {
     if !(cli.connect_timeout.is_finite() && cli.connect_timeout > 0.0) {
         return Err(CliError::input(
             "--connect-timeout must be a positive number of seconds",
@@ -141,7 +152,7 @@ fn run(cli: Cli) -> CliResult {
         Cmd::Bench { count } => robot_cmds::bench(&ctx(&cli, model), *count),
         Cmd::Demo { speed, yes } => demo::demo(&ctx(&cli, model), *speed, *yes),
         Cmd::Sim(args) => {
-            if cli.robot.is_some() {
+            if robot_typed {
                 return Err(CliError::input(
                     "--robot has no meaning for `sim` (it is the robot); use --listen HOST:PORT",
                 ));

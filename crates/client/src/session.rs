@@ -505,7 +505,7 @@ fn spawn(conn: Conn, first: Exchange, common: Arc<Common>, target: String) -> Li
         kind = "poll",
         request = ?POLL,
         reply = ?first.frame.text,
-        rtt_ms = first.rtt().as_secs_f64() * 1e3,
+        rtt_us = u64::try_from(first.rtt().as_micros()).unwrap_or(u64::MAX),
         "exchange"
     );
     tracing::info!(session = id, %target, "connected");
@@ -687,7 +687,7 @@ impl Task {
                         kind = kind.as_str(),
                         request = ?text,
                         reply = ?ex.frame.text,
-                        rtt_ms = rtt.as_secs_f64() * 1e3,
+                        rtt_us = u64::try_from(rtt.as_micros()).unwrap_or(u64::MAX),
                         "exchange"
                     );
                 } else {
@@ -696,7 +696,7 @@ impl Task {
                         kind = kind.as_str(),
                         request = ?text,
                         reply = ?ex.frame.text,
-                        rtt_ms = rtt.as_secs_f64() * 1e3,
+                        rtt_us = u64::try_from(rtt.as_micros()).unwrap_or(u64::MAX),
                         "exchange"
                     );
                 }

@@ -24,7 +24,7 @@ impl Sim {
         Sim::spawn(&[], true)
     }
 
-    fn spawn(extra: &[&str], pendant: bool) -> Sim {
+    pub(crate) fn spawn(extra: &[&str], pendant: bool) -> Sim {
         let mut cmd = StdCommand::new(assert_cmd::cargo::cargo_bin("fs020n"));
         cmd.args(["--json", "sim", "--listen", "127.0.0.1:0"])
             .args(extra);
@@ -107,4 +107,22 @@ pub(crate) fn pendant_post(addr: &str, path: &str, body: &str) -> Value {
     s.read_to_string(&mut text).unwrap();
     let body = text.split("\r\n\r\n").nth(1).unwrap_or("null");
     serde_json::from_str(body).unwrap_or(Value::Null)
+}
+
+/// Polls the pendant's `/state` until `ready` holds (at most 20 s, generous for a loaded
+/// machine), returning that state.
+pub(crate) fn wait_for_state(pendant: &str, ready: impl Fn(&Value) -> bool) -> Value {
+    for _ in 0..2000 {
+        let state = pendant_get(pendant, "/state");
+        if ready(&state) {
+            return state;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    panic!("the emulator never reached the expected state");
+}
+
+/// JT1 in a pendant state, degrees.
+pub(crate) fn jt1_of(state: &Value) -> f64 {
+    state["joints_deg"][0].as_f64().unwrap_or(f64::NAN)
 }
