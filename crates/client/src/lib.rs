@@ -82,6 +82,11 @@ pub use transport::{AsyncReadWrite, BoxedStream, ConnectFuture, Connector, TcpCo
 pub use fs020n_kin::{Pose, Xyzoat};
 pub use fs020n_proto::{ErrorCode, JointsDeg, ReplyFrame, Status};
 
+/// The README's examples, compiled as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;
+
 #[cfg(test)]
 mod tests {
     fn send_sync<T: Send + Sync>() {}

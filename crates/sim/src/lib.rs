@@ -36,3 +36,8 @@ pub use pendant::{pendant_router, serve_pendant, PendantServer};
 pub use run::{run_robot, RunningRobot, SimOptions};
 pub use server::{Emulator, TcpServer};
 pub use snapshot::{CommandInfo, ErrorInfo, LastEnd, SessionInfo, Snapshot};
+
+/// The README's examples, compiled as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;
