@@ -27,7 +27,10 @@ const COMMANDS: &[(&str, &str)] = &[
     ),
     ("stop", "stop the motion program (command 2)"),
     ("speed", "speed PCT — set the monitor speed (command 3)"),
-    ("cancel", "cancel the current motion (command 5)"),
+    (
+        "cancel",
+        "stop the current motion for sure (commands 5 then 2; `start` again to move)",
+    ),
     (
         "move",
         "move J1 J2 J3 J4 J5 J6 [wait] — joint move (command 6)",
@@ -128,7 +131,7 @@ pub(crate) fn shell(ctx: &Ctx) -> CliResult {
                         // Ctrl-C while a command runs (e.g. `move … wait`): stop the arm, keep
                         // the session.
                         let _ = robot.cancel().await;
-                        Err(CliError::new(Exit::Interrupted, "interrupted: motion cancelled; the session stays open"))
+                        Err(CliError::new(Exit::Interrupted, "interrupted: motion cancelled and the program stopped; the session stays open (`start` to move again)"))
                     }
                 }
             })
@@ -187,7 +190,7 @@ async fn execute(
         }
         "cancel" => {
             robot.cancel().await.map_err(shell_error)?;
-            println!("motion cancelled");
+            println!("motion cancelled and the program stopped; `start` to move again");
         }
         "speed" => {
             let p = words

@@ -196,7 +196,7 @@ pub enum ClientError {
     /// A motion stayed paused by HOLD for longer than its hold timeout
     /// ([`Completion::hold_timeout`](crate::Completion::hold_timeout),
     /// [`StreamOptions::hold_timeout`](crate::StreamOptions::hold_timeout)); it was cancelled
-    /// (command 5).
+    /// (commands 5 then 2).
     #[error(
         "the {during} was held (RUN/HOLD on HOLD) for {}, longer than its hold timeout; it was \
          cancelled — switch RUN/HOLD to RUN and move again",
@@ -236,7 +236,7 @@ pub enum ClientError {
     /// No inverse-kinematics solution; nothing was sent.
     #[error("no joint solution for the pose: {0}; choose a reachable pose whose joints are inside the ranges")]
     Ik(#[from] IkError),
-    /// A joint move did not finish in time; it was cancelled (command 5).
+    /// A joint move did not finish in time; it was cancelled (commands 5 then 2).
     #[error(
         "the move did not reach its target within {} ({remaining_deg:.3} deg to go); \
          it was cancelled — check the speed (set_speed) and the robot's surroundings, or give a \
@@ -274,7 +274,7 @@ pub enum ClientError {
     /// The motion was cancelled, superseded, or not sent because a cancel came first.
     #[error("{0}")]
     Cancelled(#[source] Cancellation),
-    /// A stream fell behind by more than the allowed gap; it was cancelled (command 5).
+    /// A stream fell behind by more than the allowed gap; it was cancelled (commands 5 then 2).
     #[error(
         "stream underrun: {} between samples (allowed {}); the stream was cancelled — \
          lower the sample rate or the load on this computer",

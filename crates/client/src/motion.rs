@@ -5,7 +5,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use fs020n_kin::{JointMove, RobotModel};
-use fs020n_proto::{Command, JointsDeg, Request};
+use fs020n_proto::JointsDeg;
 use tokio::sync::watch;
 use tokio::time::Instant;
 
@@ -38,10 +38,10 @@ pub struct Completion {
     /// as one day. Time spent paused by HOLD (see `hold_timeout`) does not count.
     pub timeout: Option<Duration>,
     /// What HOLD does to the wait. `None` (default): the wait fails at once with
-    /// [`ClientError::Aborted`] and cancels the move (command 5), so that switching back to RUN
+    /// [`ClientError::Aborted`] and cancels the move (commands 5 then 2), so that switching back to RUN
     /// does not resume it unobserved. `Some(limit)`: the controller pauses the move and resumes
     /// it on RUN, and the wait waits with it — for at most `limit` in HOLD, after which it
-    /// cancels the move and fails with [`ClientError::HoldTimeout`].
+    /// cancels the move (commands 5 then 2) and fails with [`ClientError::HoldTimeout`].
     /// [`MoveProgress::held`] tells a progress display. At most one day.
     pub hold_timeout: Option<Duration>,
 }
@@ -117,7 +117,7 @@ pub struct MoveReport {
 /// [`cancel`](Self::cancel) take `&self`; `cancel` acts only while this move is the current
 /// motion (not after a newer motion superseded it, nor after a cancel or stop); and dropping
 /// the last clone while the move is current and no [`wait`](Self::wait) has finished cancels
-/// it (command 5), so that a move nobody follows does not run on unobserved.
+/// it (commands 5 then 2), so that a move nobody follows does not run on unobserved.
 #[derive(Debug, Clone)]
 #[must_use = "dropping the last MoveHandle cancels the move: keep it and call wait()"]
 pub struct MoveHandle {
@@ -155,8 +155,7 @@ impl Drop for MoveInner {
             && self.still_current().is_ok()
             && !self.link.shared.is_dead()
         {
-            self.link.shared.bump_epoch();
-            self.link.cancel_detached();
+            self.link.halt_detached();
         }
     }
 }
@@ -232,24 +231,20 @@ impl MoveHandle {
         self.inner.link.status.clone()
     }
 
-    /// Cancels the move (command 5: the robot brakes to a stop; the program keeps running),
-    /// if it is still the current motion. After a newer motion superseded it, or a cancel or
-    /// stop, it does nothing (it must not stop the newer motion).
+    /// Cancels the move for sure (commands 5 then 2, as [`Robot::cancel`](crate::Robot::cancel)):
+    /// the robot brakes to a stop and the motion program ends; start it again to move. Only
+    /// while the move is the current motion: after a newer motion superseded it, or a cancel
+    /// or stop, it does nothing (it must not stop the newer motion).
     pub async fn cancel(&self) -> Result<(), ClientError> {
         if self.inner.still_current().is_err() {
             return Ok(());
         }
-        self.inner.link.shared.bump_epoch();
-        self.inner
-            .link
-            .command(&Request::new(Command::CancelMotion))
-            .await
-            .map(|_| ())
+        self.inner.link.halt().await.map(|_| ())
     }
 
     /// Waits until the robot is at the target (see [`Completion`]). Fails — and cancels the
-    /// move with command 5, so that it cannot resume later — when the controller reports an
-    /// error, TEACH, the lock, power off or the program stopped, on timeout, and when
+    /// move for sure (commands 5 then 2), so that it cannot resume later — when the controller
+    /// reports an error, TEACH, the lock, power off or the program stopped, on timeout, and when
     /// `completion` is invalid ([`Completion::validate`], `ClientError::Config`). HOLD fails
     /// it the same way unless [`Completion::hold_timeout`] is set, in which case the wait
     /// follows the controller: paused in HOLD, going on after RUN. Fails without sending

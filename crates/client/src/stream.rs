@@ -59,7 +59,7 @@ pub struct StreamOptions {
     /// at most one day.
     pub end_timeout: Duration,
     /// What HOLD does to the stream. `None` (default): the stream fails at once with
-    /// [`ClientError::Aborted`] (command 5 brakes). `Some(limit)`: the stream pauses with the
+    /// [`ClientError::Aborted`] (commands 5 then 2 stop the arm). `Some(limit)`: the stream pauses with the
     /// controller — it sends command 5 (so that switching back to RUN does not replay a stale
     /// sample), stops its trajectory clock, and goes on from the same trajectory time once the
     /// controller runs again; after `limit` in HOLD it fails with
@@ -201,7 +201,7 @@ pub struct StreamProgress {
 pub enum StreamOutcome {
     /// Every sample was sent.
     Completed,
-    /// Cancelled by the user (command 5 sent).
+    /// Cancelled by the user (commands 5 and 2 sent).
     Cancelled,
 }
 
@@ -266,8 +266,8 @@ pub(crate) fn check(
 ///
 /// Like [`MoveHandle`](crate::MoveHandle): [`wait`](Self::wait) and [`cancel`](Self::cancel)
 /// take `&self`; `cancel` acts only while this stream is the current motion; and dropping the
-/// last clone while the stream runs cancels it (command 5), also while the robot settles on
-/// the last point.
+/// last clone while the stream runs cancels it (commands 5 and 2), also while the robot
+/// settles on the last point.
 #[derive(Debug, Clone)]
 #[must_use = "dropping the last StreamHandle cancels the stream: keep it and call wait()"]
 pub struct StreamHandle {
@@ -356,10 +356,11 @@ impl StreamHandle {
         self.inner.progress.clone()
     }
 
-    /// Cancels the stream, if it is still the current motion: no further sample is sent, and
-    /// command 5 brakes the robot. Returns once the stream has ended; [`wait`](Self::wait)
-    /// then gives a report with [`StreamOutcome::Cancelled`]. After a newer motion, a cancel
-    /// or a stop, or once the stream has ended, it does nothing.
+    /// Cancels the stream, if it is still the current motion: no further sample is sent,
+    /// command 5 brakes the robot and command 2 ends the motion program (so no planned segment
+    /// runs after the brake). Returns once the stream has ended; [`wait`](Self::wait) then
+    /// gives a report with [`StreamOutcome::Cancelled`]. After a newer motion, a cancel or a
+    /// stop, or once the stream has ended, it does nothing.
     pub async fn cancel(&self) -> Result<(), ClientError> {
         self.inner.cancel_now();
         match self.wait().await {
@@ -434,13 +435,10 @@ impl Streamer {
         lock(&self.link.shared.clock).server_time(at)
     }
 
-    /// Sends command 5 (best effort: the error that ended the stream is what gets reported).
+    /// Stops the arm for sure: commands 5 then 2 (best effort: the error that ended the
+    /// stream is what gets reported).
     async fn brake(&self) {
-        if let Err(e) = self
-            .link
-            .command(&Request::new(Command::CancelMotion))
-            .await
-        {
+        if let Err(e) = self.link.halt().await {
             tracing::warn!(error = %e, "could not send the cancel at the end of a stream");
         }
     }
@@ -546,8 +544,9 @@ impl Streamer {
         self.options.hold_timeout.is_some() && only_held(b)
     }
 
-    /// The controller holds the motion: brake (so that RUN does not replay the last sample,
-    /// stale by then), then wait for RUN. `Ok(Some(held))` when the controller runs again,
+    /// The controller holds the motion: command 5 (so that RUN does not replay the last
+    /// sample, stale by then — but not command 2, which would end the program the controller
+    /// is about to resume), then wait for RUN. `Ok(Some(held))` when the controller runs again,
     /// `Ok(None)` on a cancel.
     async fn hold(&self) -> Result<Option<Duration>, ClientError> {
         let since = Instant::now();
@@ -558,7 +557,9 @@ impl Streamer {
             .min(LONGEST_WAIT);
         self.progress.send_modify(|p| p.held = true);
         tracing::info!("stream held (RUN/HOLD on HOLD); waiting for RUN");
-        self.brake().await;
+        self.link
+            .command(&Request::new(Command::CancelMotion))
+            .await?;
         let mut rx = self.link.status.clone();
         let mut epoch_rx = self.link.shared.epoch.subscribe();
         loop {

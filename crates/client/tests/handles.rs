@@ -12,7 +12,7 @@ use fs020n_client::{Blocker, Cancellation, ClientError, Completion, StreamOption
 use fs020n_proto::Command;
 
 fn newest(emu: &fs020n_sim::Emulator) -> Option<Command> {
-    emu.with(|c| c.newest_command().cloned())
+    emu.with(|c| c.newest_command())
 }
 
 fn jt1(emu: &fs020n_sim::Emulator) -> f64 {
@@ -66,7 +66,11 @@ async fn dropping_the_last_move_handle_cancels_the_move() {
     );
     drop(watcher);
     sleep_ms(100).await;
-    assert_eq!(newest(&emu), Some(Command::CancelMotion));
+    assert_eq!(
+        newest(&emu),
+        Some(Command::StopProgram),
+        "5, then 2: a sure stop"
+    );
     sleep_ms(3000).await;
     let j = jt1(&emu);
     assert!(j > 0.0 && j < 20.0, "stopped part-way: {j}");
@@ -132,7 +136,11 @@ async fn dropping_the_last_stream_handle_cancels_the_stream() {
     assert!(matches!(newest(&emu), Some(Command::StreamedMove(_))));
     drop(clone);
     sleep_ms(200).await;
-    assert_eq!(newest(&emu), Some(Command::CancelMotion));
+    assert_eq!(
+        newest(&emu),
+        Some(Command::StopProgram),
+        "5, then 2: a sure stop"
+    );
     let at = jt1(&emu);
     sleep_ms(2000).await;
     assert!((jt1(&emu) - at).abs() < 0.5, "stopped near {at}");
@@ -199,7 +207,11 @@ async fn a_hold_longer_than_the_hold_timeout_cancels_the_move() {
         other => panic!("{other:?}"),
     }
     assert!(err.to_string().contains("switch RUN/HOLD to RUN"), "{err}");
-    assert_eq!(newest(&emu), Some(Command::CancelMotion));
+    assert_eq!(
+        newest(&emu),
+        Some(Command::StopProgram),
+        "5, then 2: a sure stop"
+    );
     emu.with(|c| c.set_run(true));
     let at = jt1(&emu);
     sleep_ms(3000).await;

@@ -235,6 +235,12 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
         },
         None => None,
     };
+    if !robot.local_addr().ip().is_loopback() {
+        tracing::warn!(
+            robot = %robot.local_addr(),
+            "the robot port is bound off loopback: protocol 1040 has no authentication"
+        );
+    }
     let running = RunningRobot {
         emulator,
         robot,
