@@ -52,6 +52,7 @@ mod display;
 #[cfg(feature = "sim")]
 pub mod emulated;
 mod error;
+mod lag;
 mod motion;
 mod record;
 mod robot;
@@ -65,6 +66,7 @@ mod transport;
 pub use clock::{ClockFit, ServerClock};
 pub use config::{ClientConfig, RecordFormat, Recording};
 pub use error::{Activity, Cancellation, ClientError, LinkError, RawRefusal};
+pub use lag::LagCompensation;
 pub use motion::{Completion, MoveHandle, MoveProgress, MoveReport};
 pub use robot::{Robot, STOP_SETTLE};
 pub use safety::{

@@ -14,6 +14,7 @@ use tokio::time::Instant;
 use crate::check::check_target;
 use crate::clock::ClockFit;
 use crate::error::{Activity, ClientError, LinkError};
+use crate::lag::{LagCompensation, LagEstimator};
 use crate::motion::{only_held, LONGEST_WAIT};
 use crate::safety::{blockers, check_stream_sample, MAX_LOOKAHEAD_PASSES};
 use crate::session::{lock, Exchange, Kind, Link, MotionTag, SessionShared};
@@ -66,6 +67,9 @@ pub struct StreamOptions {
     /// [`ClientError::HoldTimeout`]. [`StreamProgress::held`] tells a progress display. At most
     /// one day.
     pub hold_timeout: Option<Duration>,
+    /// How command 7 compensates the controller's tracking lag (ignored for waypoints).
+    /// Default: estimated online from the replies, a lead of at most 0.3 s ([`LagCompensation`]).
+    pub lag_compensation: LagCompensation,
 }
 
 impl Default for StreamOptions {
@@ -81,6 +85,7 @@ impl Default for StreamOptions {
             end_tolerance_deg: 0.5,
             end_timeout: Duration::from_secs(3),
             hold_timeout: None,
+            lag_compensation: LagCompensation::default(),
         }
     }
 }
@@ -145,6 +150,16 @@ impl StreamOptions {
         if !(self.max_step_deg.is_finite() && self.max_step_deg > 0.0) {
             return Err(OptionError::MaxStep {
                 deg: self.max_step_deg,
+            });
+        }
+        if self.lag_compensation.validate().is_err() {
+            let lead = match self.lag_compensation {
+                LagCompensation::Off => Duration::ZERO,
+                LagCompensation::Fixed(d) | LagCompensation::Online { max: d } => d,
+            };
+            return Err(OptionError::Lead {
+                lead,
+                max: LagCompensation::LIMIT,
             });
         }
         for (option, timeout) in [
@@ -233,6 +248,11 @@ pub struct StreamReport {
     pub rtt_mean: Duration,
     /// Round trips of the samples: slowest.
     pub rtt_max: Duration,
+    /// The time shift that best aligns the arm with the trajectory over the stream, seconds
+    /// (positive: the arm is behind); `None` without replies while the trajectory moved.
+    pub lag_s: Option<f64>,
+    /// The lead command 7 was stamped with at the end, seconds (see [`LagCompensation`]).
+    pub lead_s: f64,
     /// The server-clock estimate at the end (command 7 only).
     #[serde(skip)]
     pub clock: Option<ClockFit>,
@@ -404,6 +424,7 @@ struct Streamer {
 
 #[derive(Default)]
 struct Tally {
+    lag: Option<LagEstimator>,
     samples: u64,
     late: u64,
     underruns: u64,
@@ -444,7 +465,14 @@ impl Streamer {
     }
 
     async fn run(self) -> Result<StreamReport, ClientError> {
-        let mut tally = Tally::default();
+        let mut tally = Tally {
+            // Waypoints are not stamped: their lag is only measured.
+            lag: Some(LagEstimator::new(match self.options.mode {
+                StreamMode::Extrapolated { .. } => self.options.lag_compensation,
+                StreamMode::Waypoints => LagCompensation::Off,
+            })),
+            ..Tally::default()
+        };
         let started = Instant::now();
         let r = self.send_all(&mut tally).await;
         let end = match r {
@@ -506,6 +534,8 @@ impl Streamer {
             duration: started.elapsed(),
             rtt_mean,
             rtt_max: tally.rtt_max,
+            lag_s: tally.lag.as_ref().and_then(LagEstimator::apparent_lag_s),
+            lead_s: tally.lag.as_ref().map_or(0.0, LagEstimator::lead_s),
             clock: lock(&self.link.shared.clock).fit(),
         })
     }
@@ -662,7 +692,12 @@ impl Streamer {
                 .into());
             }
             let at = local_start + Duration::from_secs_f64((tau - t_begin).max(0.0));
-            let command = self.command_for(tau, &sample, self.server_time(at))?;
+            // Lag compensation: stamped as if it held `lead` earlier, the sample is extrapolated
+            // that much further by the controller.
+            let lead =
+                Duration::from_secs_f64(tally.lag.as_ref().map_or(0.0, LagEstimator::lead_s));
+            let stamp_at = at.checked_sub(lead).unwrap_or(at);
+            let command = self.command_for(tau, &sample, self.server_time(stamp_at))?;
             let text = Request::new(command).encode()?;
             let tag = self.link.shared.motion_tag();
             if tag.epoch != self.epoch {
@@ -762,6 +797,10 @@ impl Streamer {
         let tau = t_begin + local.duration_since(local_start).as_secs_f64();
         if tau > t_end {
             return;
+        }
+        if let Some(lag) = &mut tally.lag {
+            let lead = lag.lead_s();
+            lag.observe(&self.trajectory, tau, &ex.frame.status.joints, lead);
         }
         let e = self
             .trajectory

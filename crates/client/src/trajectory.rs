@@ -45,6 +45,14 @@ pub enum OptionError {
         /// The largest accepted.
         max: f64,
     },
+    /// A lag-compensation lead (`lag_compensation`) above the controller's ±0.5 s time clamp.
+    #[error("lag_compensation lead {} is more than the controller's {} time clamp; use at most that", Rounded(*.lead), Rounded(*.max))]
+    Lead {
+        /// The lead given.
+        lead: Duration,
+        /// The largest lead.
+        max: Duration,
+    },
     /// A timeout (`end_timeout`, `hold_timeout`) longer than one day.
     #[error("{option} {} must be at most one day", Rounded(*.timeout))]
     Timeout {
