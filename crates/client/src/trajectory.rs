@@ -46,7 +46,7 @@ pub enum OptionError {
         max: f64,
     },
     /// A lag-compensation lead (`lag_compensation`) above the controller's ±0.5 s time clamp.
-    #[error("lag_compensation lead {} is more than the controller's {} time clamp; use at most that", Rounded(*.lead), Rounded(*.max))]
+    #[error("a lag_compensation lead of {:.3} s is more than the controller's {:.1} s time clamp; use at most {:.1} s", .lead.as_secs_f64(), .max.as_secs_f64(), .max.as_secs_f64())]
     Lead {
         /// The lead given.
         lead: Duration,
