@@ -380,6 +380,11 @@ async fn linear_move(
     let trajectory = linear::line(&ctx.model, here, &Pose::from_xyzoat(target), pace)?;
     let options = StreamOptions {
         hold_timeout: hold,
+        // A move promises arrival: settle as tightly as a joint move's completion does.
+        end_tolerance_deg: fs020n_client::Completion::default().tolerance_deg,
+        // The path matters here, not the timing: a lead extrapolates along the joint-space
+        // velocity, which leaves a Cartesian line by millimetres.
+        lag_compensation: fs020n_client::LagCompensation::Off,
         ..StreamOptions::default()
     };
     options
