@@ -90,6 +90,14 @@ pub enum Cancellation {
     /// A newer motion command replaced it (the controller follows only the newest).
     #[error("the motion was superseded by a newer motion command")]
     Superseded,
+    /// A servo was stopped by its user ([`ServoHandle::stop`](crate::ServoHandle::stop) or a
+    /// dropped handle): the arm was stopped for sure (commands 5 then 2).
+    #[error("the servo was stopped (ServoHandle::stop; the motion program was stopped too); start it again (Robot::start) and open a new servo to move again")]
+    ServoStopped,
+    /// A servo's watchdog fired: no sample was pushed within its watchdog time, and the arm was
+    /// stopped ([`WatchdogAction`](crate::WatchdogAction)).
+    #[error("the servo's watchdog fired: no sample was pushed within its watchdog time, so the arm was stopped (commands 5 and 2 unless the servo was opened to brake only); start the program again if it was stopped (Robot::start) and open a new servo, pushing at least once per watchdog period")]
+    ServoWatchdog,
 }
 
 /// What holds the motion channel when a request is refused as [`ClientError::Busy`].
@@ -99,6 +107,9 @@ pub enum Activity {
     /// A stream ([`Robot::stream`](crate::Robot::stream)) is running.
     #[error("a stream is running; cancel it first (StreamHandle::cancel or Robot::cancel)")]
     Stream,
+    /// A servo ([`Robot::servo`](crate::Robot::servo)) is running.
+    #[error("a servo is running; stop it first (ServoHandle::stop or Robot::cancel)")]
+    Servo,
 }
 
 /// Why [`Robot::send_raw`](crate::Robot::send_raw) refuses a text; nothing was sent.

@@ -65,10 +65,11 @@ use tokio::sync::Notify;
 use tokio::task::JoinHandle;
 use tokio::time::Instant;
 
-use crate::error::{ClientError, LinkError};
-use crate::safety::{blockers, check_stream_sample, check_target, MAX_LOOKAHEAD_PASSES};
+use crate::check::check_target;
+use crate::error::{Activity, Cancellation, ClientError, LinkError};
+use crate::safety::{blockers, check_stream_sample, MAX_LOOKAHEAD_PASSES};
 use crate::session::{lock, Kind, Link, MotionTag, SessionShared};
-use crate::trajectory::TrajectoryError;
+use crate::trajectory::{OptionError, TrajectoryError};
 
 /// Shortest accepted [`ServoOptions::watchdog`].
 pub const SERVO_WATCHDOG_MIN: Duration = Duration::from_millis(10);
@@ -126,26 +127,32 @@ impl Default for ServoOptions {
 impl ServoOptions {
     /// Checks the values (each error names the option and its range).
     pub fn validate(&self) -> Result<(), ClientError> {
-        let opt = |m: String| Err(ClientError::Trajectory(TrajectoryError::Options(m)));
+        let opt = |e: OptionError| Err(ClientError::Trajectory(TrajectoryError::Options(e)));
         let l = self.lookahead_passes;
         if !(l.is_finite() && (0.0..=MAX_LOOKAHEAD_PASSES).contains(&l)) {
-            return opt(format!(
-                "servo lookahead_passes {l} must be from 0 to {MAX_LOOKAHEAD_PASSES}"
-            ));
+            return opt(OptionError::Lookahead {
+                passes: l,
+                max: MAX_LOOKAHEAD_PASSES,
+            });
         }
         if !(SERVO_WATCHDOG_MIN..=SERVO_WATCHDOG_MAX).contains(&self.watchdog) {
-            return opt(format!(
-                "servo watchdog {:?} must be from {SERVO_WATCHDOG_MIN:?} to {SERVO_WATCHDOG_MAX:?}",
-                self.watchdog
-            ));
+            return opt(OptionError::Watchdog {
+                watchdog: self.watchdog,
+                min: SERVO_WATCHDOG_MIN,
+                max: SERVO_WATCHDOG_MAX,
+            });
         }
-        for (name, v) in [
-            ("max_step_deg", self.max_step_deg),
-            ("start_tolerance_deg", self.start_tolerance_deg),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return opt(format!("servo {name} {v} must be above 0"));
-            }
+        if !(self.max_step_deg.is_finite() && self.max_step_deg > 0.0) {
+            return opt(OptionError::MaxStep {
+                deg: self.max_step_deg,
+            });
+        }
+        let t = self.start_tolerance_deg;
+        if !(t.is_finite() && t > 0.0) {
+            return opt(OptionError::Tolerance {
+                option: "start_tolerance_deg",
+                deg: t,
+            });
         }
         Ok(())
     }
@@ -251,28 +258,13 @@ pub struct ServoReport {
     pub duration: Duration,
 }
 
-/// Message of a push after the servo ended, per outcome.
-fn ended_message(outcome: ServoOutcome, action: WatchdogAction) -> &'static str {
-    match (outcome, action) {
-        (ServoOutcome::Stopped, _) => {
-            "the servo was stopped (ServoHandle::stop; the motion program was stopped too); start \
-             it again (Robot::start) and open a new servo to move again"
-        }
-        (ServoOutcome::Cancelled, _) => {
-            "the servo was cancelled (a cancel, stop or close of the robot); open a new servo to \
-             move again"
-        }
-        (ServoOutcome::Watchdog, WatchdogAction::StopProgram) => {
-            "the servo's watchdog fired: no sample was pushed within its watchdog time, so the \
-             robot was braked and the motion program stopped (commands 5 and 2); start it again (Robot::start) and open a new \
-             servo, pushing at least once per watchdog period"
-        }
-        (ServoOutcome::Watchdog, WatchdogAction::Brake) => {
-            "the servo's watchdog fired: no sample was pushed within its watchdog time, so the \
-             robot was braked (command 5); open a new servo, pushing at least once per watchdog \
-             period"
-        }
-    }
+/// What a push returns after the servo ended without a fault.
+fn ended_error(outcome: ServoOutcome) -> ClientError {
+    ClientError::Cancelled(match outcome {
+        ServoOutcome::Stopped => Cancellation::ServoStopped,
+        ServoOutcome::Cancelled => Cancellation::Cancelled,
+        ServoOutcome::Watchdog => Cancellation::ServoWatchdog,
+    })
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -387,15 +379,11 @@ pub(crate) fn open(
     }
     if shared.current_epoch() != epoch {
         shared.common.refused();
-        return Err(ClientError::Cancelled(
-            "the servo was not opened: a cancel or stop was requested while it was opening",
-        ));
+        return Err(ClientError::Cancelled(Cancellation::NotSent));
     }
     if shared.streaming.swap(true, Ordering::SeqCst) {
         shared.common.refused();
-        return Err(ClientError::Busy(
-            "a stream or servo is already running; stop it first",
-        ));
+        return Err(ClientError::Busy(Activity::Servo));
     }
     let guard = MotionChannel(shared);
     let state = Arc::new(ServoState {
@@ -420,9 +408,7 @@ pub(crate) fn open(
             // Later pushes learn why the servo ended; the motion channel is free again only
             // after that.
             lock(&state.input).ended.get_or_insert_with(|| match &r {
-                Ok(report) => {
-                    ClientError::Cancelled(ended_message(report.outcome, state.options.on_watchdog))
-                }
+                Ok(report) => ended_error(report.outcome),
                 Err(e) => e.clone(),
             });
             drop(guard);
@@ -462,9 +448,7 @@ impl ServoHandle {
             return Err(e.clone());
         }
         if self.link.shared.current_epoch() != self.epoch || st.stop.load(Ordering::SeqCst) {
-            return Err(ClientError::Cancelled(
-                "the servo is ending (stopped or cancelled); open a new servo to move again",
-            ));
+            return Err(ClientError::Cancelled(Cancellation::Cancelled));
         }
         let checked = self.check(&input, &sample, now);
         let pending = match checked {
@@ -528,11 +512,7 @@ impl ServoHandle {
                 }
             }
             None => {
-                let current = self
-                    .link
-                    .latest()
-                    .map(|s| s.status.joints)
-                    .ok_or(ClientError::LinkLost(LinkError::SessionEnded))?;
+                let current = self.link.latest().status.joints;
                 let (joint, distance) = (0..JOINT_COUNT)
                     .map(|j| (j + 1, (p[j] - current[j]).abs()))
                     .fold((1, 0.0), |a, b| if b.1 > a.1 { b } else { a });
@@ -593,7 +573,7 @@ impl ServoHandle {
     /// watchdog, or a fault) and returns its report; a fault or a lost link is the error.
     pub async fn wait(mut self) -> Result<ServoReport, ClientError> {
         let Some(task) = self.task.take() else {
-            return Err(ClientError::Cancelled("the servo was already waited for"));
+            return Err(ClientError::Cancelled(Cancellation::Cancelled));
         };
         match task.await {
             Ok(r) => r,
@@ -648,7 +628,7 @@ impl Servo {
         ServoReport {
             outcome,
             stats: lock(&self.state.input).sums.snapshot(),
-            final_joints: self.link.latest().map(|s| s.status.joints),
+            final_joints: Some(self.link.latest().status.joints),
             duration: self.state.opened.elapsed(),
         }
     }
@@ -841,24 +821,32 @@ mod tests {
         for o in bad {
             let e = o.validate().unwrap_err();
             assert!(
-                matches!(e, ClientError::Trajectory(TrajectoryError::Options(ref m)) if m.contains("servo")),
+                matches!(e, ClientError::Trajectory(TrajectoryError::Options(_))),
                 "{o:?}: {e}"
             );
         }
     }
 
     #[test]
-    fn the_watchdog_message_names_the_restart_only_after_command_2() {
-        let stop = ended_message(ServoOutcome::Watchdog, WatchdogAction::StopProgram);
+    fn a_push_after_the_end_says_why() {
+        let text = |o| ended_error(o).to_string();
+        let watchdog = text(ServoOutcome::Watchdog);
         assert!(
-            stop.contains("commands 5 and 2") && stop.contains("Robot::start"),
-            "{stop}"
+            watchdog.contains("watchdog") && watchdog.contains("Robot::start"),
+            "{watchdog}"
         );
-        let brake = ended_message(ServoOutcome::Watchdog, WatchdogAction::Brake);
-        assert!(
-            brake.contains("command 5") && !brake.contains("Robot::start"),
-            "{brake}"
+        assert!(text(ServoOutcome::Stopped).contains("ServoHandle::stop"));
+        assert_eq!(
+            ended_error(ServoOutcome::Cancelled),
+            ClientError::Cancelled(Cancellation::Cancelled)
         );
+        let e = ServoOptions {
+            watchdog: Duration::from_secs(1),
+            ..ServoOptions::default()
+        }
+        .validate()
+        .unwrap_err();
+        assert!(e.to_string().contains("servo watchdog"), "{e}");
     }
 
     #[test]

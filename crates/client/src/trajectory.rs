@@ -77,6 +77,16 @@ pub enum OptionError {
         /// The value given, degrees.
         deg: f64,
     },
+    /// A servo's `watchdog` outside its range.
+    #[error("servo watchdog {} must be from {} to {}", Rounded(*.watchdog), Rounded(*.min), Rounded(*.max))]
+    Watchdog {
+        /// The value given.
+        watchdog: Duration,
+        /// The shortest accepted.
+        min: Duration,
+        /// The longest accepted.
+        max: Duration,
+    },
     /// The trajectory takes more than ten million cycles at this period.
     #[error("the trajectory takes {cycles} cycles of {}; at most ten million are streamed — use a longer period or split it", Rounded(*.period))]
     TooManyCycles {
