@@ -30,6 +30,7 @@ use crate::{block, json_to_py, py_to_json, six, OnInterrupt};
 /// By default the controller is ready (power on, RUN, REPEAT, teach lock off, no error) at
 /// the home pose [0, 0, -90, 0, -90, 0] with the monitor speed at 10 %.
 #[pyclass(module = "fs020n", frozen)]
+#[derive(Debug)]
 pub struct Emulator {
     running: Mutex<Option<RunningRobot>>,
     emulator: fs020n_sim::Emulator,

@@ -13,6 +13,10 @@ const PYTHON_NAMES: &[(&str, &str)] = &[
         "StreamHandle::cancel or Robot::cancel",
         "stream.cancel() or robot.cancel()",
     ),
+    (
+        "ServoHandle::stop or Robot::cancel",
+        "servo.stop() or robot.cancel()",
+    ),
     ("ServoHandle::stop", "servo.stop()"),
     ("ServoHandle::wait", "servo.stop()"),
     ("StreamOptions::max_step_deg", "the max_step_deg argument"),
@@ -56,13 +60,15 @@ fn class_of(e: &ClientError) -> &'static str {
         | ClientError::Speed { .. }
         | ClientError::Trajectory(_)
         | ClientError::Ik(_)
-        | ClientError::RawRefused { .. }
+        | ClientError::RawRefused(_)
         | ClientError::Config(_) => "LimitError",
         ClientError::Blocked(_) | ClientError::StartFailed { .. } => "NotReadyError",
-        ClientError::Connect { .. } => "ConnectError",
+        ClientError::Connect { .. }
+        | ClientError::Address { .. }
+        | ClientError::NotAController { .. } => "ConnectError",
         ClientError::LinkLost(_) | ClientError::Closed => "LinkLostError",
         ClientError::Aborted { .. } | ClientError::StreamUnderrun { .. } => "MotionError",
-        ClientError::MoveTimeout { .. } => "MoveTimeoutError",
+        ClientError::MoveTimeout { .. } | ClientError::HoldTimeout { .. } => "MoveTimeoutError",
         ClientError::Busy(_) => "BusyError",
         _ => "Error",
     }

@@ -26,7 +26,7 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 
 /// A controller status, as one reply reports it.
 #[pyclass(module = "fs020n", frozen, get_all)]
-#[derive(Clone)]
+#[derive(Clone, Debug)]
 pub struct Status {
     /// The controller error as on the wire (0: none; E1088 is -31088).
     pub error: i32,
@@ -112,7 +112,7 @@ fn py_bool(b: bool) -> &'static str {
 
 /// How a joint move ended.
 #[pyclass(module = "fs020n", frozen, get_all)]
-#[derive(Clone)]
+#[derive(Clone, Debug)]
 pub struct MoveReport {
     /// `True` when the target was reached; `False` when the move was cancelled or superseded
     /// by a newer motion before (faults raise `MotionError` instead).
@@ -141,7 +141,7 @@ impl MoveReport {
 
 /// Figures of a stream.
 #[pyclass(module = "fs020n", frozen, get_all)]
-#[derive(Clone)]
+#[derive(Clone, Debug)]
 pub struct StreamReport {
     /// `"completed"` or `"cancelled"`.
     pub outcome: String,
@@ -217,6 +217,7 @@ impl StreamReport {
 
 /// How a servo ended, with its figures.
 #[pyclass(module = "fs020n", frozen, get_all)]
+#[derive(Debug)]
 pub struct ServoReport {
     /// `"stopped"` (servo.stop()), `"cancelled"` (robot.cancel(), stop() or close()) or
     /// `"watchdog"` (no push within the watchdog time).
@@ -286,6 +287,7 @@ fn servo_stats<'py>(py: Python<'py>, s: &client::ServoStats) -> PyResult<Bound<'
 /// then 2), closes the session (255) and re-raises `KeyboardInterrupt`. The keep-alive runs in
 /// the background whatever Python does.
 #[pyclass(module = "fs020n", frozen)]
+#[derive(Debug)]
 pub struct Robot {
     inner: RwLock<Option<Arc<client::Robot>>>,
     address: String,
@@ -314,10 +316,7 @@ impl Robot {
     }
 
     fn latest_joints(&self, py: Python<'_>) -> Option<JointsDeg> {
-        self.client(py)
-            .ok()
-            .and_then(|r| r.status())
-            .map(|s| s.status.joints)
+        self.client(py).ok().map(|r| r.status().status.joints)
     }
 }
 
@@ -326,11 +325,15 @@ fn completion(
     timeout: Option<f64>,
     tolerance: f64,
     settle: f64,
+    hold_timeout: Option<f64>,
 ) -> PyResult<Completion> {
     let c = Completion {
         tolerance_deg: tolerance,
         settle: seconds(py, "settle", settle)?,
         timeout: timeout.map(|t| seconds(py, "timeout", t)).transpose()?,
+        hold_timeout: hold_timeout
+            .map(|t| seconds(py, "hold_timeout", t))
+            .transpose()?,
     };
     c.validate().map_err(|e| client_error(py, &e))?;
     Ok(c)
@@ -459,13 +462,8 @@ impl Robot {
         if let Some(e) = r.link_error() {
             return Err(client_error(py, &e));
         }
-        match r.status() {
-            Some(s) => Ok(Status::of(&s.status, s.age())),
-            None => Err(client_error(
-                py,
-                &ClientError::LinkLost(client::LinkError::SessionEnded),
-            )),
-        }
+        let s = r.status();
+        Ok(Status::of(&s.status, s.age()))
     }
 
     /// Checks every condition that blocks starting the program or moving; raises
@@ -506,8 +504,11 @@ impl Robot {
     /// joint move (command 6), checked first (finite, inside the ranges: `LimitError`).
     /// With `wait=True` waits until every joint is within `tolerance` degrees for `settle`
     /// seconds and returns a `MoveReport` (`timeout` seconds, default from the planned
-    /// duration); with `wait=False` returns a `Move` at once.
-    #[pyo3(signature = (target, *, wait=true, timeout=None, tolerance=0.1, settle=0.1))]
+    /// duration); with `wait=False` returns a `Move` at once. HOLD fails the wait at once
+    /// (`MotionError`, the move is stopped) unless `hold_timeout` (seconds) is given: then the
+    /// wait waits out the pause (the controller resumes the move on RUN) for that long.
+    #[pyo3(signature = (target, *, wait=true, timeout=None, tolerance=0.1, settle=0.1, hold_timeout=None))]
+    #[allow(clippy::too_many_arguments)]
     fn move_joints(
         slf: &Bound<'_, Self>,
         py: Python<'_>,
@@ -516,9 +517,10 @@ impl Robot {
         timeout: Option<f64>,
         tolerance: f64,
         settle: f64,
+        hold_timeout: Option<f64>,
     ) -> PyResult<Py<PyAny>> {
         let q = JointsDeg::new(six(target, "target")?);
-        let c = completion(py, timeout, tolerance, settle)?;
+        let c = completion(py, timeout, tolerance, settle, hold_timeout)?;
         let sent = Instant::now();
         let handle = slf
             .get()
@@ -528,13 +530,14 @@ impl Robot {
 
     /// Moves the flange to a pose: X, Y, Z (mm), O, A, T (degrees, AS convention), as six
     /// arguments or one sequence, with a joint move to the inverse-kinematics solution
-    /// nearest to the current joints. `wait`, `timeout`, `tolerance`, `settle` as in
-    /// `move_joints`.
+    /// nearest to the current joints. `wait`, `timeout`, `tolerance`, `settle`,
+    /// `hold_timeout` as in `move_joints`.
     ///
     /// ```python
     /// robot.move_pose(850, 0, 1153.5, 0, 180, 0)
     /// ```
-    #[pyo3(signature = (*pose, wait=true, timeout=None, tolerance=0.1, settle=0.1))]
+    #[pyo3(signature = (*pose, wait=true, timeout=None, tolerance=0.1, settle=0.1, hold_timeout=None))]
+    #[allow(clippy::too_many_arguments)]
     fn move_pose(
         slf: &Bound<'_, Self>,
         py: Python<'_>,
@@ -543,13 +546,14 @@ impl Robot {
         timeout: Option<f64>,
         tolerance: f64,
         settle: f64,
+        hold_timeout: Option<f64>,
     ) -> PyResult<Py<PyAny>> {
         let p = if pose.len() == 1 {
             six(&pose.get_item(0)?, "pose")?
         } else {
             six(pose.as_any(), "pose")?
         };
-        let c = completion(py, timeout, tolerance, settle)?;
+        let c = completion(py, timeout, tolerance, settle, hold_timeout)?;
         let target = Xyzoat::new(p[0], p[1], p[2], p[3], p[4], p[5]);
         let sent = Instant::now();
         let handle = slf
@@ -649,12 +653,13 @@ impl Robot {
                 .max(StreamOptions::default().max_gap)
                 .min(Duration::from_millis(500)),
             lag_compensation,
+            ..StreamOptions::default()
         };
         let handle = slf.get().call(py, |r| {
             Box::pin(async move { r.stream(trajectory, options).await })
         })?;
         let stream = Stream {
-            handle: Mutex::new(Some(handle)),
+            handle,
             report: Mutex::new(None),
             robot: slf.clone().unbind(),
         };
@@ -825,6 +830,7 @@ impl Robot {
 /// A joint move in progress (`Robot.move_joints(..., wait=False)`). Dropping it does not stop
 /// the move; `cancel()` does.
 #[pyclass(module = "fs020n", frozen)]
+#[derive(Debug)]
 pub struct Move {
     handle: client::MoveHandle,
     completion: Completion,
@@ -964,8 +970,9 @@ impl Move {
 
 /// A stream in progress (`Robot.stream(..., wait=False)`). Dropping it cancels the stream.
 #[pyclass(module = "fs020n", frozen)]
+#[derive(Debug)]
 pub struct Stream {
-    handle: Mutex<Option<client::StreamHandle>>,
+    handle: client::StreamHandle,
     report: Mutex<Option<StreamReport>>,
     robot: Py<Robot>,
 }
@@ -978,9 +985,7 @@ impl Stream {
         if let Some(r) = lock(&self.report).clone() {
             return Ok(r);
         }
-        let Some(handle) = lock(&self.handle).take() else {
-            return Err(base_error(py, "this stream already ended with an error"));
-        };
+        let handle = self.handle.clone();
         let interrupt = OnInterrupt::CancelAndClose(self.robot.get().client(py)?);
         let out = block(py, async move { handle.wait().await }, interrupt)?;
         let report = StreamReport::of(&out.map_err(|e| client_error(py, &e))?);
@@ -988,28 +993,23 @@ impl Stream {
         Ok(report)
     }
 
-    /// Cancels the stream: no further sample is sent, command 5 brakes the robot and command 2
-    /// ends the program (`robot.start()` again to move).
-    fn cancel(&self) {
-        if let Some(h) = lock(&self.handle).as_ref() {
-            h.cancel();
-        }
+    /// Cancels the stream and returns once it has ended: no further sample is sent, command 5
+    /// brakes the robot and command 2 ends the program (`robot.start()` again to move).
+    fn cancel(&self, py: Python<'_>) -> PyResult<()> {
+        let handle = self.handle.clone();
+        block(py, async move { handle.cancel().await }, OnInterrupt::Nothing)?
+            .map_err(|e| client_error(py, &e))
     }
 
     /// `True` once the stream has ended.
     fn done(&self) -> bool {
-        lock(&self.handle)
-            .as_ref()
-            .is_none_or(client::StreamHandle::is_finished)
+        self.handle.is_finished()
     }
 
     /// Fraction of the trajectory streamed, 0–1.
     #[getter]
     fn progress(&self) -> f64 {
-        match lock(&self.handle).as_ref() {
-            Some(h) => h.progress().fraction,
-            None => 1.0,
-        }
+        self.handle.progress().fraction
     }
 }
 
@@ -1023,6 +1023,7 @@ impl Stream {
 ///         time.sleep(0.008)
 /// ```
 #[pyclass(module = "fs020n", frozen)]
+#[derive(Debug)]
 pub struct Servo {
     handle: Mutex<Option<client::ServoHandle>>,
     report: Mutex<Option<Ended>>,
@@ -1030,7 +1031,7 @@ pub struct Servo {
 }
 
 /// The end of a servo, kept for repeated `stop()` calls.
-#[derive(Clone)]
+#[derive(Clone, Debug)]
 struct Ended {
     outcome: &'static str,
     stats: client::ServoStats,

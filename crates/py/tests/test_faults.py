@@ -1,5 +1,6 @@
 """Faults while moving: HOLD, E-stop, a controller error, a lost link, a dead address."""
 
+import threading
 import time
 
 import pytest
@@ -30,6 +31,25 @@ def test_hold_mid_move_raises_motion_error_and_the_move_does_not_resume(robot, e
     time.sleep(1.0)
     assert emu.joints == pytest.approx(held, abs=0.05)
     assert abs(emu.joints[0] - TARGET[0]) > 10
+
+
+def test_with_a_hold_timeout_the_wait_waits_out_hold(robot, emu):
+    robot.set_speed(20)
+    hold = threading.Timer(0.3, lambda: emu.set_panel(run=False))
+    run = threading.Timer(1.0, lambda: emu.set_panel(run=True))
+    hold.start()
+    run.start()
+    report = robot.move_joints([20, 0, -90, 0, -90, 0], hold_timeout=5.0)
+    hold.join()
+    run.join()
+    assert report.reached and report.duration_s > 1.0
+    # Held for longer than the hold timeout: the move is stopped and the wait fails.
+    hold = threading.Timer(0.3, lambda: emu.set_panel(run=False))
+    hold.start()
+    with pytest.raises(fs020n.MoveTimeoutError, match="HOLD"):
+        robot.move_joints([0, 0, -90, 0, -90, 0], hold_timeout=0.5)
+    hold.join()
+    emu.set_panel(run=True)
 
 
 def test_estop_mid_move_raises_e3808_with_its_remedy(robot, emu):

@@ -172,6 +172,7 @@ class Robot:
         timeout: Optional[float] = None,
         tolerance: float = 0.1,
         settle: float = 0.1,
+        hold_timeout: Optional[float] = None,
     ) -> Any:
         """MoveReport with wait=True, Move with wait=False."""
     def move_pose(
@@ -181,6 +182,7 @@ class Robot:
         timeout: Optional[float] = None,
         tolerance: float = 0.1,
         settle: float = 0.1,
+        hold_timeout: Optional[float] = None,
     ) -> Any:
         """MoveReport with wait=True, Move with wait=False."""
     def stream(

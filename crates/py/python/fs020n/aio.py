@@ -83,8 +83,8 @@ class Stream:
     async def wait(self) -> "_fs020n.StreamReport":
         return await _motion(self._robot, self._stream.wait)
 
-    def cancel(self) -> None:
-        self._stream.cancel()
+    async def cancel(self) -> None:
+        await _run(self._stream.cancel)
 
     def done(self) -> bool:
         return self._stream.done()
