@@ -139,6 +139,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     for rate in rates {
         println!("{}", run(&rt, &address, rate, seconds)?);
+        // Let the stopped program end before the next session starts it again.
+        std::thread::sleep(Duration::from_millis(300));
     }
     if let Some(e) = emulator {
         let _guard = rt.enter();

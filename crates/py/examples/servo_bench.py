@@ -84,6 +84,8 @@ def main() -> None:
         address = args.robot or stack.enter_context(fs020n.Emulator()).address
         for rate in args.rate or [125.0, 500.0, 1000.0]:
             print(json.dumps(run(address, rate, args.seconds)), flush=True)
+            # Let the stopped program end before the next session starts it again.
+            time.sleep(0.3)
 
 
 if __name__ == "__main__":
