@@ -340,7 +340,7 @@ speed_cap_percent = 30
 min_deg = [-90, -30, -150, -180, -120, -360]
 max_deg = [ 90,  80,  -10,  180,  -10,  360]
 [workspace]
-min_mm = [ 300, -800,  200]
+min_mm = [ 300, -800,  250]
 max_mm = [1500,  800, 1800]
 "#;
 
@@ -376,11 +376,11 @@ max_mm = [1500,  800, 1800]
             .check(&Command::JointMove { target: out }, &home())
             .unwrap_err();
         assert!(matches!(e, FenceViolation::JointRange { joint: 1, .. }), "{e}");
-        // Inside the ranges but the flange below the box floor (Z 200): upper arm leaning far
+        // Inside the ranges but the flange below the box floor (Z 250): upper arm leaning far
         // forward, forearm folded back down.
         let low = JointsDeg::new([0.0, 80.0, -150.0, 0.0, -90.0, 0.0]);
         let z = f.flange_mm(&low)[2];
-        assert!(z < 200.0, "{z}");
+        assert!(z < 250.0, "{z}");
         let e = f
             .check(&Command::JointMove { target: low }, &home())
             .unwrap_err();

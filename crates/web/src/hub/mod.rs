@@ -222,6 +222,8 @@ pub struct LinkView {
     pub error: Option<String>,
     /// Requests sent to the controller (with keep-alive polls).
     pub requests: u64,
+    /// Of them, the session's own keep-alive polls.
+    pub keepalive_polls: u64,
     /// Round trip, mean, milliseconds.
     pub rtt_mean_ms: f64,
     /// Round trip, 99th percentile, milliseconds.
@@ -489,6 +491,7 @@ impl Hub {
                         .or_else(|| link_err.map(|e| e.to_string()))
                 },
                 requests: stats.as_ref().map_or(0, |s| s.requests),
+                keepalive_polls: stats.as_ref().map_or(0, |s| s.keepalive_polls),
                 rtt_mean_ms: stats
                     .as_ref()
                     .map_or(0.0, |s| s.rtt.mean.as_secs_f64() * 1e3),
