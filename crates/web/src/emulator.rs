@@ -31,7 +31,11 @@ async fn live(State(emulator): State<Emulator>) -> Response {
 
 async fn urdf(State(emulator): State<Emulator>) -> Response {
     let text = emulator.with(|c| c.model().to_urdf());
-    ([(header::CONTENT_TYPE, "application/xml; charset=utf-8")], text).into_response()
+    (
+        [(header::CONTENT_TYPE, "application/xml; charset=utf-8")],
+        text,
+    )
+        .into_response()
 }
 
 /// The emulator's web app (page + live feed + pendant API) for a server bound to `bound`.

@@ -255,7 +255,9 @@ mod tests {
         let g = Guard::new("127.0.0.1:8080".parse().unwrap(), Some("s3cret".into()));
         let host = (header::HOST, "127.0.0.1:8080");
         // The page itself needs no token.
-        assert!(g.check(&Method::GET, "/", &headers(&[host.clone()])).is_ok());
+        assert!(g
+            .check(&Method::GET, "/", &headers(&[host.clone()]))
+            .is_ok());
         assert!(g
             .check(&Method::GET, "/assets/app.js", &headers(&[host.clone()]))
             .is_ok());
@@ -266,7 +268,11 @@ mod tests {
         assert_eq!(e.status, StatusCode::UNAUTHORIZED);
         let auth = (header::AUTHORIZATION, "bearer s3cret");
         assert!(g
-            .check(&Method::GET, "/state", &headers(&[host.clone(), auth.clone()]))
+            .check(
+                &Method::GET,
+                "/state",
+                &headers(&[host.clone(), auth.clone()])
+            )
             .is_ok());
         let wrong = (header::AUTHORIZATION, "Bearer nope");
         assert_eq!(
@@ -277,7 +283,11 @@ mod tests {
         );
         // POST without JSON.
         let e = g
-            .check(&Method::POST, "/stop", &headers(&[host.clone(), auth.clone()]))
+            .check(
+                &Method::POST,
+                "/stop",
+                &headers(&[host.clone(), auth.clone()]),
+            )
             .unwrap_err();
         assert_eq!(e.status, StatusCode::UNSUPPORTED_MEDIA_TYPE);
         let json = (header::CONTENT_TYPE, "application/json; charset=utf-8");
@@ -304,7 +314,11 @@ mod tests {
             .is_ok());
         // Rebinding: a foreign Host.
         let e = g
-            .check(&Method::GET, "/", &headers(&[(header::HOST, "evil.example:8080")]))
+            .check(
+                &Method::GET,
+                "/",
+                &headers(&[(header::HOST, "evil.example:8080")]),
+            )
             .unwrap_err();
         assert_eq!(e.status, StatusCode::MISDIRECTED_REQUEST);
     }

@@ -57,7 +57,10 @@ impl Hub {
         S: AsyncRead + AsyncWrite + Unpin,
     {
         let (mut rd, mut wr) = tokio::io::split(stream);
-        let id = self.inner.next_client.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let id = self
+            .inner
+            .next_client
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let mut link = self.inner.link.subscribe();
         let start = *link.borrow_and_update();
         let refused = {
@@ -90,7 +93,13 @@ impl Hub {
             let _ = wr.shutdown().await;
             return;
         }
-        self.log(Some(id), "client", None, None, format!("client {id} connected from {peer}"));
+        self.log(
+            Some(id),
+            "client",
+            None,
+            None,
+            format!("client {id} connected from {peer}"),
+        );
         let mut buf = vec![0u8; FACE_RECEIVE_BUFFER];
         let end = loop {
             let limit = if self.controller() == Some(id) {
@@ -165,10 +174,22 @@ impl Hub {
             let r = self.inner.robot.read().await.stop_program().await;
             lock(&self.inner.book).target = None;
             if let Err(e) = r {
-                self.log(Some(id), "stop", None, None, format!("the stop failed: {e}"));
+                self.log(
+                    Some(id),
+                    "stop",
+                    None,
+                    None,
+                    format!("the stop failed: {e}"),
+                );
             }
         } else {
-            self.log(Some(id), "client", None, None, format!("client {id} ({peer}) {why}"));
+            self.log(
+                Some(id),
+                "client",
+                None,
+                None,
+                format!("client {id} ({peer}) {why}"),
+            );
         }
     }
 
@@ -234,7 +255,13 @@ impl Hub {
             if req.version_matches() && book.controller.is_none() {
                 book.controller = Some(id);
                 drop(book);
-                self.log(Some(id), "control", None, None, format!("client {id} takes control"));
+                self.log(
+                    Some(id),
+                    "control",
+                    None,
+                    None,
+                    format!("client {id} takes control"),
+                );
                 true
             } else {
                 book.controller == Some(id)

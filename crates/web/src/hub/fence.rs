@@ -355,7 +355,9 @@ max_mm = [1500,  800, 1800]
     #[test]
     fn speed_cap() {
         let f = fence();
-        assert!(f.check(&Command::SetSpeed { percent: 30.0 }, &home()).is_ok());
+        assert!(f
+            .check(&Command::SetSpeed { percent: 30.0 }, &home())
+            .is_ok());
         assert!(matches!(
             f.check(&Command::SetSpeed { percent: 31.0 }, &home()),
             Err(FenceViolation::SpeedAboveCap { .. })
@@ -375,7 +377,10 @@ max_mm = [1500,  800, 1800]
         let e = f
             .check(&Command::JointMove { target: out }, &home())
             .unwrap_err();
-        assert!(matches!(e, FenceViolation::JointRange { joint: 1, .. }), "{e}");
+        assert!(
+            matches!(e, FenceViolation::JointRange { joint: 1, .. }),
+            "{e}"
+        );
         // Inside the ranges but the flange below the box floor (Z 250): upper arm leaning far
         // forward, forearm folded back down.
         let low = JointsDeg::new([0.0, 80.0, -150.0, 0.0, -90.0, 0.0]);
@@ -434,7 +439,10 @@ max_mm = [1500,  800, 1800]
         s.velocity[0] = 60.0;
         assert!(matches!(
             f.check(&Command::StreamedMove(s), &home()),
-            Err(FenceViolation::Sample(SampleError::TooFast { joint: 1, .. }))
+            Err(FenceViolation::Sample(SampleError::TooFast {
+                joint: 1,
+                ..
+            }))
         ));
         // Extrapolates out of the fence's JT1 range: 85 + 20 * 0.7 = 99 > 90.
         s.velocity[0] = 20.0;

@@ -368,7 +368,13 @@ impl Hub {
                 supervisor: Mutex::new(None),
             }),
         };
-        hub.log(None, "link", None, None, format!("session with {} open", hub.inner.describe));
+        hub.log(
+            None,
+            "link",
+            None,
+            None,
+            format!("session with {} open", hub.inner.describe),
+        );
         let task = tokio::spawn(supervise(Arc::downgrade(&hub.inner)));
         *lock(&hub.inner.supervisor) = Some(task);
         Ok(hub)
@@ -528,8 +534,20 @@ impl Hub {
         let r = self.inner.robot.read().await.stop_program().await;
         lock(&self.inner.book).target = None;
         match &r {
-            Ok(_) => self.log(None, "stop", None, None, format!("{source}: stop (command 2) sent")),
-            Err(e) => self.log(None, "stop", None, None, format!("{source}: stop failed: {e}")),
+            Ok(_) => self.log(
+                None,
+                "stop",
+                None,
+                None,
+                format!("{source}: stop (command 2) sent"),
+            ),
+            Err(e) => self.log(
+                None,
+                "stop",
+                None,
+                None,
+                format!("{source}: stop failed: {e}"),
+            ),
         }
         r.map(|_| ())
     }
@@ -540,8 +558,20 @@ impl Hub {
         let r = self.inner.robot.read().await.cancel().await;
         lock(&self.inner.book).target = None;
         match &r {
-            Ok(_) => self.log(None, "cancel", None, None, format!("{source}: cancel (command 5) sent")),
-            Err(e) => self.log(None, "cancel", None, None, format!("{source}: cancel failed: {e}")),
+            Ok(_) => self.log(
+                None,
+                "cancel",
+                None,
+                None,
+                format!("{source}: cancel (command 5) sent"),
+            ),
+            Err(e) => self.log(
+                None,
+                "cancel",
+                None,
+                None,
+                format!("{source}: cancel failed: {e}"),
+            ),
         }
         r.map(|_| ())
     }
@@ -577,7 +607,9 @@ async fn supervise(inner: std::sync::Weak<Inner>) {
             r.subscribe()
         };
         while rx.changed().await.is_ok() {}
-        let Some(strong) = inner.upgrade() else { return };
+        let Some(strong) = inner.upgrade() else {
+            return;
+        };
         if strong.closing.load(Ordering::SeqCst) {
             return;
         }
@@ -600,7 +632,13 @@ async fn supervise(inner: std::sync::Weak<Inner>) {
             l.generation += 1;
             l.up = false;
         });
-        hub.log(None, "link", None, None, format!("session with the controller lost: {why}; reconnecting"));
+        hub.log(
+            None,
+            "link",
+            None,
+            None,
+            format!("session with the controller lost: {why}; reconnecting"),
+        );
         loop {
             tokio::time::sleep(hub.inner.config.reconnect_interval).await;
             if hub.inner.closing.load(Ordering::SeqCst) {
@@ -625,7 +663,13 @@ async fn supervise(inner: std::sync::Weak<Inner>) {
             l.generation += 1;
             l.up = true;
         });
-        hub.log(None, "link", None, None, "session with the controller open again (program stopped; nothing resumed)".into());
+        hub.log(
+            None,
+            "link",
+            None,
+            None,
+            "session with the controller open again (program stopped; nothing resumed)".into(),
+        );
         drop(hub);
     }
 }
