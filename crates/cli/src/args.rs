@@ -14,6 +14,8 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 #[command(after_help = "EXAMPLES:
   fs020n demo                                   # everything, on the embedded emulator
   fs020n sim                                    # an emulator on 127.0.0.1:10050
+  fs020n sim --pendant 127.0.0.1:10051          # ... with its web pendant: http://127.0.0.1:10051/
+  fs020n hub --http 127.0.0.1:8080 --listen 127.0.0.1:10060   # share the robot's session
   fs020n --robot 192.168.0.2:10050 status --watch
   fs020n move 0 10 -80 0 -90 0 --speed 20 --wait
   fs020n play path.csv --mode stream
@@ -111,6 +113,9 @@ pub enum Cmd {
     },
     /// Run the controller emulator in the foreground until Ctrl-C.
     Sim(SimArgs),
+    /// Hold the one session with a controller and share it: web page, protocol-1040 face,
+    /// safety fence, Foxglove bridge, recording (docs/HUB.md).
+    Hub(HubArgs),
     /// The full tour on the embedded emulator: preflight, speed, moves, a stream, a report.
     Demo {
         /// Speed percent for the joint moves.
@@ -194,7 +199,7 @@ pub struct SimArgs {
     /// Robot port(s); repeat for several robots in one process.
     #[arg(long, default_value = "127.0.0.1:10050", value_name = "HOST:PORT")]
     pub listen: Vec<String>,
-    /// Pendant API address(es) (HTTP+JSON), one per robot.
+    /// Pendant address(es), one per robot: the web page at `/`, the JSON API (`/api` lists it).
     #[arg(long, value_name = "HOST:PORT")]
     pub pendant: Vec<String>,
     /// Token required by the pendant API (mandatory off loopback).
@@ -221,6 +226,35 @@ pub struct SimArgs {
     /// An error present at start, e.g. E1088.
     #[arg(long)]
     pub error: Option<String>,
+}
+
+/// `hub` arguments (the controller is `--robot`).
+#[derive(Debug, Args)]
+pub struct HubArgs {
+    /// Address of the web page (HTTP): the arm, the switches, guarded Cancel and Stop.
+    #[arg(long, default_value = "127.0.0.1:8080", value_name = "HOST:PORT")]
+    pub http: String,
+    /// Serve a protocol-1040 face for existing clients here (one controlling client at a
+    /// time, forwarded in lock-step; the others' polls are answered from the latest status).
+    #[arg(long, value_name = "HOST:PORT")]
+    pub listen: Option<String>,
+    /// Serve a Foxglove WebSocket bridge here (joint states, TF, the URDF); needs the
+    /// `foxglove` feature.
+    #[arg(long, value_name = "HOST:PORT")]
+    pub foxglove: Option<String>,
+    /// Record every request and reply of the session (.csv, or .jsonl for JSON lines).
+    #[arg(long, value_name = "FILE")]
+    pub record: Option<PathBuf>,
+    /// A safety fence (TOML): joint ranges, speed cap, workspace box (docs/HUB.md).
+    #[arg(long, value_name = "FILE")]
+    pub fence: Option<PathBuf>,
+    /// Token required by the web page's API (mandatory off loopback).
+    #[arg(long, env = "FS020N_HUB_TOKEN")]
+    pub token: Option<String>,
+    /// Seconds of silence after which the controlling client is taken as gone (the robot is
+    /// stopped with command 2).
+    #[arg(long, default_value_t = 1.0, value_name = "S")]
+    pub silence: f64,
 }
 
 fn on_off(s: &str) -> Result<bool, String> {

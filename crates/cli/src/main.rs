@@ -4,6 +4,7 @@
 mod args;
 mod demo;
 mod error;
+mod hub;
 mod offline;
 mod output;
 mod robot_cmds;
@@ -99,5 +100,6 @@ fn run(cli: Cli) -> CliResult {
         Cmd::Bench { count } => robot_cmds::bench(&ctx(&cli, model), *count),
         Cmd::Demo { speed, yes } => demo::demo(&ctx(&cli, model), *speed, *yes),
         Cmd::Sim(args) => sim::sim(args, &model, cli.json),
+        Cmd::Hub(args) => hub::hub(args, &ctx(&cli, model), cli.json),
     }
 }

@@ -4,7 +4,8 @@ use std::net::{SocketAddr, ToSocketAddrs};
 
 use fs020n_kin::RobotModel;
 use fs020n_proto::{ErrorCode, JointsDeg};
-use fs020n_sim::{run_robot, Panel, SimOptions};
+use fs020n_sim::{Panel, SimOptions};
+use fs020n_web::run_robot;
 use serde_json::json;
 
 use crate::args::SimArgs;
@@ -107,7 +108,7 @@ pub fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
             } else {
                 match r.pendant_addr() {
                     Some(p) => println!(
-                        "robot {}: protocol 1040 on {}, pendant API on http://{p}",
+                        "robot {}: protocol 1040 on {}, pendant on http://{p}/ (API: /api)",
                         i + 1,
                         r.robot_addr()
                     ),
