@@ -107,9 +107,9 @@
     last: null, // normalised view of the newest update
     history: [], // {t, j:[6]}
     lastFrameAt: 0,
-    cam: { yaw: -0.9, pitch: 0.35, dist: 4.2, target: [0.5, 0, 0.8] },
+    cam: { yaw: -0.9, pitch: 0.3, dist: 3.3, target: [0.45, 0, 0.75] },
   };
-  const DEFAULT_CAM = { yaw: -0.9, pitch: 0.35, dist: 4.2, target: [0.5, 0, 0.8] };
+  const DEFAULT_CAM = { yaw: -0.9, pitch: 0.3, dist: 3.3, target: [0.45, 0, 0.75] };
 
   // Turns an emulator snapshot or a hub state into one shape.
   function normalise(msg) {
@@ -228,7 +228,14 @@
     const e = v.error || {};
     setText($("error-text"), e.code ? e.name + (e.message ? " — " + e.message : "") : "none");
     $("error-text").className = e.code ? "bad" : "";
-    setText($("blockers"), v.blockers && v.blockers.length ? v.blockers.join("; ") : "nothing");
+    if (v.kind === "emulator") {
+      // The emulator says why command 1 would be ignored.
+      setText($("blockers-label"), "Command 1");
+      setText($("blockers"), v.blockers && v.blockers.length ? "ignored: " + v.blockers.join("; ") : "would start the program");
+    } else {
+      setText($("blockers-label"), "Blocks motion");
+      setText($("blockers"), v.blockers && v.blockers.length ? v.blockers.join("; ") : "nothing");
+    }
     const banner = $("error-banner");
     banner.hidden = !e.code;
     if (e.code) setText(banner, e.name);
