@@ -113,7 +113,7 @@ def wait_until(predicate, timeout=20.0, every=0.05, what="condition"):
         if value:
             return value
         if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}")
+            raise AssertionError(f"timed out waiting for {what() if callable(what) else what}")
         time.sleep(every)
 
 

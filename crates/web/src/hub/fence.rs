@@ -273,7 +273,7 @@ impl Fence {
     pub fn check(&self, command: &Command, current: &JointsDeg) -> Result<(), FenceViolation> {
         match command {
             Command::SetSpeed { percent } => match self.spec.speed_cap_percent {
-                Some(cap) if !(*percent <= cap) => Err(FenceViolation::SpeedAboveCap {
+                Some(cap) if percent.is_nan() || *percent > cap => Err(FenceViolation::SpeedAboveCap {
                     percent: *percent,
                     cap,
                 }),
