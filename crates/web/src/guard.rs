@@ -256,14 +256,22 @@ mod tests {
         let host = (header::HOST, "127.0.0.1:8080");
         // The page itself needs no token.
         assert!(g
-            .check(&Method::GET, "/", &headers(&[host.clone()]))
+            .check(&Method::GET, "/", &headers(std::slice::from_ref(&host)))
             .is_ok());
         assert!(g
-            .check(&Method::GET, "/assets/app.js", &headers(&[host.clone()]))
+            .check(
+                &Method::GET,
+                "/assets/app.js",
+                &headers(std::slice::from_ref(&host))
+            )
             .is_ok());
         // Data needs it.
         let e = g
-            .check(&Method::GET, "/state", &headers(&[host.clone()]))
+            .check(
+                &Method::GET,
+                "/state",
+                &headers(std::slice::from_ref(&host)),
+            )
             .unwrap_err();
         assert_eq!(e.status, StatusCode::UNAUTHORIZED);
         let auth = (header::AUTHORIZATION, "bearer s3cret");

@@ -138,8 +138,10 @@ max_mm = [1500,  900, 1900]
 #[tokio::test(start_paused = true)]
 async fn fence_violations_are_refused_with_the_current_status() {
     let emu = emulator();
-    let mut config = HubConfig::default();
-    config.fence = Some(Fence::from_toml_str(FENCE, &RobotModel::fs020n()).unwrap());
+    let config = HubConfig {
+        fence: Some(Fence::from_toml_str(FENCE, &RobotModel::fs020n()).unwrap()),
+        ..HubConfig::default()
+    };
     let hub = hub(&emu, config).await;
     assert_eq!(
         emu.with(|c| c.monitor_speed()),
@@ -160,7 +162,7 @@ async fn fence_violations_are_refused_with_the_current_status() {
         ),
         (
             // 100 deg/s on JT1: under the robot's 190, over the cap's 95.
-            format!("1040 7 21 1 2 0 0 0 -90 0 -90 0 100 0 0 0 0 0 0 0 0 0 0 0"),
+            "1040 7 21 1 2 0 0 0 -90 0 -90 0 100 0 0 0 0 0 0 0 0 0 0 0".to_owned(),
             "velocity",
         ),
     ];

@@ -273,10 +273,12 @@ impl Fence {
     pub fn check(&self, command: &Command, current: &JointsDeg) -> Result<(), FenceViolation> {
         match command {
             Command::SetSpeed { percent } => match self.spec.speed_cap_percent {
-                Some(cap) if percent.is_nan() || *percent > cap => Err(FenceViolation::SpeedAboveCap {
-                    percent: *percent,
-                    cap,
-                }),
+                Some(cap) if percent.is_nan() || *percent > cap => {
+                    Err(FenceViolation::SpeedAboveCap {
+                        percent: *percent,
+                        cap,
+                    })
+                }
                 _ => Ok(()),
             },
             Command::JointMove { target } => self.check_joint_move(current, target),
