@@ -4,14 +4,14 @@
 //! |---|---|---|
 //! | `GET /` | – | the page (switches shown, not switchable; guarded Cancel and Stop) |
 //! | `GET /api` | – | lists the endpoints |
-//! | `GET /state` | – | [`HubState`](super::HubState) |
+//! | `GET /state` | – | [`HubState`] |
 //! | `GET /model` | – | the robot model (the page draws the arm from it) |
 //! | `GET /urdf` | – | the URDF generated from the model |
 //! | `GET /live` | – | server-sent events: `{"kind":"hub","hub":HubState}` 25 times a second |
 //! | `POST /cancel` | `{"confirm": true}` | command 5 (brake; the program keeps running) |
 //! | `POST /stop` | `{"confirm": true}` | command 2 (stop at once; the program ends) |
 //!
-//! Every route is behind the [`Guard`](crate::guard::Guard) (Host, Origin, JSON POSTs, token).
+//! Every route is behind the [`Guard`] (Host, Origin, JSON POSTs, token).
 
 use std::io;
 use std::net::SocketAddr;
