@@ -136,6 +136,14 @@ def test_the_pages_api_calls_follow_the_pendant_rules(sim, driver):
     wait_until(lambda: "E1130" in driver.find_element(By.ID, "error-text").text, what="the error shown")
     driver.find_element(By.ID, "btn-reset").click()
     wait_until(lambda: http_json(pendant, "/state")["error"]["code"] == 0, what="the error reset")
+    # ABS.SPEED on and off again from the page (only the pendant switches it off).
+    abs_button = driver.find_element(By.ID, "sw-abs")
+    assert abs_button.get_attribute("data-state") == "off"
+    abs_button.click()
+    wait_until(lambda: http_json(pendant, "/state")["abs_speed"] is True, what="ABS.SPEED on")
+    wait_until(lambda: abs_button.get_attribute("data-state") == "on", what="the page showing ABS.SPEED on")
+    abs_button.click()
+    wait_until(lambda: http_json(pendant, "/state")["abs_speed"] is False, what="ABS.SPEED off")
     driver.find_element(By.ID, "btn-fault").click()  # delay_replies, count 1
     wait_until(lambda: http_json(pendant, "/state")["pending_faults"] == 1, what="the fault queued")
     driver.find_element(By.ID, "btn-fault-clear").click()

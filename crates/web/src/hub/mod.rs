@@ -552,10 +552,17 @@ impl Hub {
         r.map(|_| ())
     }
 
-    /// Cancels the current motion: command 5 (the robot brakes, the program keeps running).
-    /// Used by the page's Cancel button.
+    /// Cancels the current motion: command 5 alone (the robot brakes, the program keeps
+    /// running; a motion the controller had already planned may still run — [`Hub::stop_robot`]
+    /// is the sure stop). Used by the page's Cancel button.
     pub async fn cancel_motion(&self, source: &str) -> Result<(), ClientError> {
-        let r = self.inner.robot.read().await.cancel().await;
+        let r = self
+            .inner
+            .robot
+            .read()
+            .await
+            .send_raw("1040 5 0", false)
+            .await;
         lock(&self.inner.book).target = None;
         match &r {
             Ok(_) => self.log(
