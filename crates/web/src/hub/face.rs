@@ -371,8 +371,9 @@ impl Hub {
                         Some(Command::StopProgram | Command::CancelMotion) => book.target = None,
                         _ => {}
                     }
-                    // Every acting request but the (many) samples of a stream.
-                    matches!(&command, Some(c) if !matches!(c, Command::StreamedMove(_)))
+                    // Acting requests other than motions (clients send 6 and 7 at up to
+                    // 100 Hz: they are counted, not logged one by one).
+                    matches!(&command, Some(c) if !c.is_motion())
                 };
                 if log_it {
                     self.log(
