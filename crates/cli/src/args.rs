@@ -120,6 +120,10 @@ pub enum Cmd {
         #[arg(long)]
         yes: bool,
     },
+    /// Run the ROS 2 node (joint states, URDF, FollowJointTrajectory for MoveIt 2, services,
+    /// diagnostics) on the robot until Ctrl-C. See docs/ROS2.md.
+    #[cfg(feature = "ros2")]
+    Ros2(Ros2Args),
     /// Print shell completions.
     Completions {
         /// The shell.
@@ -173,6 +177,48 @@ pub struct PlayArgs {
     /// If the robot is not at the first point, move there first with a joint move.
     #[arg(long)]
     pub approach: bool,
+}
+
+/// `ros2` arguments (flags override the parameter file, which overrides the environment).
+#[cfg(feature = "ros2")]
+#[derive(Debug, Args)]
+pub struct Ros2Args {
+    /// Run on an emulator inside this process instead of a robot (to try MoveIt, or in tests).
+    #[arg(long)]
+    pub embedded: bool,
+    /// With --embedded: serve the emulator's pendant API (switches, E-stop, faults) here.
+    #[arg(long, value_name = "HOST:PORT")]
+    pub pendant: Option<String>,
+    /// A ROS 2 parameter file (YAML: `fs020n: {ros__parameters: {joint_names: [...], ...}}`).
+    #[arg(long, value_name = "FILE")]
+    pub params_file: Option<PathBuf>,
+    /// ROS domain (default: ROS_DOMAIN_ID, else 0).
+    #[arg(long, value_name = "ID")]
+    pub domain_id: Option<u16>,
+    /// Keep DDS on 127.0.0.1 (also with ROS_LOCALHOST_ONLY=1 or
+    /// ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST).
+    #[arg(long)]
+    pub localhost_only: bool,
+    /// Service mapping of the ROS 2 middleware of the peers: enhanced (FastDDS, the default of
+    /// Humble and Jazzy), cyclone (rmw_cyclonedds_cpp) or basic.
+    #[arg(long, value_name = "MAPPING")]
+    pub service_mapping: Option<String>,
+    /// Node name (default fs020n).
+    #[arg(long, value_name = "NAME")]
+    pub node_name: Option<String>,
+    /// Node namespace (default /).
+    #[arg(long, value_name = "NS")]
+    pub namespace: Option<String>,
+    /// /joint_states rate, Hz (default 100).
+    #[arg(long, value_name = "HZ")]
+    pub rate: Option<f64>,
+    /// The action is <NS>/follow_joint_trajectory (default /fs020n_controller).
+    #[arg(long, value_name = "NS")]
+    pub action_namespace: Option<String>,
+    /// Start the motion program when a goal arrives and it is not running (default: call
+    /// ~/start first).
+    #[arg(long)]
+    pub auto_start: bool,
 }
 
 /// `decode` arguments.

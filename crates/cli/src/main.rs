@@ -7,6 +7,8 @@ mod error;
 mod offline;
 mod output;
 mod robot_cmds;
+#[cfg(feature = "ros2")]
+mod ros2;
 mod session;
 mod shell;
 mod sim;
@@ -99,5 +101,7 @@ fn run(cli: Cli) -> CliResult {
         Cmd::Bench { count } => robot_cmds::bench(&ctx(&cli, model), *count),
         Cmd::Demo { speed, yes } => demo::demo(&ctx(&cli, model), *speed, *yes),
         Cmd::Sim(args) => sim::sim(args, &model, cli.json),
+        #[cfg(feature = "ros2")]
+        Cmd::Ros2(args) => ros2::ros2(&ctx(&cli, model), args),
     }
 }
