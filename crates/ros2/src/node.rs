@@ -156,29 +156,44 @@ pub async fn run(
     let participant = builder.build().map_err(dds("DDS participant"))?;
     let context = Context::from_domain_participant(participant).map_err(dds("ROS 2 context"))?;
     let fqn = config.fully_qualified_name();
-    let names_param = ParameterValue::StringArray(config.joint_names.to_vec());
-    let options = NodeOptions::new()
-        .enable_rosout(true)
-        .start_parameter_services(true)
-        .declare_parameter("joint_names", names_param)
-        .declare_parameter(
+    // Parameters, readable with `ros2 param`; read-only while the node runs.
+    let declared: Vec<(&str, ParameterValue)> = vec![
+        (
+            "joint_names",
+            ParameterValue::StringArray(config.joint_names.to_vec()),
+        ),
+        (
             "joint_state_rate_hz",
             ParameterValue::Double(config.joint_state_rate_hz),
-        )
-        .declare_parameter(
+        ),
+        (
             "diagnostics_rate_hz",
             ParameterValue::Double(config.diagnostics_rate_hz),
-        )
-        .declare_parameter(
+        ),
+        (
             "action_namespace",
             ParameterValue::String(config.action_namespace.clone()),
-        )
-        .parameter_validator(Box::new(|name, _| {
-            Err(format!(
-                "{name} is read-only while the node runs: set it in the parameter file \
-                 (--params-file) and restart; the speed has the ~/set_speed service"
-            ))
-        }));
+        ),
+    ];
+    let initial: Vec<(String, ParameterValue)> = declared
+        .iter()
+        .map(|(n, v)| ((*n).to_owned(), v.clone()))
+        .collect();
+    let mut options = NodeOptions::new()
+        .enable_rosout(true)
+        .start_parameter_services(true);
+    for (n, v) in declared {
+        options = options.declare_parameter(n, v);
+    }
+    let options = options.parameter_validator(Box::new(move |name, value| {
+        if initial.iter().any(|(n, v)| n == name && v == value) {
+            return Ok(());
+        }
+        Err(format!(
+            "{name} is read-only while the node runs: set it in the parameter file \
+             (--params-file) and restart; the speed has the ~/set_speed service"
+        ))
+    }));
     let node_name = NodeName::new(&config.namespace, &config.node_name)
         .map_err(|e| Ros2Error::Config(format!("node name {fqn}: {e:?}")))?;
     let mut node = context
