@@ -67,17 +67,18 @@ pub fn ros2(ctx: &Ctx, args: &Ros2Args) -> CliResult {
             "give either --robot (a controller) or --embedded (an emulator in this process)",
         ));
     }
-    let pendant: Option<SocketAddr> = match &args.pendant {
-        Some(p) if args.embedded => Some(p.parse().map_err(|e| {
-            CliError::input(format!("--pendant {p:?}: {e} (expected HOST:PORT)"))
-        })?),
-        Some(_) => {
-            return Err(CliError::input(
-                "--pendant serves the embedded emulator's pendant API: use it with --embedded",
-            ))
-        }
-        None => None,
-    };
+    let pendant: Option<SocketAddr> =
+        match &args.pendant {
+            Some(p) if args.embedded => Some(p.parse().map_err(|e| {
+                CliError::input(format!("--pendant {p:?}: {e} (expected HOST:PORT)"))
+            })?),
+            Some(_) => {
+                return Err(CliError::input(
+                    "--pendant serves the embedded emulator's pendant API: use it with --embedded",
+                ))
+            }
+            None => None,
+        };
     let rt = runtime()?;
     rt.block_on(async {
         let stop = Interrupt::install();
