@@ -183,6 +183,10 @@ pub struct PlayArgs {
 #[cfg(feature = "ros2")]
 #[derive(Debug, Args)]
 pub struct Ros2Args {
+    /// Print a MoveIt configuration file for this robot model and these settings, and exit:
+    /// urdf, joint-limits (joint_limits.yaml) or controllers (moveit_controllers.yaml).
+    #[arg(long, value_name = "WHAT", value_parser = ["urdf", "joint-limits", "controllers"])]
+    pub print: Option<String>,
     /// Run on an emulator inside this process instead of a robot (to try MoveIt, or in tests).
     #[arg(long)]
     pub embedded: bool,

@@ -59,9 +59,35 @@ fn ros2_error(e: Ros2Error) -> CliError {
     }
 }
 
+/// MoveIt's `moveit_controllers.yaml` for this node.
+pub fn moveit_controllers_yaml(config: &NodeConfig) -> String {
+    let ns = config.action_namespace.trim_start_matches('/');
+    let joints: String = config
+        .joint_names
+        .iter()
+        .map(|j| format!("      - {j}\n"))
+        .collect();
+    format!(
+        "# moveit_controllers.yaml for the fs020n ROS 2 node (fs020n ros2)\n\
+         moveit_controller_manager: moveit_simple_controller_manager/MoveItSimpleControllerManager\n\
+         moveit_simple_controller_manager:\n  controller_names:\n    - {ns}\n  {ns}:\n    \
+         type: FollowJointTrajectory\n    action_ns: follow_joint_trajectory\n    default: true\n    \
+         joints:\n{joints}"
+    )
+}
+
 /// `ros2`.
 pub fn ros2(ctx: &Ctx, args: &Ros2Args) -> CliResult {
     let config = node_config(args)?;
+    if let Some(what) = &args.print {
+        let text = match what.as_str() {
+            "urdf" => fs020n_ros2::urdf::generate(&ctx.model, &config.joint_names),
+            "joint-limits" => fs020n_ros2::urdf::joint_limits_yaml(&ctx.model, &config.joint_names),
+            _ => moveit_controllers_yaml(&config),
+        };
+        print!("{text}");
+        return Ok(());
+    }
     if args.embedded && ctx.addr.is_some() {
         return Err(CliError::input(
             "give either --robot (a controller) or --embedded (an emulator in this process)",
