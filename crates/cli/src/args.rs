@@ -216,7 +216,7 @@ pub struct Ros2Args {
     /// /joint_states rate, Hz (default 100).
     #[arg(long, value_name = "HZ")]
     pub rate: Option<f64>,
-    /// The action is <NS>/follow_joint_trajectory (default /fs020n_controller).
+    /// The action is NS/follow_joint_trajectory (default /fs020n_controller).
     #[arg(long, value_name = "NS")]
     pub action_namespace: Option<String>,
     /// Start the motion program when a goal arrives and it is not running (default: call

@@ -47,7 +47,7 @@ impl ServiceMapping {
 }
 
 /// The DDS participant.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct DdsConfig {
     /// ROS domain (`ROS_DOMAIN_ID`), 0–232. Default 0.
     pub domain_id: u16,
@@ -56,16 +56,6 @@ pub struct DdsConfig {
     pub localhost_only: bool,
     /// Service mapping of the peers' middleware.
     pub service_mapping: ServiceMapping,
-}
-
-impl Default for DdsConfig {
-    fn default() -> Self {
-        DdsConfig {
-            domain_id: 0,
-            localhost_only: false,
-            service_mapping: ServiceMapping::default(),
-        }
-    }
 }
 
 impl DdsConfig {
@@ -471,7 +461,7 @@ fn lookahead(s: &StreamOptions) -> Option<f64> {
 }
 
 fn secs(name: &str, s: f64) -> Result<Duration, Ros2Error> {
-    if s.is_finite() && s >= 0.0 && s <= 86_400.0 {
+    if (0.0..=86_400.0).contains(&s) {
         Ok(Duration::from_secs_f64(s))
     } else {
         Err(Ros2Error::Config(format!(

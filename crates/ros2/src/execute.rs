@@ -133,8 +133,7 @@ fn violation(
 }
 
 /// Maps a client error during execution to the goal's end.
-fn failed(e: &ClientError, joint_names: &[String; JOINT_COUNT]) -> Outcome {
-    let _ = joint_names;
+fn failed(e: &ClientError) -> Outcome {
     match e {
         ClientError::Blocked(_)
         | ClientError::Trajectory(_)
@@ -196,7 +195,7 @@ pub async fn execute(
     let handle = match robot.stream(plan.trajectory.clone(), options).await {
         Ok(h) => h,
         Err(ClientError::Cancelled(_)) => return canceled(),
-        Err(e) => return failed(&e, joint_names),
+        Err(e) => return failed(&e),
     };
     let started = Instant::now();
     let mut progress = handle.subscribe();
@@ -254,7 +253,7 @@ pub async fn execute(
     }
     let report = match handle.wait().await {
         Ok(r) => r,
-        Err(e) => return failed(&e, joint_names),
+        Err(e) => return failed(&e),
     };
     if let Some(text) = path_violation {
         return Outcome::aborted(error_code::PATH_TOLERANCE_VIOLATED, text);

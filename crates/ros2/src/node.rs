@@ -357,10 +357,8 @@ async fn joint_state_loop(
         let mut snap = robot.status();
         // Idle, the session polls at its keep-alive rate: poll when the status is older than
         // one period, so that every message carries a fresh reply.
-        if snap.as_ref().is_none_or(|s| s.age() > period) {
-            if robot.poll().await.is_ok() {
-                snap = robot.status();
-            }
+        if snap.as_ref().is_none_or(|s| s.age() > period) && robot.poll().await.is_ok() {
+            snap = robot.status();
         }
         let Some(s) = snap else { continue };
         if last_seq == Some(s.seq) && s.age() > period * 2 {
