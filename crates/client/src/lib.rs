@@ -44,7 +44,7 @@ pub use clock::{ClockFit, ServerClock};
 pub use config::{ClientConfig, RecordFormat, Recording};
 pub use error::{ClientError, LinkError};
 pub use motion::{Completion, MoveHandle, MoveProgress, MoveReport};
-pub use robot::Robot;
+pub use robot::{Robot, STOP_SETTLE};
 pub use safety::{
     blockers, check_stream_sample, extrapolation_window, Blocker, SampleError, ESTOP_REMEDY,
     EXTRAPOLATION_STEP_BOUND_S, MAX_LOOKAHEAD_PASSES,

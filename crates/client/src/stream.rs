@@ -101,7 +101,7 @@ pub struct StreamProgress {
 pub enum StreamOutcome {
     /// Every sample was sent.
     Completed,
-    /// Cancelled by the user (command 5 sent).
+    /// Cancelled by the user (commands 5 and 2 sent).
     Cancelled,
 }
 
@@ -206,7 +206,7 @@ pub(crate) fn check(
     Ok(())
 }
 
-/// A running stream. Dropping the handle cancels the stream (command 5).
+/// A running stream. Dropping the handle cancels the stream (commands 5 and 2).
 #[derive(Debug)]
 #[must_use = "dropping a StreamHandle cancels the stream: keep it and call wait()"]
 pub struct StreamHandle {
@@ -264,7 +264,8 @@ impl StreamHandle {
         self.progress.clone()
     }
 
-    /// Cancels the stream: no further sample is sent and command 5 brakes the robot.
+    /// Cancels the stream: no further sample is sent, command 5 brakes the robot and command 2
+    /// ends the motion program (so no planned segment runs after the brake).
     /// [`wait`](Self::wait) then returns a report with [`StreamOutcome::Cancelled`].
     pub fn cancel(&self) {
         if self.shared.current_epoch() == self.epoch {
@@ -347,13 +348,10 @@ impl Streamer {
         lock(&self.link.shared.clock).server_time(at)
     }
 
-    /// Sends command 5 (best effort: the error that ended the stream is what gets reported).
+    /// Stops the arm for sure: commands 5 then 2 (best effort: the error that ended the
+    /// stream is what gets reported).
     async fn brake(&self) {
-        if let Err(e) = self
-            .link
-            .command(&Request::new(Command::CancelMotion))
-            .await
-        {
+        if let Err(e) = self.link.halt().await {
             tracing::warn!(error = %e, "could not send the cancel at the end of a stream");
         }
     }
