@@ -321,7 +321,8 @@ class Node:
         self.pendant = self.info["pendant"]
 
     def post(self, path):
-        req = urllib.request.Request(self.pendant + path, method="POST", data=b"")
+        req = urllib.request.Request(self.pendant + path, method="POST", data=b"{}",
+                                     headers={"Content-Type": "application/json"})
         with urllib.request.urlopen(req, timeout=TIMEOUT) as r:
             return json.loads(r.read())
 

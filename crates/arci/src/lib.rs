@@ -155,7 +155,7 @@ impl Fs020nClient {
                 .map_err(|e| client_error(e, &names))?;
             match report.outcome {
                 StreamOutcome::Cancelled => Err(Error::Canceled {
-                    message: "the trajectory was cancelled; the robot braked (command 5)".into(),
+                    message: "the trajectory was cancelled; the robot braked and the motion program ended (commands 5 and 2)".into(),
                 }),
                 StreamOutcome::Completed if report.settled => Ok(()),
                 StreamOutcome::Completed => Err(Error::Other(anyhow::anyhow!(

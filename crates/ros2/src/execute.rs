@@ -1,5 +1,5 @@
 //! Executing a [`Plan`] on the robot: the client library's stream (command 7, or command 6
-//! waypoints), feedback, path and goal tolerances, cancel (command 5: the robot brakes), and a
+//! waypoints), feedback, path and goal tolerances, cancel (commands 5 and 2: the robot brakes), and a
 //! `FollowJointTrajectory` result for every way it can end. Independent of DDS: the node feeds
 //! it goals and forwards what it reports.
 
@@ -24,7 +24,7 @@ pub enum GoalEnd {
     Succeeded,
     /// Stopped: a fault, a tolerance, the link, a refusal (see the result's error code).
     Aborted,
-    /// Cancelled by the action client; the robot braked (command 5).
+    /// Cancelled by the action client; the robot braked (commands 5 and 2).
     Canceled,
 }
 
@@ -158,7 +158,7 @@ fn failed(e: &ClientError) -> Outcome {
 /// Executes `plan` on `robot` (program running, robot at the plan's start): waits the plan's
 /// start delay, streams the trajectory, sends feedback every `feedback_period` (dropped when
 /// the channel is full), checks path tolerances on every status, and on `cancel` becoming
-/// `true` cancels the stream (command 5, the robot brakes). At the end, checks the goal
+/// `true` cancels the stream (commands 5 and 2: the robot brakes, the program ends). At the end, checks the goal
 /// tolerances on the robot's joints.
 pub async fn execute(
     robot: &Robot,
@@ -173,7 +173,7 @@ pub async fn execute(
         Outcome::new(
             GoalEnd::Canceled,
             error_code::SUCCESSFUL,
-            "cancelled: the robot braked to a stop (command 5)",
+            "cancelled: the robot braked to a stop and the motion program ended (commands 5 and 2); call ~/start before the next goal",
         )
     };
     if *cancel.borrow() {
@@ -231,7 +231,7 @@ pub async fn execute(
                         if let Some((j, d, tol)) = violation(&plan.path_tolerance_deg, &desired, &s.status.joints) {
                             path_violation = Some(format!(
                                 "path tolerance violated at t = {tau:.3} s: {} was {:.4} rad from the \
-                                 trajectory (tolerance {:.4} rad); the robot braked (command 5) — \
+                                 trajectory (tolerance {:.4} rad); the robot braked (commands 5 and 2) — \
                                  slow the trajectory down or widen path_tolerance",
                                 joint_names[j],
                                 d.to_radians(),

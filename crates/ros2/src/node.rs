@@ -131,7 +131,7 @@ fn service_qos() -> QosProfile {
 }
 
 /// Runs the node until `shutdown` resolves (or a DDS entity fails). A goal still executing
-/// then is cancelled (command 5: the robot brakes). The robot model gives the URDF and the
+/// then is cancelled (commands 5 and 2: the robot brakes). The robot model gives the URDF and the
 /// checks; use the session's own (`robot.model()`).
 ///
 /// What it serves (`~` is the node's name, `/fs020n` by default):
@@ -458,7 +458,7 @@ async fn trigger_loop(
                             .to_owned()
                     }),
                     Trigger::Cancel => robot.cancel().await.map(|_| {
-                        "the current motion was cancelled: the robot braked to a stop (command 5)"
+                        "the current motion was cancelled: the robot braked to a stop and the motion program ended (commands 5 and 2); ~/start runs it again"
                             .to_owned()
                     }),
                 };
@@ -655,7 +655,7 @@ async fn action_loop(shared: &Shared, server: &ActionServer) -> Result<(), Ros2E
                     _ => Vec::new(),
                 };
                 if !mine.is_empty() {
-                    shared.log(LogLevel::Info, "goal cancel requested: braking (command 5)");
+                    shared.log(LogLevel::Info, "goal cancel requested: braking (commands 5 and 2)");
                 }
                 if let Err(e) = server.respond_to_cancel_requests(&cancel, mine.into_iter()).await {
                     tracing::warn!("cancel response not sent: {e:?}");

@@ -233,6 +233,8 @@ async fn a_goal_the_robot_cannot_reach_in_time_violates_the_goal_tolerance() {
 async fn a_goal_with_the_program_stopped_is_refused_without_moving() {
     let (emu, robot) = ready().await;
     robot.stop_program().await.unwrap();
+    // The program ends once the stop signal has been stable for 50 ms.
+    tokio::time::sleep(Duration::from_millis(500)).await;
     let before = emu.with(|c| c.counters().effective_requests);
     let (_tx, cancel) = watch::channel(false);
     let (outcome, _) = run(&robot, &jt1_goal(10.0, 2.0, 10), cancel).await;
