@@ -27,8 +27,7 @@ use std::time::Duration;
 
 use arci::{Error, JointTrajectoryClient, TrajectoryPoint as ArciPoint, WaitFuture};
 use fs020n_client::{
-    ClientError, Robot, StreamMode, StreamOptions, StreamOutcome, Trajectory, TrajectoryError,
-    TrajectoryPoint,
+    ClientError, Robot, StreamOptions, StreamOutcome, Trajectory, TrajectoryError, TrajectoryPoint,
 };
 use fs020n_proto::{JointsDeg, JOINT_COUNT};
 
@@ -93,12 +92,7 @@ impl Fs020nClient {
                 message: e.to_string(),
             });
         }
-        self.robot
-            .status()
-            .map(|s| s.status.joints)
-            .ok_or_else(|| Error::Uninitialized {
-                message: "no status from the robot yet".into(),
-            })
+        Ok(self.robot.status().status.joints)
     }
 
     fn to_deg(&self, values: &[f64], what: &str) -> Result<JointsDeg, Error> {
@@ -129,18 +123,9 @@ impl Fs020nClient {
             points.insert(0, TrajectoryPoint::new(0.0, current));
         }
         let trajectory = Trajectory::new(points).map_err(|e| self.refusal(e))?;
-        let model = self.robot.model();
-        let period = self.options.period.as_secs_f64();
-        let checked = match self.options.mode {
-            StreamMode::Extrapolated { lookahead_passes } => trajectory.validate_extrapolated(
-                model,
-                period,
-                self.options.max_step_deg,
-                lookahead_passes,
-            ),
-            StreamMode::Waypoints => trajectory.validate(model, period, self.options.max_step_deg),
-        };
-        checked.map_err(|e| self.refusal(e))?;
+        self.options
+            .validate(self.robot.model(), &trajectory)
+            .map_err(|e| self.refusal(e))?;
         let robot = self.robot.clone();
         let options = self.options;
         let task = self.runtime.spawn(async move {
@@ -187,7 +172,9 @@ fn client_error(e: ClientError, names: &[String]) -> Error {
                 message: e.to_string(),
             }
         }
-        ClientError::Cancelled(m) => Error::Canceled { message: m.into() },
+        ClientError::Cancelled(m) => Error::Canceled {
+            message: m.to_string(),
+        },
         ClientError::Limit(limit) => {
             let j = limit.joint.saturating_sub(1).min(JOINT_COUNT - 1);
             Error::OutOfLimit {

@@ -1,4 +1,5 @@
 //! The arci client against the in-memory emulator on virtual time.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;

@@ -14,7 +14,7 @@ use crate::session::{client_error, close_quietly, runtime, Ctx, Interrupt};
 
 /// The node's settings from the defaults, the ROS 2 environment, the parameter file and the
 /// flags (in that order).
-pub fn node_config(args: &Ros2Args) -> CliResult<NodeConfig> {
+pub(crate) fn node_config(args: &Ros2Args) -> CliResult<NodeConfig> {
     let input = |e: Ros2Error| CliError::input(e.to_string());
     let mut config = NodeConfig {
         dds: DdsConfig::from_env().map_err(input)?,
@@ -60,7 +60,7 @@ fn ros2_error(e: Ros2Error) -> CliError {
 }
 
 /// MoveIt's `moveit_controllers.yaml` for this node.
-pub fn moveit_controllers_yaml(config: &NodeConfig) -> String {
+pub(crate) fn moveit_controllers_yaml(config: &NodeConfig) -> String {
     let ns = config.action_namespace.trim_start_matches('/');
     let joints: String = config
         .joint_names
@@ -77,7 +77,7 @@ pub fn moveit_controllers_yaml(config: &NodeConfig) -> String {
 }
 
 /// `ros2`.
-pub fn ros2(ctx: &Ctx, args: &Ros2Args) -> CliResult {
+pub(crate) fn ros2(ctx: &Ctx, args: &Ros2Args) -> CliResult {
     let config = node_config(args)?;
     if let Some(what) = &args.print {
         let text = match what.as_str() {

@@ -1,5 +1,6 @@
 //! `fs020n ros2` without DDS: the MoveIt files it prints, and the settings it refuses.
 #![cfg(feature = "ros2")]
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use assert_cmd::Command;
 use predicates::prelude::*;

@@ -41,3 +41,8 @@ pub use model::{
 };
 pub use motion::{JointMove, MotionError};
 pub use pose::{Pose, Xyzoat};
+
+/// The README's examples, compiled as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

@@ -208,10 +208,10 @@ pub async fn execute(
     loop {
         tokio::select! {
             r = progress.changed() => if r.is_err() { break },
-            r = cancel.wait_for(|c| *c), if !we_cancelled => {
-                if r.is_ok() {
+            requested = async { cancel.wait_for(|c| *c).await.is_ok() }, if !we_cancelled => {
+                if requested {
                     we_cancelled = true;
-                    handle.cancel();
+                    let _ = handle.cancel().await;
                 }
             }
             r = status_rx.changed() => {
@@ -219,9 +219,9 @@ pub async fn execute(
                     // The session ended; the stream reports why.
                     continue;
                 }
-                let snapshot = status_rx.borrow_and_update().clone();
-                if let (Some(s), None) = (snapshot, &path_violation) {
-                    if s.received_at >= started {
+                let s = status_rx.borrow_and_update().clone();
+                if path_violation.is_none() && s.received_at >= started {
+                    {
                         // The reply reflects the robot about half a round trip before it
                         // arrived.
                         let tau = (s.received_at.duration_since(started).saturating_sub(s.rtt / 2))
@@ -238,16 +238,15 @@ pub async fn execute(
                                 tol.to_radians()
                             ));
                             we_cancelled = true;
-                            handle.cancel();
+                            let _ = handle.cancel().await;
                         }
                     }
                 }
             }
             _ = ticker.tick() => {
-                if let Some(s) = robot.status() {
-                    let tau = started.elapsed().as_secs_f64().min(duration);
-                    let _ = feedback_tx.try_send(feedback(plan, tau, &s.status.joints));
-                }
+                let s = robot.status();
+                let tau = started.elapsed().as_secs_f64().min(duration);
+                let _ = feedback_tx.try_send(feedback(plan, tau, &s.status.joints));
             }
         }
     }
@@ -266,12 +265,7 @@ pub async fn execute(
              another client of the session); the robot braked",
         ),
         StreamOutcome::Completed => {
-            let Some(now) = robot.status() else {
-                return Outcome::aborted(
-                    error_code::GOAL_TOLERANCE_VIOLATED,
-                    "no status from the robot at the end of the trajectory",
-                );
-            };
+            let now = robot.status();
             let target = plan.trajectory.last();
             match violation(&plan.goal_tolerance_deg, &target, &now.status.joints) {
                 None => Outcome::new(

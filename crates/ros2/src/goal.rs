@@ -6,7 +6,7 @@
 
 use std::time::Duration;
 
-use fs020n_client::{StreamMode, Trajectory, TrajectoryPoint};
+use fs020n_client::{Trajectory, TrajectoryPoint};
 use fs020n_kin::RobotModel;
 use fs020n_proto::{JointsDeg, JOINT_COUNT};
 
@@ -237,15 +237,9 @@ pub fn plan(
     let trajectory = Trajectory::new(points)
         .map_err(|e| GoalRefusal::invalid(format!("refused before moving: {e}")))?;
     // The client library's own checks, exactly as the stream will run them.
-    let s = &exec.stream;
-    let period = s.period.as_secs_f64();
-    let checked = match s.mode {
-        StreamMode::Extrapolated { lookahead_passes } => {
-            trajectory.validate_extrapolated(model, period, s.max_step_deg, lookahead_passes)
-        }
-        StreamMode::Waypoints => trajectory.validate(model, period, s.max_step_deg),
-    };
-    checked.map_err(|e| GoalRefusal::invalid(format!("refused before moving: {e}")))?;
+    exec.stream
+        .validate(model, &trajectory)
+        .map_err(|e| GoalRefusal::invalid(format!("refused before moving: {e}")))?;
     // Tolerances.
     let tolerances = |given: &[JointTolerance], default_rad: f64, what: &str| {
         let default = (default_rad > 0.0).then(|| default_rad.to_degrees());

@@ -354,13 +354,12 @@ async fn joint_state_loop(
     loop {
         ticker.tick().await;
         let Ok(robot) = shared.robot() else { continue };
-        let mut snap = robot.status();
+        let mut s = robot.status();
         // Idle, the session polls at its keep-alive rate: poll when the status is older than
         // one period, so that every message carries a fresh reply.
-        if snap.as_ref().is_none_or(|s| s.age() > period) && robot.poll().await.is_ok() {
-            snap = robot.status();
+        if s.age() > period && robot.poll().await.is_ok() {
+            s = robot.status();
         }
-        let Some(s) = snap else { continue };
         if last_seq == Some(s.seq) && s.age() > period * 2 {
             continue;
         }
@@ -401,7 +400,7 @@ async fn diagnostics_loop(
         } else {
             state.link_error = Some("no robot session".into());
         }
-        let snapshot = robot.as_ref().and_then(|r| r.status());
+        let snapshot = robot.as_ref().map(|r| r.status());
         let status = robot_status(
             &format!("{}: robot", shared.config.node_name),
             &hardware_id,

@@ -1,6 +1,7 @@
 //! Goals executed on the in-memory emulator on virtual time: success within the goal
 //! tolerances, feedback, cancel (the robot brakes), an E-stop (aborted with an error code), a
 //! path tolerance, and the refusals made before anything moves.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;

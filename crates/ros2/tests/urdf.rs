@@ -1,6 +1,7 @@
 //! The generated URDF, parsed by `urdf-rs` and evaluated by the `k` crate (an independent
 //! kinematics implementation), puts the flange where the robot model's forward kinematics
 //! does; its limits are the model's, in radians.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use fs020n_kin::{JointsDeg, RobotModel};
 use proptest::prelude::*;
