@@ -234,3 +234,8 @@ impl JointTrajectoryClient for Fs020nClient {
         self.start(points)
     }
 }
+
+/// The README's examples, compiled as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;
