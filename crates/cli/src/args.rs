@@ -130,6 +130,10 @@ pub(crate) enum Cmd {
         #[arg(long)]
         yes: bool,
     },
+    /// Run the ROS 2 node (joint states, URDF, FollowJointTrajectory for MoveIt 2, services,
+    /// diagnostics) on the robot until Ctrl-C. See docs/ROS2.md.
+    #[cfg(feature = "ros2")]
+    Ros2(Ros2Args),
     /// Print shell completions.
     Completions {
         /// The shell.
@@ -221,6 +225,52 @@ pub(crate) struct PlayArgs {
     /// the same point of the trajectory, up to a day; 0 fails at once.
     #[arg(long, default_value_t = 60.0, value_name = "S")]
     pub hold_timeout: f64,
+}
+
+/// `ros2` arguments (flags override the parameter file, which overrides the environment).
+#[cfg(feature = "ros2")]
+#[derive(Debug, Args)]
+pub(crate) struct Ros2Args {
+    /// Print a MoveIt configuration file for this robot model and these settings, and exit:
+    /// urdf, joint-limits (joint_limits.yaml) or controllers (moveit_controllers.yaml).
+    #[arg(long, value_name = "WHAT", value_parser = ["urdf", "joint-limits", "controllers"])]
+    pub(crate) print: Option<String>,
+    /// Run on an emulator inside this process instead of a robot (to try MoveIt, or in tests).
+    #[arg(long)]
+    pub(crate) embedded: bool,
+    /// With --embedded: serve the emulator's pendant API (switches, E-stop, faults) here.
+    #[arg(long, value_name = "HOST:PORT")]
+    pub(crate) pendant: Option<String>,
+    /// A ROS 2 parameter file (YAML: `fs020n: {ros__parameters: {joint_names: [...], ...}}`).
+    #[arg(long, value_name = "FILE")]
+    pub(crate) params_file: Option<PathBuf>,
+    /// ROS domain (default: ROS_DOMAIN_ID, else 0).
+    #[arg(long, value_name = "ID")]
+    pub(crate) domain_id: Option<u16>,
+    /// Keep DDS on 127.0.0.1 (also with ROS_LOCALHOST_ONLY=1 or
+    /// ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST).
+    #[arg(long)]
+    pub(crate) localhost_only: bool,
+    /// Service mapping of the ROS 2 middleware of the peers: enhanced (FastDDS, the default of
+    /// Humble and Jazzy), cyclone (rmw_cyclonedds_cpp) or basic.
+    #[arg(long, value_name = "MAPPING")]
+    pub(crate) service_mapping: Option<String>,
+    /// Node name (default fs020n).
+    #[arg(long, value_name = "NAME")]
+    pub(crate) node_name: Option<String>,
+    /// Node namespace (default /).
+    #[arg(long, value_name = "NS")]
+    pub(crate) namespace: Option<String>,
+    /// /joint_states rate, Hz (default 100).
+    #[arg(long, value_name = "HZ")]
+    pub(crate) rate: Option<f64>,
+    /// The action is NS/follow_joint_trajectory (default /fs020n_controller).
+    #[arg(long, value_name = "NS")]
+    pub(crate) action_namespace: Option<String>,
+    /// Start the motion program when a goal arrives and it is not running (default: call
+    /// ~/start first).
+    #[arg(long)]
+    pub(crate) auto_start: bool,
 }
 
 /// `decode` arguments.
