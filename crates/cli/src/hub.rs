@@ -58,7 +58,7 @@ fn config(args: &HubArgs, ctx: &Ctx, model: &RobotModel) -> CliResult<HubConfig>
 }
 
 /// `hub`.
-pub fn hub(args: &HubArgs, ctx: &Ctx, as_json: bool) -> CliResult {
+pub(crate) fn hub(args: &HubArgs, ctx: &Ctx, as_json: bool) -> CliResult {
     let model = ctx.model.clone();
     let config = config(args, ctx, &model)?;
     let http = resolve(&args.http, "--http")?;

@@ -20,7 +20,7 @@ fn resolve(text: &str, what: &str) -> CliResult<SocketAddr> {
 }
 
 /// Builds the options of each robot from the flags.
-pub fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOptions>> {
+pub(crate) fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOptions>> {
     if !args.pendant.is_empty() && args.pendant.len() != args.listen.len() {
         return Err(CliError::input(format!(
             "{} --listen but {} --pendant: give one pendant address per robot, or none",
@@ -84,7 +84,7 @@ pub fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOptions>>
 }
 
 /// `sim`.
-pub fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
+pub(crate) fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
     let all = options(args, model)?;
     let rt = runtime()?;
     rt.block_on(async {

@@ -44,3 +44,8 @@ pub use model::{
 pub use motion::{JointMove, MotionError};
 pub use pose::{Pose, Xyzoat};
 pub use urdf::URDF_JOINT_NAMES;
+
+/// The README's examples, compiled as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

@@ -80,6 +80,17 @@ impl RobotModel {
     /// assert!(urdf.contains(r#"<axis xyz="0 -1 0"/>"#));
     /// ```
     pub fn to_urdf(&self) -> String {
+        self.to_urdf_named(&URDF_JOINT_NAMES)
+    }
+
+    /// [`RobotModel::to_urdf`] with other joint names (JT1 first), e.g. those a ROS
+    /// configuration uses. Names are escaped for XML.
+    ///
+    /// ```
+    /// let urdf = fs020n_kin::RobotModel::fs020n().to_urdf_named(&["a1", "a2", "a3", "a4", "a5", "a6"]);
+    /// assert!(urdf.contains(r#"<joint name="a6" type="revolute">"#));
+    /// ```
+    pub fn to_urdf_named<S: AsRef<str>>(&self, joint_names: &[S; 6]) -> String {
         let g = &self.geometry;
         // Link radius: a tenth of the upper arm, at least 2 cm.
         let r = (g.upper_arm_m / 10.0).max(0.02);
@@ -151,7 +162,7 @@ impl RobotModel {
                  <origin xyz=\"{x} {y} {z}\" rpy=\"0 0 0\"/>\n    \
                  <axis xyz=\"{}\"/>\n    \
                  <limit lower=\"{}\" upper=\"{}\" effort=\"0\" velocity=\"{}\"/>\n  </joint>\n",
-                URDF_JOINT_NAMES[i],
+                xml_escape(joint_names[i].as_ref()),
                 parents[i],
                 children[i],
                 axes[i],
@@ -186,6 +197,13 @@ mod tests {
         let urdf = m.to_urdf();
         assert!(!urdf.contains("<robot>"));
         assert_eq!(urdf.matches("<robot ").count(), 1);
+    }
+
+    #[test]
+    fn other_joint_names() {
+        let urdf = RobotModel::fs020n().to_urdf_named(&["a&1", "b", "c", "d", "e", "f"]);
+        assert!(urdf.contains(r#"<joint name="a&amp;1" type="revolute">"#));
+        assert!(!urdf.contains("joint_1"));
     }
 
     #[test]

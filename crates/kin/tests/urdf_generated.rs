@@ -1,6 +1,7 @@
 //! The URDF generated from the model (`RobotModel::to_urdf`), read by an independent URDF parser
 //! (`urdf-rs`) and evaluated by an independent kinematics library (`k`): its forward kinematics
 //! must equal ours, and its limits must be the model's.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use fs020n_kin::{JointsDeg, JointsRad, RobotModel, URDF_JOINT_NAMES};
 use proptest::prelude::*;

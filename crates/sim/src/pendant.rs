@@ -256,8 +256,10 @@ async fn auth(State(st): State<AppState>, req: Request, next: Next) -> Response 
                 "send the header `Authorization: Bearer <token>` with the token the emulator was started with",
             )
             .into_response();
-            r.headers_mut()
-                .insert(header::WWW_AUTHENTICATE, "Bearer".parse().expect("valid"));
+            r.headers_mut().insert(
+                header::WWW_AUTHENTICATE,
+                header::HeaderValue::from_static("Bearer"),
+            );
             return r;
         }
     }

@@ -3,6 +3,7 @@
 //! runtime's real clock), and a watcher's poll answered from the latest status.
 //!
 //! `cargo bench -p fs020n-web --bench hub`; figures in docs/HUB.md ("What the hub costs").
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use std::time::Duration;
 

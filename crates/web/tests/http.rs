@@ -1,5 +1,6 @@
 //! The web apps through their routers (no sockets): the page, the live feed, the guard, the
 //! pendant API under `/api`, the hub's guarded buttons.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 mod common;
 

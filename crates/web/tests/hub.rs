@@ -1,5 +1,6 @@
 //! The hub on virtual time: an in-memory emulator behind it, raw protocol-1040 clients in
 //! front of it.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 mod common;
 

@@ -195,10 +195,7 @@ impl Hub {
 
     /// The reply with the latest status, not from the controller.
     fn latest_reply(&self, robot: &fs020n_client::Robot) -> Vec<u8> {
-        robot
-            .status()
-            .map(|s| s.status.encode().into_bytes())
-            .unwrap_or_default()
+        robot.status().status.encode().into_bytes()
     }
 
     fn refuse(
@@ -341,10 +338,7 @@ impl Hub {
             _ => {}
         }
         if let Some(fence) = &self.inner.config.fence {
-            let current = robot
-                .status()
-                .map(|s| s.status.joints)
-                .unwrap_or(self.inner.model.home);
+            let current = robot.status().status.joints;
             if let Err(v) = fence.check(&command, &current) {
                 return self.refuse(id, &robot, &text, Refusal::Fence, v.to_string());
             }

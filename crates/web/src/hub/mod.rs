@@ -454,7 +454,7 @@ impl Hub {
         // The robot is behind an async lock; `try_read` never waits (a reconnection holds it
         // for writing: then the status is not available).
         let (status, stats, link_err) = match self.inner.robot.try_read() {
-            Ok(r) => (r.status(), Some(r.stats()), r.link_error()),
+            Ok(r) => (Some(r.status()), Some(r.stats()), r.link_error()),
             Err(_) => (None, None, None),
         };
         let up = self.is_connected();

@@ -1,4 +1,5 @@
 //! Test helpers: the hub on an in-memory emulator, and raw protocol-1040 clients of its face.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 #![allow(dead_code)]
 
 use std::time::Duration;
@@ -11,7 +12,7 @@ use tokio::io::{AsyncReadExt, AsyncWriteExt, DuplexStream};
 
 /// Connects to an in-memory emulator.
 #[derive(Clone)]
-pub struct EmuConnector(pub Emulator);
+pub(crate) struct EmuConnector(pub(crate) Emulator);
 
 impl Connector for EmuConnector {
     fn connect(&self) -> ConnectFuture<'_> {
@@ -24,24 +25,24 @@ impl Connector for EmuConnector {
     }
 }
 
-pub fn emulator() -> Emulator {
+pub(crate) fn emulator() -> Emulator {
     Emulator::new(ControllerConfig::default())
 }
 
-pub async fn hub(emu: &Emulator, config: HubConfig) -> Hub {
+pub(crate) async fn hub(emu: &Emulator, config: HubConfig) -> Hub {
     Hub::connect_with(EmuConnector(emu.clone()), config)
         .await
         .expect("the hub connects to the emulator")
 }
 
 /// A raw client of the hub's face (what an existing protocol-1040 client does).
-pub struct Raw {
-    pub stream: DuplexStream,
+pub(crate) struct Raw {
+    pub(crate) stream: DuplexStream,
     decoder: ReplyDecoder,
 }
 
 impl Raw {
-    pub fn connect(hub: &Hub, name: &str) -> Raw {
+    pub(crate) fn connect(hub: &Hub, name: &str) -> Raw {
         let (client, server) = tokio::io::duplex(4096);
         let hub = hub.clone();
         let name = name.to_owned();
@@ -53,14 +54,14 @@ impl Raw {
     }
 
     /// One request, one reply (lock-step).
-    pub async fn request(&mut self, text: &str) -> ReplyFrame {
+    pub(crate) async fn request(&mut self, text: &str) -> ReplyFrame {
         self.try_request(text)
             .await
             .unwrap_or_else(|| panic!("no reply to {text:?}"))
     }
 
     /// `None` when the hub closed the connection instead of replying.
-    pub async fn try_request(&mut self, text: &str) -> Option<ReplyFrame> {
+    pub(crate) async fn try_request(&mut self, text: &str) -> Option<ReplyFrame> {
         self.stream.write_all(text.as_bytes()).await.ok()?;
         let mut buf = [0u8; 512];
         loop {
@@ -79,7 +80,7 @@ impl Raw {
     }
 
     /// `true` once the hub has closed this connection.
-    pub async fn closed(&mut self) -> bool {
+    pub(crate) async fn closed(&mut self) -> bool {
         let mut buf = [0u8; 64];
         matches!(
             tokio::time::timeout(Duration::from_secs(10), self.stream.read(&mut buf)).await,
@@ -88,21 +89,21 @@ impl Raw {
     }
 }
 
-pub fn home() -> JointsDeg {
+pub(crate) fn home() -> JointsDeg {
     JointsDeg::new([0.0, 0.0, -90.0, 0.0, -90.0, 0.0])
 }
 
-pub fn joint_move(j: [f64; 6]) -> String {
+pub(crate) fn joint_move(j: [f64; 6]) -> String {
     format!(
         "1040 6 9 0 0 0 {} {} {} {} {} {}",
         j[0], j[1], j[2], j[3], j[4], j[5]
     )
 }
 
-pub async fn sleep_ms(ms: u64) {
+pub(crate) async fn sleep_ms(ms: u64) {
     tokio::time::sleep(Duration::from_millis(ms)).await;
 }
 
-pub fn speed_norm(v: &JointsDeg) -> f64 {
+pub(crate) fn speed_norm(v: &JointsDeg) -> f64 {
     v.iter().map(f64::abs).fold(0.0, f64::max)
 }
