@@ -15,6 +15,8 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 #[command(after_help = "EXAMPLES:
   fs020n demo                                   # everything, on the embedded emulator
   fs020n sim                                    # an emulator on 127.0.0.1:10050
+  fs020n sim --pendant 127.0.0.1:10051          # ... with its web pendant: http://127.0.0.1:10051/
+  fs020n hub --http 127.0.0.1:8080 --listen 127.0.0.1:10060   # share the robot's session
   fs020n --robot 192.168.0.2:10050 status --watch
   fs020n move 0 10 -80 0 -90 0 --speed 20 --wait
   fs020n move --pose 850 0 1100 0 180 0 --linear
@@ -121,6 +123,9 @@ pub(crate) enum Cmd {
     },
     /// Run the controller emulator in the foreground until Ctrl-C.
     Sim(SimArgs),
+    /// Hold the one session with a controller and share it: web page, protocol-1040 face,
+    /// safety fence, Foxglove bridge, recording (docs/HUB.md).
+    Hub(HubArgs),
     /// The full tour on the embedded emulator: preflight, speed, moves, a stream, a report.
     Demo {
         /// Speed percent for the joint moves, 1–100.
@@ -130,6 +135,10 @@ pub(crate) enum Cmd {
         #[arg(long)]
         yes: bool,
     },
+    /// Run the ROS 2 node (joint states, URDF, FollowJointTrajectory for MoveIt 2, services,
+    /// diagnostics) on the robot until Ctrl-C. See docs/ROS2.md.
+    #[cfg(feature = "ros2")]
+    Ros2(Ros2Args),
     /// Print shell completions.
     Completions {
         /// The shell.
@@ -223,6 +232,52 @@ pub(crate) struct PlayArgs {
     pub hold_timeout: f64,
 }
 
+/// `ros2` arguments (flags override the parameter file, which overrides the environment).
+#[cfg(feature = "ros2")]
+#[derive(Debug, Args)]
+pub(crate) struct Ros2Args {
+    /// Print a MoveIt configuration file for this robot model and these settings, and exit:
+    /// urdf, joint-limits (joint_limits.yaml) or controllers (moveit_controllers.yaml).
+    #[arg(long, value_name = "WHAT", value_parser = ["urdf", "joint-limits", "controllers"])]
+    pub(crate) print: Option<String>,
+    /// Run on an emulator inside this process instead of a robot (to try MoveIt, or in tests).
+    #[arg(long)]
+    pub(crate) embedded: bool,
+    /// With --embedded: serve the emulator's pendant API (switches, E-stop, faults) here.
+    #[arg(long, value_name = "HOST:PORT")]
+    pub(crate) pendant: Option<String>,
+    /// A ROS 2 parameter file (YAML: `fs020n: {ros__parameters: {joint_names: [...], ...}}`).
+    #[arg(long, value_name = "FILE")]
+    pub(crate) params_file: Option<PathBuf>,
+    /// ROS domain (default: ROS_DOMAIN_ID, else 0).
+    #[arg(long, value_name = "ID")]
+    pub(crate) domain_id: Option<u16>,
+    /// Keep DDS on 127.0.0.1 (also with ROS_LOCALHOST_ONLY=1 or
+    /// ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST).
+    #[arg(long)]
+    pub(crate) localhost_only: bool,
+    /// Service mapping of the ROS 2 middleware of the peers: enhanced (FastDDS, the default of
+    /// Humble and Jazzy), cyclone (rmw_cyclonedds_cpp) or basic.
+    #[arg(long, value_name = "MAPPING")]
+    pub(crate) service_mapping: Option<String>,
+    /// Node name (default fs020n).
+    #[arg(long, value_name = "NAME")]
+    pub(crate) node_name: Option<String>,
+    /// Node namespace (default /).
+    #[arg(long, value_name = "NS")]
+    pub(crate) namespace: Option<String>,
+    /// /joint_states rate, Hz (default 100).
+    #[arg(long, value_name = "HZ")]
+    pub(crate) rate: Option<f64>,
+    /// The action is NS/follow_joint_trajectory (default /fs020n_controller).
+    #[arg(long, value_name = "NS")]
+    pub(crate) action_namespace: Option<String>,
+    /// Start the motion program when a goal arrives and it is not running (default: call
+    /// ~/start first).
+    #[arg(long)]
+    pub(crate) auto_start: bool,
+}
+
 /// `decode` arguments.
 #[derive(Debug, Args)]
 pub(crate) struct DecodeArgs {
@@ -242,7 +297,7 @@ pub(crate) struct SimArgs {
     /// Robot port(s); repeat for several robots in one process (port 0 picks a free one).
     #[arg(long, default_value = "127.0.0.1:10050", value_name = "HOST:PORT")]
     pub listen: Vec<String>,
-    /// Pendant API address(es) (HTTP+JSON), one per robot.
+    /// Pendant address(es), one per robot: the web page at `/`, the JSON API (`/api` lists it).
     #[arg(long, value_name = "HOST:PORT")]
     pub pendant: Vec<String>,
     /// Token required by the pendant API (mandatory off loopback).
@@ -269,6 +324,35 @@ pub(crate) struct SimArgs {
     /// An error present at start: an AS code such as E1088 (or its number, -31088).
     #[arg(long, value_name = "CODE", allow_hyphen_values = true)]
     pub error: Option<String>,
+}
+
+/// `hub` arguments (the controller is `--robot`).
+#[derive(Debug, Args)]
+pub(crate) struct HubArgs {
+    /// Address of the web page (HTTP): the arm, the switches, guarded Cancel and Stop.
+    #[arg(long, default_value = "127.0.0.1:8080", value_name = "HOST:PORT")]
+    pub http: String,
+    /// Serve a protocol-1040 face for existing clients here (one controlling client at a
+    /// time, forwarded in lock-step; the others' polls are answered from the latest status).
+    #[arg(long, value_name = "HOST:PORT")]
+    pub listen: Option<String>,
+    /// Serve a Foxglove WebSocket bridge here (joint states, TF, the URDF); needs the
+    /// `foxglove` feature.
+    #[arg(long, value_name = "HOST:PORT")]
+    pub foxglove: Option<String>,
+    /// Record every request and reply of the session (.csv, or .jsonl for JSON lines).
+    #[arg(long, value_name = "FILE")]
+    pub record: Option<PathBuf>,
+    /// A safety fence (TOML): joint ranges, speed cap, workspace box (docs/HUB.md).
+    #[arg(long, value_name = "FILE")]
+    pub fence: Option<PathBuf>,
+    /// Token required by the web page's API (mandatory off loopback).
+    #[arg(long, env = "FS020N_HUB_TOKEN")]
+    pub token: Option<String>,
+    /// Seconds of silence after which the controlling client is taken as gone (the robot is
+    /// stopped with command 2).
+    #[arg(long, default_value_t = 1.0, value_name = "S")]
+    pub silence: f64,
 }
 
 /// `on` or `off` (listed in the help).

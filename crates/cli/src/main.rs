@@ -4,10 +4,13 @@
 mod args;
 mod demo;
 mod error;
+mod hub;
 mod linear;
 mod offline;
 mod output;
 mod robot_cmds;
+#[cfg(feature = "ros2")]
+mod ros2;
 mod session;
 mod shell;
 mod sim;
@@ -100,7 +103,10 @@ fn init_logging(verbose: u8, color: bool) {
         _ => "info,fs020n=trace,fs020n_client=trace,fs020n_sim=trace",
     };
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
+        // The DDS stack (the `ros2` command) reports every unreachable peer as a warning.
+        .unwrap_or_else(|_| {
+            tracing_subscriber::EnvFilter::new(format!("{default},rustdds=error,ros2_client=error"))
+        });
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_ansi(color)
@@ -159,5 +165,8 @@ fn run(cli: Cli, robot_typed: bool) -> CliResult {
             }
             sim::sim(args, &model, cli.json)
         }
+        #[cfg(feature = "ros2")]
+        Cmd::Ros2(args) => ros2::ros2(&ctx(&cli, model), args),
+        Cmd::Hub(args) => hub::hub(args, &ctx(&cli, model), cli.json),
     }
 }

@@ -4,7 +4,8 @@ use std::net::{SocketAddr, ToSocketAddrs};
 
 use fs020n_kin::RobotModel;
 use fs020n_proto::{ErrorCode, JointsDeg};
-use fs020n_sim::{run_robot, Panel, SimOptions};
+use fs020n_sim::{Panel, SimOptions};
+use fs020n_web::run_robot;
 use serde_json::json;
 
 use crate::args::SimArgs;
@@ -110,7 +111,7 @@ pub(crate) fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResul
             } else {
                 match r.pendant_addr() {
                     Some(p) => println!(
-                        "robot {}: protocol 1040 on {}, pendant API on http://{p}",
+                        "robot {}: protocol 1040 on {}, pendant on http://{p}/ (API: /api)",
                         i + 1,
                         r.robot_addr()
                     ),
@@ -151,13 +152,13 @@ pub(crate) fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResul
 
 /// SIGINT (Ctrl-C) and SIGTERM, handled even when the process was started in the background,
 /// where the shell leaves SIGINT ignored: installing a handler replaces that disposition.
-struct ShutdownSignals {
+pub(crate) struct ShutdownSignals {
     #[cfg(unix)]
     unix: Option<(tokio::signal::unix::Signal, tokio::signal::unix::Signal)>,
 }
 
 impl ShutdownSignals {
-    fn install() -> ShutdownSignals {
+    pub(crate) fn install() -> ShutdownSignals {
         #[cfg(unix)]
         {
             use tokio::signal::unix::{signal, SignalKind};
@@ -174,7 +175,7 @@ impl ShutdownSignals {
     }
 
     /// Waits for the first signal and names it.
-    async fn recv(&mut self) -> &'static str {
+    pub(crate) async fn recv(&mut self) -> &'static str {
         #[cfg(unix)]
         if let Some((int, term)) = &mut self.unix {
             return tokio::select! {
