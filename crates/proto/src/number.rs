@@ -42,17 +42,71 @@ pub const F10_OVERFLOW: &str = "**********";
 /// assert_eq!(as_val("E5"), 0.0);
 /// ```
 pub fn as_val(text: &str) -> f64 {
-    let s = text.trim_start_matches([' ', '\t']);
-    let end = numeric_prefix_len(s.as_bytes());
+    as_val_bytes(text.as_bytes())
+}
+
+/// [`as_val`] on raw bytes (the server's tokens). Bytes that are not ASCII can neither start
+/// nor continue a number, so the result is the same as on the text decoded lossily.
+pub(crate) fn as_val_bytes(b: &[u8]) -> f64 {
+    let start = b
+        .iter()
+        .position(|&c| c != b' ' && c != b'\t')
+        .unwrap_or(b.len());
+    let s = &b[start..];
+    let end = numeric_prefix_len(s);
     if end == 0 {
         return 0.0;
     }
+    let number = &s[..end];
+    if let Some(v) = exact_short_decimal(number) {
+        return f64::from(v as f32);
+    }
     // A number beyond the range of an AS real (a 32-bit float, about ±3.4E38), e.g. an
     // overflowing exponent: the controller would report an error; 0 is the safe reading.
-    match s[..end].parse::<f64>().map(|v| v as f32) {
-        Ok(v) if v.is_finite() => f64::from(v),
+    match std::str::from_utf8(number).map(|t| t.parse::<f64>().map(|v| v as f32)) {
+        Ok(Ok(v)) if v.is_finite() => f64::from(v),
         _ => 0.0,
     }
+}
+
+/// Exact powers of ten up to 10¹⁵.
+const POW10: [f64; 16] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+];
+
+/// The value of a short decimal `[sign]digits[.digits]` (no exponent, at most 15 digits), or
+/// `None` for anything else. Such a number is `m / 10^k` with `m < 2^53` and `10^k` both exact
+/// doubles, so one IEEE division rounds it correctly: the same double as `str::parse::<f64>`
+/// (Clinger's fast path), without the general parser's cost.
+fn exact_short_decimal(b: &[u8]) -> Option<f64> {
+    let (negative, digits) = match b.first() {
+        Some(b'-') => (true, &b[1..]),
+        Some(b'+') => (false, &b[1..]),
+        _ => (false, b),
+    };
+    let mut m: u64 = 0;
+    let mut count = 0usize;
+    let mut decimals = 0usize;
+    let mut point = false;
+    for &c in digits {
+        match c {
+            b'0'..=b'9' => {
+                count += 1;
+                if count > 15 {
+                    return None;
+                }
+                m = m * 10 + u64::from(c - b'0');
+                decimals += usize::from(point);
+            }
+            b'.' if !point => point = true,
+            _ => return None,
+        }
+    }
+    if count == 0 {
+        return None;
+    }
+    let v = m as f64 / POW10[decimals];
+    Some(if negative { -v } else { v })
 }
 
 /// Length of the longest prefix of `b` that forms a decimal number (sign, digits, point,
@@ -203,13 +257,24 @@ pub fn push_f10_3(out: &mut String, value: f64) {
                 out.push_str(F10_OVERFLOW);
                 return;
             }
-            out.extend(std::iter::repeat_n(' ', F10_WIDTH - len));
-            let _ = write!(
-                out,
-                "{}{int}.{:03}",
-                if negative { "-" } else { "" },
-                a % 1000
-            );
+            // Right-justified, written from the right: 3 decimals, the point, the integer part,
+            // the sign.
+            let mut field = [b' '; F10_WIDTH];
+            let mut rest = a;
+            let mut i = F10_WIDTH;
+            for k in 0..digits + 3 {
+                if k == 3 {
+                    i -= 1;
+                    field[i] = b'.';
+                }
+                i -= 1;
+                field[i] = b'0' + (rest % 10) as u8;
+                rest /= 10;
+            }
+            if negative {
+                field[i - 1] = b'-';
+            }
+            out.push_str(ascii(&field));
         }
         None => {
             let s = format!("{value:>10.3}");
@@ -224,6 +289,11 @@ pub fn push_f10_3(out: &mut String, value: f64) {
     }
 }
 
+/// Bytes this module wrote (digits, blanks, signs, points) as text.
+fn ascii(bytes: &[u8]) -> &str {
+    std::str::from_utf8(bytes).unwrap_or_default()
+}
+
 /// Formats an integer in the AS default format as it appears in `$ENCODE`: one blank, then the
 /// number without a decimal point.
 pub fn format_default_int(value: i64) -> String {
@@ -234,8 +304,23 @@ pub fn format_default_int(value: i64) -> String {
 
 /// Appends `value` in the AS default format (see [`format_default_int`]) to `out`.
 pub fn push_default_int(out: &mut String, value: i64) {
-    use std::fmt::Write;
-    let _ = write!(out, " {value}");
+    // " -9223372036854775808" is 21 bytes.
+    let mut field = [b' '; 21];
+    let mut rest = value.unsigned_abs();
+    let mut i = field.len();
+    loop {
+        i -= 1;
+        field[i] = b'0' + (rest % 10) as u8;
+        rest /= 10;
+        if rest == 0 {
+            break;
+        }
+    }
+    if value < 0 {
+        i -= 1;
+        field[i] = b'-';
+    }
+    out.push_str(ascii(&field[i - 1..]));
 }
 
 /// Parses one reply field: a decimal number, optionally with an exponent. Returns `None` for
@@ -345,6 +430,56 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// `VAL` through the general parser only (the reading before the short-decimal path).
+    fn reference_val(text: &str) -> f64 {
+        let s = text.trim_start_matches([' ', '\t']);
+        let end = numeric_prefix_len(s.as_bytes());
+        match s[..end].parse::<f64>().map(|v| v as f32) {
+            Ok(v) if end > 0 && v.is_finite() => f64::from(v),
+            _ => 0.0,
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(20_000))]
+        /// The short-decimal path reads exactly what the general parser reads (bit for bit,
+        /// signed zeros included), whatever the digits, point, sign and trailing text.
+        #[test]
+        fn short_decimals_read_as_the_general_parser_reads(
+            text in "[ \t]{0,2}[+-]?[0-9]{0,18}\\.?[0-9]{0,18}([eE][+-]?[0-9]{1,3})?[a-z ]{0,2}",
+            v in proptest::prelude::any::<f64>().prop_filter("finite", |v| v.is_finite()),
+            i in proptest::prelude::any::<i64>(),
+        ) {
+            for t in [text, format!("{v}"), format!("{v:.3}"), format!("{i}"), format!("{:.6}", v / 1e300)] {
+                proptest::prop_assert_eq!(as_val(&t).to_bits(), reference_val(&t).to_bits(), "{:?}", t);
+            }
+        }
+
+        /// Integers are written as the standard formatter writes them.
+        #[test]
+        fn default_ints_match_the_formatter(v in proptest::prelude::any::<i64>()) {
+            proptest::prop_assert_eq!(format_default_int(v), format!(" {v}"));
+        }
+    }
+
+    #[test]
+    fn short_decimal_edges() {
+        for t in [
+            "-0",
+            "0.",
+            "-.5",
+            "999999999999999",
+            "9999999999999999",
+            "0.000000000000001",
+            "1.",
+            "+.0",
+        ] {
+            assert_eq!(as_val(t).to_bits(), reference_val(t).to_bits(), "{t}");
+        }
+        assert_eq!(format_default_int(i64::MIN), format!(" {}", i64::MIN));
+        assert_eq!(format_default_int(0), " 0");
     }
 
     #[test]
