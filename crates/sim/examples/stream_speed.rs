@@ -28,10 +28,11 @@ fn main() {
     let counters = s.c.counters();
     println!(
         "{seconds} simulated s at monitor {monitor} %: {:.0} simulated s per wall s \
-         ({} requests, {} passes, {} motions)",
+         ({} requests, {} passes, {} motions; joints at the end {:?})",
         f64::from(seconds) / wall,
         counters.requests,
         counters.passes,
-        counters.motions
+        counters.motions,
+        s.c.joints().0
     );
 }

@@ -16,23 +16,44 @@ pub struct Streamer {
     /// Encode requests with the client library's exact encoder (float formatting) instead of
     /// the bench's integer-based one; the emulator's own cost is the same either way.
     client_encoder: bool,
+    request: String,
 }
 
-/// The same bytes as the client encoder (3 decimals, trailing zeros trimmed), built with integer
-/// formatting so that the benchmark measures the emulator, not the client's float formatting.
-fn fast_encode(s: &StreamSample) -> String {
-    use std::fmt::Write;
-    let mut out = String::with_capacity(200);
+/// The same bytes as the client encoder (3 decimals, trailing zeros trimmed), written digit by
+/// digit so that the benchmark measures the emulator, not the client's float formatting.
+fn fast_encode(s: &StreamSample, out: &mut String) {
+    out.clear();
     out.push_str("1040 7 21");
     let mut num = |v: f64| {
         let m = (v * 1000.0).round() as i64;
-        let (sign, m) = if m < 0 { ("-", -m) } else { ("", m) };
-        let (int, frac) = (m / 1000, m % 1000);
-        if frac == 0 {
-            let _ = write!(out, " {sign}{int}");
-        } else {
-            let f = format!("{frac:03}");
-            let _ = write!(out, " {sign}{int}.{}", f.trim_end_matches('0'));
+        out.push(' ');
+        if m < 0 {
+            out.push('-');
+        }
+        let m = m.unsigned_abs();
+        let (int, mut frac) = (m / 1000, m % 1000);
+        let mut digits = [0u8; 20];
+        let mut n = 0;
+        let mut rest = int;
+        loop {
+            digits[n] = b'0' + (rest % 10) as u8;
+            n += 1;
+            rest /= 10;
+            if rest == 0 {
+                break;
+            }
+        }
+        for &d in digits[..n].iter().rev() {
+            out.push(char::from(d));
+        }
+        if frac != 0 {
+            out.push('.');
+            let mut scale = 100;
+            while frac != 0 {
+                out.push(char::from(b'0' + (frac / scale) as u8));
+                frac %= scale;
+                scale /= 10;
+            }
         }
     };
     num(s.t0_s);
@@ -46,7 +67,6 @@ fn fast_encode(s: &StreamSample) -> String {
     {
         num(v);
     }
-    out
 }
 
 impl Streamer {
@@ -65,6 +85,7 @@ impl Streamer {
             id,
             t: 0.0,
             client_encoder,
+            request: String::with_capacity(256),
         }
     }
 
@@ -91,12 +112,16 @@ impl Streamer {
                 velocity: JointsDeg::new(v),
                 acceleration: JointsDeg::new(a),
             };
-            let req = if self.client_encoder {
-                Request::new(Command::StreamedMove(s)).encode().unwrap()
+            if self.client_encoder {
+                self.request = Request::new(Command::StreamedMove(s)).encode().unwrap();
             } else {
-                fast_encode(&s)
-            };
-            black_box(self.c.handle_request(self.id, req.as_bytes()).unwrap());
+                fast_encode(&s, &mut self.request);
+            }
+            black_box(
+                self.c
+                    .handle_request(self.id, self.request.as_bytes())
+                    .unwrap(),
+            );
             self.c.advance_by(Duration::from_millis(10));
             self.t += 0.01;
         }
