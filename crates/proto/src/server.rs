@@ -238,7 +238,7 @@ mod tests {
     }
 
     proptest::proptest! {
-        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(5_000))]
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(1_000))]
         /// Bytes of every kind (blanks, tabs, digits, signs, points, exponents, invalid UTF-8,
         /// a cut multi-byte character at byte 255) parse as the text reading says.
         #[test]

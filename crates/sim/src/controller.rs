@@ -1033,8 +1033,8 @@ impl Controller {
             }
             self.newest = slot;
         }
-        let reply = self.status().encode();
-        tracing::debug!(reply = %reply, "reply");
+        let reply = self.status().encode_bytes();
+        tracing::debug!(reply = %String::from_utf8_lossy(&reply), "reply");
         let fault = self.faults.next_reply();
         if let Some(s) = &mut self.session {
             // A delayed or split reply takes time to send; the receive timeout waits for it
@@ -1045,7 +1045,7 @@ impl Controller {
             self.end_session(SessionEnd::EndCommand);
         }
         Ok(Handled {
-            reply: reply.into_bytes(),
+            reply,
             fault,
             close,
         })
