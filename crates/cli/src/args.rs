@@ -197,6 +197,10 @@ pub struct SimArgs {
     /// Pendant API address(es) (HTTP+JSON), one per robot.
     #[arg(long, value_name = "HOST:PORT")]
     pub pendant: Vec<String>,
+    /// Emulate N robots on consecutive ports from --listen (and --pendant); with port 0 each
+    /// robot picks a free port. With --json, one line per robot gives its addresses.
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub robots: u16,
     /// Token required by the pendant API (mandatory off loopback).
     #[arg(long, env = "FS020N_PENDANT_TOKEN")]
     pub token: Option<String>,

@@ -4,6 +4,7 @@
 mod args;
 mod demo;
 mod error;
+mod fleet;
 mod offline;
 mod output;
 mod robot_cmds;

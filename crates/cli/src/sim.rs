@@ -61,14 +61,16 @@ pub fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOptions>>
             ));
         }
     }
+    let listen = (args.listen.iter())
+        .map(|l| resolve(l, "--listen"))
+        .collect::<CliResult<Vec<_>>>()?;
+    let pendant = (args.pendant.iter())
+        .map(|p| resolve(p, "--pendant"))
+        .collect::<CliResult<Vec<_>>>()?;
     let mut out = Vec::new();
-    for (i, listen) in args.listen.iter().enumerate() {
-        let pendant = match args.pendant.get(i) {
-            Some(p) => Some(resolve(p, "--pendant")?),
-            None => None,
-        };
+    for (listen, pendant) in crate::fleet::expand(&listen, &pendant, args.robots)? {
         out.push(SimOptions {
-            listen: resolve(listen, "--listen")?,
+            listen,
             pendant,
             pendant_token: args.token.clone(),
             model_file: None,
