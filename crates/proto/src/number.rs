@@ -321,6 +321,16 @@ pub fn push_default_int(out: &mut String, value: i64) {
 
 /// Appends `value` in the AS default format (see [`format_default_int`]) to the bytes `out`.
 pub(crate) fn write_default_int(out: &mut Vec<u8>, value: i64) {
+    // The switch fields are 0 and -1: one digit needs no loop.
+    if (-9..=9).contains(&value) {
+        let digit = b'0' + value.unsigned_abs() as u8;
+        if value < 0 {
+            out.extend_from_slice(&[b' ', b'-', digit]);
+        } else {
+            out.extend_from_slice(&[b' ', digit]);
+        }
+        return;
+    }
     // " -9223372036854775808" is 21 bytes.
     let mut field = [b' '; 21];
     let mut rest = value.unsigned_abs();
