@@ -195,7 +195,9 @@ impl Emulator {
     {
         // The loop never reads and writes at the same time: one stream, no split halves.
         let mut stream = stream;
-        let mut changes = self.inner.changed.subscribe();
+        // Kept pending across requests, so that a waiter is not registered and dropped per
+        // request; re-armed after each change.
+        let mut changes = Box::pin(next_change(self.inner.changed.subscribe()));
         let mut buf = vec![0u8; RECEIVE_BUFFER];
         let mut state = self.with(|c| SessionState::of(c, id));
         // One timer for the receive timeout, armed at a deadline the session has had and moved
@@ -211,7 +213,7 @@ impl Emulator {
             if let Some(until) = state.paused {
                 tokio::select! {
                     _ = tokio::time::sleep_until(self.instant_of(until.min(deadline))) => {}
-                    _ = changes.changed() => {}
+                    rx = &mut changes => changes = Box::pin(next_change(rx)),
                 }
                 state = self.with(|c| SessionState::of(c, id));
                 continue;
@@ -226,7 +228,8 @@ impl Emulator {
                     state = self.with(|c| SessionState::of(c, id));
                     continue;
                 }
-                _ = changes.changed() => {
+                rx = &mut changes => {
+                    changes = Box::pin(next_change(rx));
                     state = self.with(|c| SessionState::of(c, id));
                     continue;
                 }
@@ -245,7 +248,7 @@ impl Emulator {
                 None => send(&mut stream, &handled.reply).await,
                 Some(ReplyFault::Withhold) => Ok(()),
                 Some(ReplyFault::Delay(d)) => {
-                    if !self.pause(id, d, &mut changes).await {
+                    if !self.pause(id, d).await {
                         break;
                     }
                     send(&mut stream, &handled.reply).await
@@ -255,7 +258,7 @@ impl Emulator {
                     let size = handled.reply.len().div_ceil(parts.max(1)).max(1);
                     let mut sent = Ok(());
                     for (k, chunk) in handled.reply.chunks(size).enumerate() {
-                        if k > 0 && !self.pause(id, gap, &mut changes).await {
+                        if k > 0 && !self.pause(id, gap).await {
                             break;
                         }
                         sent = send(&mut stream, chunk).await;
@@ -304,7 +307,8 @@ impl SessionState {
 impl Emulator {
     /// Waits `d` while session `id` stays open (a delayed or split reply); `false` when the
     /// session ended meanwhile (closed by fault injection, or the emulator stopped it).
-    async fn pause(&self, id: SessionId, d: Duration, changes: &mut watch::Receiver<u64>) -> bool {
+    async fn pause(&self, id: SessionId, d: Duration) -> bool {
+        let mut changes = self.inner.changed.subscribe();
         let until = Instant::now() + d;
         loop {
             if !self.with(|c| c.is_session_open(id)) {
@@ -316,6 +320,15 @@ impl Emulator {
             }
         }
     }
+}
+
+/// Waits for the next change of the session state, then hands the receiver back.
+async fn next_change(mut rx: watch::Receiver<u64>) -> watch::Receiver<u64> {
+    if rx.changed().await.is_err() {
+        // The emulator is gone: no change will ever come.
+        std::future::pending::<()>().await;
+    }
+    rx
 }
 
 /// Binds the robot port with the controller's small send buffer (accepted sockets inherit it).
