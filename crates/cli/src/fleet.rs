@@ -1,5 +1,5 @@
-//! `sim --robots N`: several emulated robots from one `--listen` (and `--pendant`) address, on
-//! consecutive ports.
+//! `sim --robots N --threads N`: several emulated robots from one `--listen` (and `--pendant`)
+//! address, on consecutive ports, served by one or more threads.
 
 use std::net::SocketAddr;
 
@@ -53,6 +53,21 @@ pub fn expand(
         None => vec![None; usize::from(robots)],
     };
     Ok(robot_ports.into_iter().zip(pendant_ports).collect())
+}
+
+/// The runtime of `sim`: `threads` workers (2 by default), or one thread doing everything.
+pub fn runtime(threads: u16) -> CliResult<tokio::runtime::Runtime> {
+    let built = match threads {
+        0 => return Err(CliError::input("--threads must be at least 1")),
+        1 => tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build(),
+        n => tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(usize::from(n))
+            .enable_all()
+            .build(),
+    };
+    built.map_err(|e| CliError::failure(format!("cannot start the async runtime: {e}")))
 }
 
 #[cfg(test)]

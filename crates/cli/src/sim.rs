@@ -9,7 +9,7 @@ use serde_json::json;
 
 use crate::args::SimArgs;
 use crate::error::{CliError, CliResult};
-use crate::session::{ctrl_c, runtime};
+use crate::session::ctrl_c;
 
 fn resolve(text: &str, what: &str) -> CliResult<SocketAddr> {
     text.to_socket_addrs()
@@ -87,7 +87,7 @@ pub fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOptions>>
 /// `sim`.
 pub fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
     let all = options(args, model)?;
-    let rt = runtime()?;
+    let rt = crate::fleet::runtime(args.threads)?;
     rt.block_on(async {
         // Handlers first: a signal that arrives as soon as the addresses are printed must
         // already find them.

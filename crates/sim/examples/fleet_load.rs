@@ -4,7 +4,7 @@
 //! Start the robots in one process, then the load in another:
 //!
 //! ```text
-//! fs020n --json sim --robots 1000 --listen 127.0.0.1:20000 > robots.jsonl &
+//! fs020n --json sim --robots 1000 --threads 1 --listen 127.0.0.1:20000 > robots.jsonl &
 //! cargo run --release -p fs020n-sim --example fleet_load -- \
 //!     --robots 1000 --base 127.0.0.1:20000 --rate 100 --duration 30 --sim-pid $!
 //! ```
