@@ -300,6 +300,14 @@ pub(crate) struct SimArgs {
     /// Pendant address(es), one per robot: the web page at `/`, the JSON API (`/api` lists it).
     #[arg(long, value_name = "HOST:PORT")]
     pub pendant: Vec<String>,
+    /// Emulate N robots on consecutive ports from --listen (and --pendant); with port 0 each
+    /// robot picks a free port. With --json, one line per robot gives its addresses.
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub robots: u16,
+    /// Threads serving the robots (1: one thread does everything, the cheapest per request;
+    /// leaves the other cores to the clients of a fleet on the same machine).
+    #[arg(long, default_value_t = 2, value_name = "N")]
+    pub threads: u16,
     /// Token required by the pendant API (mandatory off loopback).
     #[arg(long, env = "FS020N_PENDANT_TOKEN", value_name = "TOKEN")]
     pub token: Option<String>,

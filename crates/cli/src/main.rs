@@ -4,6 +4,7 @@
 mod args;
 mod demo;
 mod error;
+mod fleet;
 mod hub;
 mod linear;
 mod offline;

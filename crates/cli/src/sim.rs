@@ -10,7 +10,7 @@ use serde_json::json;
 
 use crate::args::SimArgs;
 use crate::error::{CliError, CliResult};
-use crate::session::{ctrl_c, runtime};
+use crate::session::ctrl_c;
 
 fn resolve(text: &str, what: &str) -> CliResult<SocketAddr> {
     text.to_socket_addrs()
@@ -62,14 +62,16 @@ pub(crate) fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOp
             ));
         }
     }
+    let listen = (args.listen.iter())
+        .map(|l| resolve(l, "--listen"))
+        .collect::<CliResult<Vec<_>>>()?;
+    let pendant = (args.pendant.iter())
+        .map(|p| resolve(p, "--pendant"))
+        .collect::<CliResult<Vec<_>>>()?;
     let mut out = Vec::new();
-    for (i, listen) in args.listen.iter().enumerate() {
-        let pendant = match args.pendant.get(i) {
-            Some(p) => Some(resolve(p, "--pendant")?),
-            None => None,
-        };
+    for (listen, pendant) in crate::fleet::expand(&listen, &pendant, args.robots)? {
         out.push(SimOptions {
-            listen: resolve(listen, "--listen")?,
+            listen,
             pendant,
             pendant_token: args.token.clone(),
             model_file: None,
@@ -86,7 +88,7 @@ pub(crate) fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOp
 /// `sim`.
 pub(crate) fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
     let all = options(args, model)?;
-    let rt = runtime()?;
+    let rt = crate::fleet::runtime(args.threads)?;
     rt.block_on(async {
         // Handlers first: a signal that arrives as soon as the addresses are printed must
         // already find them.
