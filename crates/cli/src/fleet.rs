@@ -8,7 +8,7 @@ use crate::error::{CliError, CliResult};
 /// The robot (and pendant) addresses of `robots` robots: with one robot, the given addresses;
 /// with more, each given address is the first of `robots` consecutive ports (port 0: every
 /// robot picks a free port of its own).
-pub fn expand(
+pub(crate) fn expand(
     listen: &[SocketAddr],
     pendant: &[SocketAddr],
     robots: u16,
@@ -56,7 +56,7 @@ pub fn expand(
 }
 
 /// The runtime of `sim`: `threads` workers (2 by default), or one thread doing everything.
-pub fn runtime(threads: u16) -> CliResult<tokio::runtime::Runtime> {
+pub(crate) fn runtime(threads: u16) -> CliResult<tokio::runtime::Runtime> {
     let built = match threads {
         0 => return Err(CliError::input("--threads must be at least 1")),
         1 => tokio::runtime::Builder::new_current_thread()

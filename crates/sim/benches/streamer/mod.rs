@@ -8,9 +8,9 @@ use fs020n_proto::{Command, JointsDeg, Request, StreamSample};
 use fs020n_sim::{Controller, ControllerConfig, SessionId};
 
 /// A controller with a session, the program running, fed command 7 at 100 Hz.
-pub struct Streamer {
+pub(crate) struct Streamer {
     /// The controller.
-    pub c: Controller,
+    pub(crate) c: Controller,
     id: SessionId,
     t: f64,
     /// Encode requests with the client library's exact encoder (float formatting) instead of
@@ -71,7 +71,7 @@ fn fast_encode(s: &StreamSample, out: &mut String) {
 
 impl Streamer {
     /// A streamer at `monitor_percent`.
-    pub fn new(monitor_percent: f64, client_encoder: bool) -> Streamer {
+    pub(crate) fn new(monitor_percent: f64, client_encoder: bool) -> Streamer {
         let mut c = Controller::new(ControllerConfig {
             joints: JointsDeg::new([0.0, 10.0, -80.0, 0.0, -80.0, 0.0]),
             ..ControllerConfig::default()
@@ -90,7 +90,7 @@ impl Streamer {
     }
 
     /// One simulated second: 100 command-7 samples of a smooth multi-joint trajectory.
-    pub fn second(&mut self) {
+    pub(crate) fn second(&mut self) {
         for _ in 0..100 {
             let t = self.t;
             let w = 0.8;
