@@ -997,8 +997,12 @@ impl Stream {
     /// brakes the robot and command 2 ends the program (`robot.start()` again to move).
     fn cancel(&self, py: Python<'_>) -> PyResult<()> {
         let handle = self.handle.clone();
-        block(py, async move { handle.cancel().await }, OnInterrupt::Nothing)?
-            .map_err(|e| client_error(py, &e))
+        block(
+            py,
+            async move { handle.cancel().await },
+            OnInterrupt::Nothing,
+        )?
+        .map_err(|e| client_error(py, &e))
     }
 
     /// `True` once the stream has ended.

@@ -206,10 +206,7 @@ impl Emulator {
         // read again (the controller ends the session itself once the real deadline passes).
         let timer = tokio::time::sleep_until(self.instant_of(state.deadline.unwrap_or_default()));
         tokio::pin!(timer);
-        loop {
-            let (true, Some(deadline)) = (state.open, state.deadline) else {
-                break;
-            };
+        while let (true, Some(deadline)) = (state.open, state.deadline) {
             if let Some(until) = state.paused {
                 tokio::select! {
                     _ = tokio::time::sleep_until(self.instant_of(until.min(deadline))) => {}
