@@ -1,4 +1,5 @@
 //! Online servoing against the in-memory emulator on virtual time.
+#![allow(clippy::expect_used)]
 
 mod common;
 
