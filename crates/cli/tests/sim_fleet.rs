@@ -76,6 +76,7 @@ fn robots_n_starts_n_robots_on_their_own_ports_each_answering() {
         addrs.push(addr);
     }
     let mut ports: Vec<u16> = addrs.iter().map(SocketAddr::port).collect();
+    ports.sort_unstable();
     ports.dedup();
     assert_eq!(ports.len(), 3, "three distinct ports: {addrs:?}");
     for addr in addrs {
