@@ -10,7 +10,7 @@ use fs020n_sim::{Controller, ControllerConfig, SessionId};
 /// A controller with a session, the program running, fed command 7 at 100 Hz.
 pub(crate) struct Streamer {
     /// The controller.
-    pub c: Controller,
+    pub(crate) c: Controller,
     id: SessionId,
     t: f64,
     /// Encode requests with the client library's exact encoder (float formatting) instead of
