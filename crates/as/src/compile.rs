@@ -36,15 +36,15 @@ impl Ty {
 /// A variable: its scope and slot (the type is known from where it is used).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct VarRef {
-    pub global: bool,
-    pub slot: u32,
+    pub(crate) global: bool,
+    pub(crate) slot: u32,
 }
 
 /// A variable or array element to read or write.
 #[derive(Debug, Clone)]
 pub(crate) struct LRef {
-    pub var: VarRef,
-    pub idx: Box<[RExpr]>,
+    pub(crate) var: VarRef,
+    pub(crate) idx: Box<[RExpr]>,
 }
 
 /// Real-valued expressions.
@@ -166,8 +166,8 @@ impl CExpr {
 /// An argument of CALL/EXECUTE: a value, and for by-reference parameters the variable.
 #[derive(Debug, Clone)]
 pub(crate) struct CArg {
-    pub value: CExpr,
-    pub var: Option<(Ty, LRef)>,
+    pub(crate) value: CExpr,
+    pub(crate) var: Option<(Ty, LRef)>,
 }
 
 /// One instruction of the flat code.
@@ -288,45 +288,45 @@ pub(crate) enum Op {
 /// A parameter of a compiled program.
 #[derive(Debug, Clone)]
 pub(crate) struct CParam {
-    pub ty: Ty,
-    pub slot: u32,
-    pub by_ref: bool,
+    pub(crate) ty: Ty,
+    pub(crate) slot: u32,
+    pub(crate) by_ref: bool,
 }
 
 /// A compiled program.
 #[derive(Debug, Clone)]
 pub(crate) struct CProgram {
-    pub name: String,
-    pub module: usize,
-    pub params: Vec<CParam>,
-    pub ops: Vec<Op>,
+    pub(crate) name: String,
+    pub(crate) module: usize,
+    pub(crate) params: Vec<CParam>,
+    pub(crate) ops: Vec<Op>,
     /// Source line of each op.
-    pub lines: Vec<u32>,
+    pub(crate) lines: Vec<u32>,
     /// Whether each op reads or changes the system (motion, panel, error, sockets, the end
     /// of a program): the interpreter brings the system to the op's time first. Pure
     /// computation runs without it.
-    pub touches: Vec<bool>,
+    pub(crate) touches: Vec<bool>,
     /// Number of local slots per type.
-    pub locals: [usize; 4],
+    pub(crate) locals: [usize; 4],
     /// Local names per type (for messages).
-    pub local_names: [Vec<String>; 4],
+    pub(crate) local_names: [Vec<String>; 4],
 }
 
 /// Everything loaded: programs, global names, data to load.
 #[derive(Debug, Clone)]
 pub(crate) struct Code {
-    pub programs: Vec<CProgram>,
-    pub by_name: HashMap<String, usize>,
-    pub globals: [Vec<String>; 4],
-    pub global_index: [HashMap<String, u32>; 4],
-    pub data: Vec<(Ty, u32, Vec<i32>, DataValue)>,
-    pub lines: Vec<Arc<[String]>>,
-    pub warnings: Vec<ParseError>,
+    pub(crate) programs: Vec<CProgram>,
+    pub(crate) by_name: HashMap<String, usize>,
+    pub(crate) globals: [Vec<String>; 4],
+    pub(crate) global_index: [HashMap<String, u32>; 4],
+    pub(crate) data: Vec<(Ty, u32, Vec<i32>, DataValue)>,
+    pub(crate) lines: Vec<Arc<[String]>>,
+    pub(crate) warnings: Vec<ParseError>,
 }
 
 impl Code {
     /// The source text of a line of a program.
-    pub fn line_text(&self, program: usize, line: u32) -> &str {
+    pub(crate) fn line_text(&self, program: usize, line: u32) -> &str {
         self.programs
             .get(program)
             .and_then(|p| self.lines.get(p.module))
@@ -334,7 +334,7 @@ impl Code {
             .map_or("", |s| s.as_str())
     }
 
-    pub fn global_name(&self, ty: Ty, slot: u32) -> &str {
+    pub(crate) fn global_name(&self, ty: Ty, slot: u32) -> &str {
         self.globals[ty as usize]
             .get(slot as usize)
             .map_or("?", |s| s.as_str())

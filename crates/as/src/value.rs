@@ -9,7 +9,7 @@ use std::sync::Arc;
 /// shared buffer and a range of it, so that cutting a string (`$DECODE`, `$MID`, `$LEFT`,
 /// `$RIGHT`) never copies it.
 #[derive(Clone)]
-pub struct Bytes {
+pub(crate) struct Bytes {
     buf: Arc<[u8]>,
     start: u32,
     end: u32,
@@ -17,7 +17,7 @@ pub struct Bytes {
 
 impl Bytes {
     /// The bytes `a..b` of this string (clamped).
-    pub fn slice(&self, a: usize, b: usize) -> Bytes {
+    pub(crate) fn slice(&self, a: usize, b: usize) -> Bytes {
         let len = self.len();
         let b = b.min(len);
         let a = a.min(b);
@@ -69,11 +69,11 @@ impl std::fmt::Debug for Bytes {
 }
 
 /// Largest array index in each dimension.
-pub const MAX_INDEX: i32 = 9999;
+pub(crate) const MAX_INDEX: i32 = 9999;
 
 /// Most array elements the whole interpreter holds (a runaway loop that fills arrays stops
 /// with E0110 instead of exhausting memory).
-pub const MAX_ELEMENTS: usize = 200_000;
+pub(crate) const MAX_ELEMENTS: usize = 200_000;
 
 /// A multiplicative hasher for packed array indices (fast, deterministic, good enough for
 /// small integer keys).
@@ -135,7 +135,7 @@ fn dense_slot(idx: &[i32]) -> Option<(bool, usize)> {
 /// vectors, the others in a map).
 #[derive(Debug, Clone)]
 pub(crate) struct Var<T> {
-    pub scalar: Option<T>,
+    pub(crate) scalar: Option<T>,
     dense1: Vec<Option<T>>,
     dense2: Vec<Option<T>>,
     array: Option<Box<IndexMap<T>>>,
@@ -153,7 +153,7 @@ impl<T> Default for Var<T> {
 }
 
 impl<T> Var<T> {
-    pub fn element_count(&self) -> usize {
+    pub(crate) fn element_count(&self) -> usize {
         self.dense1.iter().filter(|v| v.is_some()).count()
             + self.dense2.iter().filter(|v| v.is_some()).count()
             + self.array.as_ref().map_or(0, |a| a.len())
@@ -161,7 +161,7 @@ impl<T> Var<T> {
 }
 
 impl<T: Clone> Var<T> {
-    pub fn get(&self, idx: &[i32]) -> Option<&T> {
+    pub(crate) fn get(&self, idx: &[i32]) -> Option<&T> {
         if idx.is_empty() {
             return self.scalar.as_ref();
         }
@@ -173,7 +173,7 @@ impl<T: Clone> Var<T> {
     }
 
     /// Sets a value; `true` when a new array element was created.
-    pub fn set(&mut self, idx: &[i32], v: T) -> bool {
+    pub(crate) fn set(&mut self, idx: &[i32], v: T) -> bool {
         if idx.is_empty() {
             self.scalar = Some(v);
             return false;
@@ -199,7 +199,7 @@ impl<T: Clone> Var<T> {
     }
 
     /// Every element, sorted by index (for dumps).
-    pub fn elements(&self) -> Vec<(Vec<i32>, T)> {
+    pub(crate) fn elements(&self) -> Vec<(Vec<i32>, T)> {
         let mut v: Vec<(u64, T)> = self
             .array
             .as_ref()
@@ -231,14 +231,14 @@ impl<T: Clone> Var<T> {
 /// The variables of one scope (the globals, or one program's locals in one task), by type.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct Store {
-    pub reals: Vec<Var<f32>>,
-    pub strs: Vec<Var<Bytes>>,
-    pub joints: Vec<Var<[f32; 6]>>,
-    pub trans: Vec<Var<[f32; 6]>>,
+    pub(crate) reals: Vec<Var<f32>>,
+    pub(crate) strs: Vec<Var<Bytes>>,
+    pub(crate) joints: Vec<Var<[f32; 6]>>,
+    pub(crate) trans: Vec<Var<[f32; 6]>>,
 }
 
 impl Store {
-    pub fn with_sizes(sizes: [usize; 4]) -> Store {
+    pub(crate) fn with_sizes(sizes: [usize; 4]) -> Store {
         Store {
             reals: (0..sizes[0]).map(|_| Var::default()).collect(),
             strs: (0..sizes[1]).map(|_| Var::default()).collect(),
@@ -248,7 +248,7 @@ impl Store {
     }
 
     /// Array elements held (for the interpreter's memory limit).
-    pub fn element_count(&self) -> usize {
+    pub(crate) fn element_count(&self) -> usize {
         self.reals.iter().map(Var::element_count).sum::<usize>()
             + self.strs.iter().map(Var::element_count).sum::<usize>()
             + self.joints.iter().map(Var::element_count).sum::<usize>()

@@ -1,5 +1,6 @@
 //! The language: values, operators, functions, formats, control flow, calls, data sections,
 //! runtime errors with their AS codes, and load errors with file:line:column.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 mod common;
 

@@ -4,6 +4,7 @@
 //!
 //! The number of cases defaults to a few hundred per property (seconds in a debug build); set
 //! `FS020N_FUZZ_CASES` for more. The coverage-guided target is `fuzz/fuzz_targets/as_program.rs`.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 mod common;
 

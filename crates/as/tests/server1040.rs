@@ -1,6 +1,7 @@
 //! The protocol-1040 server text (programs/server1040.as) on the test system: every rule of
 //! the specification that does not need the emulator's motion planner (that part is the
 //! differential test in fs020n-sim).
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 mod common;
 

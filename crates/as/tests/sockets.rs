@@ -1,4 +1,5 @@
 //! TCP instructions: results, timeouts and AS codes, element splitting, two tasks talking.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 mod common;
 

@@ -1,5 +1,6 @@
 //! Tasks on virtual time: the cost model, interleaving, waits, the robot task and its
 //! look-ahead, interrupts, monitor commands, the panel, motion parameters and locations.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 mod common;
 

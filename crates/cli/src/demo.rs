@@ -2,7 +2,7 @@
 
 use std::time::Duration;
 
-use fs020n_client::{Completion, Robot, StreamMode, StreamOptions, Trajectory, TrajectoryPoint};
+use fs020n_client::{Completion, Robot, StreamOptions, Trajectory, TrajectoryPoint};
 use fs020n_kin::Pose;
 use fs020n_proto::JointsDeg;
 use nalgebra::Vector3;
@@ -16,7 +16,7 @@ use crate::session::{
 };
 
 /// The poses the demo visits (degrees).
-pub const POSES: [[f64; 6]; 4] = [
+pub(crate) const POSES: [[f64; 6]; 4] = [
     [20.0, 10.0, -80.0, 0.0, -80.0, 0.0],
     [-20.0, 20.0, -70.0, 30.0, -60.0, 45.0],
     [0.0, -10.0, -100.0, -30.0, -70.0, -45.0],
@@ -27,14 +27,12 @@ pub const POSES: [[f64; 6]; 4] = [
 const CIRCLE_RADIUS_M: f64 = 0.10;
 /// Duration of the circle, seconds.
 const CIRCLE_TIME_S: f64 = 4.0;
-/// Look-ahead of the demo stream, in passes of the motion program (about 10 ms each).
-const DEMO_LOOKAHEAD_PASSES: f64 = 3.0;
 /// Trajectory sample spacing, seconds.
 const CIRCLE_DT_S: f64 = 0.02;
 
 /// A horizontal circle of the flange starting and ending at `start`, with a smooth start and
 /// stop, as joint points with velocities (the solution nearest the previous point at each step).
-pub fn circle(ctx: &Ctx, start: JointsDeg) -> CliResult<Trajectory> {
+pub(crate) fn circle(ctx: &Ctx, start: JointsDeg) -> CliResult<Trajectory> {
     let model = &ctx.model;
     let p0 = model.forward(&start.to_rad());
     let centre = p0.position_m() + Vector3::new(0.0, CIRCLE_RADIUS_M, 0.0);
@@ -72,7 +70,7 @@ pub fn circle(ctx: &Ctx, start: JointsDeg) -> CliResult<Trajectory> {
 }
 
 /// `demo`.
-pub fn demo(ctx: &Ctx, speed: f64, yes: bool) -> CliResult {
+pub(crate) fn demo(ctx: &Ctx, speed: f64, yes: bool) -> CliResult {
     let speed = check_speed(speed)?;
     if ctx.addr.is_some() && !yes {
         return Err(CliError::input(
@@ -141,6 +139,7 @@ async fn tour(ctx: &Ctx, robot: &Robot, speed: f64) -> CliResult<serde_json::Val
                 tolerance_deg: 0.05,
                 settle: Duration::from_millis(50),
                 timeout: Some(timeout),
+                hold_timeout: None,
             })
             .await
             .map_err(client_error)?;
@@ -170,15 +169,10 @@ async fn tour(ctx: &Ctx, robot: &Robot, speed: f64) -> CliResult<serde_json::Val
         CIRCLE_RADIUS_M * 1000.0,
         trajectory.points().len()
     ));
-    // Look ahead so that the arm, which follows each sample with a 0.1 s straight-line move, is
-    // on the path rather than behind it (3 passes measured best on the emulator: rms 0.23 deg
-    // against 0.33 deg with the default 2 and 0.98 deg with none).
-    let options = StreamOptions {
-        mode: StreamMode::Extrapolated {
-            lookahead_passes: DEMO_LOOKAHEAD_PASSES,
-        },
-        ..StreamOptions::default()
-    };
+    // The defaults: the controller's look-ahead of 2 passes (a few ms: `step` is its loop
+    // overhead) and the client's online lag compensation, which leads the samples by the lag it
+    // measures so that the arm is on the path rather than behind it.
+    let options = StreamOptions::default();
     let handle = robot
         .stream(trajectory, options)
         .await

@@ -4,12 +4,13 @@ use std::net::{SocketAddr, ToSocketAddrs};
 
 use fs020n_kin::RobotModel;
 use fs020n_proto::{ErrorCode, JointsDeg};
-use fs020n_sim::{run_robot, Panel, SimOptions};
+use fs020n_sim::{Panel, SimOptions};
+use fs020n_web::run_robot;
 use serde_json::json;
 
 use crate::args::SimArgs;
 use crate::error::{CliError, CliResult};
-use crate::session::{ctrl_c, runtime};
+use crate::session::ctrl_c;
 
 fn resolve(text: &str, what: &str) -> CliResult<SocketAddr> {
     text.to_socket_addrs()
@@ -19,7 +20,7 @@ fn resolve(text: &str, what: &str) -> CliResult<SocketAddr> {
 }
 
 /// Builds the options of each robot from the flags.
-pub fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOptions>> {
+pub(crate) fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOptions>> {
     if !args.pendant.is_empty() && args.pendant.len() != args.listen.len() {
         return Err(CliError::input(format!(
             "{} --listen but {} --pendant: give one pendant address per robot, or none",
@@ -61,14 +62,16 @@ pub fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOptions>>
             ));
         }
     }
+    let listen = (args.listen.iter())
+        .map(|l| resolve(l, "--listen"))
+        .collect::<CliResult<Vec<_>>>()?;
+    let pendant = (args.pendant.iter())
+        .map(|p| resolve(p, "--pendant"))
+        .collect::<CliResult<Vec<_>>>()?;
     let mut out = Vec::new();
-    for (i, listen) in args.listen.iter().enumerate() {
-        let pendant = match args.pendant.get(i) {
-            Some(p) => Some(resolve(p, "--pendant")?),
-            None => None,
-        };
+    for (listen, pendant) in crate::fleet::expand(&listen, &pendant, args.robots)? {
         out.push(SimOptions {
-            listen: resolve(listen, "--listen")?,
+            listen,
             pendant,
             pendant_token: args.token.clone(),
             model_file: None,
@@ -134,10 +137,10 @@ async fn print_trace(emulators: Vec<fs020n_sim::Emulator>, as_json: bool) {
 }
 
 /// `sim`.
-pub fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
+pub(crate) fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
     let all = options(args, model)?;
     let program = check_program(args)?;
-    let rt = runtime()?;
+    let rt = crate::fleet::runtime(args.threads)?;
     rt.block_on(async {
         // Handlers first: a signal that arrives as soon as the addresses are printed must
         // already find them.
@@ -162,7 +165,7 @@ pub fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
             } else {
                 match r.pendant_addr() {
                     Some(p) => println!(
-                        "robot {}: protocol 1040 on {}, pendant API on http://{p}",
+                        "robot {}: protocol 1040 on {}, pendant on http://{p}/ (API: /api)",
                         i + 1,
                         r.robot_addr()
                     ),
@@ -217,13 +220,13 @@ pub fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
 
 /// SIGINT (Ctrl-C) and SIGTERM, handled even when the process was started in the background,
 /// where the shell leaves SIGINT ignored: installing a handler replaces that disposition.
-struct ShutdownSignals {
+pub(crate) struct ShutdownSignals {
     #[cfg(unix)]
     unix: Option<(tokio::signal::unix::Signal, tokio::signal::unix::Signal)>,
 }
 
 impl ShutdownSignals {
-    fn install() -> ShutdownSignals {
+    pub(crate) fn install() -> ShutdownSignals {
         #[cfg(unix)]
         {
             use tokio::signal::unix::{signal, SignalKind};
@@ -240,7 +243,7 @@ impl ShutdownSignals {
     }
 
     /// Waits for the first signal and names it.
-    async fn recv(&mut self) -> &'static str {
+    pub(crate) async fn recv(&mut self) -> &'static str {
         #[cfg(unix)]
         if let Some((int, term)) = &mut self.unix {
             return tokio::select! {

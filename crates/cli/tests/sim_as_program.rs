@@ -2,6 +2,7 @@
 //! file:line:column; a user's modified server (an extra command) serves at --listen, the CLI's
 //! own client talks to it, and `--trace` prints the executed lines.
 #![cfg(unix)]
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};

@@ -228,6 +228,12 @@ impl RobotModel {
         Pose::from_parts_matrix(f.flange, &f.r06)
     }
 
+    /// The flange position in the base frame, metres: exactly `forward(q).position_m()`,
+    /// without building the orientation (cheaper when only distances matter).
+    pub fn flange_position_m(&self, q: &JointsRad) -> Vector3<f64> {
+        frames(&self.geometry, q).flange
+    }
+
     /// Forward kinematics of a tool point: `forward(q) * tool`, where `tool` is the tool frame
     /// relative to the flange.
     pub fn forward_tool(&self, q: &JointsRad, tool: &Pose) -> Pose {
@@ -538,6 +544,19 @@ mod tests {
         let p = m.forward(&JointsRad::ZERO);
         assert!(p.angle_to_rad(&Pose::IDENTITY) < 1e-12);
         assert!((p.position_m() - Vector3::new(0.15, 0.0, 2.0465)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn flange_position_is_the_forward_position_bit_for_bit() {
+        let m = RobotModel::fs020n();
+        for q in [
+            [0.0, 0.0, -90.0, 0.0, -90.0, 0.0],
+            [20.0, 30.0, -60.0, 40.0, -50.0, 70.0],
+            [-150.0, 100.0, -10.0, 250.0, 120.0, -300.0],
+        ] {
+            let q = JointsDeg::new(q).to_rad();
+            assert_eq!(m.flange_position_m(&q), m.forward(&q).position_m());
+        }
     }
 
     #[test]

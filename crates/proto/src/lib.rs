@@ -10,7 +10,7 @@
 //! * [`server::ServerRequest`] — how the controller parses a request (`VAL` semantics).
 //! * [`ErrorCode`] — AS error numbers (−31088 ↔ `E1088`) with messages.
 //! * [`session`] — the timing and size rules as constants.
-//! * [`format`] — every AS print format (`/D`, `/Fm.n`, `/Em.n`, …) for `PRINT`/`$ENCODE`.
+//! * [`format`](mod@format) — every AS print format (`/D`, `/Fm.n`, `/Em.n`, …) for `PRINT`/`$ENCODE`.
 //! * [`JointsDeg`] / [`JointsRad`] — joint vectors with the unit in the type.
 //!
 //! ```
@@ -43,3 +43,8 @@ pub use joints::{JointsDeg, JointsRad, JOINT_COUNT};
 pub use reply::{Status, Timer, REPLY_FIELDS};
 pub use request::{Command, Request, StreamSample};
 pub use session::PROTOCOL_VERSION;
+
+/// The README's examples, compiled as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

@@ -42,17 +42,75 @@ pub const F10_OVERFLOW: &str = "**********";
 /// assert_eq!(as_val("E5"), 0.0);
 /// ```
 pub fn as_val(text: &str) -> f64 {
-    let s = text.trim_start_matches([' ', '\t']);
-    let end = numeric_prefix_len(s.as_bytes());
+    as_val_bytes(text.as_bytes())
+}
+
+/// [`as_val`] on raw bytes (the server's tokens). Bytes that are not ASCII can neither start
+/// nor continue a number, so the result is the same as on the text decoded lossily.
+pub(crate) fn as_val_bytes(b: &[u8]) -> f64 {
+    let start = b
+        .iter()
+        .position(|&c| c != b' ' && c != b'\t')
+        .unwrap_or(b.len());
+    let s = &b[start..];
+    if let Some(v) = short_decimal(s) {
+        return f64::from(v as f32);
+    }
+    let end = numeric_prefix_len(s);
     if end == 0 {
         return 0.0;
     }
     // A number beyond the range of an AS real (a 32-bit float, about ±3.4E38), e.g. an
     // overflowing exponent: the controller would report an error; 0 is the safe reading.
-    match s[..end].parse::<f64>().map(|v| v as f32) {
-        Ok(v) if v.is_finite() => f64::from(v),
+    match std::str::from_utf8(&s[..end]).map(|t| t.parse::<f64>().map(|v| v as f32)) {
+        Ok(Ok(v)) if v.is_finite() => f64::from(v),
         _ => 0.0,
     }
+}
+
+/// Exact powers of ten up to 10¹⁵.
+const POW10: [f64; 16] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+];
+
+/// `VAL` of text whose number is short: `[sign]digits[.digits]` with at most 15 digits and no
+/// exponent (whatever follows the number is ignored, as `VAL` ignores it). `Some(0.0)` when the
+/// text holds no number; `None` when the general parser is needed (more digits, an exponent).
+///
+/// Such a number is `m / 10^k` with `m < 2^53` and `10^k` both exact doubles, so one IEEE
+/// division rounds it correctly: the same double as `str::parse::<f64>` (Clinger's fast path),
+/// without the general parser's cost.
+fn short_decimal(b: &[u8]) -> Option<f64> {
+    let (negative, mut i) = match b.first() {
+        Some(b'-') => (true, 1),
+        Some(b'+') => (false, 1),
+        _ => (false, 0),
+    };
+    let mut m: u64 = 0;
+    let mut count = 0usize;
+    let mut decimals = 0usize;
+    let mut point = false;
+    while let Some(&c) = b.get(i) {
+        match c {
+            b'0'..=b'9' => {
+                count += 1;
+                if count > 15 {
+                    return None;
+                }
+                m = m * 10 + u64::from(c - b'0');
+                decimals += usize::from(point);
+            }
+            b'.' if !point => point = true,
+            b'e' | b'E' if count > 0 => return None,
+            _ => break,
+        }
+        i += 1;
+    }
+    if count == 0 {
+        return Some(0.0);
+    }
+    let v = m as f64 / POW10[decimals];
+    Some(if negative { -v } else { v })
 }
 
 /// Length of the longest prefix of `b` that forms a decimal number (sign, digits, point,
@@ -187,9 +245,15 @@ pub fn format_f10_3(value: f64) -> String {
 
 /// Appends `value` in the `/F10.3` format (see [`format_f10_3`]) to `out`.
 pub fn push_f10_3(out: &mut String, value: f64) {
-    use std::fmt::Write;
+    let mut field = Vec::with_capacity(F10_WIDTH);
+    write_f10_3(&mut field, value);
+    out.push_str(ascii(&field));
+}
+
+/// Appends `value` in the `/F10.3` format (see [`format_f10_3`]) to the bytes `out`.
+pub(crate) fn write_f10_3(out: &mut Vec<u8>, value: f64) {
     if !value.is_finite() {
-        out.push_str(F10_OVERFLOW);
+        out.extend_from_slice(F10_OVERFLOW.as_bytes());
         return;
     }
     match thousandths(value) {
@@ -200,28 +264,44 @@ pub fn push_f10_3(out: &mut String, value: f64) {
             let digits = int.checked_ilog10().unwrap_or(0) as usize + 1;
             let len = usize::from(negative) + digits + 4;
             if len > F10_WIDTH {
-                out.push_str(F10_OVERFLOW);
+                out.extend_from_slice(F10_OVERFLOW.as_bytes());
                 return;
             }
-            out.extend(std::iter::repeat_n(' ', F10_WIDTH - len));
-            let _ = write!(
-                out,
-                "{}{int}.{:03}",
-                if negative { "-" } else { "" },
-                a % 1000
-            );
+            // Right-justified, written from the right: 3 decimals, the point, the integer part,
+            // the sign.
+            let mut field = [b' '; F10_WIDTH];
+            let mut rest = a;
+            let mut i = F10_WIDTH;
+            for k in 0..digits + 3 {
+                if k == 3 {
+                    i -= 1;
+                    field[i] = b'.';
+                }
+                i -= 1;
+                field[i] = b'0' + (rest % 10) as u8;
+                rest /= 10;
+            }
+            if negative {
+                field[i - 1] = b'-';
+            }
+            out.extend_from_slice(&field);
         }
         None => {
             let s = format!("{value:>10.3}");
             if s.trim() == "-0.000" {
-                let _ = write!(out, "{:>10}", "0.000");
+                out.extend_from_slice(format!("{:>10}", "0.000").as_bytes());
             } else if s.len() > F10_WIDTH {
-                out.push_str(F10_OVERFLOW);
+                out.extend_from_slice(F10_OVERFLOW.as_bytes());
             } else {
-                out.push_str(&s);
+                out.extend_from_slice(s.as_bytes());
             }
         }
     }
+}
+
+/// Bytes this module wrote (digits, blanks, signs, points, asterisks) as text.
+fn ascii(bytes: &[u8]) -> &str {
+    std::str::from_utf8(bytes).unwrap_or_default()
 }
 
 /// Formats an integer in the AS default format as it appears in `$ENCODE`: one blank, then the
@@ -234,8 +314,40 @@ pub fn format_default_int(value: i64) -> String {
 
 /// Appends `value` in the AS default format (see [`format_default_int`]) to `out`.
 pub fn push_default_int(out: &mut String, value: i64) {
-    use std::fmt::Write;
-    let _ = write!(out, " {value}");
+    let mut field = Vec::with_capacity(21);
+    write_default_int(&mut field, value);
+    out.push_str(ascii(&field));
+}
+
+/// Appends `value` in the AS default format (see [`format_default_int`]) to the bytes `out`.
+pub(crate) fn write_default_int(out: &mut Vec<u8>, value: i64) {
+    // The switch fields are 0 and -1: one digit needs no loop.
+    if (-9..=9).contains(&value) {
+        let digit = b'0' + value.unsigned_abs() as u8;
+        if value < 0 {
+            out.extend_from_slice(&[b' ', b'-', digit]);
+        } else {
+            out.extend_from_slice(&[b' ', digit]);
+        }
+        return;
+    }
+    // " -9223372036854775808" is 21 bytes.
+    let mut field = [b' '; 21];
+    let mut rest = value.unsigned_abs();
+    let mut i = field.len();
+    loop {
+        i -= 1;
+        field[i] = b'0' + (rest % 10) as u8;
+        rest /= 10;
+        if rest == 0 {
+            break;
+        }
+    }
+    if value < 0 {
+        i -= 1;
+        field[i] = b'-';
+    }
+    out.extend_from_slice(&field[i - 1..]);
 }
 
 /// Parses one reply field: a decimal number, optionally with an exponent. Returns `None` for
@@ -345,6 +457,57 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// `VAL` through the general parser only (the reading before the short-decimal path).
+    fn reference_val(text: &str) -> f64 {
+        let s = text.trim_start_matches([' ', '\t']);
+        let end = numeric_prefix_len(s.as_bytes());
+        match s[..end].parse::<f64>().map(|v| v as f32) {
+            Ok(v) if end > 0 && v.is_finite() => f64::from(v),
+            _ => 0.0,
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(4_000))]
+        /// The short-decimal path reads exactly what the general parser reads (bit for bit,
+        /// signed zeros included), whatever the digits, point, sign and trailing text.
+        #[test]
+        fn short_decimals_read_as_the_general_parser_reads(
+            text in "[ \t]{0,2}[+-]?[0-9]{0,18}\\.?[0-9]{0,18}([eE][+-]?[0-9]{1,3})?[a-z ]{0,2}",
+            v in proptest::prelude::any::<f64>().prop_filter("finite", |v| v.is_finite()),
+            i in proptest::prelude::any::<i64>(),
+            mix in "[-+.0-9eE \t]{0,14}",
+        ) {
+            for t in [text, mix, format!("{v}"), format!("{v:.3}"), format!("{i}"), format!("{:.6}", v / 1e300)] {
+                proptest::prop_assert_eq!(as_val(&t).to_bits(), reference_val(&t).to_bits(), "{:?}", t);
+            }
+        }
+
+        /// Integers are written as the standard formatter writes them.
+        #[test]
+        fn default_ints_match_the_formatter(v in proptest::prelude::any::<i64>()) {
+            proptest::prop_assert_eq!(format_default_int(v), format!(" {v}"));
+        }
+    }
+
+    #[test]
+    fn short_decimal_edges() {
+        for t in [
+            "-0",
+            "0.",
+            "-.5",
+            "999999999999999",
+            "9999999999999999",
+            "0.000000000000001",
+            "1.",
+            "+.0",
+        ] {
+            assert_eq!(as_val(t).to_bits(), reference_val(t).to_bits(), "{t}");
+        }
+        assert_eq!(format_default_int(i64::MIN), format!(" {}", i64::MIN));
+        assert_eq!(format_default_int(0), " 0");
     }
 
     #[test]

@@ -6,7 +6,7 @@ use std::fmt;
 use crate::error::{excerpt, DecodeError};
 use crate::error_code::ErrorCode;
 use crate::joints::{JointsDeg, JOINT_COUNT};
-use crate::number::{parse_field, push_default_int, push_f10_3, F10_OVERFLOW, F10_WIDTH};
+use crate::number::{parse_field, write_default_int, write_f10_3, F10_OVERFLOW, F10_WIDTH};
 use crate::session::{AS_FALSE, AS_TRUE, PROTOCOL_VERSION};
 
 /// Number of fields in a reply.
@@ -79,7 +79,12 @@ impl Status {
     /// `$ENCODE(fields 1–7)` (each preceded by one blank), then `$ENCODE(/F10.3, fields 8–14)`
     /// (right-justified in 10 characters, asterisks on overflow), then one blank.
     pub fn encode(&self) -> String {
-        let mut out = String::with_capacity(96);
+        String::from_utf8(self.encode_bytes()).unwrap_or_default()
+    }
+
+    /// [`Status::encode`] as bytes (what a server sends), without the text conversion.
+    pub fn encode_bytes(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(96);
         for v in [
             self.version,
             i64::from(self.error.raw()),
@@ -89,16 +94,16 @@ impl Status {
             as_bool(self.power),
             as_bool(self.task_running),
         ] {
-            push_default_int(&mut out, v);
+            write_default_int(&mut out, v);
         }
         match self.timer {
-            Timer::Seconds(s) => push_f10_3(&mut out, s),
-            Timer::Overflow => out.push_str(F10_OVERFLOW),
+            Timer::Seconds(s) => write_f10_3(&mut out, s),
+            Timer::Overflow => out.extend_from_slice(F10_OVERFLOW.as_bytes()),
         }
         for j in self.joints.iter() {
-            push_f10_3(&mut out, j);
+            write_f10_3(&mut out, j);
         }
-        out.push(' ');
+        out.push(b' ');
         out
     }
 

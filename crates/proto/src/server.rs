@@ -4,7 +4,7 @@
 //! needs it): only the first 255 bytes count; tokens are cut the way the program's alternating
 //! `$DECODE(text, " ", 0)` / `$DECODE(text, " ", 1)` cut them ([`server_tokens`]: any run of
 //! blanks *between* tokens is one separator, but a leading blank makes the first token empty);
-//! every token goes through `VAL` ([`as_val`]); the version and command number are reals; and
+//! every token goes through `VAL` ([`as_val`](crate::number::as_val)); the version and command number are reals; and
 //! COUNT_OF_ARGS is trusted (missing arguments read 0, extra ones are ignored).
 //!
 //! ```
@@ -19,7 +19,7 @@
 //! ```
 
 use crate::joints::{JointsDeg, JOINT_COUNT};
-use crate::number::as_val;
+use crate::number::as_val_bytes;
 use crate::request::{Command, StreamSample};
 use crate::session::{MAX_REQUEST_BYTES, PROTOCOL_VERSION};
 
@@ -45,19 +45,23 @@ impl ServerRequest {
     /// controller.
     pub fn parse(bytes: &[u8]) -> ServerRequest {
         let head = &bytes[..bytes.len().min(MAX_REQUEST_BYTES)];
-        let text = String::from_utf8_lossy(head);
-        let tokens: Vec<&str> = server_tokens(&text).collect();
-        let val = |i: usize| tokens.get(i).map_or(0.0, |t| as_val(t));
-        let count_val = val(2);
+        // The tokens are cut and read on the bytes: only ASCII blanks separate and only ASCII
+        // characters form numbers, so this reads what the text decoded lossily would.
+        let mut tokens = server_token_bytes(head);
+        let mut val = || tokens.next().map_or(0.0, as_val_bytes);
+        let version = val();
+        let command_number = val();
+        let count_val = val();
         let count = if count_val >= 1.0 {
             (count_val.trunc() as usize).min(MAX_ARGS)
         } else {
             0
         };
-        let args = (0..count).map(|i| val(3 + i)).collect();
+        let mut args = Vec::with_capacity(count);
+        args.extend((0..count).map(|_| val()));
         ServerRequest {
-            version: val(0),
-            command_number: val(1),
+            version,
+            command_number,
             count,
             args,
         }
@@ -136,6 +140,22 @@ pub fn server_tokens(text: &str) -> impl Iterator<Item = &str> {
     })
 }
 
+/// [`server_tokens`] on bytes.
+fn server_token_bytes(text: &[u8]) -> impl Iterator<Item = &[u8]> {
+    let mut rest = Some(text);
+    let mut first = true;
+    std::iter::from_fn(move || {
+        let r = rest?;
+        let cut = r.iter().position(|&c| c == b' ').unwrap_or(r.len());
+        let (token, after) = r.split_at(cut);
+        let blanks = after.iter().take_while(|&&c| c == b' ').count();
+        let after = &after[blanks..];
+        rest = (!after.is_empty()).then_some(after);
+        let is_first = std::mem::replace(&mut first, false);
+        (!token.is_empty() || cut == 0 && is_first).then_some(token)
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -194,6 +214,52 @@ mod tests {
         assert!(r.version_matches());
         assert_eq!(r.command_number, 1.0);
         assert!(ServerRequest::parse(b"1040.0 1 0").version_matches());
+    }
+
+    /// The reading on text decoded lossily, token by token (the definition the byte parser
+    /// must match).
+    fn reference_parse(bytes: &[u8]) -> ServerRequest {
+        let head = &bytes[..bytes.len().min(MAX_REQUEST_BYTES)];
+        let text = String::from_utf8_lossy(head);
+        let tokens: Vec<&str> = server_tokens(&text).collect();
+        let val = |i: usize| tokens.get(i).map_or(0.0, |t| crate::number::as_val(t));
+        let count_val = val(2);
+        let count = if count_val >= 1.0 {
+            (count_val.trunc() as usize).min(MAX_ARGS)
+        } else {
+            0
+        };
+        ServerRequest {
+            version: val(0),
+            command_number: val(1),
+            count,
+            args: (0..count).map(|i| val(3 + i)).collect(),
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(1_000))]
+        /// Bytes of every kind (blanks, tabs, digits, signs, points, exponents, invalid UTF-8,
+        /// a cut multi-byte character at byte 255) parse as the text reading says.
+        #[test]
+        fn the_byte_parser_reads_what_the_text_reading_says(
+            parts in proptest::collection::vec(
+                proptest::prop_oneof![
+                    proptest::string::bytes_regex("[ ]{1,3}").unwrap(),
+                    proptest::string::bytes_regex("[+-]?[0-9]{0,6}[.]?[0-9]{0,4}").unwrap(),
+                    proptest::string::bytes_regex("[0-9]{1,3}[eE][+-]?[0-9]{1,2}").unwrap(),
+                    proptest::string::bytes_regex("\t|x|é|\\xff|\\xc3").unwrap(),
+                    proptest::collection::vec(proptest::prelude::any::<u8>(), 0..4),
+                ],
+                0..90,
+            ),
+        ) {
+            let bytes: Vec<u8> = parts.concat();
+            proptest::prop_assert_eq!(ServerRequest::parse(&bytes), reference_parse(&bytes));
+            let mut request = b"1040 7 21 ".to_vec();
+            request.extend_from_slice(&bytes);
+            proptest::prop_assert_eq!(ServerRequest::parse(&request), reference_parse(&request));
+        }
     }
 
     #[test]

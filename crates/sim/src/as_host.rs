@@ -131,13 +131,13 @@ impl ServerProgram {
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Link {
     /// A program runs.
-    pub active: bool,
+    pub(crate) active: bool,
     /// ACCURACY of the motion in progress, mm (the next one blends in within it).
-    pub accuracy_mm: f64,
+    pub(crate) accuracy_mm: f64,
     /// ACCURACY of the planned motion (it becomes the current one's when it starts).
-    pub planned_accuracy_mm: f64,
+    pub(crate) planned_accuracy_mm: f64,
     /// The robot task's state after the latest step.
-    pub task: TaskState,
+    pub(crate) task: TaskState,
 }
 
 impl Default for Link {

@@ -911,8 +911,12 @@ impl Controller {
         let shape = match kind {
             Kind::Joint(f) => Shape::Joint(JointMove::plan(&self.model, from, target, f)),
             Kind::Linear(d) => {
-                match LinearPath::plan(&self.model, from, target, d, self.timing.tick.as_secs_f64())
-                {
+                let from_pose = if crate::motion::same_bits(&from, &self.robot.target()) {
+                    self.robot.target_pose(&self.model)
+                } else {
+                    self.model.forward(&from.to_rad())
+                };
+                match LinearPath::plan_from_pose(&self.model, from, from_pose, target, d) {
                     Some(p) => Shape::Linear(p),
                     None => {
                         tracing::warn!(%target, "E1088: no straight-line path to the destination");
@@ -1104,8 +1108,8 @@ impl Controller {
             }
             self.newest = slot;
         }
-        let reply = self.status().encode();
-        tracing::debug!(reply = %reply, "reply");
+        let reply = self.status().encode_bytes();
+        tracing::debug!(reply = %String::from_utf8_lossy(&reply), "reply");
         let fault = self.faults.next_reply();
         if let Some(s) = &mut self.session {
             // A delayed or split reply takes time to send; the receive timeout waits for it
@@ -1116,7 +1120,7 @@ impl Controller {
             self.end_session(SessionEnd::EndCommand);
         }
         Ok(Handled {
-            reply: reply.into_bytes(),
+            reply,
             fault,
             close,
         })

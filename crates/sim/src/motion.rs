@@ -7,6 +7,8 @@
 //! then limited to each joint's maximum speed and clamped into the joint ranges, so the robot can
 //! never leave its ranges or exceed its speeds, whatever the sum does.
 
+use std::cell::Cell;
+
 use fs020n_kin::{JointMove, Pose, RobotModel};
 use fs020n_proto::{JointsDeg, JOINT_COUNT};
 
@@ -25,6 +27,9 @@ pub struct LinearPath {
     /// Joint configurations at `params`, first = start, last = target.
     samples: Vec<JointsDeg>,
     duration_s: f64,
+    /// The flange pose at the target (computed for planning; the robot reuses it as its
+    /// target's pose when the motion starts).
+    end_pose: Pose,
 }
 
 /// Longest tool travel between two IK samples of a straight line, millimetres.
@@ -57,7 +62,19 @@ impl LinearPath {
         duration_s: f64,
         _resolution_s: f64,
     ) -> Option<LinearPath> {
-        let p0 = model.forward(&from.to_rad());
+        LinearPath::plan_from_pose(model, from, model.forward(&from.to_rad()), to, duration_s)
+    }
+
+    /// [`LinearPath::plan`] with the flange pose at `from` already known (`from_pose` must be
+    /// `model.forward(from)`).
+    pub(crate) fn plan_from_pose(
+        model: &RobotModel,
+        from: JointsDeg,
+        from_pose: Pose,
+        to: JointsDeg,
+        duration_s: f64,
+    ) -> Option<LinearPath> {
+        let p0 = from_pose;
         let p1 = model.forward(&to.to_rad());
         let distance_mm = p0.distance_m(&p1) * 1000.0;
         let angle_deg = p0.angle_to_rad(&p1).to_degrees();
@@ -124,6 +141,7 @@ impl LinearPath {
             params,
             samples,
             duration_s: needed,
+            end_pose: p1,
         })
     }
 
@@ -266,6 +284,9 @@ pub struct Robot {
     /// 1 = full speed, 0 = held.
     hold_scale: f64,
     held: bool,
+    /// The flange pose at `target`, computed once per target (the blending test compares the
+    /// tool with it every tick while a motion waits).
+    target_pose: Cell<Option<(JointsDeg, Pose)>>,
 }
 
 /// Time for HOLD to bring the motion to a pause (and for RUN to resume it), seconds.
@@ -285,6 +306,7 @@ impl Robot {
             clock: 0.0,
             hold_scale: 1.0,
             held: false,
+            target_pose: Cell::new(None),
         }
     }
 
@@ -350,14 +372,29 @@ impl Robot {
         if self.active.is_empty() {
             return true;
         }
-        let here = model.forward(&self.joints.to_rad());
-        let there = model.forward(&self.target.to_rad());
-        here.distance_m(&there) * 1000.0 <= accuracy_mm
+        let here = model.flange_position_m(&self.joints.to_rad());
+        let there = self.target_pose(model).position_m();
+        (here - there).norm() * 1000.0 <= accuracy_mm
+    }
+
+    /// The flange pose at [`target`](Self::target) (`model.forward(target)`), cached.
+    pub(crate) fn target_pose(&self, model: &RobotModel) -> Pose {
+        if let Some((joints, pose)) = self.target_pose.get() {
+            if same_bits(&joints, &self.target) {
+                return pose;
+            }
+        }
+        let pose = model.forward(&self.target.to_rad());
+        self.target_pose.set(Some((self.target, pose)));
+        pose
     }
 
     /// Starts `motion` at once (its `from` must be [`target`](Self::target)).
     pub fn start(&mut self, motion: Motion) {
         self.target = motion.to;
+        if let Shape::Linear(path) = &motion.shape {
+            self.target_pose.set(Some((motion.to, path.end_pose)));
+        }
         self.brake = None;
         self.active.push(Active {
             motion,
@@ -479,4 +516,12 @@ impl Robot {
             self.velocity = JointsDeg::ZERO;
         }
     }
+}
+
+/// `true` when the two configurations are the same numbers bit for bit (a cache key: `-0.0`
+/// and `0.0` differ, NaN never matches).
+pub(crate) fn same_bits(a: &JointsDeg, b: &JointsDeg) -> bool {
+    a.0.iter()
+        .zip(b.0.iter())
+        .all(|(x, y)| x.to_bits() == y.to_bits() && !x.is_nan())
 }

@@ -226,31 +226,43 @@ impl Emulator {
     where
         S: AsyncRead + AsyncWrite + Unpin,
     {
-        let (mut rd, mut wr) = tokio::io::split(stream);
-        let mut changes = self.inner.changed.subscribe();
+        // The loop never reads and writes at the same time: one stream, no split halves.
+        let mut stream = stream;
+        // Kept pending across requests, so that a waiter is not registered and dropped per
+        // request; re-armed after each change.
+        let mut changes = Box::pin(next_change(self.inner.changed.subscribe()));
         let mut buf = vec![0u8; RECEIVE_BUFFER];
-        loop {
-            let (open, deadline, paused) = self.with(|c| {
-                (
-                    c.is_session_open(id),
-                    c.receive_deadline(),
-                    c.reading_paused_until(),
-                )
-            });
-            let (true, Some(deadline)) = (open, deadline) else {
-                break;
-            };
-            if let Some(until) = paused {
+        let mut state = self.with(|c| SessionState::of(c, id));
+        // One timer for the receive timeout, armed at a deadline the session has had and moved
+        // only when it fires: the deadline moves later with every request, so re-arming it per
+        // request would cost a timer-wheel update each time. When it fires early, the state is
+        // read again (the controller ends the session itself once the real deadline passes).
+        let timer = tokio::time::sleep_until(self.instant_of(state.deadline.unwrap_or_default()));
+        tokio::pin!(timer);
+        while let (true, Some(deadline)) = (state.open, state.deadline) {
+            if let Some(until) = state.paused {
                 tokio::select! {
                     _ = tokio::time::sleep_until(self.instant_of(until.min(deadline))) => {}
-                    _ = changes.changed() => {}
+                    rx = &mut changes => changes = Box::pin(next_change(rx)),
                 }
+                state = self.with(|c| SessionState::of(c, id));
                 continue;
             }
+            let armed = self.instant_of(deadline);
+            if timer.is_elapsed() || timer.deadline() > armed {
+                timer.as_mut().reset(armed);
+            }
             let n = tokio::select! {
-                r = rd.read(&mut buf) => r,
-                _ = tokio::time::sleep_until(self.instant_of(deadline)) => continue,
-                _ = changes.changed() => continue,
+                r = stream.read(&mut buf) => r,
+                _ = &mut timer => {
+                    state = self.with(|c| SessionState::of(c, id));
+                    continue;
+                }
+                rx = &mut changes => {
+                    changes = Box::pin(next_change(rx));
+                    state = self.with(|c| SessionState::of(c, id));
+                    continue;
+                }
             };
             let n = match n {
                 Ok(0) | Err(_) => {
@@ -263,23 +275,23 @@ impl Emulator {
                 break;
             };
             let sent = match handled.fault {
-                None => send(&mut wr, &handled.reply).await,
+                None => send(&mut stream, &handled.reply).await,
                 Some(ReplyFault::Withhold) => Ok(()),
                 Some(ReplyFault::Delay(d)) => {
-                    if !self.pause(id, d, &mut changes).await {
+                    if !self.pause(id, d).await {
                         break;
                     }
-                    send(&mut wr, &handled.reply).await
+                    send(&mut stream, &handled.reply).await
                 }
-                Some(ReplyFault::Garbage(bytes)) => send(&mut wr, &bytes).await,
+                Some(ReplyFault::Garbage(bytes)) => send(&mut stream, &bytes).await,
                 Some(ReplyFault::Split { parts, gap }) => {
                     let size = handled.reply.len().div_ceil(parts.max(1)).max(1);
                     let mut sent = Ok(());
                     for (k, chunk) in handled.reply.chunks(size).enumerate() {
-                        if k > 0 && !self.pause(id, gap, &mut changes).await {
+                        if k > 0 && !self.pause(id, gap).await {
                             break;
                         }
-                        sent = send(&mut wr, chunk).await;
+                        sent = send(&mut stream, chunk).await;
                         if sent.is_err() {
                             break;
                         }
@@ -292,19 +304,41 @@ impl Emulator {
                 break;
             }
             // The communication task receives again only now (its 5 s timeout starts here).
-            self.with(|c| c.reply_sent(id));
+            state = self.with(|c| {
+                c.reply_sent(id);
+                SessionState::of(c, id)
+            });
             if handled.close {
                 break;
             }
         }
-        let _ = wr.shutdown().await;
+        let _ = stream.shutdown().await;
+    }
+}
+
+/// What the session loop needs to know about its session, read under one lock.
+#[derive(Debug, Clone, Copy)]
+struct SessionState {
+    open: bool,
+    deadline: Option<Duration>,
+    paused: Option<Duration>,
+}
+
+impl SessionState {
+    fn of(c: &Controller, id: SessionId) -> SessionState {
+        SessionState {
+            open: c.is_session_open(id),
+            deadline: c.receive_deadline(),
+            paused: c.reading_paused_until(),
+        }
     }
 }
 
 impl Emulator {
     /// Waits `d` while session `id` stays open (a delayed or split reply); `false` when the
     /// session ended meanwhile (closed by fault injection, or the emulator stopped it).
-    async fn pause(&self, id: SessionId, d: Duration, changes: &mut watch::Receiver<u64>) -> bool {
+    async fn pause(&self, id: SessionId, d: Duration) -> bool {
+        let mut changes = self.inner.changed.subscribe();
         let until = Instant::now() + d;
         loop {
             if !self.with(|c| c.is_session_open(id)) {
@@ -316,6 +350,15 @@ impl Emulator {
             }
         }
     }
+}
+
+/// Waits for the next change of the session state, then hands the receiver back.
+async fn next_change(mut rx: watch::Receiver<u64>) -> watch::Receiver<u64> {
+    if rx.changed().await.is_err() {
+        // The emulator is gone: no change will ever come.
+        std::future::pending::<()>().await;
+    }
+    rx
 }
 
 /// Binds the robot port with the controller's small send buffer (accepted sockets inherit it).

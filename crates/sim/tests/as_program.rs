@@ -1,6 +1,7 @@
 //! The emulator running an AS program (`as_host`): on a tokio runtime with paused time
 //! (in-memory clients) and over loopback TCP; the pendant's `/tasks`; faults; a user's own
 //! modified server.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use std::time::Duration;
 
@@ -152,7 +153,7 @@ fn a_modified_server_with_an_extra_command() {
     let mut c = Controller::with_program(ControllerConfig::default(), program);
     c.advance_by(Duration::from_millis(10));
     let client = c.program_connect(None, [127, 0, 0, 1]).unwrap();
-    let mut request = |c: &mut Controller, text: &str| {
+    let request = |c: &mut Controller, text: &str| {
         assert!(c.program_send(client, text.as_bytes()));
         for _ in 0..100 {
             c.advance_by(Duration::from_millis(1));

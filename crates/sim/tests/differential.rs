@@ -19,6 +19,7 @@
 //!   Fields 1–7 must still match; where a HOLD or brake stops the arm differs by the motion
 //!   in those milliseconds. Command 7 streams are compared by how well each run tracks the
 //!   trajectory (which sample a pass reads depends on the pass phase).
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use std::time::Duration;
 

@@ -1,0 +1,130 @@
+//! The streaming workload shared by the `emulator` bench and the `stream_speed` example: one
+//! robot streaming command 7 at 100 Hz on the `Controller` directly (virtual time).
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use fs020n_proto::{Command, JointsDeg, Request, StreamSample};
+use fs020n_sim::{Controller, ControllerConfig, SessionId};
+
+/// A controller with a session, the program running, fed command 7 at 100 Hz.
+pub(crate) struct Streamer {
+    /// The controller.
+    pub(crate) c: Controller,
+    id: SessionId,
+    t: f64,
+    /// Encode requests with the client library's exact encoder (float formatting) instead of
+    /// the bench's integer-based one; the emulator's own cost is the same either way.
+    client_encoder: bool,
+    request: String,
+}
+
+/// The same bytes as the client encoder (3 decimals, trailing zeros trimmed), written digit by
+/// digit so that the benchmark measures the emulator, not the client's float formatting.
+fn fast_encode(s: &StreamSample, out: &mut String) {
+    out.clear();
+    out.push_str("1040 7 21");
+    let mut num = |v: f64| {
+        let m = (v * 1000.0).round() as i64;
+        out.push(' ');
+        if m < 0 {
+            out.push('-');
+        }
+        let m = m.unsigned_abs();
+        let (int, mut frac) = (m / 1000, m % 1000);
+        let mut digits = [0u8; 20];
+        let mut n = 0;
+        let mut rest = int;
+        loop {
+            digits[n] = b'0' + (rest % 10) as u8;
+            n += 1;
+            rest /= 10;
+            if rest == 0 {
+                break;
+            }
+        }
+        for &d in digits[..n].iter().rev() {
+            out.push(char::from(d));
+        }
+        if frac != 0 {
+            out.push('.');
+            let mut scale = 100;
+            while frac != 0 {
+                out.push(char::from(b'0' + (frac / scale) as u8));
+                frac %= scale;
+                scale /= 10;
+            }
+        }
+    };
+    num(s.t0_s);
+    num(s.lookahead_passes);
+    num(0.0);
+    for v in s
+        .position
+        .iter()
+        .chain(s.velocity.iter())
+        .chain(s.acceleration.iter())
+    {
+        num(v);
+    }
+}
+
+impl Streamer {
+    /// A streamer at `monitor_percent`.
+    pub(crate) fn new(monitor_percent: f64, client_encoder: bool) -> Streamer {
+        let mut c = Controller::new(ControllerConfig {
+            joints: JointsDeg::new([0.0, 10.0, -80.0, 0.0, -80.0, 0.0]),
+            ..ControllerConfig::default()
+        });
+        let id = c.try_accept().unwrap();
+        c.handle_request(id, b"1040 1 0").unwrap();
+        c.handle_request(id, format!("1040 3 1 {monitor_percent}").as_bytes())
+            .unwrap();
+        Streamer {
+            c,
+            id,
+            t: 0.0,
+            client_encoder,
+            request: String::with_capacity(256),
+        }
+    }
+
+    /// One simulated second: 100 command-7 samples of a smooth multi-joint trajectory.
+    pub(crate) fn second(&mut self) {
+        for _ in 0..100 {
+            let t = self.t;
+            let w = 0.8;
+            let amp = [30.0, 10.0, 10.0, 20.0, 15.0, 40.0];
+            let base = [0.0, 10.0, -80.0, 0.0, -80.0, 0.0];
+            let mut p = [0.0; 6];
+            let mut v = [0.0; 6];
+            let mut a = [0.0; 6];
+            for j in 0..6 {
+                let ph = w * t + j as f64;
+                p[j] = base[j] + amp[j] * ph.sin() - amp[j] * (j as f64).sin();
+                v[j] = amp[j] * w * ph.cos();
+                a[j] = -amp[j] * w * w * ph.sin();
+            }
+            let s = StreamSample {
+                t0_s: self.c.timer1_s(),
+                lookahead_passes: 1.0,
+                position: JointsDeg::new(p),
+                velocity: JointsDeg::new(v),
+                acceleration: JointsDeg::new(a),
+            };
+            if self.client_encoder {
+                self.request = Request::new(Command::StreamedMove(s)).encode().unwrap();
+            } else {
+                fast_encode(&s, &mut self.request);
+            }
+            black_box(
+                self.c
+                    .handle_request(self.id, self.request.as_bytes())
+                    .unwrap(),
+            );
+            self.c.advance_by(Duration::from_millis(10));
+            self.t += 0.01;
+        }
+        assert!(self.c.error().is_none(), "{}", self.c.error());
+    }
+}
