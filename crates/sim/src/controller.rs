@@ -588,8 +588,10 @@ impl Controller {
             teach_lock: self.panel.teach_lock,
             power: self.panel.power,
             task_running: self.task() == TaskState::Running,
-            timer: Timer::Seconds(self.timer1_s()),
-            joints: self.robot.joints(),
+            // The server builds the reply from AS reals (32-bit): `TIMER(1)` and the joints
+            // `DECOMPOSE`d from `#HERE` pass through them before `$ENCODE` prints them.
+            timer: Timer::Seconds(f64::from(self.timer1_s() as f32)),
+            joints: self.robot.joints().map(|v| f64::from(v as f32)),
         }
     }
 
