@@ -68,6 +68,11 @@ async fn a_client_that_stops_reading_loses_its_session_within_seconds() {
             tokio::time::sleep(Duration::from_millis(2)).await;
         }
     });
+    // The session must have been accepted before its end can be awaited.
+    while emu.with(|c| c.session()).is_none() {
+        assert!(started.elapsed() < Duration::from_secs(5), "never accepted");
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
     let mut ended = None;
     while started.elapsed() < Duration::from_secs(15) {
         if emu.with(|c| c.session()).is_none() {
