@@ -105,7 +105,9 @@ def test_a_second_clients_motion_and_a_fence_violation_are_refused(rig):
     events = hub_state(hub)["events"]
     refusals = [e for e in events if e["kind"] == "refused"]
     assert [e["refusal"] for e in refusals] == ["no_control", "fence", "fence"], refusals
-    assert refusals[0]["client"] == 2 and "holds control" in refusals[0]["message"]
+    controller = hub_state(hub)["controller"]
+    assert refusals[0]["client"] != controller and "holds control" in refusals[0]["message"]
+    assert refusals[1]["client"] == controller
     assert "JT1 target 60.000 deg is outside the fence's range" in refusals[1]["message"]
     assert "cap of 50 %" in refusals[2]["message"]
     a.close()

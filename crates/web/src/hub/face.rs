@@ -56,11 +56,22 @@ impl Hub {
     where
         S: AsyncRead + AsyncWrite + Unpin,
     {
-        let (mut rd, mut wr) = tokio::io::split(stream);
-        let id = self
-            .inner
+        let id = self.next_client_id();
+        self.serve_numbered(stream, peer, id).await;
+    }
+
+    /// The next client number (in the order clients connect).
+    fn next_client_id(&self) -> u64 {
+        self.inner
             .next_client
-            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+    }
+
+    async fn serve_numbered<S>(&self, stream: S, peer: String, id: u64)
+    where
+        S: AsyncRead + AsyncWrite + Unpin,
+    {
+        let (mut rd, mut wr) = tokio::io::split(stream);
         let mut link = self.inner.link.subscribe();
         let start = *link.borrow_and_update();
         let refused = {
@@ -440,8 +451,12 @@ pub async fn serve_face(hub: Hub, addr: SocketAddr) -> io::Result<FaceServer> {
             match listener.accept().await {
                 Ok((stream, peer)) => {
                     let _ = stream.set_nodelay(true);
+                    // Numbered here, so that numbers follow the order of connection.
+                    let id = hub.next_client_id();
                     let hub = hub.clone();
-                    tokio::spawn(async move { hub.serve_client(stream, peer.to_string()).await });
+                    tokio::spawn(
+                        async move { hub.serve_numbered(stream, peer.to_string(), id).await },
+                    );
                 }
                 Err(e) => {
                     tracing::warn!(error = %e, "accept failed");
