@@ -304,8 +304,8 @@ pub(crate) struct SimArgs {
     /// robot picks a free port. With --json, one line per robot gives its addresses.
     #[arg(long, default_value_t = 1, value_name = "N")]
     pub robots: u16,
-    /// Threads serving the robots (1: one thread does everything, the cheapest per request;
-    /// leaves the other cores to the clients of a fleet on the same machine).
+    /// Threads serving the robots (1: one thread does everything, without cross-thread
+    /// wake-ups, and leaves the other cores to the clients of a fleet on the same machine).
     #[arg(long, default_value_t = 2, value_name = "N")]
     pub threads: u16,
     /// Token required by the pendant API (mandatory off loopback).
