@@ -32,6 +32,7 @@ mod config;
 mod error;
 mod motion;
 mod record;
+pub mod record_format;
 mod robot;
 mod safety;
 mod session;
@@ -42,6 +43,7 @@ mod transport;
 
 pub use clock::{ClockFit, ServerClock};
 pub use config::{ClientConfig, RecordFormat, Recording};
+pub use record::{MCAP_CHUNK_INTERVAL, RECORD_QUEUE_LINES};
 pub use error::{ClientError, LinkError};
 pub use motion::{Completion, MoveHandle, MoveProgress, MoveReport};
 pub use robot::Robot;
