@@ -75,18 +75,16 @@ impl Write for TailFile {
     }
 
     fn flush(&mut self) -> io::Result<()> {
-        if self.pending.is_empty() && self.finished {
-            return Ok(());
-        }
         self.file.seek(SeekFrom::Start(self.committed))?;
+        let written = self.pending.len() as u64;
         if !self.finished {
             self.pending.extend_from_slice(&self.end);
         }
         self.file.write_all(&self.pending)?;
-        let end_len = if self.finished { 0 } else { self.end.len() };
-        self.committed += (self.pending.len() - end_len) as u64;
+        self.committed += written;
         self.pending.clear();
         if self.finished {
+            // The real end is written: cut the provisional one that may follow it.
             self.file.set_len(self.committed)?;
         }
         Ok(())
