@@ -188,7 +188,7 @@ impl PlotOptions {
         let date = run
             .info
             .as_ref()
-            .map(|i| i.started_utc.replace('T', " ").replace('Z', " UTC"));
+            .map(|i| format!("{} UTC", i.started_utc.replace('T', " ").get(..19).unwrap_or_default()));
         let mut title = String::from("FS020N");
         if let Some(name) = &self.name {
             title.push_str(&format!(" — {name}"));

@@ -498,7 +498,7 @@ fn read_mcap(bytes: &[u8]) -> Result<Run, RecordError> {
     .map_err(|e| RecordError::Mcap(e.to_string()))?;
     // Messages with their times in ns; turned into seconds since the start at the end.
     let mut states: Vec<(u64, u64, [f64; 6])> = Vec::new();
-    let mut statuses: BTreeMap<u64, StatusMessage> = BTreeMap::new();
+    let mut statuses: Vec<StatusMessage> = Vec::new();
     let mut commanded: Vec<(u64, Commanded)> = Vec::new();
     let mut exchanges: Vec<(u64, ExchangeMessage)> = Vec::new();
     let mut events: Vec<(u64, EventMessage)> = Vec::new();
@@ -542,7 +542,7 @@ fn read_mcap(bytes: &[u8]) -> Result<Run, RecordError> {
             TOPIC_STATUS => {
                 let s: StatusMessage =
                     serde_json::from_slice(&m.data).map_err(|e| bad(e.to_string()))?;
-                statuses.insert(m.log_time, s);
+                statuses.push(s);
             }
             TOPIC_EXCHANGE => {
                 let x: ExchangeMessage =
@@ -575,10 +575,14 @@ fn read_mcap(bytes: &[u8]) -> Result<Run, RecordError> {
         .as_ref()
         .map_or(first, |i| i.started_unix_ns.min(first));
     let secs = |ns: u64| ns.saturating_sub(start) as f64 / 1e9;
+    // The writer puts a status message after each joint state of a reply: pair them in order
+    // (a file from elsewhere may have joint states only).
+    let paired = statuses.len() == states.len();
     run.states = states
         .into_iter()
-        .map(|(t, _, joints)| {
-            let status = statuses.get(&t);
+        .enumerate()
+        .map(|(i, (t, _, joints))| {
+            let status = statuses.get(i).filter(|_| paired);
             State {
                 t_s: secs(t),
                 session: status.map_or(0, |s| s.session),
