@@ -6,6 +6,9 @@ mod demo;
 mod error;
 mod offline;
 mod output;
+mod plot;
+mod recording;
+mod replay;
 mod robot_cmds;
 mod session;
 mod shell;
@@ -57,7 +60,9 @@ fn load_model(cli: &Cli) -> CliResult<RobotModel> {
 }
 
 fn ctx(cli: &Cli, model: RobotModel) -> session::Ctx {
+    let record = cli.record.as_deref().and_then(|p| recording::recording(p).ok());
     session::Ctx {
+        record,
         addr: cli.robot.clone(),
         json: cli.json,
         model,
@@ -72,6 +77,9 @@ fn run(cli: Cli) -> CliResult {
         ));
     }
     let model = load_model(&cli)?;
+    if let Some(path) = &cli.record {
+        recording::recording(path)?;
+    }
     match &cli.command {
         Cmd::Decode(args) => offline::decode(args, cli.json),
         Cmd::Fk { joints } => offline::fk(&model, joints, cli.json),
@@ -94,10 +102,44 @@ fn run(cli: Cli) -> CliResult {
             file,
             rate,
             duration,
+        } if recording::is_client_recording(file) => {
+            if cli.record.is_some() {
+                return Err(CliError::input(
+                    "record FILE already records every request and reply: leave out --record",
+                ));
+            }
+            recording::record(&ctx(&cli, model), file, *rate, *duration)
+        }
+        Cmd::Record {
+            file,
+            rate,
+            duration,
         } => robot_cmds::record(&ctx(&cli, model), file, *rate, *duration),
+        Cmd::Plot(args) => plot::plot(args, cli.json),
+        Cmd::Replay(args) => replay::run(&ctx(&cli, model), args),
         Cmd::Raw { text, yes } => robot_cmds::raw(&ctx(&cli, model), text, *yes),
         Cmd::Bench { count } => robot_cmds::bench(&ctx(&cli, model), *count),
-        Cmd::Demo { speed, yes } => demo::demo(&ctx(&cli, model), *speed, *yes),
+        Cmd::Demo { speed, yes, plot } => {
+            if let Some(p) = plot {
+                if fs020n_record::plot::ImageFormat::from_path(p).is_none() {
+                    return Err(CliError::input(format!(
+                        "--plot {}: name the picture .png or .svg",
+                        p.display()
+                    )));
+                }
+            }
+            let mut c = ctx(&cli, model);
+            // The plot is drawn from a recording: a temporary one without --record.
+            let temporary = (plot.is_some() && c.record.is_none()).then(recording::temporary_recording);
+            if let Some(t) = &temporary {
+                c.record = Some(fs020n_client::Recording::new(t));
+            }
+            let r = demo::demo(&c, *speed, *yes, plot.as_deref());
+            if let Some(t) = temporary {
+                let _ = std::fs::remove_file(t);
+            }
+            r
+        }
         Cmd::Sim(args) => sim::sim(args, &model, cli.json),
     }
 }

@@ -23,6 +23,8 @@ pub struct Ctx {
     pub model: RobotModel,
     /// Overall connect timeout.
     pub connect_timeout: Duration,
+    /// `--record FILE`: every request and reply of the session.
+    pub record: Option<fs020n_client::Recording>,
 }
 
 impl Ctx {
@@ -38,6 +40,7 @@ impl Ctx {
         ClientConfig {
             model: self.model.clone(),
             connect_timeout: self.connect_timeout,
+            record: self.record.clone(),
             ..ClientConfig::default()
         }
     }

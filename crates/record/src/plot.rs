@@ -191,24 +191,24 @@ impl PlotOptions {
             .map(|i| format!("{} UTC", i.started_utc.replace('T', " ").get(..19).unwrap_or_default()));
         let mut title = String::from("FS020N");
         if let Some(name) = &self.name {
-            title.push_str(&format!(" — {name}"));
+            title.push_str(&format!("  |  {name}"));
         }
         title.push_str(&format!(
-            " — robot {}",
+            "  |  robot {}",
             run.robot().unwrap_or(match run.format {
                 SourceFormat::StatusCsv => "(status CSV)",
                 _ => "(unknown)",
             })
         ));
         if let Some(d) = date {
-            title.push_str(&format!(" — {d}"));
+            title.push_str(&format!("  |  {d}"));
         }
-        title.push_str(&format!(" — {:.1} s", last - first));
+        title.push_str(&format!("  |  {:.1} s", last - first));
         if self.from_s.is_some() || self.to_s.is_some() {
             title.push_str(&format!(" (showing {from:.1} to {to:.1} s)"));
         }
         if run.truncated.is_some() {
-            title.push_str(" — file cut short");
+            title.push_str("  |  file cut short");
         }
         Ok(Prepared {
             run,
@@ -327,23 +327,30 @@ fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     (lo - pad, hi + pad)
 }
 
-/// The commanded position at `t`: the latest commanded position at or before `t`, a streamed
-/// sample moved on by its velocity (as the controller extrapolates it, at most 0.5 s).
-fn commanded_at(run: &Run, idx: &mut usize, t: f64) -> Option<[f64; 6]> {
+/// The streamed position at `t`: the latest command-7 sample at or before `t`, moved on by its
+/// velocity as the controller extrapolates it (at most [`STREAM_HOLD_S`]). `None` outside a
+/// stream: a joint move's target is where the arm goes, not where it should be now.
+fn streamed_at(run: &Run, idx: &mut usize, t: f64) -> Option<[f64; 6]> {
     let c = &run.commanded;
     while *idx + 1 < c.len() && c[*idx + 1].t_s <= t {
         *idx += 1;
     }
-    let cur = c.get(*idx).filter(|c| c.t_s <= t)?;
+    let cur = c.get(*idx).filter(|c| c.t_s <= t && c.streamed)?;
+    let dt = t - cur.t_s;
+    if dt > STREAM_HOLD_S {
+        return None;
+    }
     let mut p = cur.joints_deg;
     if let Some(v) = cur.velocity_deg_s {
-        let dt = (t - cur.t_s).min(0.5);
         for (pi, vi) in p.iter_mut().zip(v) {
             *pi += vi * dt;
         }
     }
     Some(p)
 }
+
+/// How long a streamed sample stands for the commanded position (the controller's clamp).
+const STREAM_HOLD_S: f64 = 0.5;
 
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
@@ -387,9 +394,16 @@ fn draw<DB: DrawingBackend>(
             .collect::<Vec<_>>();
         for (i, c) in relevant.iter().enumerate() {
             let start = c.t_s.max(from);
-            let end = relevant.get(i + 1).map_or(to, |n| n.t_s).min(to);
+            let next = relevant.get(i + 1);
             steps.push((start, c.joints_deg[k]));
-            steps.push((end, c.joints_deg[k]));
+            // Streamed samples follow each other as a line (the controller moves between
+            // them); a joint-move target holds until the next command.
+            let streaming =
+                next.is_some_and(|n| c.streamed && n.streamed && n.t_s - c.t_s <= STREAM_HOLD_S);
+            if !streaming {
+                let end = next.map_or(to, |n| n.t_s).min(to);
+                steps.push((end, c.joints_deg[k]));
+            }
         }
         let (lo, hi) = range(
             actual
@@ -403,7 +417,7 @@ fn draw<DB: DrawingBackend>(
                 ("sans-serif", 18),
             )
             .margin(10)
-            .x_label_area_size(28)
+            .x_label_area_size(40)
             .y_label_area_size(56)
             .build_cartesian_2d(time_axis.clone(), lo..hi)
             .map_err(draw_err)?;
@@ -436,11 +450,11 @@ fn draw<DB: DrawingBackend>(
     }
 
     let halves = bottom.split_evenly((1, 2));
-    // Tracking error: commanded minus actual, per joint.
+    // Tracking error: streamed position minus actual, per joint.
     let mut idx = 0;
     let mut errors: Vec<Vec<(f64, f64)>> = vec![Vec::new(); p.joints.len()];
     for s in &states {
-        if let Some(c) = commanded_at(run, &mut idx, s.t_s) {
+        if let Some(c) = streamed_at(run, &mut idx, s.t_s) {
             for (e, &j) in errors.iter_mut().zip(&p.joints) {
                 e.push((s.t_s, c[j - 1] - s.joints_deg[j - 1]));
             }
@@ -449,11 +463,11 @@ fn draw<DB: DrawingBackend>(
     let (lo, hi) = range(errors.iter().flatten().map(|p| p.1));
     let mut chart = ChartBuilder::on(&halves[0])
         .caption(
-            format!("{TRACKING_PANEL_CAPTION}: commanded − actual (deg)"),
+            format!("{TRACKING_PANEL_CAPTION} of streamed samples: commanded − actual (deg)"),
             ("sans-serif", 18),
         )
         .margin(10)
-        .x_label_area_size(28)
+        .x_label_area_size(40)
         .y_label_area_size(56)
         .build_cartesian_2d(time_axis, lo..hi)
         .map_err(draw_err)?;
@@ -466,7 +480,7 @@ fn draw<DB: DrawingBackend>(
     if errors.iter().all(Vec::is_empty) {
         halves[0]
             .draw_text(
-                "no commanded positions in this window",
+                "no streamed samples (command 7) in this window",
                 &("sans-serif", 16).into_font().color(&BLACK.mix(0.6)),
                 (80, 150),
             )
@@ -529,7 +543,7 @@ fn draw<DB: DrawingBackend>(
     let mut chart = ChartBuilder::on(&halves[1])
         .caption(caption, ("sans-serif", 18))
         .margin(10)
-        .x_label_area_size(28)
+        .x_label_area_size(40)
         .y_label_area_size(56)
         .build_cartesian_2d(0.0..max_ms, 0.0..top)
         .map_err(draw_err)?;

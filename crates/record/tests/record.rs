@@ -175,7 +175,7 @@ async fn plots_have_a_panel_per_joint_plus_tracking_and_round_trips() {
     for j in 1..=6 {
         assert_eq!(count(&format!("joint {j} (deg)")), 1, "joint {j}");
     }
-    assert_eq!(count("tracking error: commanded − actual (deg)"), 1);
+    assert_eq!(count("tracking error of streamed samples: commanded − actual (deg)"), 1);
     assert_eq!(count("round trip (ms): n "), 1);
     assert_eq!(count("joint ") + count("tracking error") + count("round trip (ms):"), 8);
     assert!(svg.contains("in-memory emulator"), "the title names the robot");
