@@ -338,14 +338,29 @@ fn read_csv(text: &str) -> Result<Run, RecordError> {
     if header.iter().map(String::as_str).eq(CLIENT_CSV_HEADER) {
         let mut lines = Vec::new();
         let mut truncated = None;
-        for (k, rec) in reader.records().enumerate() {
+        let records: Vec<_> = reader.records().collect();
+        let last = records.len().saturating_sub(1);
+        for (k, rec) in records.into_iter().enumerate() {
             let no = k + 2;
-            let rec = rec.map_err(|e| csv_error(&e, no))?;
-            if rec.len() != 6 {
-                // A killed writer can leave a last line cut short.
-                truncated = Some(format!("line {no} has {} fields, expected 6", rec.len()));
-                break;
-            }
+            // A killed writer can leave a last line cut short.
+            let rec = match rec {
+                Ok(rec) if rec.len() == 6 => rec,
+                Ok(rec) if k == last => {
+                    truncated = Some(format!("line {no} has {} fields, expected 6", rec.len()));
+                    break;
+                }
+                Ok(rec) => {
+                    return Err(RecordError::Format {
+                        line: no,
+                        message: format!("{} fields, expected 6", rec.len()),
+                    })
+                }
+                Err(e) if k == last => {
+                    truncated = Some(format!("line {no}: {e}"));
+                    break;
+                }
+                Err(e) => return Err(csv_error(&e, no)),
+            };
             lines.push((
                 no,
                 Line {

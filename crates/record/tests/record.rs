@@ -133,12 +133,14 @@ async fn files_cut_short_read_up_to_the_cut() {
     let full = std::fs::read_to_string(&csv).unwrap();
     let whole = read(&csv).unwrap();
     let cut = &full[..full.len() * 2 / 3];
-    let cut = &cut[..cut.rfind(',').unwrap()];
-    std::fs::write(&csv, cut).unwrap();
-    let part = read(&csv).unwrap();
-    assert!(part.truncated.is_some());
-    assert!(part.exchanges.len() > whole.exchanges.len() / 2);
-    assert!(part.exchanges.len() < whole.exchanges.len());
+    // Cut after a field, and inside a quoted reply.
+    for cut in [&cut[..cut.rfind(',').unwrap()], &cut[..cut.rfind(" 1040").unwrap() + 8]] {
+        std::fs::write(&csv, cut).unwrap();
+        let part = read(&csv).unwrap();
+        assert!(part.truncated.is_some());
+        assert!(part.exchanges.len() > whole.exchanges.len() / 2);
+        assert!(part.exchanges.len() < whole.exchanges.len());
+    }
 
     let jsonl = d.path().join("cut.jsonl");
     record(&jsonl).await;
