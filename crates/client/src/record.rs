@@ -3,9 +3,10 @@
 //! The session task hands each line to [`Recorder::line`], which never blocks and never does
 //! I/O: it puts the line in a bounded queue. A full queue (a disk stalled for seconds) drops the
 //! line and counts it in `Stats::record_errors`; the request and its reply deadline are not
-//! delayed. The writer thread takes the lines from the queue and writes them: CSV and JSON lines
-//! one `write` per line (in the kernel as soon as the thread has it), MCAP in chunks closed at
-//! least every [`MCAP_CHUNK_INTERVAL`] (see `record/mcap_sink.rs`).
+//! delayed. The writer thread takes the lines from the queue in batches (it lets the lines of
+//! [`BATCH_PERIOD`] gather, so that the session task does not wake it for every line) and writes
+//! them: CSV and JSON lines one `write` per batch, MCAP in chunks closed at least every
+//! [`MCAP_CHUNK_INTERVAL`] (see `record/mcap_sink.rs`).
 
 use std::fs::File;
 use std::io::{self, Write};
@@ -38,6 +39,15 @@ const FINISH_TIMEOUT: Duration = Duration::from_secs(5);
 /// How often the writer thread wakes without lines (to close an MCAP chunk in time).
 const IDLE_TICK: Duration = Duration::from_millis(100);
 
+/// After the first line of a batch, the writer thread lets the lines of this period gather
+/// before it writes them: the session task then wakes it at most once per period (a wake per
+/// line costs a system call and a thread switch on every request).
+const BATCH_PERIOD: Duration = Duration::from_millis(20);
+
+/// Most lines the writer thread takes from the queue at once (the queue stays the bound on
+/// memory).
+const BATCH_LINES: usize = 4096;
+
 /// Direction of a recorded line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Dir {
@@ -66,7 +76,7 @@ pub(crate) struct Entry {
     pub(crate) at: Duration,
     pub(crate) session: u64,
     pub(crate) dir: Dir,
-    pub(crate) kind: String,
+    pub(crate) kind: &'static str,
     pub(crate) rtt: Option<Duration>,
     pub(crate) text: String,
 }
@@ -78,11 +88,15 @@ enum Msg {
 
 /// What the writer thread writes to.
 pub(crate) trait Sink: Send {
-    /// Writes one line.
+    /// Takes one line (written now or at the end of the batch).
     fn entry(&mut self, e: &Entry) -> io::Result<()>;
-    /// Called after each line and whenever the queue stays empty for a while.
+    /// Called after each batch of lines and whenever the queue stays empty for a while.
     fn idle(&mut self) -> io::Result<()> {
         Ok(())
+    }
+    /// Lines lost by the last failed call (at least one is counted for each failed call).
+    fn take_lost(&mut self) -> u64 {
+        0
     }
     /// Everything written so far reaches the file.
     fn flush(&mut self) -> io::Result<()>;
@@ -143,7 +157,7 @@ impl Recorder {
             at: Duration::ZERO,
             session: 0,
             dir: Dir::Event,
-            kind: "start".into(),
+            kind: "start",
             rtt: None,
             text: serde_json::to_string(&info).unwrap_or_default(),
         };
@@ -192,7 +206,7 @@ impl Recorder {
         at: Instant,
         session: u64,
         dir: Dir,
-        kind: &str,
+        kind: &'static str,
         rtt: Option<Duration>,
         text: &str,
     ) -> Result<(), u64> {
@@ -200,7 +214,7 @@ impl Recorder {
             at: at.saturating_duration_since(self.epoch),
             session,
             dir,
-            kind: kind.to_owned(),
+            kind,
             rtt,
             text: text.to_owned(),
         };
@@ -288,32 +302,72 @@ struct Writer {
 
 impl Writer {
     fn run(mut self, rx: Receiver<Msg>) {
-        loop {
-            let result = match rx.recv_timeout(IDLE_TICK) {
-                Ok(Msg::Entry(e)) => self.sink.entry(&e),
-                Ok(Msg::Flush(ack)) => {
-                    let r = self.sink.flush();
-                    let _ = ack.send(r.as_ref().map(|_| ()).map_err(|e| e.to_string()));
-                    r
+        let mut open = true;
+        let mut batch = Vec::with_capacity(BATCH_LINES);
+        while open {
+            match rx.recv_timeout(IDLE_TICK) {
+                Ok(first) => {
+                    batch.push(first);
+                    std::thread::sleep(BATCH_PERIOD);
                 }
-                Err(RecvTimeoutError::Timeout) => Ok(()),
-                Err(RecvTimeoutError::Disconnected) => break,
-            };
-            if let Err(e) = result.and_then(|()| self.sink.idle()) {
-                self.lost.fetch_add(1, Ordering::Relaxed);
-                warn_once(&self.warned, &self.path, &e.to_string());
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => open = false,
+            }
+            // Everything queued, a bounded batch at a time.
+            loop {
+                while open && batch.len() < BATCH_LINES {
+                    match rx.try_recv() {
+                        Ok(m) => batch.push(m),
+                        Err(mpsc::TryRecvError::Empty) => break,
+                        Err(mpsc::TryRecvError::Disconnected) => open = false,
+                    }
+                }
+                let full = batch.len() == BATCH_LINES;
+                self.write_batch(&mut batch);
+                if !full {
+                    break;
+                }
             }
         }
         if let Err(e) = self.sink.finish() {
             tracing::warn!(path = %self.path, error = %e, "cannot finish the recording");
         }
     }
+
+    fn write_batch(&mut self, batch: &mut Vec<Msg>) {
+        for msg in batch.drain(..) {
+            match msg {
+                Msg::Entry(e) => {
+                    let r = self.sink.entry(&e);
+                    self.count(r);
+                }
+                Msg::Flush(ack) => {
+                    let r = self.sink.flush();
+                    let _ = ack.send(r.as_ref().map(|_| ()).map_err(|e| e.to_string()));
+                    self.count(r);
+                }
+            }
+        }
+        let r = self.sink.idle();
+        self.count(r);
+    }
+
+    fn count(&mut self, r: io::Result<()>) {
+        if let Err(e) = r {
+            let n = self.sink.take_lost().max(1);
+            self.lost.fetch_add(n, Ordering::Relaxed);
+            warn_once(&self.warned, &self.path, &e.to_string());
+        }
+    }
 }
 
-/// CSV and JSON lines: one unbuffered `write` per line.
+/// CSV and JSON lines: the lines of a batch in one `write`.
 struct LineSink {
     file: File,
     format: RecordFormat,
+    buf: String,
+    lines: u64,
+    lost: u64,
 }
 
 impl LineSink {
@@ -322,15 +376,35 @@ impl LineSink {
         if format == RecordFormat::Csv {
             file.write_all(b"t_s,session,dir,kind,rtt_ms,text\n")?;
         }
-        Ok(LineSink { file, format })
+        Ok(LineSink {
+            file,
+            format,
+            buf: String::with_capacity(16 * 1024),
+            lines: 0,
+            lost: 0,
+        })
+    }
+
+    fn write_out(&mut self) -> io::Result<()> {
+        if self.buf.is_empty() {
+            return Ok(());
+        }
+        let r = self.file.write_all(self.buf.as_bytes());
+        if r.is_err() {
+            self.lost += self.lines;
+        }
+        self.buf.clear();
+        self.lines = 0;
+        r
     }
 }
 
 impl Sink for LineSink {
     fn entry(&mut self, e: &Entry) -> io::Result<()> {
+        use std::fmt::Write as _;
         let t = e.at.as_secs_f64();
         let rtt_ms = e.rtt.map(|d| d.as_secs_f64() * 1e3);
-        let line = match self.format {
+        match self.format {
             RecordFormat::JsonLines => {
                 let v = serde_json::json!({
                     "t_s": (t * 1e6).round() / 1e6,
@@ -340,25 +414,39 @@ impl Sink for LineSink {
                     "rtt_ms": rtt_ms.map(|r| (r * 1e3).round() / 1e3),
                     "text": e.text,
                 });
-                format!("{v}\n")
+                let _ = writeln!(self.buf, "{v}");
             }
-            _ => format!(
-                "{t:.6},{},{},{},{},{}\n",
-                e.session,
-                e.dir.as_str(),
-                e.kind,
-                rtt_ms.map(|r| format!("{r:.3}")).unwrap_or_default(),
-                csv_quote(&e.text)
-            ),
-        };
-        self.file.write_all(line.as_bytes())
+            _ => {
+                let _ = writeln!(
+                    self.buf,
+                    "{t:.6},{},{},{},{},{}",
+                    e.session,
+                    e.dir.as_str(),
+                    e.kind,
+                    rtt_ms.map(|r| format!("{r:.3}")).unwrap_or_default(),
+                    csv_quote(&e.text)
+                );
+            }
+        }
+        self.lines += 1;
+        Ok(())
+    }
+
+    fn idle(&mut self) -> io::Result<()> {
+        self.write_out()
+    }
+
+    fn take_lost(&mut self) -> u64 {
+        std::mem::take(&mut self.lost)
     }
 
     fn flush(&mut self) -> io::Result<()> {
+        self.write_out()?;
         self.file.flush()
     }
 
     fn finish(mut self: Box<Self>) -> io::Result<()> {
+        self.write_out()?;
         self.file.flush()
     }
 }
@@ -481,23 +569,19 @@ mod tests {
             Instant::now(),
             "stalled".into(),
         );
+        // The writer takes the first line and at most a batch more, then stalls on the first.
         let extra = 1000;
+        let total = RECORD_QUEUE_LINES + BATCH_LINES + 1 + extra;
         let mut lost = 0;
-        for _ in 0..RECORD_QUEUE_LINES + extra {
+        for _ in 0..total {
             if let Err(n) = r.line(Instant::now(), 1, Dir::Tx, "poll", None, "0 0 0") {
                 lost += n;
             }
         }
-        // The first line is held by the stalled sink, the queue holds the next ones.
-        assert!(
-            (extra as u64 - 1..=extra as u64).contains(&lost),
-            "lost {lost}"
-        );
+        let (lo, hi) = (extra as u64 + 1, (extra + 1 + BATCH_LINES) as u64);
+        assert!((lo..=hi).contains(&lost), "lost {lost}");
         release.send(()).unwrap();
         drop(r);
-        assert_eq!(
-            written.load(Ordering::Relaxed) + lost,
-            (RECORD_QUEUE_LINES + extra) as u64
-        );
+        assert_eq!(written.load(Ordering::Relaxed) + lost, total as u64);
     }
 }

@@ -142,7 +142,7 @@ impl Common {
         at: Instant,
         session: u64,
         dir: Dir,
-        kind: &str,
+        kind: &'static str,
         rtt: Option<Duration>,
         text: &str,
     ) {

@@ -260,7 +260,7 @@ impl Sink for McapSink {
                 }
                 self.pending.push(Pending {
                     session: e.session,
-                    kind: e.kind.clone(),
+                    kind: e.kind.to_owned(),
                     request: e.text.clone(),
                     sent_ns: t_ns,
                 });
@@ -277,7 +277,7 @@ impl Sink for McapSink {
                 }
                 let p = self.take_pending(e.session).unwrap_or_else(|| Pending {
                     session: e.session,
-                    kind: e.kind.clone(),
+                    kind: e.kind.to_owned(),
                     request: String::new(),
                     sent_ns: t_ns.saturating_sub(
                         e.rtt
@@ -294,7 +294,7 @@ impl Sink for McapSink {
                 }
                 let m = EventMessage {
                     session: e.session,
-                    event: e.kind.clone(),
+                    event: e.kind.to_owned(),
                     text: e.text.clone(),
                 };
                 self.json(self.channels.event, t_ns, &m)?;
