@@ -60,7 +60,10 @@ fn load_model(cli: &Cli) -> CliResult<RobotModel> {
 }
 
 fn ctx(cli: &Cli, model: RobotModel) -> session::Ctx {
-    let record = cli.record.as_deref().and_then(|p| recording::recording(p).ok());
+    let record = cli
+        .record
+        .as_deref()
+        .and_then(|p| recording::recording(p).ok());
     session::Ctx {
         record,
         addr: cli.robot.clone(),
@@ -130,7 +133,8 @@ fn run(cli: Cli) -> CliResult {
             }
             let mut c = ctx(&cli, model);
             // The plot is drawn from a recording: a temporary one without --record.
-            let temporary = (plot.is_some() && c.record.is_none()).then(recording::temporary_recording);
+            let temporary =
+                (plot.is_some() && c.record.is_none()).then(recording::temporary_recording);
             if let Some(t) = &temporary {
                 c.record = Some(fs020n_client::Recording::new(t));
             }

@@ -47,9 +47,7 @@ pub fn draw(
     out: &Path,
     mut opts: PlotOptions,
 ) -> CliResult<PlotSummary> {
-    opts.name = source
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned());
+    opts.name = source.file_name().map(|n| n.to_string_lossy().into_owned());
     plot_to_file(run, out, &opts).map_err(record_error)
 }
 
@@ -81,7 +79,9 @@ pub fn print_summary(out: &Path, s: &PlotSummary, as_json: bool) {
 pub fn plot(args: &PlotArgs, as_json: bool) -> CliResult {
     for (name, v) in [("--from", args.from), ("--to", args.to)] {
         if v.is_some_and(|v| !v.is_finite()) {
-            return Err(CliError::input(format!("{name} must be a number of seconds")));
+            return Err(CliError::input(format!(
+                "{name} must be a number of seconds"
+            )));
         }
     }
     let run = read_recording(&args.recording)?;

@@ -126,4 +126,3 @@ pub async fn plot_session(robot: &Robot, recorded: &Path, out: &Path, as_json: b
     }
     Ok(())
 }
-

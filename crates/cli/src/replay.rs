@@ -41,34 +41,35 @@ pub fn run(ctx: &Ctx, args: &ReplayArgs) -> CliResult {
         ..ReplayOptions::default()
     };
     let rt = runtime()?;
-    let (report, target) = rt.block_on(async {
-        match &ctx.addr {
-            Some(addr) => replay_tcp(&run, addr, &opts)
-                .await
-                .map(|r| (r, addr.clone())),
-            None => {
-                // The emulator starts where the recording starts: joints, switches, error.
-                let mut cfg = ControllerConfig::new(ctx.model.clone());
-                cfg.joints = first.joints;
-                cfg.error = first.error;
-                cfg.panel = Panel {
-                    power: first.power,
-                    run: first.run,
-                    repeat: first.repeat,
-                    teach_lock: first.teach_lock,
-                    estop: false,
-                };
-                if let Some(p) = speed {
-                    cfg.monitor_speed_percent = p;
-                }
-                let emu = Emulator::new(cfg);
-                replay(&run, || std::future::ready(emu.connect()), &opts)
+    let (report, target) = rt
+        .block_on(async {
+            match &ctx.addr {
+                Some(addr) => replay_tcp(&run, addr, &opts)
                     .await
-                    .map(|r| (r, "the embedded emulator".to_owned()))
+                    .map(|r| (r, addr.clone())),
+                None => {
+                    // The emulator starts where the recording starts: joints, switches, error.
+                    let mut cfg = ControllerConfig::new(ctx.model.clone());
+                    cfg.joints = first.joints;
+                    cfg.error = first.error;
+                    cfg.panel = Panel {
+                        power: first.power,
+                        run: first.run,
+                        repeat: first.repeat,
+                        teach_lock: first.teach_lock,
+                        estop: false,
+                    };
+                    if let Some(p) = speed {
+                        cfg.monitor_speed_percent = p;
+                    }
+                    let emu = Emulator::new(cfg);
+                    replay(&run, || std::future::ready(emu.connect()), &opts)
+                        .await
+                        .map(|r| (r, "the embedded emulator".to_owned()))
+                }
             }
-        }
-    })
-    .map_err(record_error)?;
+        })
+        .map_err(record_error)?;
     print_report(&report, &target, ctx.json);
     if report.matches() {
         Ok(())
@@ -119,7 +120,12 @@ fn print_report(r: &ReplayReport, target: &str, as_json: bool) {
         let what: Vec<String> = d
             .fields
             .iter()
-            .map(|f| format!("{} recorded {} replayed {}", f.field, f.recorded, f.replayed))
+            .map(|f| {
+                format!(
+                    "{} recorded {} replayed {}",
+                    f.field, f.recorded, f.replayed
+                )
+            })
             .collect();
         println!(
             "  t = {:8.3} s  session {}  {:<28}  {}",
@@ -143,4 +149,3 @@ fn shorten(s: &str, n: usize) -> String {
         t
     }
 }
-

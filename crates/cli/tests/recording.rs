@@ -167,7 +167,10 @@ fn replay_finds_an_injected_divergence() {
     assert_eq!(out.status.code(), Some(1), "divergences fail the command");
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("1 of "), "{stdout}");
-    assert!(stdout.contains("error recorded E1088 replayed none"), "{stdout}");
+    assert!(
+        stdout.contains("error recorded E1088 replayed none"),
+        "{stdout}"
+    );
     assert!(stdout.contains("joint 2 recorded 12.000"), "{stdout}");
     assert!(String::from_utf8_lossy(&out.stderr).contains("replies differ"));
 }
@@ -205,7 +208,11 @@ fn a_killed_recorder_leaves_a_file_that_opens() {
     assert!(sizes.len() >= 4, "the file grew chunk by chunk: {sizes:?}");
 
     let bytes = std::fs::read(&rec).unwrap();
-    assert_eq!(&bytes[bytes.len() - 8..], b"\x89MCAP0\r\n", "ends like an MCAP file");
+    assert_eq!(
+        &bytes[bytes.len() - 8..],
+        b"\x89MCAP0\r\n",
+        "ends like an MCAP file"
+    );
     // `fs020n plot` reads it, and says nothing is cut short.
     let svg = dir.path().join("killed.svg");
     let out = ok(&fs020n()
@@ -217,7 +224,9 @@ fn a_killed_recorder_leaves_a_file_that_opens() {
         .unwrap());
     let v: Value = serde_json::from_str(&out).unwrap();
     assert!(v["summary"]["states"].as_u64().unwrap() >= 50, "{v}");
-    assert!(!std::fs::read_to_string(&svg).unwrap().contains("file cut short"));
+    assert!(!std::fs::read_to_string(&svg)
+        .unwrap()
+        .contains("file cut short"));
 }
 
 #[test]
@@ -250,10 +259,7 @@ fn recording_options_are_checked_before_connecting() {
     assert!(String::from_utf8_lossy(&out.stderr).contains(".mcap, .csv or .jsonl"));
     assert!(!bad.exists());
 
-    let out = fs020n()
-        .args(["demo", "--plot", "x.jpg"])
-        .output()
-        .unwrap();
+    let out = fs020n().args(["demo", "--plot", "x.jpg"]).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
 
     let rec = dir.path().join("r.jsonl");

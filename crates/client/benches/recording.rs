@@ -90,7 +90,12 @@ fn main() {
     for (name, rate, requests, lost, record) in rates {
         let size = record
             .and_then(|r| std::fs::metadata(r.path).ok())
-            .map(|m| format!(", file {:.0} bytes per exchange", m.len() as f64 / requests as f64))
+            .map(|m| {
+                format!(
+                    ", file {:.0} bytes per exchange",
+                    m.len() as f64 / requests as f64
+                )
+            })
             .unwrap_or_default();
         println!("  {name:<5} {rate:>8.0}/s{size}, lines lost {lost}");
     }

@@ -43,9 +43,9 @@ mod transport;
 
 pub use clock::{ClockFit, ServerClock};
 pub use config::{ClientConfig, RecordFormat, Recording};
-pub use record::{MCAP_CHUNK_INTERVAL, RECORD_QUEUE_LINES};
 pub use error::{ClientError, LinkError};
 pub use motion::{Completion, MoveHandle, MoveProgress, MoveReport};
+pub use record::{MCAP_CHUNK_INTERVAL, RECORD_QUEUE_LINES};
 pub use robot::Robot;
 pub use safety::{
     blockers, check_stream_sample, extrapolation_window, Blocker, SampleError, ESTOP_REMEDY,

@@ -121,7 +121,10 @@ pub(crate) struct Recorder {
 impl Recorder {
     /// Creates the file, writes its header and the `start` line (errors are returned here, at
     /// connect), then starts the writer thread.
-    pub(crate) fn open(rec: &Recording, late_reply_after: Duration) -> Result<Recorder, ClientError> {
+    pub(crate) fn open(
+        rec: &Recording,
+        late_reply_after: Duration,
+    ) -> Result<Recorder, ClientError> {
         let path = rec.path.display().to_string();
         let err = |e: io::Error| ClientError::Recording {
             path: path.clone(),
@@ -142,7 +145,9 @@ impl Recorder {
                 Box::new(LineSink::create(&rec.path, rec.format).map_err(err)?)
             }
             #[cfg(feature = "mcap")]
-            RecordFormat::Mcap => Box::new(mcap_sink::McapSink::create(&rec.path, &info).map_err(err)?),
+            RecordFormat::Mcap => {
+                Box::new(mcap_sink::McapSink::create(&rec.path, &info).map_err(err)?)
+            }
             #[cfg(not(feature = "mcap"))]
             RecordFormat::Mcap => {
                 return Err(ClientError::Recording {

@@ -341,7 +341,11 @@ pub enum CdrError {
 
 impl JointStateMessage {
     /// The six joints of the FS020N named [`JOINT_NAMES`], from degrees.
-    pub fn from_degrees(stamp_ns: u64, position_deg: &[f64; 6], velocity_deg: Option<&[f64; 6]>) -> Self {
+    pub fn from_degrees(
+        stamp_ns: u64,
+        position_deg: &[f64; 6],
+        velocity_deg: Option<&[f64; 6]>,
+    ) -> Self {
         JointStateMessage {
             stamp_ns,
             frame_id: String::new(),
@@ -492,7 +496,10 @@ impl<'a> CdrReader<'a> {
         let b: [u8; 4] = self
             .take(4, 4, field)?
             .try_into()
-            .map_err(|_| CdrError::Truncated { offset: self.pos, field })?;
+            .map_err(|_| CdrError::Truncated {
+                offset: self.pos,
+                field,
+            })?;
         Ok(if self.little {
             u32::from_le_bytes(b)
         } else {
@@ -516,7 +523,10 @@ impl<'a> CdrReader<'a> {
         let b: [u8; 8] = self
             .take(8, 8, field)?
             .try_into()
-            .map_err(|_| CdrError::Truncated { offset: self.pos, field })?;
+            .map_err(|_| CdrError::Truncated {
+                offset: self.pos,
+                field,
+            })?;
         Ok(if self.little {
             f64::from_le_bytes(b)
         } else {
@@ -581,7 +591,13 @@ mod tests {
 
     #[test]
     fn utc_dates() {
-        assert_eq!(utc_rfc3339(951_782_400_000_000_000), "2000-02-29T00:00:00.000Z");
-        assert_eq!(utc_rfc3339(4_102_444_799_999_000_000), "2099-12-31T23:59:59.999Z");
+        assert_eq!(
+            utc_rfc3339(951_782_400_000_000_000),
+            "2000-02-29T00:00:00.000Z"
+        );
+        assert_eq!(
+            utc_rfc3339(4_102_444_799_999_000_000),
+            "2099-12-31T23:59:59.999Z"
+        );
     }
 }

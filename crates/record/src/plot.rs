@@ -27,12 +27,7 @@ pub enum ImageFormat {
 impl ImageFormat {
     /// The format a file name asks for (`.png`, `.svg`).
     pub fn from_path(path: &Path) -> Option<ImageFormat> {
-        match path
-            .extension()?
-            .to_str()?
-            .to_ascii_lowercase()
-            .as_str()
-        {
+        match path.extension()?.to_str()?.to_ascii_lowercase().as_str() {
             "png" => Some(ImageFormat::Png),
             "svg" => Some(ImageFormat::Svg),
             _ => None,
@@ -134,7 +129,9 @@ fn fonts() -> Result<(), RecordError> {
     if ok {
         Ok(())
     } else {
-        Err(RecordError::Draw("the bundled font cannot be loaded".into()))
+        Err(RecordError::Draw(
+            "the bundled font cannot be loaded".into(),
+        ))
     }
 }
 
@@ -185,10 +182,15 @@ impl PlotOptions {
                 )));
             }
         }
-        let date = run
-            .info
-            .as_ref()
-            .map(|i| format!("{} UTC", i.started_utc.replace('T', " ").get(..19).unwrap_or_default()));
+        let date = run.info.as_ref().map(|i| {
+            format!(
+                "{} UTC",
+                i.started_utc
+                    .replace('T', " ")
+                    .get(..19)
+                    .unwrap_or_default()
+            )
+        });
         let mut title = String::from("FS020N");
         if let Some(name) = &self.name {
             title.push_str(&format!("  |  {name}"));
@@ -223,12 +225,13 @@ impl PlotOptions {
 }
 
 /// Draws `run` into `path` (PNG or SVG by extension).
-pub fn plot_to_file(run: &Run, path: &Path, opts: &PlotOptions) -> Result<PlotSummary, RecordError> {
+pub fn plot_to_file(
+    run: &Run,
+    path: &Path,
+    opts: &PlotOptions,
+) -> Result<PlotSummary, RecordError> {
     let format = ImageFormat::from_path(path).ok_or_else(|| {
-        RecordError::Options(format!(
-            "{}: name the image .png or .svg",
-            path.display()
-        ))
+        RecordError::Options(format!("{}: name the image .png or .svg", path.display()))
     })?;
     let (bytes, summary) = render(run, format, opts)?;
     std::fs::write(path, bytes).map_err(|e| RecordError::Io {
@@ -370,7 +373,10 @@ fn draw<DB: DrawingBackend>(
         .map_err(draw_err)?;
     let rows = p.joints.len().div_ceil(2);
     let cols = if p.joints.len() == 1 { 1 } else { 2 };
-    let joint_h = rest.dim_in_pixel().1.saturating_sub(BOTTOM_PANEL_H.min(rest.dim_in_pixel().1 / 2));
+    let joint_h = rest
+        .dim_in_pixel()
+        .1
+        .saturating_sub(BOTTOM_PANEL_H.min(rest.dim_in_pixel().1 / 2));
     let (joint_area, bottom) = rest.split_vertically(joint_h);
     let panels = joint_area.split_evenly((rows, cols));
     let states: Vec<_> = run.states.iter().filter(|s| inside(s.t_s)).collect();
@@ -405,12 +411,7 @@ fn draw<DB: DrawingBackend>(
                 steps.push((end, c.joints_deg[k]));
             }
         }
-        let (lo, hi) = range(
-            actual
-                .iter()
-                .map(|p| p.1)
-                .chain(steps.iter().map(|p| p.1)),
-        );
+        let (lo, hi) = range(actual.iter().map(|p| p.1).chain(steps.iter().map(|p| p.1)));
         let mut chart = ChartBuilder::on(panel)
             .caption(
                 format!("{JOINT_PANEL_CAPTION} {j} (deg)"),
@@ -432,7 +433,9 @@ fn draw<DB: DrawingBackend>(
                 .draw_series(LineSeries::new(decimate(steps), COMMANDED.stroke_width(2)))
                 .map_err(draw_err)?
                 .label("commanded")
-                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], COMMANDED.stroke_width(2)));
+                .legend(|(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], COMMANDED.stroke_width(2))
+                });
         }
         chart
             .draw_series(LineSeries::new(decimate(actual), ACTUAL.stroke_width(2)))
@@ -492,7 +495,9 @@ fn draw<DB: DrawingBackend>(
                 .draw_series(LineSeries::new(decimate(e), color.stroke_width(1)))
                 .map_err(draw_err)?
                 .label(format!("J{j}"))
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+                });
         }
         chart
             .configure_series_labels()
@@ -527,12 +532,7 @@ fn draw<DB: DrawingBackend>(
             late.len()
         )
     };
-    let max_ms = rtts
-        .iter()
-        .map(|r| r.1)
-        .fold(0.0f64, f64::max)
-        .max(0.05)
-        * 1.05;
+    let max_ms = rtts.iter().map(|r| r.1).fold(0.0f64, f64::max).max(0.05) * 1.05;
     const BINS: usize = 40;
     let width = max_ms / BINS as f64;
     let mut counts = [0u32; BINS];
@@ -555,11 +555,17 @@ fn draw<DB: DrawingBackend>(
         .draw()
         .map_err(draw_err)?;
     chart
-        .draw_series(counts.iter().enumerate().filter(|(_, c)| **c > 0).map(|(i, c)| {
-            let x0 = i as f64 * width;
-            let color = if x0 + width > late_ms { LATE } else { ACTUAL };
-            Rectangle::new([(x0, 0.0), (x0 + width, f64::from(*c))], color.filled())
-        }))
+        .draw_series(
+            counts
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| **c > 0)
+                .map(|(i, c)| {
+                    let x0 = i as f64 * width;
+                    let color = if x0 + width > late_ms { LATE } else { ACTUAL };
+                    Rectangle::new([(x0, 0.0), (x0 + width, f64::from(*c))], color.filled())
+                }),
+        )
         .map_err(draw_err)?;
     if late_ms < max_ms {
         chart

@@ -506,11 +506,9 @@ fn read_jsonl(text: &str) -> Result<Run, RecordError> {
 
 fn read_mcap(bytes: &[u8]) -> Result<Run, RecordError> {
     let mut run = empty(SourceFormat::Mcap);
-    let stream = mcap::MessageStream::new_with_options(
-        bytes,
-        mcap::read::Options::IgnoreEndMagic.into(),
-    )
-    .map_err(|e| RecordError::Mcap(e.to_string()))?;
+    let stream =
+        mcap::MessageStream::new_with_options(bytes, mcap::read::Options::IgnoreEndMagic.into())
+            .map_err(|e| RecordError::Mcap(e.to_string()))?;
     // Messages with their times in ns; turned into seconds since the start at the end.
     let mut states: Vec<(u64, u64, [f64; 6])> = Vec::new();
     let mut statuses: Vec<StatusMessage> = Vec::new();
@@ -625,8 +623,7 @@ fn read_mcap(bytes: &[u8]) -> Result<Run, RecordError> {
         })
         .collect();
     // Exchanges are logged at their reply: order them by when they were sent.
-    run.exchanges
-        .sort_by(|a, b| a.sent_s.total_cmp(&b.sent_s));
+    run.exchanges.sort_by(|a, b| a.sent_s.total_cmp(&b.sent_s));
     run.events = events
         .into_iter()
         .map(|(t, e)| Event {

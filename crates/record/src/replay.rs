@@ -111,7 +111,9 @@ pub fn compare(recorded: &Status, replayed: &Status, tolerance_deg: f64) -> Vec<
     let mut out = Vec::new();
     for j in 0..6 {
         let (a, b) = (recorded.joints[j], replayed.joints[j]);
-        if !((a - b).abs() <= tolerance_deg) {
+        // A NaN on either side is a divergence too.
+        let within = (a - b).abs() <= tolerance_deg;
+        if !within {
             out.push(FieldDiff {
                 field: format!("joint {}", j + 1),
                 recorded: format!("{a:.3}"),
@@ -205,7 +207,13 @@ where
     let mut start: Option<Instant> = None;
     for (session, list) in sessions {
         replay_session(
-            session, &list, origin_s, &mut start, &connect, opts, &mut report,
+            session,
+            &list,
+            origin_s,
+            &mut start,
+            &connect,
+            opts,
+            &mut report,
         )
         .await?;
     }
@@ -247,7 +255,14 @@ where
         let sent_at = Instant::now();
         start.get_or_insert(sent_at);
         report.requests += 1;
-        let got = exchange(&mut conn, &mut decoder, &mut buf, &e.request, opts.reply_timeout).await;
+        let got = exchange(
+            &mut conn,
+            &mut decoder,
+            &mut buf,
+            &e.request,
+            opts.reply_timeout,
+        )
+        .await;
         let recorded = e.reply.as_deref().map(Status::decode);
         let mut fields = Vec::new();
         let mut lost = false;

@@ -36,7 +36,8 @@ fn ramp(from: f64, to: f64, secs: f64) -> Trajectory {
         .map(|k| {
             let t = k as f64 * 0.02;
             let u = std::f64::consts::PI * t / secs;
-            let mut p = TrajectoryPoint::new(t, home_with_jt1(from + (to - from) * (0.5 - 0.5 * u.cos())));
+            let mut p =
+                TrajectoryPoint::new(t, home_with_jt1(from + (to - from) * (0.5 - 0.5 * u.cos())));
             let v = (to - from) * 0.5 * u.sin() * std::f64::consts::PI / secs;
             p.velocity = Some(JointsDeg::new([v, 0.0, 0.0, 0.0, 0.0, 0.0]));
             p
@@ -102,8 +103,16 @@ async fn the_same_run_reads_the_same_from_csv_jsonl_and_mcap() {
     for r in &runs[1..] {
         assert_eq!(r.exchanges.len(), base.exchanges.len(), "{:?}", r.format);
         for (a, b) in base.exchanges.iter().zip(&r.exchanges) {
-            assert_eq!((&a.request, &a.reply, &a.kind), (&b.request, &b.reply, &b.kind));
-            assert!((a.sent_s - b.sent_s).abs() < 2e-6, "{} {}", a.sent_s, b.sent_s);
+            assert_eq!(
+                (&a.request, &a.reply, &a.kind),
+                (&b.request, &b.reply, &b.kind)
+            );
+            assert!(
+                (a.sent_s - b.sent_s).abs() < 2e-6,
+                "{} {}",
+                a.sent_s,
+                b.sent_s
+            );
         }
         assert_eq!(r.states.len(), base.states.len());
         for (a, b) in base.states.iter().zip(&r.states) {
@@ -120,7 +129,11 @@ async fn the_same_run_reads_the_same_from_csv_jsonl_and_mcap() {
         }
     }
     // The move reached its target; the ramp came back.
-    let max = base.states.iter().map(|s| s.joints_deg[0]).fold(f64::MIN, f64::max);
+    let max = base
+        .states
+        .iter()
+        .map(|s| s.joints_deg[0])
+        .fold(f64::MIN, f64::max);
     assert!((max - 20.0).abs() < 0.01, "{max}");
     assert!(base.states.last().unwrap().joints_deg[0].abs() < 0.05);
 }
@@ -134,7 +147,10 @@ async fn files_cut_short_read_up_to_the_cut() {
     let whole = read(&csv).unwrap();
     let cut = &full[..full.len() * 2 / 3];
     // Cut after a field, and inside a quoted reply.
-    for cut in [&cut[..cut.rfind(',').unwrap()], &cut[..cut.rfind(" 1040").unwrap() + 8]] {
+    for cut in [
+        &cut[..cut.rfind(',').unwrap()],
+        &cut[..cut.rfind(" 1040").unwrap() + 8],
+    ] {
         std::fs::write(&csv, cut).unwrap();
         let part = read(&csv).unwrap();
         assert!(part.truncated.is_some());
@@ -177,10 +193,19 @@ async fn plots_have_a_panel_per_joint_plus_tracking_and_round_trips() {
     for j in 1..=6 {
         assert_eq!(count(&format!("joint {j} (deg)")), 1, "joint {j}");
     }
-    assert_eq!(count("tracking error of streamed samples: commanded − actual (deg)"), 1);
+    assert_eq!(
+        count("tracking error of streamed samples: commanded − actual (deg)"),
+        1
+    );
     assert_eq!(count("round trip (ms): n "), 1);
-    assert_eq!(count("joint ") + count("tracking error") + count("round trip (ms):"), 8);
-    assert!(svg.contains("in-memory emulator"), "the title names the robot");
+    assert_eq!(
+        count("joint ") + count("tracking error") + count("round trip (ms):"),
+        8
+    );
+    assert!(
+        svg.contains("in-memory emulator"),
+        "the title names the robot"
+    );
     assert!(summary.commanded > 50 && summary.round_trips > 100);
     assert_eq!(summary.late_replies, 0);
 
@@ -275,7 +300,10 @@ async fn replay_against_the_emulator_matches_and_finds_an_injected_divergence() 
     assert_eq!(report.compared, run.exchanges.len());
     assert!(report.matches(), "{:#?}", report.divergences);
     assert!(report.max_joint_diff_deg.iter().all(|d| *d < 0.01));
-    assert!(emu.with(|c| c.counters().motions) >= 1, "the replay moved the emulator");
+    assert!(
+        emu.with(|c| c.counters().motions) >= 1,
+        "the replay moved the emulator"
+    );
 
     // Inject: one reply in the middle of the stream says JT2 was 5 degrees off, and another
     // says the controller had an error. Replay finds both, and only them.
@@ -301,12 +329,17 @@ async fn replay_against_the_emulator_matches_and_finds_an_injected_divergence() 
     let injected = read(&path).unwrap();
 
     let emu = Emulator::new(ControllerConfig::default());
-    let report = replay(&injected, emulator_connect(&emu), &opts).await.unwrap();
+    let report = replay(&injected, emulator_connect(&emu), &opts)
+        .await
+        .unwrap();
     assert_eq!(report.divergent, 2, "{:#?}", report.divergences);
     assert_eq!(report.by_field.get("joint 2"), Some(&1));
     assert_eq!(report.by_field.get("error"), Some(&1));
     let d = &report.divergences;
-    assert!(d[0].fields.iter().any(|f| f.field == "error" && f.recorded == "E1088"));
+    assert!(d[0]
+        .fields
+        .iter()
+        .any(|f| f.field == "error" && f.recorded == "E1088"));
     let jt2 = &d[1].fields[0];
     assert_eq!(jt2.field, "joint 2");
     let (rec, rep): (f64, f64) = (jt2.recorded.parse().unwrap(), jt2.replayed.parse().unwrap());

@@ -19,11 +19,10 @@ use mcap::{Compression, WriteOptions, Writer};
 
 use super::{Dir, Entry, Sink, MCAP_CHUNK_INTERVAL};
 use crate::record_format::{
-    commanded_joints,
-    EventMessage, ExchangeMessage, JointStateMessage, RecordingInfo, Stamp, StatusMessage,
-    EVENT_JSON_SCHEMA, EVENT_SCHEMA, EXCHANGE_JSON_SCHEMA, EXCHANGE_SCHEMA, JOINT_STATE_MSG_DEF,
-    JOINT_STATE_SCHEMA, METADATA_NAME, STATUS_JSON_SCHEMA, STATUS_SCHEMA, TOPIC_COMMANDED,
-    TOPIC_EVENT, TOPIC_EXCHANGE, TOPIC_JOINT_STATES, TOPIC_STATUS,
+    commanded_joints, EventMessage, ExchangeMessage, JointStateMessage, RecordingInfo, Stamp,
+    StatusMessage, EVENT_JSON_SCHEMA, EVENT_SCHEMA, EXCHANGE_JSON_SCHEMA, EXCHANGE_SCHEMA,
+    JOINT_STATE_MSG_DEF, JOINT_STATE_SCHEMA, METADATA_NAME, STATUS_JSON_SCHEMA, STATUS_SCHEMA,
+    TOPIC_COMMANDED, TOPIC_EVENT, TOPIC_EXCHANGE, TOPIC_JOINT_STATES, TOPIC_STATUS,
 };
 
 /// Largest uncompressed chunk: a chunk is closed at this size even before its interval ends.
@@ -161,7 +160,11 @@ impl McapSink {
         let mut writer = options.create(tail).map_err(to_io)?;
         let no_metadata = BTreeMap::new();
         let joint_state = writer
-            .add_schema(JOINT_STATE_SCHEMA, "ros2msg", JOINT_STATE_MSG_DEF.as_bytes())
+            .add_schema(
+                JOINT_STATE_SCHEMA,
+                "ros2msg",
+                JOINT_STATE_MSG_DEF.as_bytes(),
+            )
             .map_err(to_io)?;
         let mut json_channel = |schema: &str, text: &str, topic: &str| -> io::Result<u16> {
             let id = writer
