@@ -2,7 +2,7 @@
 
 use std::time::Duration;
 
-use fs020n_client::{Completion, Robot, StreamMode, StreamOptions, Trajectory, TrajectoryPoint};
+use fs020n_client::{Completion, Robot, StreamOptions, Trajectory, TrajectoryPoint};
 use fs020n_kin::Pose;
 use fs020n_proto::JointsDeg;
 use nalgebra::Vector3;
@@ -27,8 +27,6 @@ pub const POSES: [[f64; 6]; 4] = [
 const CIRCLE_RADIUS_M: f64 = 0.10;
 /// Duration of the circle, seconds.
 const CIRCLE_TIME_S: f64 = 4.0;
-/// Look-ahead of the demo stream, in passes of the motion program (about 10 ms each).
-const DEMO_LOOKAHEAD_PASSES: f64 = 3.0;
 /// Trajectory sample spacing, seconds.
 const CIRCLE_DT_S: f64 = 0.02;
 
@@ -173,15 +171,10 @@ async fn tour(ctx: &Ctx, robot: &Robot, speed: f64) -> CliResult<serde_json::Val
         CIRCLE_RADIUS_M * 1000.0,
         trajectory.points().len()
     ));
-    // Look ahead so that the arm, which follows each sample with a 0.1 s straight-line move, is
-    // on the path rather than behind it (3 passes measured best on the emulator: rms 0.23 deg
-    // against 0.33 deg with the default 2 and 0.98 deg with none).
-    let options = StreamOptions {
-        mode: StreamMode::Extrapolated {
-            lookahead_passes: DEMO_LOOKAHEAD_PASSES,
-        },
-        ..StreamOptions::default()
-    };
+    // The defaults: the controller's look-ahead of 2 passes (a few ms: `step` is its loop
+    // overhead) and the client's online lag compensation, which leads the samples by the lag it
+    // measures so that the arm is on the path rather than behind it.
+    let options = StreamOptions::default();
     let handle = robot
         .stream(trajectory, options)
         .await

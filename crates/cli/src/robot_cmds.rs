@@ -330,6 +330,8 @@ pub fn stream_report_json(r: &StreamReport) -> serde_json::Value {
         "duration_s": r.duration.as_secs_f64(),
         "rtt_mean_s": r.rtt_mean.as_secs_f64(),
         "rtt_max_s": r.rtt_max.as_secs_f64(),
+        "lag_s": r.lag_s,
+        "lead_s": r.lead_s,
     })
 }
 
@@ -340,7 +342,7 @@ pub fn print_stream_report(r: &StreamReport, as_json: bool) {
         return;
     }
     println!(
-        "stream {}: {} samples in {:.2} s; tracking error max {:.3} deg, rms {:.3} deg; final error {:.3} deg ({}); late replies {}, underruns {}; round trip mean {:.2} ms, max {:.2} ms",
+        "stream {}: {} samples in {:.2} s; tracking error max {:.3} deg, rms {:.3} deg, lag {}, lead {:.0} ms; final error {:.3} deg ({}); late replies {}, underruns {}; round trip mean {:.2} ms, max {:.2} ms",
         match r.outcome {
             StreamOutcome::Completed => "completed",
             StreamOutcome::Cancelled => "cancelled",
@@ -349,6 +351,9 @@ pub fn print_stream_report(r: &StreamReport, as_json: bool) {
         r.duration.as_secs_f64(),
         r.tracking_error_max_deg,
         r.tracking_error_rms_deg,
+        r.lag_s
+            .map_or_else(|| "n/a".to_owned(), |l| format!("{:.0} ms", l * 1e3)),
+        r.lead_s * 1e3,
         r.final_error_deg,
         if r.settled { "settled" } else { "not settled" },
         r.late_replies,

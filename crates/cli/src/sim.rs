@@ -87,6 +87,9 @@ pub fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
     let all = options(args, model)?;
     let rt = runtime()?;
     rt.block_on(async {
+        // Handlers first: a signal that arrives as soon as the addresses are printed must
+        // already find them.
+        let mut signals = ShutdownSignals::install();
         let mut robots = Vec::new();
         for opts in all {
             let r = run_robot(opts)
@@ -115,6 +118,16 @@ pub fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
                 }
             }
         }
+        for r in &robots {
+            if !r.robot_addr().ip().is_loopback() {
+                eprintln!(
+                    "WARNING: the robot port {} is reachable from the network: protocol 1040 has \
+                     no authentication, anyone who can reach it can start the emulated program \
+                     and move the arm. Bind --listen to 127.0.0.1 unless you mean it.",
+                    r.robot_addr()
+                );
+            }
+        }
         if !as_json {
             println!(
                 "{} emulated {} running; Ctrl-C to stop",
@@ -122,10 +135,54 @@ pub fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
                 model.name()
             );
         }
-        ctrl_c().await;
+        use std::io::Write as _;
+        let _ = std::io::stdout().flush();
+        let signal = signals.recv().await;
+        tracing::info!("{signal}: stopping the emulator");
         for r in robots {
             r.stop();
         }
+        if !as_json {
+            println!("stopped ({signal})");
+        }
         Ok(())
     })
+}
+
+/// SIGINT (Ctrl-C) and SIGTERM, handled even when the process was started in the background,
+/// where the shell leaves SIGINT ignored: installing a handler replaces that disposition.
+struct ShutdownSignals {
+    #[cfg(unix)]
+    unix: Option<(tokio::signal::unix::Signal, tokio::signal::unix::Signal)>,
+}
+
+impl ShutdownSignals {
+    fn install() -> ShutdownSignals {
+        #[cfg(unix)]
+        {
+            use tokio::signal::unix::{signal, SignalKind};
+            ShutdownSignals {
+                unix: signal(SignalKind::interrupt())
+                    .and_then(|i| Ok((i, signal(SignalKind::terminate())?)))
+                    .ok(),
+            }
+        }
+        #[cfg(not(unix))]
+        {
+            ShutdownSignals {}
+        }
+    }
+
+    /// Waits for the first signal and names it.
+    async fn recv(&mut self) -> &'static str {
+        #[cfg(unix)]
+        if let Some((int, term)) = &mut self.unix {
+            return tokio::select! {
+                _ = int.recv() => "SIGINT",
+                _ = term.recv() => "SIGTERM",
+            };
+        }
+        ctrl_c().await;
+        "Ctrl-C"
+    }
 }

@@ -30,6 +30,7 @@ pub mod blocking;
 pub mod clock;
 mod config;
 mod error;
+mod lag;
 mod motion;
 mod record;
 pub mod record_format;
@@ -44,9 +45,10 @@ mod transport;
 pub use clock::{ClockFit, ServerClock};
 pub use config::{ClientConfig, RecordFormat, Recording};
 pub use error::{ClientError, LinkError};
+pub use lag::LagCompensation;
 pub use motion::{Completion, MoveHandle, MoveProgress, MoveReport};
 pub use record::{MCAP_CHUNK_INTERVAL, RECORD_QUEUE_LINES};
-pub use robot::Robot;
+pub use robot::{Robot, STOP_SETTLE};
 pub use safety::{
     blockers, check_stream_sample, extrapolation_window, Blocker, SampleError, ESTOP_REMEDY,
     EXTRAPOLATION_STEP_BOUND_S, MAX_LOOKAHEAD_PASSES,

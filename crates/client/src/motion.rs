@@ -4,7 +4,7 @@ use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use fs020n_kin::{JointMove, RobotModel};
-use fs020n_proto::{Command, JointsDeg, Request};
+use fs020n_proto::JointsDeg;
 use tokio::sync::watch;
 use tokio::time::Instant;
 
@@ -165,13 +165,10 @@ impl MoveHandle {
         self.link.status.clone()
     }
 
-    /// Cancels the move (command 5: the robot brakes to a stop; the program keeps running).
+    /// Cancels the move for sure (commands 5 then 2, as [`Robot::cancel`](crate::Robot::cancel)):
+    /// the robot brakes to a stop and the motion program ends; start it again to move.
     pub async fn cancel(&self) -> Result<(), ClientError> {
-        self.link.shared.bump_epoch();
-        self.link
-            .command(&Request::new(Command::CancelMotion))
-            .await
-            .map(|_| ())
+        self.link.halt().await.map(|_| ())
     }
 
     fn still_current(&self) -> Result<(), ClientError> {
@@ -190,8 +187,8 @@ impl MoveHandle {
     }
 
     /// Waits until the robot is at the target (see [`Completion`]). Fails — and cancels the
-    /// move with command 5, so that it cannot resume later (e.g. when HOLD is switched back to
-    /// RUN) — when the controller reports an error, HOLD, TEACH, the lock, power off or the
+    /// move for sure (commands 5 then 2), so that it cannot resume later (e.g. when HOLD is
+    /// switched back to RUN) — when the controller reports an error, HOLD, TEACH, the lock, power off or the
     /// program stopped, on timeout, and when `completion` is invalid
     /// ([`Completion::validate`], `ClientError::Config`). Fails without sending anything when
     /// the move was cancelled or superseded, or the link is lost.

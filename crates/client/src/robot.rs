@@ -2,6 +2,7 @@
 
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
+use std::time::Duration;
 
 use fs020n_kin::{Pose, RobotModel};
 use fs020n_proto::server::ServerRequest;
@@ -46,6 +47,12 @@ pub struct Robot {
     common: Arc<Common>,
     link: Link,
 }
+
+/// How long after a stop request a motion program seen running may still be on its way out.
+/// The server stops the program with signal 2007, which its `ONI` acts on only once the signal
+/// has been stable for 50 ms (spec §4); every new session raises it, and so does command 2. A
+/// program seen running within this time of either is not trusted as running.
+pub const STOP_SETTLE: Duration = Duration::from_millis(200);
 
 impl std::fmt::Debug for Robot {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -145,18 +152,40 @@ impl Robot {
 
     /// Starts the motion program: preflight, command 1, then waits (up to
     /// `config.start_timeout`) for reply field 7 to show the program running. Does nothing if it
-    /// is running already (a second 1 would only make the robot pause after its motion).
+    /// is running already (a second 1 would only make the robot pause after its motion) — but a
+    /// program seen running within [`STOP_SETTLE`] of the session's start or of a command 2
+    /// is on its way out (signal 2007 stops it after 50 ms, and a 1 sent meanwhile is
+    /// ignored): `start` waits for it to end and then starts it anew.
     pub async fn start(&self) -> Result<(), ClientError> {
         self.not_streaming()?;
-        let status = self.poll().await?;
-        let b = blockers(&status, false);
-        if !b.is_empty() {
-            return Err(ClientError::Blocked(b));
-        }
-        if status.task_running {
-            return Ok(());
-        }
         let started = Instant::now();
+        let mut status = self.poll().await?;
+        loop {
+            let b = blockers(&status, false);
+            if !b.is_empty() {
+                return Err(ClientError::Blocked(b));
+            }
+            if !status.task_running {
+                break;
+            }
+            let session_age = status.timer.seconds().map_or(Duration::MAX, |s| {
+                Duration::try_from_secs_f64(s.max(0.0)).unwrap_or(Duration::MAX)
+            });
+            let since_stop =
+                lock(&self.link.shared.last_stop).map_or(Duration::MAX, |t| t.elapsed());
+            let settled = session_age.min(since_stop);
+            if settled >= STOP_SETTLE {
+                return Ok(());
+            }
+            if started.elapsed() > self.common.config.start_timeout {
+                return Err(ClientError::StartFailed {
+                    waited: started.elapsed(),
+                    blockers: blockers(&status, false),
+                });
+            }
+            tokio::time::sleep(STOP_SETTLE - settled).await;
+            status = self.poll().await?;
+        }
         let ex = self
             .link
             .command(&Request::new(Command::StartProgram))
@@ -192,6 +221,7 @@ impl Robot {
     /// a running stream is cancelled. Returns the reply's status.
     pub async fn stop_program(&self) -> Result<Status, ClientError> {
         self.link.shared.bump_epoch();
+        *lock(&self.link.shared.last_stop) = Some(Instant::now());
         Ok(self
             .link
             .command(&Request::new(Command::StopProgram))
@@ -212,17 +242,14 @@ impl Robot {
         Ok(ex.frame.status)
     }
 
-    /// Cancels the current motion (command 5): the robot brakes to a stop, the program keeps
-    /// running. A running stream is cancelled and no motion command queued before this call
-    /// is sent.
+    /// Cancels the current motion for sure: command 5 (the robot brakes at once), then
+    /// command 2 (the motion program ends, so no motion the controller's look-ahead had
+    /// already planned can run after the brake — with 5 alone, a joint move would go on to its
+    /// target). A running stream is cancelled and no motion command queued before this call
+    /// is sent. Call [`start`](Self::start) to move again. Returns the status of the last
+    /// reply.
     pub async fn cancel(&self) -> Result<Status, ClientError> {
-        self.link.shared.bump_epoch();
-        Ok(self
-            .link
-            .command(&Request::new(Command::CancelMotion))
-            .await?
-            .frame
-            .status)
+        Ok(self.link.halt().await?.frame.status)
     }
 
     /// Ends the session: 255 (the controller stops the robot and ends the program), then waits

@@ -12,7 +12,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
-use fs020n_proto::{ReplyDecoder, ReplyFrame, Request, Status, PROTOCOL_VERSION};
+use fs020n_proto::{Command, ReplyDecoder, ReplyFrame, Request, Status, PROTOCOL_VERSION};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::sync::{mpsc, oneshot, watch};
 use tokio::time::{sleep_until, timeout, timeout_at, Instant};
@@ -175,6 +175,8 @@ pub(crate) struct SessionShared {
     pub(crate) streaming: AtomicBool,
     /// The monitor speed last set by this client, percent (`f64` bits; NaN = unknown).
     speed_bits: AtomicU64,
+    /// When command 2 was last sent on this session.
+    pub(crate) last_stop: Mutex<Option<Instant>>,
 }
 
 impl SessionShared {
@@ -245,6 +247,19 @@ impl Link {
             .await
             .map_err(|_| self.shared.death())?;
         rx.await.map_err(|_| self.shared.death())?
+    }
+
+    /// Stops the arm for sure: command 5 (`BRAKE`: the current motion stops at once), then
+    /// command 2 (the motion program ends once signal 2007 has been stable for 50 ms). A 5
+    /// alone is not enough: the controller may then execute a motion its look-ahead had
+    /// already planned — during a joint move, the program's re-issue of the same target — so
+    /// the arm would go on (spec §2.1, §4). Motion validated before this call is not sent.
+    /// Returns the status of the reply to the 2.
+    pub(crate) async fn halt(&self) -> Result<Exchange, ClientError> {
+        self.shared.bump_epoch();
+        self.command(&Request::new(Command::CancelMotion)).await?;
+        *lock(&self.shared.last_stop) = Some(Instant::now());
+        self.command(&Request::new(Command::StopProgram)).await
     }
 
     /// A fresh status poll.
@@ -450,6 +465,7 @@ fn spawn(conn: Conn, first: Exchange, common: Arc<Common>, target: String) -> Li
         last_motion: AtomicU64::new(0),
         streaming: AtomicBool::new(false),
         speed_bits: AtomicU64::new(f64::NAN.to_bits()),
+        last_stop: Mutex::new(None),
     });
     {
         let late = first.rtt() > common.config.late_reply_after;

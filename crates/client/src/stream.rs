@@ -14,6 +14,7 @@ use tokio::time::Instant;
 
 use crate::clock::ClockFit;
 use crate::error::ClientError;
+use crate::lag::{LagCompensation, LagEstimator};
 use crate::motion::LONGEST_WAIT;
 use crate::safety::{blockers, check_stream_sample, check_target, MAX_LOOKAHEAD_PASSES};
 use crate::session::{lock, Exchange, Kind, Link, SessionShared};
@@ -58,6 +59,9 @@ pub struct StreamOptions {
     /// ...for at most this long (not an error: the report gives the final error). Default 3 s;
     /// at most one day.
     pub end_timeout: Duration,
+    /// How command 7 compensates the controller's tracking lag (ignored for waypoints).
+    /// Default: estimated online from the replies, a lead of at most 0.3 s ([`LagCompensation`]).
+    pub lag_compensation: LagCompensation,
 }
 
 impl Default for StreamOptions {
@@ -72,6 +76,7 @@ impl Default for StreamOptions {
             max_gap: Duration::from_millis(250),
             end_tolerance_deg: 0.5,
             end_timeout: Duration::from_secs(3),
+            lag_compensation: LagCompensation::default(),
         }
     }
 }
@@ -101,7 +106,7 @@ pub struct StreamProgress {
 pub enum StreamOutcome {
     /// Every sample was sent.
     Completed,
-    /// Cancelled by the user (command 5 sent).
+    /// Cancelled by the user (commands 5 and 2 sent).
     Cancelled,
 }
 
@@ -133,6 +138,11 @@ pub struct StreamReport {
     pub rtt_mean: Duration,
     /// Round trips of the samples: slowest.
     pub rtt_max: Duration,
+    /// The time shift that best aligns the arm with the trajectory over the stream, seconds
+    /// (positive: the arm is behind); `None` without replies while the trajectory moved.
+    pub lag_s: Option<f64>,
+    /// The lead command 7 was stamped with at the end, seconds (see [`LagCompensation`]).
+    pub lead_s: f64,
     /// The server-clock estimate at the end (command 7 only).
     #[serde(skip)]
     pub clock: Option<ClockFit>,
@@ -161,6 +171,9 @@ pub(crate) fn check(
                 "lookahead_passes {lookahead_passes} must be from 0 to {MAX_LOOKAHEAD_PASSES}"
             ));
         }
+    }
+    if let Err(e) = options.lag_compensation.validate() {
+        return opt(e);
     }
     if options.end_timeout > LONGEST_WAIT {
         return opt(format!(
@@ -206,7 +219,7 @@ pub(crate) fn check(
     Ok(())
 }
 
-/// A running stream. Dropping the handle cancels the stream (command 5).
+/// A running stream. Dropping the handle cancels the stream (commands 5 and 2).
 #[derive(Debug)]
 #[must_use = "dropping a StreamHandle cancels the stream: keep it and call wait()"]
 pub struct StreamHandle {
@@ -264,7 +277,8 @@ impl StreamHandle {
         self.progress.clone()
     }
 
-    /// Cancels the stream: no further sample is sent and command 5 brakes the robot.
+    /// Cancels the stream: no further sample is sent, command 5 brakes the robot and command 2
+    /// ends the motion program (so no planned segment runs after the brake).
     /// [`wait`](Self::wait) then returns a report with [`StreamOutcome::Cancelled`].
     pub fn cancel(&self) {
         if self.shared.current_epoch() == self.epoch {
@@ -316,6 +330,7 @@ struct Streamer {
 
 #[derive(Default)]
 struct Tally {
+    lag: Option<LagEstimator>,
     samples: u64,
     late: u64,
     underruns: u64,
@@ -347,19 +362,23 @@ impl Streamer {
         lock(&self.link.shared.clock).server_time(at)
     }
 
-    /// Sends command 5 (best effort: the error that ended the stream is what gets reported).
+    /// Stops the arm for sure: commands 5 then 2 (best effort: the error that ended the
+    /// stream is what gets reported).
     async fn brake(&self) {
-        if let Err(e) = self
-            .link
-            .command(&Request::new(Command::CancelMotion))
-            .await
-        {
+        if let Err(e) = self.link.halt().await {
             tracing::warn!(error = %e, "could not send the cancel at the end of a stream");
         }
     }
 
     async fn run(self) -> Result<StreamReport, ClientError> {
-        let mut tally = Tally::default();
+        let mut tally = Tally {
+            // Waypoints are not stamped: their lag is only measured.
+            lag: Some(LagEstimator::new(match self.options.mode {
+                StreamMode::Extrapolated { .. } => self.options.lag_compensation,
+                StreamMode::Waypoints => LagCompensation::Off,
+            })),
+            ..Tally::default()
+        };
         let started = Instant::now();
         let r = self.send_all(&mut tally).await;
         let end = match r {
@@ -418,6 +437,8 @@ impl Streamer {
             duration: started.elapsed(),
             rtt_mean,
             rtt_max: tally.rtt_max,
+            lag_s: tally.lag.as_ref().and_then(LagEstimator::apparent_lag_s),
+            lead_s: tally.lag.as_ref().map_or(0.0, LagEstimator::lead_s),
             clock: lock(&self.link.shared.clock).fit(),
         })
     }
@@ -518,7 +539,12 @@ impl Streamer {
                 .into());
             }
             let at = local_start + Duration::from_secs_f64((tau - t_begin).max(0.0));
-            let command = self.command_for(tau, &sample, self.server_time(at))?;
+            // Lag compensation: stamped as if it held `lead` earlier, the sample is extrapolated
+            // that much further by the controller.
+            let lead =
+                Duration::from_secs_f64(tally.lag.as_ref().map_or(0.0, LagEstimator::lead_s));
+            let stamp_at = at.checked_sub(lead).unwrap_or(at);
+            let command = self.command_for(tau, &sample, self.server_time(stamp_at))?;
             let text = Request::new(command).encode()?;
             let tag = self.link.shared.motion_tag();
             if tag.epoch != self.epoch {
@@ -611,6 +637,10 @@ impl Streamer {
         let tau = t_begin + local.duration_since(local_start).as_secs_f64();
         if tau > t_end {
             return;
+        }
+        if let Some(lag) = &mut tally.lag {
+            let lead = lag.lead_s();
+            lag.observe(&self.trajectory, tau, &ex.frame.status.joints, lead);
         }
         let e = self
             .trajectory

@@ -129,9 +129,11 @@ async fn a_withheld_reply_is_a_typed_timeout_and_the_session_ends() {
     assert!(err.to_string().contains("reconnect"), "{err}");
     let moved = robot.move_joints(with_jt1(5.0)).await.unwrap_err();
     assert_eq!(moved, err, "a dead handle sends nothing");
-    // The client dropped the connection: the controller ended the session and the program.
+    // The client dropped the connection: the controller ended the session, and the program
+    // once signal 2007 has been stable for 50 ms.
     sleep_ms(10).await;
     assert_eq!(emu.with(|c| c.session()), None);
+    sleep_ms(60).await;
     assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
 }
 
@@ -191,9 +193,10 @@ async fn close_sends_255_and_waits_for_the_server() {
     let emu = emulator();
     let robot = ready(&emu, 10.0).await;
     robot.close().await.expect("close");
-    let (end, task) = emu.with(|c| (c.last_session_end(), c.task()));
+    let end = emu.with(|c| c.last_session_end());
     assert_eq!(end.map(|e| e.1), Some(SessionEnd::EndCommand));
-    assert_eq!(task, TaskState::NotRunning);
+    sleep_ms(60).await; // signal 2007's edge
+    assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
     assert_eq!(robot.poll().await.unwrap_err(), ClientError::Closed);
     assert!(robot.close().await.is_ok(), "closing twice is harmless");
 }
@@ -351,7 +354,37 @@ async fn start_confirms_the_program_runs() {
     robot.start().await.expect("start again");
     assert_eq!(effective(&emu), before);
     robot.stop_program().await.expect("stop");
+    sleep_ms(60).await; // signal 2007's edge
     assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
+    // A start right after a stop waits for the old program to end, then starts anew.
+    robot.start().await.expect("start after stop");
+    robot.stop_program().await.expect("stop");
+    robot.start().await.expect("start at once after a stop");
+    sleep_ms(200).await;
+    assert_eq!(
+        emu.with(|c| c.task()),
+        TaskState::Running,
+        "not ended by the old signal"
+    );
+}
+
+#[tokio::test(start_paused = true)]
+async fn start_in_a_new_session_does_not_trust_the_old_sessions_program() {
+    // The previous session's program is still running for 50 ms after it ended (signal 2007's
+    // edge); a start in the next session must not take it for its own.
+    let emu = emulator();
+    let robot = connect(&emu).await;
+    robot.start().await.expect("start");
+    robot.close().await.expect("close");
+    let robot = connect(&emu).await;
+    assert!(
+        emu.with(|c| c.task()) == TaskState::Running,
+        "still on its way out"
+    );
+    robot.start().await.expect("start");
+    sleep_ms(500).await;
+    assert_eq!(emu.with(|c| c.task()), TaskState::Running);
+    assert!(robot.poll().await.unwrap().task_running);
 }
 
 // ------------------------------------------------------------------ checks before sending
@@ -361,7 +394,7 @@ async fn invalid_requests_are_refused_before_sending() {
     let emu = emulator();
     let robot = ready(&emu, 10.0).await;
     let before = effective(&emu);
-    let newest = emu.with(|c| c.newest_command().cloned());
+    let newest = emu.with(|c| c.newest_command());
 
     let err = robot.move_joints(with_jt1(200.0)).await.unwrap_err();
     assert!(
@@ -436,7 +469,7 @@ async fn invalid_requests_are_refused_before_sending() {
     ));
 
     assert_eq!(effective(&emu), before, "nothing reached the controller");
-    assert_eq!(emu.with(|c| c.newest_command().cloned()), newest);
+    assert_eq!(emu.with(|c| c.newest_command()), newest);
     assert_eq!(emu.with(|c| c.joints()), home());
     assert!(robot.stats().refused_before_sending >= 13);
 }
@@ -453,7 +486,7 @@ async fn motion_is_refused_while_the_status_blocks_it() {
     robot.poll().await.unwrap();
     let err = robot.move_joints(with_jt1(5.0)).await.unwrap_err();
     assert_eq!(err.blockers(), &[Blocker::TeachLock]);
-    assert!(!emu.with(|c| c.newest_command().is_some_and(Command::is_motion)));
+    assert!(!emu.with(|c| c.newest_command().is_some_and(|n| n.is_motion())));
 }
 
 // ------------------------------------------------------------------ joint moves
@@ -539,10 +572,7 @@ async fn hold_mid_move_fails_the_wait_and_the_move_does_not_resume() {
     );
     assert!(err.to_string().contains("switch RUN/HOLD to RUN"), "{err}");
     // The wait cancelled the move (command 5): back on RUN, the robot stays where it is.
-    assert_eq!(
-        emu.with(|c| c.newest_command().cloned()),
-        Some(Command::CancelMotion)
-    );
+    assert_eq!(emu.with(|c| c.newest_command()), Some(Command::StopProgram));
     sleep_ms(1000).await;
     emu.with(|c| c.set_run(true));
     sleep_ms(5000).await;
@@ -563,10 +593,7 @@ async fn a_move_that_cannot_finish_in_time_is_cancelled() {
         .await
         .unwrap_err();
     assert!(matches!(err, ClientError::MoveTimeout { .. }), "{err:?}");
-    assert_eq!(
-        emu.with(|c| c.newest_command().cloned()),
-        Some(Command::CancelMotion)
-    );
+    assert_eq!(emu.with(|c| c.newest_command()), Some(Command::StopProgram));
 }
 
 #[tokio::test(start_paused = true)]
@@ -605,7 +632,7 @@ async fn a_command_7_stream_tracks_the_trajectory() {
     assert!((emu.with(|c| c.joints())[0] - 20.0).abs() < 0.5);
     assert_eq!(robot.stats().stream_samples, report.samples_sent);
     assert!(matches!(
-        emu.with(|c| c.newest_command().cloned()),
+        emu.with(|c| c.newest_command()),
         Some(Command::StreamedMove(_))
     ));
 }
@@ -650,14 +677,14 @@ async fn cancelling_a_stream_brakes_and_reports() {
     handle.cancel();
     let report = handle.wait().await.unwrap();
     assert_eq!(report.outcome, StreamOutcome::Cancelled);
-    assert_eq!(
-        emu.with(|c| c.newest_command().cloned()),
-        Some(Command::CancelMotion)
-    );
+    assert_eq!(emu.with(|c| c.newest_command()), Some(Command::StopProgram));
     sleep_ms(2000).await;
     let j = emu.with(|c| c.joints())[0];
     assert!(j > 1.0 && j < 20.0, "stopped part-way: {j}");
-    // The stream is over: motion is accepted again.
+    // The stream is over and the program ended (5 then 2): after a start, motion is accepted
+    // again.
+    assert!(robot.move_joints(with_jt1(j)).await.is_err());
+    robot.start().await.unwrap();
     assert!(robot.move_joints(with_jt1(j)).await.is_ok());
 }
 
@@ -673,10 +700,7 @@ async fn robot_cancel_stops_a_stream() {
     robot.cancel().await.unwrap();
     let report = handle.wait().await.unwrap();
     assert_eq!(report.outcome, StreamOutcome::Cancelled);
-    assert_eq!(
-        emu.with(|c| c.newest_command().cloned()),
-        Some(Command::CancelMotion)
-    );
+    assert_eq!(emu.with(|c| c.newest_command()), Some(Command::StopProgram));
 }
 
 #[tokio::test(start_paused = true)]
@@ -753,10 +777,7 @@ async fn a_slow_controller_mid_stream_is_an_underrun() {
     assert!(matches!(err, ClientError::StreamUnderrun { .. }), "{err:?}");
     assert!(robot.stats().stream_underruns >= 1);
     sleep_ms(10).await;
-    assert_eq!(
-        emu.with(|c| c.newest_command().cloned()),
-        Some(Command::CancelMotion)
-    );
+    assert_eq!(emu.with(|c| c.newest_command()), Some(Command::StopProgram));
     assert!(robot.is_connected(), "a late reply is not a lost link");
 }
 

@@ -43,7 +43,7 @@ async fn max_jt1_over(emu: &fs020n_sim::Emulator, ms: u64) -> f64 {
 }
 
 fn newest(emu: &fs020n_sim::Emulator) -> Option<Command> {
-    emu.with(|c| c.newest_command().cloned())
+    emu.with(|c| c.newest_command())
 }
 
 // ------------------------------------------------------------------ 1. command 7 extrapolation
@@ -239,7 +239,7 @@ async fn cancelling_a_stream_while_it_settles_brakes_and_reports_cancelled() {
     let report = handle.wait().await.unwrap();
     assert_eq!(report.outcome, StreamOutcome::Cancelled);
     assert!(!report.settled);
-    assert_eq!(newest(&emu), Some(Command::CancelMotion));
+    assert_eq!(newest(&emu), Some(Command::StopProgram));
     let end = max_jt1_over(&emu, 3000).await;
     assert!(
         end < at_cancel + 3.0 && end < 11.0,
@@ -254,7 +254,7 @@ async fn dropping_a_stream_handle_while_it_settles_brakes() {
     let at_drop = emu.with(|c| c.joints())[0];
     drop(handle);
     let end = max_jt1_over(&emu, 3000).await;
-    assert_eq!(newest(&emu), Some(Command::CancelMotion));
+    assert_eq!(newest(&emu), Some(Command::StopProgram));
     assert!(
         end < at_drop + 3.0 && end < 11.0,
         "braked near {at_drop}, went on to {end}"
@@ -278,8 +278,9 @@ async fn a_cancel_while_a_stream_starts_stops_it_before_any_sample() {
     );
     assert_eq!(robot.stats().stream_samples, 0);
     assert_eq!(max_jt1_over(&emu, 2000).await, 0.0);
-    assert_eq!(newest(&emu), Some(Command::CancelMotion));
-    // Motion is accepted again afterwards.
+    assert_eq!(newest(&emu), Some(Command::StopProgram));
+    // Motion is accepted again after a start (the cancel ended the program).
+    robot.start().await.unwrap();
     assert!(robot.move_joints(with_jt1(1.0)).await.is_ok());
 }
 
@@ -293,7 +294,7 @@ async fn a_cancel_while_a_pose_move_starts_stops_it() {
     cancel.unwrap();
     assert!(matches!(mv, Err(ClientError::Cancelled(_))), "{mv:?}");
     assert_eq!(max_jt1_over(&emu, 2000).await, 0.0);
-    assert_eq!(newest(&emu), Some(Command::CancelMotion));
+    assert_eq!(newest(&emu), Some(Command::StopProgram));
 }
 
 // ------------------------------------------------------------------ 4. dropped move future
@@ -403,7 +404,7 @@ async fn an_invalid_completion_is_refused_and_the_move_cancelled() {
         let mv = robot.move_joints(with_jt1(30.0)).await.unwrap();
         let err = mv.wait(bad).await.unwrap_err();
         assert!(matches!(err, ClientError::Config(_)), "{err:?}");
-        assert_eq!(newest(&emu), Some(Command::CancelMotion));
+        assert_eq!(newest(&emu), Some(Command::StopProgram));
     }
 }
 

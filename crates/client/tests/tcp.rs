@@ -173,5 +173,11 @@ fn the_blocking_robot_inside_an_async_runtime_refuses_and_still_closes_on_drop()
         served.emu.with(|c| c.last_session_end()).map(|e| e.1),
         Some(SessionEnd::EndCommand)
     );
-    assert_eq!(served.emu.with(|c| c.task()), TaskState::NotRunning);
+    // The program ends once signal 2007 has been stable for 50 ms.
+    let mut waited = 0;
+    while served.emu.with(|c| c.task()) != TaskState::NotRunning {
+        assert!(waited < 200, "the program did not end");
+        std::thread::sleep(std::time::Duration::from_millis(10));
+        waited += 1;
+    }
 }

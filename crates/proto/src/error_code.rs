@@ -65,6 +65,9 @@ impl ErrorCode {
     pub const EMERGENCY_STOP: ErrorCode = ErrorCode(-33808);
     /// E1135 Motor power OFF.
     pub const MOTOR_POWER_OFF: ErrorCode = ErrorCode(-31135);
+    /// E0102 Variable is not defined (a program read a variable or array element never
+    /// assigned).
+    pub const VARIABLE_NOT_DEFINED: ErrorCode = ErrorCode(-30102);
 
     /// Builds a code from its class and four-digit number (`E`, 1088 → −31088).
     pub fn new(class: ErrorClass, number: u16) -> ErrorCode {
@@ -158,6 +161,7 @@ pub const ERROR_MESSAGES: &[(i32, &str)] = &[
         -11013,
         "In error; cannot execute program; reset the error first",
     ),
+    (-30102, "Variable is not defined"),
     (-31082, "Beyond absolute lower motion limit"),
     (-31083, "Beyond absolute upper motion limit"),
     (-31084, "Beyond set lower motion limit"),

@@ -1,10 +1,11 @@
 //! Server-side request parsing with the controller's semantics.
 //!
 //! This is how the AS server program reads a request (the emulator uses it; a client never
-//! needs it): only the first 255 bytes count, tokens are split on single blanks (so a leading
-//! blank makes an empty first token), every token goes through `VAL` ([`as_val`]), the version
-//! and command number are reals, and COUNT_OF_ARGS is trusted (missing arguments read 0, extra
-//! ones are ignored).
+//! needs it): only the first 255 bytes count; tokens are cut the way the program's alternating
+//! `$DECODE(text, " ", 0)` / `$DECODE(text, " ", 1)` cut them ([`server_tokens`]: any run of
+//! blanks *between* tokens is one separator, but a leading blank makes the first token empty);
+//! every token goes through `VAL` ([`as_val`]); the version and command number are reals; and
+//! COUNT_OF_ARGS is trusted (missing arguments read 0, extra ones are ignored).
 //!
 //! ```
 //! use fs020n_proto::server::ServerRequest;
@@ -13,6 +14,8 @@
 //! assert!(r.version_matches());
 //! assert_eq!(r.command(), Command::SetSpeed { percent: 50.0 });
 //! assert!(!ServerRequest::parse(b" 1040 3 1 50").version_matches());
+//! // Runs of blanks between tokens act.
+//! assert_eq!(ServerRequest::parse(b"1040  3 1   50").command(), Command::SetSpeed { percent: 50.0 });
 //! ```
 
 use crate::joints::{JointsDeg, JOINT_COUNT};
@@ -43,7 +46,7 @@ impl ServerRequest {
     pub fn parse(bytes: &[u8]) -> ServerRequest {
         let head = &bytes[..bytes.len().min(MAX_REQUEST_BYTES)];
         let text = String::from_utf8_lossy(head);
-        let tokens: Vec<&str> = text.split(' ').collect();
+        let tokens: Vec<&str> = server_tokens(&text).collect();
         let val = |i: usize| tokens.get(i).map_or(0.0, |t| as_val(t));
         let count_val = val(2);
         let count = if count_val >= 1.0 {
@@ -107,6 +110,32 @@ impl ServerRequest {
     }
 }
 
+/// The tokens of a request as the AS server program cuts them: `$DECODE(text, " ", 0)` takes
+/// the text before the next blank (nothing when the text starts with one), then
+/// `$DECODE(text, " ", 1)` removes the whole run of blanks that follows, and so on. So runs of
+/// blanks between tokens are one separator, trailing blanks end the tokens, and a leading blank
+/// yields an empty first token (`VAL("")` is 0: a version mismatch). Only the blank (0x20)
+/// separates; a tab is part of a token.
+///
+/// ```
+/// use fs020n_proto::server::server_tokens;
+/// assert_eq!(server_tokens("1040  3 1 50 ").collect::<Vec<_>>(), ["1040", "3", "1", "50"]);
+/// assert_eq!(server_tokens(" 1040 3").collect::<Vec<_>>(), ["", "1040", "3"]);
+/// ```
+pub fn server_tokens(text: &str) -> impl Iterator<Item = &str> {
+    let mut rest = Some(text);
+    std::iter::from_fn(move || {
+        let r = rest?;
+        let cut = r.find(' ').unwrap_or(r.len());
+        let (token, after) = r.split_at(cut);
+        let after = after.trim_start_matches(' ');
+        rest = (!after.is_empty()).then_some(after);
+        // The first cut of a text that starts with a blank is an empty token; afterwards the
+        // blanks are gone, so an empty token only ends the text.
+        (!token.is_empty() || cut == 0 && r.len() == text.len()).then_some(token)
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -146,9 +175,24 @@ mod tests {
         let r = ServerRequest::parse(b"");
         assert!(!r.version_matches());
         assert_eq!(r.command_number, 0.0);
-        // Double blank: an empty token reads 0 and shifts the rest.
+        // A run of blanks between tokens is one separator (the program cuts the whole run).
         let r = ServerRequest::parse(b"1040  3 1 50");
-        assert_eq!(r.command_number, 0.0);
+        assert_eq!(r.command(), Command::SetSpeed { percent: 50.0 });
+        let r = ServerRequest::parse(b"1040 6   9 0 0 0  1 2 3    4 5 6   ");
+        assert_eq!(
+            r.command(),
+            Command::JointMove {
+                target: JointsDeg::new([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+            }
+        );
+        // A leading blank (or several) still empties the version token.
+        assert!(!ServerRequest::parse(b" 1040 3 1 50").version_matches());
+        assert!(!ServerRequest::parse(b"   1040 3 1 50").version_matches());
+        // Only blanks separate.
+        // Only blanks separate: "1040\t3" is one token whose VAL is 1040, so "1" is the command.
+        let r = ServerRequest::parse(b"1040\t3 1 50");
+        assert!(r.version_matches());
+        assert_eq!(r.command_number, 1.0);
         assert!(ServerRequest::parse(b"1040.0 1 0").version_matches());
     }
 

@@ -74,7 +74,8 @@ fn request_examples() {
     assert!(ServerRequest::parse(b"1040 0 0").version_matches());
     in_doc("1040  3 1 50");
     let r = ServerRequest::parse(b"1040  3 1 50");
-    assert_eq!((r.version, r.command_number, r.count), (1040.0, 0.0, 3));
+    assert_eq!((r.version, r.command_number, r.count), (1040.0, 3.0, 1));
+    assert_eq!(r.command(), Command::SetSpeed { percent: 50.0 });
     in_doc("-12.346");
     assert_eq!(format_request_number(-12.34567, "x").unwrap(), "-12.346");
     in_doc("-9999999.999");

@@ -10,21 +10,31 @@ use fs020n_proto::session::{
     ACCEPT_WINDOW, COMMAND_RING_LEN, RECEIVE_TIMEOUT, SINGULAR_JMOVE_SPEED_PERCENT,
     SINGULAR_ZONE_DEG, STEP_AVERAGE_WEIGHT, STREAM_LMOVE_TIME_S,
 };
-use fs020n_proto::{Command, ErrorCode, JointsDeg, Status, Timer, PROTOCOL_VERSION};
+use fs020n_proto::{
+    Command, ErrorCode, JointsDeg, Status, StreamSample, Timer, JOINT_COUNT, PROTOCOL_VERSION,
+};
 use serde::Serialize;
 
 use crate::fault::{Fault, FaultQueue, ReplyFault};
 use crate::motion::{LinearPath, Motion, MotionPhase, Robot, Shape};
 use crate::panel::Panel;
+use crate::snapshot::{CommandInfo, LastEnd, SessionInfo, Snapshot};
+pub use crate::snapshot::{Counters, MoveKind, PassInfo, PassMotion, SessionEnd, TaskState};
 
 /// Timing choices of the emulator (see docs/EMULATOR.md for the reasoning behind each).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Timing {
     /// Motion integration period.
     pub tick: Duration,
-    /// Time one pass of the motion program takes besides waiting for motion (interpreting the
-    /// loop and printing its terminal line).
+    /// The motion program's loop overhead: the time from the end of one pass (its motion
+    /// instruction accepted, `last_tm := TIMER(2)`) to the start of the next (`tm := TIMER(2)`):
+    /// the loop's own statements and its terminal `PRINT`. `step` converges to it (spec §2.4),
+    /// so command 7 extrapolates `ARG2 × pass` beyond the controller's "now".
     pub pass: Duration,
+    /// How long signal 2007 must stay on before the motion program's `ONI 2007` fires (AS: an
+    /// interrupt signal must be stable for at least 50 ms). Command 2, 255, a timeout or a lost
+    /// connection raise the signal; the program stops that much later.
+    pub signal_edge: Duration,
     /// Gap between two 3-second listen windows, during which connections are refused.
     pub listen_gap: Duration,
     /// Length of one listen window (`TCP_ACCEPT` timeout: 3 s). Only tests that must see a
@@ -34,8 +44,11 @@ pub struct Timing {
 
 /// Controller tick: motion is integrated every 2 ms.
 pub const TICK: Duration = Duration::from_millis(2);
-/// Duration of one pass of the motion program (without waiting for motion).
-pub const PASS_TIME: Duration = Duration::from_millis(10);
+/// The motion program's loop overhead (one pass without waiting for motion): a few interpreted
+/// statements and a terminal `PRINT`. Medium confidence; see docs/EMULATOR.md.
+pub const PASS_TIME: Duration = Duration::from_millis(4);
+/// How long signal 2007 must be stable before `ONI 2007` fires.
+pub const SIGNAL_EDGE: Duration = Duration::from_millis(50);
 /// Gap between listen windows.
 pub const LISTEN_GAP: Duration = Duration::from_millis(100);
 
@@ -44,6 +57,7 @@ impl Default for Timing {
         Timing {
             tick: TICK,
             pass: PASS_TIME,
+            signal_edge: SIGNAL_EDGE,
             listen_gap: LISTEN_GAP,
             accept_window: ACCEPT_WINDOW,
         }
@@ -65,6 +79,34 @@ pub struct ControllerConfig {
     pub error: ErrorCode,
     /// Timing choices.
     pub timing: Timing,
+    /// Behaviours the manuals leave open (documented choices).
+    pub behaviour: Behaviour,
+}
+
+/// What happens to a motion already planned by look-ahead when command 5's `BRAKE` stops the
+/// current one. Kawasaki does not document it; the spec's medium-confidence reading is that it
+/// is then executed, so that is the default. A client must not rely on either (send 2 to be
+/// sure the arm stays still).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PlannedAfterBrake {
+    /// The planned motion starts once the brake has stopped the arm (default).
+    #[default]
+    Execute,
+    /// The planned motion is dropped with the current one.
+    Drop,
+}
+
+/// Behaviours of the controller that the manuals leave open, each a documented choice
+/// (docs/EMULATOR.md, fidelity table).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
+pub struct Behaviour {
+    /// A motion planned by look-ahead when `BRAKE` (command 5) arrives.
+    pub planned_after_brake: PlannedAfterBrake,
+    /// `true`: the motion program's local argument array keeps its values when the program is
+    /// started again by command 1 (stale arguments survive a restart). Default `false`: the
+    /// locals of a new execution start undefined (medium confidence).
+    pub locals_survive_restart: bool,
 }
 
 impl ControllerConfig {
@@ -77,6 +119,7 @@ impl ControllerConfig {
             joints: model.home,
             error: ErrorCode::NONE,
             timing: Timing::default(),
+            behaviour: Behaviour::default(),
             model,
         }
     }
@@ -103,22 +146,6 @@ pub enum Refused {
     SessionOpen,
 }
 
-/// Why a session ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SessionEnd {
-    /// The client sent 255.
-    EndCommand,
-    /// No request for 5 s.
-    ReceiveTimeout,
-    /// A reply could not be delivered within 2 s.
-    SendTimeout,
-    /// The client closed or reset the connection.
-    Disconnected,
-    /// Closed by fault injection.
-    Fault,
-}
-
 /// The request was for a session that has ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[error("the session has ended")]
@@ -135,102 +162,64 @@ pub struct Handled {
     pub close: bool,
 }
 
-/// State of the motion program (robot task 1).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum TaskState {
-    /// Not executing.
-    NotRunning,
-    /// Running.
-    Running,
-    /// Paused by HOLD.
-    Paused,
-}
-
-/// Counters, for observers and tests.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
-pub struct Counters {
-    /// Connections accepted.
-    pub sessions: u64,
-    /// Connections refused (gap or session open).
-    pub refused: u64,
-    /// Requests received.
-    pub requests: u64,
-    /// Requests with version 1040.
-    pub effective_requests: u64,
-    /// Sessions ended by the receive timeout.
-    pub receive_timeouts: u64,
-    /// Passes of the motion program.
-    pub passes: u64,
-    /// Motions started (including blended ones).
-    pub motions: u64,
-    /// Errors raised.
-    pub errors: u64,
-    /// Times command 1 was ignored because a condition was missing.
-    pub starts_ignored: u64,
-}
-
-/// What one pass of the motion program decided (for observers and tests).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct PassInfo {
-    /// Controller time at the start of the pass.
-    #[serde(serialize_with = "ser_duration_s")]
-    pub at: Duration,
-    /// The server clock `tm` the pass used (TIMER(2), seconds since accept, 1 ms resolution).
-    pub tm_s: f64,
-    /// `step` as the pass used it (before this pass updated it), seconds.
-    pub step_s: f64,
-    /// The command number the pass read (0 right after accept).
-    pub command: f64,
-    /// The motion the pass issued, if any.
-    pub motion: Option<PassMotion>,
-}
-
-/// A motion issued by a pass.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct PassMotion {
-    /// The target, degrees (for command 7: the extrapolated point `pt`).
-    pub target: JointsDeg,
-    /// JMOVE (`joint`) or LMOVE (`linear`).
-    pub kind: MoveKind,
-    /// For a JMOVE, the effective speed in percent of the joints' maximum speeds; for an
-    /// LMOVE, the planned duration in seconds before stretching to respect joint speeds.
-    pub speed: f64,
-}
-
-/// Interpolation of a motion.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum MoveKind {
-    /// Joint-interpolated (JMOVE).
-    Joint,
-    /// Straight tool line (LMOVE).
-    Linear,
-}
-
-fn ser_duration_s<S: serde::Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
-    s.serialize_f64(d.as_secs_f64())
-}
-
 #[derive(Debug, Clone)]
 struct Session {
     id: SessionId,
-    accepted_at: Duration,
     last_rx: Duration,
     /// A delayed or split reply is being sent: the communication task is not receiving, so its
     /// receive timeout does not run.
     replying: bool,
-    ring: Vec<Command>,
-    newest: usize,
+}
+
+/// One row of the command ring (`ros_cmd[ind, …]`), a global array that is never cleared: the
+/// parser writes the command, COUNT and COUNT arguments; entries beyond COUNT keep the values
+/// of the row's earlier uses. Arguments are always assigned from the first on, so the assigned
+/// ones are a prefix: `args.len()` is how many were ever assigned.
+#[derive(Debug, Clone, Default)]
+struct RingRow {
+    number: f64,
+    count: usize,
+    args: Vec<f64>,
+}
+
+impl RingRow {
+    fn command(&self) -> Command {
+        ServerRequest {
+            version: PROTOCOL_VERSION as f64,
+            command_number: self.number,
+            count: self.count,
+            args: self.args.iter().copied().take(self.count).collect(),
+        }
+        .command()
+    }
+}
+
+/// The motion instruction a pass waits to have accepted (look-ahead).
+#[derive(Debug, Clone, Copy)]
+struct Blocked {
+    /// The pass's `tm` (TIMER(2) at its start), seconds.
+    tm_s: f64,
+    target: JointsDeg,
+    kind: Kind,
 }
 
 #[derive(Debug, Clone)]
 struct ProgramRun {
     next_pass_at: Duration,
-    /// Start of the pass whose planned motion waits to blend in.
-    blocked_since: Option<Duration>,
+    /// The pass whose planned motion waits to blend in.
+    blocked: Option<Blocked>,
     step_s: f64,
-    prev_pt: Option<JointsDeg>,
+    /// TIMER(2) when the previous pass's motion instruction was accepted (or the program
+    /// started), seconds.
+    last_tm_s: f64,
+    prev_pt: Option<[f32; JOINT_COUNT]>,
+    /// The program's local argument array: COUNT arguments are copied in per pass, the others
+    /// keep earlier passes' values; `args.len()` of them have ever been assigned.
+    args: Vec<f64>,
+    /// `ros_move_run`: the loop runs while it is set; command 2 clears it.
+    run_flag: bool,
+    /// The loop has ended; the task waits for the last motion (TASK(1) = 3).
+    finishing: bool,
 }
 
 /// The emulated FS020N controller running the protocol-1040 AS server program.
@@ -238,6 +227,7 @@ struct ProgramRun {
 pub struct Controller {
     model: RobotModel,
     timing: Timing,
+    behaviour: Behaviour,
     /// Time of the latest event.
     now: Duration,
     /// Time up to which motion has been integrated (a multiple of the tick).
@@ -248,7 +238,18 @@ pub struct Controller {
     abs_speed: bool,
     robot: Robot,
     program: Option<ProgramRun>,
+    /// The local argument array of the last execution (kept only with
+    /// [`Behaviour::locals_survive_restart`]).
+    kept_args: Vec<f64>,
+    /// Since when signal 2007 (stop the motion program) has been on.
+    signal_2007_since: Option<Duration>,
     session: Option<Session>,
+    /// The command ring: never cleared, survives sessions.
+    ring: Vec<RingRow>,
+    /// Index of the newest request in the ring (reset to 0 on accept).
+    newest: usize,
+    /// When TIMER(1) and TIMER(2) were last reset (the latest accept).
+    timer_epoch: Duration,
     listen_since: Duration,
     next_session: u64,
     last_session_end: Option<(SessionId, SessionEnd)>,
@@ -288,6 +289,7 @@ impl Controller {
             robot: Robot::new(config.joints),
             model: config.model,
             timing: config.timing,
+            behaviour: config.behaviour,
             now: Duration::ZERO,
             tick_time: Duration::ZERO,
             panel,
@@ -295,7 +297,12 @@ impl Controller {
             monitor_speed: clamp_speed(config.monitor_speed_percent).unwrap_or(10.0),
             abs_speed: false,
             program: None,
+            kept_args: Vec::new(),
+            signal_2007_since: None,
             session: None,
+            ring: vec![RingRow::default(); COMMAND_RING_LEN],
+            newest: 0,
+            timer_epoch: Duration::ZERO,
             listen_since: Duration::ZERO,
             next_session: 1,
             last_session_end: None,
@@ -321,6 +328,11 @@ impl Controller {
     /// The timing choices.
     pub fn timing(&self) -> Timing {
         self.timing
+    }
+
+    /// The behaviour choices.
+    pub fn behaviour(&self) -> Behaviour {
+        self.behaviour
     }
 
     /// Panel switches.
@@ -367,9 +379,15 @@ impl Controller {
     pub fn task(&self) -> TaskState {
         match &self.program {
             None => TaskState::NotRunning,
+            Some(run) if run.finishing => TaskState::Finishing,
             Some(_) if !self.panel.run => TaskState::Paused,
             Some(_) => TaskState::Running,
         }
+    }
+
+    /// `true` while signal 2007 (stop the motion program) is on.
+    pub fn stop_signal(&self) -> bool {
+        self.signal_2007_since.is_some()
     }
 
     /// The program's average pass duration `step`, seconds (0 when not running).
@@ -394,19 +412,30 @@ impl Controller {
 
     /// TIMER(1): seconds since the session was accepted (1 ms resolution), 0 without a session.
     pub fn timer1_s(&self) -> f64 {
-        self.session.as_ref().map_or(0.0, |s| {
-            as_seconds_ms(self.now.saturating_sub(s.accepted_at))
-        })
+        if self.session.is_some() {
+            self.timer_s(self.now)
+        } else {
+            0.0
+        }
     }
 
-    /// The newest command of the ring (command 0 right after accept).
-    pub fn newest_command(&self) -> Option<&Command> {
-        self.session.as_ref().map(|s| &s.ring[s.newest])
+    /// TIMER(1)/TIMER(2) at controller time `t`: seconds since the latest accept, 1 ms
+    /// resolution (they keep counting after the session ends).
+    fn timer_s(&self, t: Duration) -> f64 {
+        as_seconds_ms(t.saturating_sub(self.timer_epoch))
     }
 
-    /// The ring index of the newest command.
+    /// The newest command of the ring as the motion program reads it (command 0 right after
+    /// accept), while a session is open.
+    pub fn newest_command(&self) -> Option<Command> {
+        self.session
+            .as_ref()
+            .map(|_| self.ring[self.newest].command())
+    }
+
+    /// The ring index of the newest command, while a session is open.
     pub fn newest_index(&self) -> Option<usize> {
-        self.session.as_ref().map(|s| s.newest)
+        self.session.as_ref().map(|_| self.newest)
     }
 
     /// The reply of session `id` has been sent: the communication task receives again and its
@@ -446,8 +475,50 @@ impl Controller {
     }
 
     /// A serializable picture of the whole state now.
-    pub fn snapshot(&self) -> crate::snapshot::Snapshot {
-        crate::snapshot::Snapshot::of(self)
+    pub fn snapshot(&self) -> Snapshot {
+        let model = self.model();
+        let joints = self.joints();
+        let x = model.forward(&joints.to_rad()).to_xyzoat();
+        let session_open = self.session().is_some();
+        Snapshot {
+            time_s: self.now().as_secs_f64(),
+            model: model.name().to_owned(),
+            panel: self.panel(),
+            error: self.error().into(),
+            joints_deg: joints,
+            velocities_deg_s: self.velocity(),
+            tool: x,
+            task: self.task(),
+            motion: self.motion_phase(),
+            motion_planned: self.robot().has_planned(),
+            motion_target_deg: self.robot().target(),
+            monitor_speed_percent: self.monitor_speed(),
+            abs_speed: self.abs_speed(),
+            step_s: self.step_s(),
+            last_pass: self.last_pass(),
+            start_blockers: self
+                .start_blockers()
+                .into_iter()
+                .map(str::to_owned)
+                .collect(),
+            session: SessionInfo {
+                open: session_open,
+                id: self.session().map(|s| s.0),
+                timer1_s: session_open.then(|| self.timer1_s()),
+                newest_command: self.newest_command().map(|cmd| CommandInfo {
+                    number: cmd.number(),
+                    command: cmd,
+                }),
+                newest_index: self.newest_index(),
+                listening: self.is_listening(),
+                reading_paused: self.reading_paused_until().is_some(),
+                last_end: self
+                    .last_session_end()
+                    .map(|(id, reason)| LastEnd { id: id.0, reason }),
+            },
+            pending_faults: self.pending_faults(),
+            counters: self.counters(),
+        }
     }
 
     /// Reply faults waiting.
@@ -574,37 +645,53 @@ impl Controller {
     fn tick(&mut self) {
         let t = self.tick_time;
         self.check_receive_timeout();
+        // `ONI 2007`: once the signal has been stable for the edge time, the motion stops at
+        // once and the program ends.
+        if let Some(since) = self.signal_2007_since {
+            if self.program.is_some() && t >= since + self.timing.signal_edge {
+                tracing::info!("signal 2007: motion program ros_move interrupted");
+                self.stop_program_now();
+            }
+        }
         if self.panel.run {
             // A planned motion blends in once the tool is within ACCURACY of the target.
-            if let Some(run) = &self.program {
-                if let Some(since) = run.blocked_since {
-                    if let Some(m) = self
-                        .robot
-                        .take_planned_if_ready(&self.model, self.model.controller.accuracy_mm)
-                    {
-                        self.robot.start(m);
-                        self.counters.motions += 1;
-                        self.finish_pass(since, t);
-                    }
+            if let Some(blocked) = self.program.as_ref().and_then(|r| r.blocked) {
+                if let Some(m) = self
+                    .robot
+                    .take_planned_if_ready(&self.model, self.model.controller.accuracy_mm)
+                {
+                    self.robot.start(m);
+                    self.counters.motions += 1;
+                    self.finish_pass(blocked.tm_s, t);
                 }
             }
             let due = self
                 .program
                 .as_ref()
-                .is_some_and(|r| r.blocked_since.is_none() && t >= r.next_pass_at);
+                .is_some_and(|r| r.blocked.is_none() && !r.finishing && t >= r.next_pass_at);
             if due {
                 self.program_pass(t);
             }
         }
+        // TASK(1) = 3 ends when the last motion has.
+        if self.program.as_ref().is_some_and(|r| r.finishing) && self.robot.is_still() {
+            self.end_program();
+        }
         self.robot.tick(&self.model, self.timing.tick.as_secs_f64());
     }
 
-    fn finish_pass(&mut self, started: Duration, t: Duration) {
+    /// The end of a pass whose motion instruction was accepted at `t` (or that issued none):
+    /// `step = 0.9 step + 0.1 (tm − last_tm)`, `last_tm := TIMER(2)`, and the next pass starts
+    /// after the loop overhead. `tm − last_tm` is the time from the previous pass's end to this
+    /// pass's start — the overhead only, never the motion wait (spec §2.4).
+    fn finish_pass(&mut self, tm_s: f64, t: Duration) {
         let pass = self.timing.pass;
+        let timer_now = self.timer_s(t);
         if let Some(run) = &mut self.program {
-            let duration = (t + pass - started).as_secs_f64();
-            run.step_s = (1.0 - STEP_AVERAGE_WEIGHT) * run.step_s + STEP_AVERAGE_WEIGHT * duration;
-            run.blocked_since = None;
+            run.step_s = (1.0 - STEP_AVERAGE_WEIGHT) * run.step_s
+                + STEP_AVERAGE_WEIGHT * (tm_s - run.last_tm_s);
+            run.last_tm_s = timer_now;
+            run.blocked = None;
             run.next_pass_at = t + pass;
         }
     }
@@ -618,26 +705,64 @@ impl Controller {
         eff / 100.0
     }
 
-    /// One pass of `ros_move`: read the newest request, execute 6 or 7.
+    /// One pass of `ros_move`: check the running flag, read the newest request (copying its
+    /// COUNT arguments into the local array), execute 6 or 7.
     fn program_pass(&mut self, t: Duration) {
+        let tm = self.timer_s(t);
+        let Some(run) = &mut self.program else {
+            return;
+        };
+        if !run.run_flag {
+            // `WHILE ros_move_run == 1` fails: the steps are done, the last motion finishes.
+            run.finishing = true;
+            return;
+        }
         self.counters.passes += 1;
-        let newest = self.newest_command().cloned();
-        let tm = self
-            .session
-            .as_ref()
-            .map_or(0.0, |s| as_seconds_ms(t.saturating_sub(s.accepted_at)));
-        let step = self.step_s();
-        let from = self.robot.target();
-        let motion = match newest {
-            Some(Command::JointMove { target }) => {
-                Some((target, Kind::Joint(self.speed_fraction(100.0))))
-            }
-            Some(Command::StreamedMove(sample)) => {
+        let step = run.step_s;
+        let row = &self.ring[self.newest];
+        let count = row.count.min(row.args.len());
+        if run.args.len() < count {
+            run.args.resize(count, 0.0);
+        }
+        run.args[..count].copy_from_slice(&row.args[..count]);
+        let number = row.number;
+        let args = &run.args;
+        // Command 6 reads ARG4–ARG9, command 7 ARG1, ARG2 and ARG4–ARG21 (ARG3 is never read).
+        let needed = match number {
+            6.0 => 9,
+            7.0 => 21,
+            _ => 0,
+        };
+        if args.len() < needed {
+            tracing::warn!(
+                command = number,
+                assigned = args.len(),
+                "E0102: the motion program read an argument never assigned since the controller started"
+            );
+            self.counters.undefined_arguments += 1;
+            self.raise(ErrorCode::VARIABLE_NOT_DEFINED);
+            return;
+        }
+        let joints_at = |first: usize| {
+            let mut j = [0.0; JOINT_COUNT];
+            j.copy_from_slice(&args[first..first + JOINT_COUNT]);
+            JointsDeg(j)
+        };
+        let motion = match number {
+            6.0 => Some((joints_at(3), Kind::Joint(self.speed_fraction(100.0)))),
+            7.0 => {
+                let sample = StreamSample {
+                    t0_s: args[0],
+                    lookahead_passes: args[1],
+                    position: joints_at(3),
+                    velocity: joints_at(9),
+                    acceleration: joints_at(15),
+                };
                 let pt = sample.extrapolate(tm, step);
-                let changed = self.program.as_ref().is_some_and(|r| r.prev_pt != Some(pt));
-                if let Some(run) = &mut self.program {
-                    run.prev_pt = Some(pt);
-                }
+                // AS reals: the program compares 32-bit values.
+                let pt32 = pt.0.map(|v| v as f32);
+                let changed = run.prev_pt != Some(pt32);
+                run.prev_pt = Some(pt32);
                 if !changed {
                     None
                 } else if pt[2].abs() < SINGULAR_ZONE_DEG || pt[4].abs() < SINGULAR_ZONE_DEG {
@@ -659,7 +784,7 @@ impl Controller {
             at: t,
             tm_s: tm,
             step_s: step,
-            command: newest.as_ref().map_or(0.0, Command::number),
+            command: number,
             motion: motion.map(|(target, kind)| match kind {
                 Kind::Joint(f) => PassMotion {
                     target,
@@ -674,13 +799,39 @@ impl Controller {
             }),
         });
         let Some((target, kind)) = motion else {
-            self.finish_pass(t, t);
+            self.finish_pass(tm, t);
             return;
         };
+        let from = self.robot.target();
+        let Some(m) = self.plan_motion(from, target, kind) else {
+            return;
+        };
+        if self
+            .robot
+            .ready_for_next(&self.model, self.model.controller.accuracy_mm)
+        {
+            self.robot.start(m);
+            self.counters.motions += 1;
+            self.finish_pass(tm, t);
+        } else {
+            self.robot.plan(m);
+            if let Some(run) = &mut self.program {
+                run.blocked = Some(Blocked {
+                    tm_s: tm,
+                    target,
+                    kind,
+                });
+            }
+        }
+    }
+
+    /// Plans a motion from `from` to `target`; raises E1088 (and stops the program) when the
+    /// target is outside the ranges or has no straight-line path.
+    fn plan_motion(&mut self, from: JointsDeg, target: JointsDeg, kind: Kind) -> Option<Motion> {
         if !target.is_finite() || !self.model.within_limits(&target) {
             tracing::warn!(%target, "E1088: destination is out of motion range");
             self.raise(ErrorCode::DESTINATION_OUT_OF_RANGE);
-            return;
+            return None;
         }
         let shape = match kind {
             Kind::Joint(f) => Shape::Joint(JointMove::plan(&self.model, from, target, f)),
@@ -691,62 +842,85 @@ impl Controller {
                     None => {
                         tracing::warn!(%target, "E1088: no straight-line path to the destination");
                         self.raise(ErrorCode::DESTINATION_OUT_OF_RANGE);
-                        return;
+                        return None;
                     }
                 }
             }
         };
-        let m = Motion {
+        Some(Motion {
             from,
             to: target,
             shape,
-        };
-        if self
-            .robot
-            .ready_for_next(&self.model, self.model.controller.accuracy_mm)
-        {
-            self.robot.start(m);
-            self.counters.motions += 1;
-            self.finish_pass(t, t);
-        } else {
-            self.robot.plan(m);
-            if let Some(run) = &mut self.program {
-                run.blocked_since = Some(t);
-            }
-        }
+        })
     }
 
     // ----------------------------------------------------------------- program
 
+    /// Command 1, exactly as the server tests it: the switches (power, RUN, REPEAT, lock off),
+    /// then `TASK(1) <> 1 AND ERROR == 0`; then `ros_move_run = 1` and `MC EXECUTE ros_move`,
+    /// which the controller refuses (P1009) while the program still executes (TASK 2 or 3).
     fn start_program(&mut self) {
-        if !self.start_blockers().is_empty() {
+        let switches =
+            self.panel.power && self.panel.run && self.panel.repeat && !self.panel.teach_lock;
+        if !switches || self.task() == TaskState::Running || !self.error.is_none() {
             self.counters.starts_ignored += 1;
             tracing::info!(blockers = ?self.start_blockers(), "command 1 ignored");
             return;
         }
+        if let Some(run) = &mut self.program {
+            run.run_flag = true;
+            self.counters.starts_refused += 1;
+            tracing::info!("command 1: MC EXECUTE refused, the program still executes (P1009)");
+            return;
+        }
         tracing::info!("motion program ros_move started");
+        // `SIGNAL -2007`, then `ONI 2007 GOTO exit`.
+        self.signal_2007_since = None;
+        let args = if self.behaviour.locals_survive_restart {
+            std::mem::take(&mut self.kept_args)
+        } else {
+            Vec::new()
+        };
         self.program = Some(ProgramRun {
             next_pass_at: self.tick_time + self.timing.tick,
-            blocked_since: None,
+            blocked: None,
             step_s: 0.0,
+            last_tm_s: self.timer_s(self.now),
             // "Remember the current joints": a first 7 whose point is where the robot stands
             // issues no motion.
-            prev_pt: Some(self.robot.joints()),
+            prev_pt: Some(self.robot.joints().0.map(|v| v as f32)),
+            args,
+            run_flag: true,
+            finishing: false,
         });
     }
 
-    /// Signal 2007: the robot stops at once and the program ends.
-    fn stop_program(&mut self) {
-        if self.program.take().is_some() {
-            tracing::info!("motion program ros_move ended");
+    /// `SIGNAL 2007`: the program's `ONI` stops it once the signal has been stable for
+    /// [`Timing::signal_edge`].
+    fn raise_stop_signal(&mut self) {
+        if self.signal_2007_since.is_none() {
+            self.signal_2007_since = Some(self.now);
         }
+    }
+
+    /// The program ends at once and the robot brakes (the `ONI` fired, or the controller
+    /// stopped it: TEACH, an error).
+    fn stop_program_now(&mut self) {
+        self.end_program();
         self.robot.brake(&self.model);
+    }
+
+    fn end_program(&mut self) {
+        if let Some(run) = self.program.take() {
+            tracing::info!("motion program ros_move ended");
+            self.kept_args = run.args;
+        }
     }
 
     fn raise(&mut self, code: ErrorCode) {
         self.counters.errors += 1;
         self.error = code;
-        self.stop_program();
+        self.stop_program_now();
     }
 
     // ----------------------------------------------------------------- communication task
@@ -770,18 +944,14 @@ impl Controller {
         self.stop_reading_until = None;
         self.session = Some(Session {
             id,
-            accepted_at: self.now,
             last_rx: self.now,
             replying: false,
-            ring: vec![
-                Command::Other {
-                    number: 0.0,
-                    args: Vec::new()
-                };
-                COMMAND_RING_LEN
-            ],
-            newest: 0,
         });
+        // `ros_cmd_ind = 0` and row 0's command := 0; the ring itself is never cleared.
+        self.newest = 0;
+        self.ring[0].number = 0.0;
+        // TIMER(1) = 0, TIMER(2) = 0.
+        self.timer_epoch = self.now;
         tracing::info!(session = id.0, "session accepted");
         Ok(id)
     }
@@ -798,7 +968,9 @@ impl Controller {
         if let Some(s) = self.session.take() {
             tracing::info!(session = s.id.0, reason = ?why, "session ended");
             self.last_session_end = Some((s.id, why));
-            self.stop_program();
+            // The communication task's exit: `SIGNAL 2007` (the program's ONI stops it after
+            // the signal edge), close the socket, listen again.
+            self.raise_stop_signal();
             self.listen_since = self.now;
             self.stop_reading_until = None;
             self.faults.clear();
@@ -820,36 +992,42 @@ impl Controller {
         tracing::debug!(request = %String::from_utf8_lossy(bytes), "request");
         if req.version_matches() {
             self.counters.effective_requests += 1;
-            let command = req.command();
-            let previous_was_cancel = matches!(session.ring[session.newest], Command::CancelMotion);
-            let slot = (session.newest + 1) % COMMAND_RING_LEN;
-            session.ring[slot] = command.clone();
-            match command {
+            let previous_was_cancel = self.ring[self.newest].number == 5.0;
+            let slot = (self.newest + 1) % COMMAND_RING_LEN;
+            // Store the request in the row after the newest: command, COUNT and COUNT
+            // arguments; the row's other arguments keep their values.
+            let row = &mut self.ring[slot];
+            row.number = req.command_number;
+            row.count = req.count;
+            if row.args.len() < req.count {
+                row.args.resize(req.count, 0.0);
+            }
+            row.args[..req.count].copy_from_slice(&req.args);
+            match req.command() {
                 Command::StartProgram => self.start_program(),
-                Command::StopProgram => self.stop_program(),
+                Command::StopProgram => {
+                    // `SIGNAL 2007` (the ONI fires after the edge) and `ros_move_run = 0`.
+                    self.raise_stop_signal();
+                    if let Some(run) = &mut self.program {
+                        run.run_flag = false;
+                    }
+                }
                 Command::SetSpeed { percent } => {
                     if let Some(p) = clamp_speed(percent) {
                         self.monitor_speed = p;
                     }
                     self.abs_speed = true;
                 }
-                // BRAKE, unless the previous accepted command was also 5.
+                // Published as newest first, then BRAKE — unless the newest was already a 5.
                 Command::CancelMotion if previous_was_cancel => {}
                 Command::CancelMotion => {
-                    self.robot.brake(&self.model);
-                    if let Some(run) = &self.program {
-                        if let Some(since) = run.blocked_since {
-                            let t = self.tick_time;
-                            self.finish_pass(since, t);
-                        }
-                    }
+                    self.newest = slot;
+                    self.brake_for_cancel();
                 }
                 Command::EndSession => close = true,
                 _ => {}
             }
-            if let Some(s) = &mut self.session {
-                s.newest = slot;
-            }
+            self.newest = slot;
         }
         let reply = self.status().encode();
         tracing::debug!(reply = %reply, "reply");
@@ -869,6 +1047,29 @@ impl Controller {
         })
     }
 
+    /// Command 5's `BRAKE`: the current motion stops at once and the motion program goes on
+    /// to the next step. A motion the program had planned by look-ahead is then executed from
+    /// where the brake stops the arm, or dropped ([`Behaviour::planned_after_brake`]).
+    fn brake_for_cancel(&mut self) {
+        self.robot.brake(&self.model);
+        let Some(blocked) = self.program.as_ref().and_then(|r| r.blocked) else {
+            return;
+        };
+        match self.behaviour.planned_after_brake {
+            PlannedAfterBrake::Drop => {
+                let t = self.tick_time;
+                self.finish_pass(blocked.tm_s, t);
+            }
+            PlannedAfterBrake::Execute => {
+                let from = self.robot.target();
+                if let Some(m) = self.plan_motion(from, blocked.target, blocked.kind) {
+                    // Starts when the brake has stopped the arm; the pass stays blocked.
+                    self.robot.plan(m);
+                }
+            }
+        }
+    }
+
     // ----------------------------------------------------------------- panel and pendant
 
     /// Turns motor power on or off. Off stops the robot dead and ends the program. On is
@@ -880,8 +1081,9 @@ impl Controller {
         self.panel.power = on;
         if !on {
             self.robot.halt();
-            if self.program.take().is_some() {
-                tracing::info!("motor power off: motion program ended");
+            if self.program.is_some() {
+                tracing::info!("motor power off: motion program ends");
+                self.end_program();
             }
         }
         Ok(())
@@ -898,7 +1100,7 @@ impl Controller {
     pub fn set_repeat(&mut self, repeat: bool) {
         self.panel.repeat = repeat;
         if !repeat {
-            self.stop_program();
+            self.stop_program_now();
         }
     }
 
@@ -907,7 +1109,7 @@ impl Controller {
     pub fn set_teach_lock(&mut self, on: bool) {
         self.panel.teach_lock = on;
         if on {
-            self.stop_program();
+            self.stop_program_now();
         }
     }
 
@@ -917,7 +1119,7 @@ impl Controller {
         self.panel.estop = true;
         self.panel.power = false;
         self.robot.halt();
-        self.program = None;
+        self.end_program();
         self.error = ErrorCode::EMERGENCY_STOP;
         self.counters.errors += 1;
         tracing::warn!("emergency stop pressed");
@@ -935,6 +1137,12 @@ impl Controller {
         }
         self.error = ErrorCode::NONE;
         Ok(())
+    }
+
+    /// Switches ABS.SPEED (a system switch) on or off, as the pendant can. Command 3 switches
+    /// it on; only the pendant switches it off.
+    pub fn set_abs_speed(&mut self, on: bool) {
+        self.abs_speed = on;
     }
 
     /// Sets the monitor speed (1–100 %). It applies from the next planned motion.

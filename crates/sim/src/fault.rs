@@ -110,6 +110,9 @@ impl Fault {
                 text.len()
             )),
             Fault::SplitReply { parts, gap_ms } => {
+                if *parts < 2 {
+                    return Err(format!("parts {parts}: a split reply has at least 2 parts"));
+                }
                 if *parts as usize > MAX_FAULT_BYTES {
                     return Err(format!(
                         "parts {parts} is above the limit {MAX_FAULT_BYTES}"

@@ -24,13 +24,14 @@ pub mod server;
 pub mod snapshot;
 
 pub use controller::{
-    Controller, ControllerConfig, Counters, Handled, MoveKind, PanelChange, PanelError, PassInfo,
-    PassMotion, Refused, SessionEnd, SessionGone, SessionId, TaskState, Timing, TICK,
+    Behaviour, Controller, ControllerConfig, Counters, Handled, MoveKind, PanelChange, PanelError,
+    PassInfo, PassMotion, PlannedAfterBrake, Refused, SessionEnd, SessionGone, SessionId,
+    TaskState, Timing, PASS_TIME, SIGNAL_EDGE, TICK,
 };
 pub use fault::{Fault, ReplyFault};
 pub use motion::MotionPhase;
 pub use panel::Panel;
-pub use pendant::{pendant_router, serve_pendant, PendantServer};
+pub use pendant::{pendant_router, serve_pendant, PendantAccess, PendantServer};
 pub use run::{run_robot, RunningRobot, SimOptions};
 pub use server::{Emulator, TcpServer};
 pub use snapshot::{CommandInfo, ErrorInfo, LastEnd, SessionInfo, Snapshot};

@@ -7,7 +7,11 @@
 //!
 //! Security: bound to a loopback address by default. Bound to any other address it requires a
 //! bearer token (`Authorization: Bearer <token>`) and refuses to start without one; a token given
-//! on loopback is required too.
+//! on loopback is required too. Because a web page in the user's browser can reach loopback,
+//! every request must also pass the browser checks ([`PendantAccess`]): its `Host` must name
+//! the address the pendant is bound to (no DNS rebinding), an `Origin` header, when present,
+//! must be the pendant's own origin, and a POST must carry `Content-Type: application/json`
+//! (which a cross-site form cannot send without a CORS preflight this API never grants).
 
 use std::io;
 use std::net::SocketAddr;
@@ -87,6 +91,63 @@ fn bad_json(rejection: JsonRejection, example: &str) -> ApiError {
 struct AppState {
     emulator: Emulator,
     token: Option<Arc<str>>,
+    access: Arc<PendantAccess>,
+}
+
+/// Who may call the pendant API: the `Host` names and the origin the browser checks accept.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PendantAccess {
+    /// Accepted `host:port` authorities (lower case). Empty: any `Host` (only for an API bound
+    /// to an unspecified address, which requires a token anyway).
+    hosts: Vec<String>,
+}
+
+impl PendantAccess {
+    /// The authorities under which a pendant bound to `addr` is reached: the address itself,
+    /// and on loopback also `localhost` and both loopback literals. Bound to `0.0.0.0`/`::`,
+    /// the machine's addresses are not known, so any `Host` is accepted (a token is then
+    /// mandatory).
+    pub fn bound_to(addr: SocketAddr) -> PendantAccess {
+        let port = addr.port();
+        if addr.ip().is_unspecified() {
+            return PendantAccess { hosts: Vec::new() };
+        }
+        let mut hosts = vec![match addr {
+            SocketAddr::V4(a) => format!("{}:{port}", a.ip()),
+            SocketAddr::V6(a) => format!("[{}]:{port}", a.ip()),
+        }];
+        if addr.ip().is_loopback() {
+            for h in ["localhost", "127.0.0.1", "[::1]"] {
+                let h = format!("{h}:{port}");
+                if !hosts.contains(&h) {
+                    hosts.push(h);
+                }
+            }
+        }
+        PendantAccess { hosts }
+    }
+
+    /// `true` when `host` (a `Host` header value) names this pendant. A missing port means 80.
+    pub fn host_allowed(&self, host: &str) -> bool {
+        if self.hosts.is_empty() {
+            return true;
+        }
+        let host = host.trim().to_ascii_lowercase();
+        let with_port = if host.ends_with(']') || !host.contains(':') {
+            format!("{host}:80")
+        } else {
+            host
+        };
+        self.hosts.contains(&with_port)
+    }
+
+    /// `true` when `origin` (an `Origin` header value) is this pendant's own origin.
+    pub fn origin_allowed(&self, origin: &str) -> bool {
+        match origin.trim().strip_prefix("http://") {
+            Some(authority) if !authority.contains('/') => self.host_allowed(authority),
+            _ => false,
+        }
+    }
 }
 
 #[derive(Debug, Deserialize)]
@@ -95,12 +156,14 @@ struct SpeedBody {
     percent: f64,
 }
 
-/// The pendant API as an axum router (for embedding it in another server). `token`, when
-/// given, is required on every request.
-pub fn pendant_router(emulator: Emulator, token: Option<String>) -> Router {
+/// The pendant API as an axum router (for embedding it in another server bound to `bound`).
+/// `token`, when given, is required on every request; the browser checks of
+/// [`PendantAccess::bound_to`]`(bound)` apply to every request.
+pub fn pendant_router(emulator: Emulator, token: Option<String>, bound: SocketAddr) -> Router {
     let state = AppState {
         emulator,
         token: token.map(Arc::from),
+        access: Arc::new(PendantAccess::bound_to(bound)),
     };
     Router::new()
         .route("/", get(index))
@@ -112,10 +175,60 @@ pub fn pendant_router(emulator: Emulator, token: Option<String>) -> Router {
         .route("/reset", post(reset))
         .route("/speed", post(speed))
         .route("/faults", post(faults_post).delete(faults_delete))
+        .route("/abs_speed", get(abs_speed_get).post(abs_speed_post))
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(middleware::from_fn_with_state(state.clone(), auth))
+        .layer(middleware::from_fn_with_state(
+            state.clone(),
+            browser_checks,
+        ))
         .with_state(state)
+}
+
+/// Refuses what a foreign web page could send: a `Host` that is not the pendant's (DNS
+/// rebinding), a foreign `Origin`, and a POST without `Content-Type: application/json`.
+async fn browser_checks(State(st): State<AppState>, req: Request, next: Next) -> Response {
+    let headers = req.headers();
+    let host = headers.get(header::HOST).and_then(|v| v.to_str().ok());
+    if !host.is_some_and(|h| st.access.host_allowed(h)) {
+        return ApiError::new(
+            StatusCode::MISDIRECTED_REQUEST,
+            format!(
+                "the Host header {:?} does not name this pendant",
+                host.unwrap_or("(none)")
+            ),
+            "call the pendant by the address it listens on (e.g. http://127.0.0.1:10051/)",
+        )
+        .into_response();
+    }
+    if let Some(origin) = headers.get(header::ORIGIN) {
+        let origin = origin.to_str().unwrap_or("");
+        if !st.access.origin_allowed(origin) {
+            return ApiError::new(
+                StatusCode::FORBIDDEN,
+                format!("requests from the web origin {origin:?} are refused"),
+                "only the pendant's own page may call it from a browser; use curl or the CLI otherwise",
+            )
+            .into_response();
+        }
+    }
+    if req.method() == axum::http::Method::POST {
+        let json = headers
+            .get(header::CONTENT_TYPE)
+            .and_then(|v| v.to_str().ok())
+            .and_then(|v| v.split(';').next())
+            .is_some_and(|v| v.trim().eq_ignore_ascii_case("application/json"));
+        if !json {
+            return ApiError::new(
+                StatusCode::UNSUPPORTED_MEDIA_TYPE,
+                "a POST to the pendant API must carry Content-Type: application/json",
+                "send the header `Content-Type: application/json` (curl: --json '{}' or -H 'Content-Type: application/json')",
+            )
+            .into_response();
+        }
+    }
+    next.run(req).await
 }
 
 async fn auth(State(st): State<AppState>, req: Request, next: Next) -> Response {
@@ -164,7 +277,7 @@ async fn index() -> Json<Value> {
         "endpoints": [
             "GET /state", "GET /model", "GET /panel", "POST /panel",
             "POST /estop/press", "POST /estop/release", "POST /reset", "POST /speed",
-            "POST /faults", "DELETE /faults"
+            "GET /abs_speed", "POST /abs_speed", "POST /faults", "DELETE /faults"
         ],
         "docs": "docs/EMULATOR.md"
     }))
@@ -232,6 +345,26 @@ async fn speed(
 ) -> Result<Json<Snapshot>, ApiError> {
     let Json(b) = body.map_err(|e| bad_json(e, r#"{"percent": 50}"#))?;
     st.emulator.with(|c| c.set_monitor_speed(b.percent))?;
+    Ok(Json(st.emulator.snapshot()))
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AbsSpeedBody {
+    on: bool,
+}
+
+async fn abs_speed_get(State(st): State<AppState>) -> Json<Value> {
+    Json(serde_json::json!({ "on": st.emulator.with(|c| c.abs_speed()) }))
+}
+
+/// ABS.SPEED is a system switch: command 3 switches it on; only the pendant switches it off.
+async fn abs_speed_post(
+    State(st): State<AppState>,
+    body: Result<Json<AbsSpeedBody>, JsonRejection>,
+) -> Result<Json<Snapshot>, ApiError> {
+    let Json(b) = body.map_err(|e| bad_json(e, r#"{"on": false}"#))?;
+    st.emulator.with(|c| c.set_abs_speed(b.on));
     Ok(Json(st.emulator.snapshot()))
 }
 
@@ -322,7 +455,7 @@ pub async fn serve_pendant(
     }
     let listener = tokio::net::TcpListener::bind(addr).await?;
     let local = listener.local_addr()?;
-    let app = pendant_router(emulator, token);
+    let app = pendant_router(emulator, token, local);
     tracing::info!(addr = %local, "pendant API listening");
     let task = tokio::spawn(async move {
         if let Err(e) = axum::serve(listener, app).await {

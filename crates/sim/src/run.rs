@@ -218,6 +218,12 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
         },
         None => None,
     };
+    if !robot.local_addr().ip().is_loopback() {
+        tracing::warn!(
+            robot = %robot.local_addr(),
+            "the robot port is bound off loopback: protocol 1040 has no authentication"
+        );
+    }
     tracing::info!(robot = %robot.local_addr(), pendant = ?pendant.as_ref().map(|p| p.local_addr()), "emulated robot running");
     Ok(RunningRobot {
         emulator,

@@ -12,7 +12,7 @@ use std::time::Duration;
 
 use fs020n_proto::session::SEND_TIMEOUT;
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt, DuplexStream};
-use tokio::net::TcpListener;
+use tokio::net::{TcpListener, TcpSocket};
 use tokio::sync::watch;
 use tokio::task::JoinHandle;
 use tokio::time::Instant;
@@ -24,8 +24,17 @@ use crate::fault::ReplyFault;
 /// socket buffer that fills when the peer stops reading).
 pub const PIPE_CAPACITY: usize = 4096;
 
-/// Bytes read by one receive call of the communication task.
-pub const RECEIVE_BUFFER: usize = 1024;
+/// Bytes read by one receive call of the communication task: `TCP_RECV` fills up to sixteen
+/// 255-byte string elements (4080 bytes; 4096 here). Whatever one receive returns is one
+/// request: only its first 255 bytes are parsed, the rest of that read is discarded.
+pub const RECEIVE_BUFFER: usize = 4096;
+
+/// The robot port's socket send buffer, bytes (`SO_SNDBUF`; Linux doubles it for its own
+/// bookkeeping). The controller's TCP stack buffers little: with a small fixed buffer a client
+/// that stops reading fills it (and its own receive buffer) within seconds, and the 2 s send
+/// timeout then ends the session as on the controller. The kernel's default would grow to
+/// megabytes and keep such a session alive for minutes.
+pub const SEND_BUFFER: u32 = 4096;
 
 struct Inner {
     controller: Mutex<Controller>,
@@ -119,7 +128,7 @@ impl Emulator {
     /// returned task is aborted. Like the AS program, it listens in 3-second windows with a short
     /// gap between them and not at all while a session is open, so connecting then is refused.
     pub async fn serve_tcp(&self, addr: SocketAddr) -> io::Result<TcpServer> {
-        let listener = TcpListener::bind(addr).await?;
+        let listener = bind_robot_port(addr)?;
         let local = listener.local_addr()?;
         let this = self.clone();
         let task = tokio::spawn(async move { this.accept_loop(local, Some(listener)).await });
@@ -146,7 +155,7 @@ impl Emulator {
             }
             let l = match listener.take() {
                 Some(l) => l,
-                None => match TcpListener::bind(addr).await {
+                None => match bind_robot_port(addr) {
                     Ok(l) => l,
                     Err(e) => {
                         tracing::warn!(%addr, error = %e, "cannot listen; retrying");
@@ -274,6 +283,19 @@ impl Emulator {
             }
         }
     }
+}
+
+/// Binds the robot port with the controller's small send buffer (accepted sockets inherit it).
+fn bind_robot_port(addr: SocketAddr) -> io::Result<TcpListener> {
+    let socket = if addr.is_ipv4() {
+        TcpSocket::new_v4()?
+    } else {
+        TcpSocket::new_v6()?
+    };
+    socket.set_reuseaddr(true)?;
+    socket.set_send_buffer_size(SEND_BUFFER)?;
+    socket.bind(addr)?;
+    socket.listen(16)
 }
 
 async fn sleep_until_opt(t: Option<Instant>) {

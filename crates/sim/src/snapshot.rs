@@ -3,11 +3,128 @@
 
 use fs020n_kin::Xyzoat;
 use fs020n_proto::{Command, ErrorCode, JointsDeg};
+use std::time::Duration;
+
 use serde::Serialize;
 
-use crate::controller::{Controller, Counters, PassInfo, SessionEnd, TaskState};
 use crate::motion::MotionPhase;
 use crate::panel::Panel;
+
+/// Why a session ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SessionEnd {
+    /// The client sent 255.
+    EndCommand,
+    /// No request for 5 s.
+    ReceiveTimeout,
+    /// A reply could not be delivered within 2 s.
+    SendTimeout,
+    /// The client closed or reset the connection.
+    Disconnected,
+    /// Closed by fault injection.
+    Fault,
+}
+
+/// State of the motion program (robot task 1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TaskState {
+    /// Not executing.
+    NotRunning,
+    /// Running.
+    Running,
+    /// Paused by HOLD.
+    Paused,
+    /// The program's steps are done (its loop ended after command 2 cleared the running flag)
+    /// and it waits for the robot's last motion to finish.
+    Finishing,
+}
+
+impl TaskState {
+    /// The value of AS `TASK(1)`: 0 not executing, 1 running, 2 paused, 3 steps done and
+    /// waiting for the last motion.
+    pub fn as_task_value(self) -> i32 {
+        match self {
+            TaskState::NotRunning => 0,
+            TaskState::Running => 1,
+            TaskState::Paused => 2,
+            TaskState::Finishing => 3,
+        }
+    }
+}
+
+/// Counters, for observers and tests.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct Counters {
+    /// Connections accepted.
+    pub sessions: u64,
+    /// Connections refused (gap or session open).
+    pub refused: u64,
+    /// Requests received.
+    pub requests: u64,
+    /// Requests with version 1040.
+    pub effective_requests: u64,
+    /// Sessions ended by the receive timeout.
+    pub receive_timeouts: u64,
+    /// Passes of the motion program.
+    pub passes: u64,
+    /// Motions started (including blended ones).
+    pub motions: u64,
+    /// Errors raised.
+    pub errors: u64,
+    /// Times command 1 was ignored because the server's own test failed (a switch, TASK(1) = 1
+    /// or an error).
+    pub starts_ignored: u64,
+    /// Times command 1 passed the server's test but `MC EXECUTE` was refused by the controller
+    /// because the program was still executing (TASK(1) = 2 or 3: P1009).
+    pub starts_refused: u64,
+    /// Times the motion program stopped with E0102 because it read an argument never assigned
+    /// since the controller started.
+    pub undefined_arguments: u64,
+}
+
+/// What one pass of the motion program decided (for observers and tests).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PassInfo {
+    /// Controller time at the start of the pass.
+    #[serde(serialize_with = "ser_duration_s")]
+    pub at: Duration,
+    /// The server clock `tm` the pass used (TIMER(2), seconds since accept, 1 ms resolution).
+    pub tm_s: f64,
+    /// `step` as the pass used it (before this pass updated it), seconds.
+    pub step_s: f64,
+    /// The command number the pass read (0 right after accept).
+    pub command: f64,
+    /// The motion the pass issued, if any.
+    pub motion: Option<PassMotion>,
+}
+
+/// A motion issued by a pass.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PassMotion {
+    /// The target, degrees (for command 7: the extrapolated point `pt`).
+    pub target: JointsDeg,
+    /// JMOVE (`joint`) or LMOVE (`linear`).
+    pub kind: MoveKind,
+    /// For a JMOVE, the effective speed in percent of the joints' maximum speeds; for an
+    /// LMOVE, the planned duration in seconds before stretching to respect joint speeds.
+    pub speed: f64,
+}
+
+/// Interpolation of a motion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MoveKind {
+    /// Joint-interpolated (JMOVE).
+    Joint,
+    /// Straight tool line (LMOVE).
+    Linear,
+}
+
+fn ser_duration_s<S: serde::Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_f64(d.as_secs_f64())
+}
 
 /// The controller's state at one instant.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -110,49 +227,4 @@ pub struct LastEnd {
     pub id: u64,
     /// Why.
     pub reason: SessionEnd,
-}
-
-impl Snapshot {
-    /// Takes a snapshot of `c` (at its current time).
-    pub fn of(c: &Controller) -> Snapshot {
-        let model = c.model();
-        let joints = c.joints();
-        let x = model.forward(&joints.to_rad()).to_xyzoat();
-        let session_open = c.session().is_some();
-        Snapshot {
-            time_s: c.now().as_secs_f64(),
-            model: model.name().to_owned(),
-            panel: c.panel(),
-            error: c.error().into(),
-            joints_deg: joints,
-            velocities_deg_s: c.velocity(),
-            tool: x,
-            task: c.task(),
-            motion: c.motion_phase(),
-            motion_planned: c.robot().has_planned(),
-            motion_target_deg: c.robot().target(),
-            monitor_speed_percent: c.monitor_speed(),
-            abs_speed: c.abs_speed(),
-            step_s: c.step_s(),
-            last_pass: c.last_pass(),
-            start_blockers: c.start_blockers().into_iter().map(str::to_owned).collect(),
-            session: SessionInfo {
-                open: session_open,
-                id: c.session().map(|s| s.0),
-                timer1_s: session_open.then(|| c.timer1_s()),
-                newest_command: c.newest_command().map(|cmd| CommandInfo {
-                    number: cmd.number(),
-                    command: cmd.clone(),
-                }),
-                newest_index: c.newest_index(),
-                listening: c.is_listening(),
-                reading_paused: c.reading_paused_until().is_some(),
-                last_end: c
-                    .last_session_end()
-                    .map(|(id, reason)| LastEnd { id: id.0, reason }),
-            },
-            pending_faults: c.pending_faults(),
-            counters: c.counters(),
-        }
-    }
 }

@@ -10,7 +10,10 @@ use std::time::Duration;
 use common::*;
 use fs020n_kin::RobotModel;
 use fs020n_proto::{Command, ErrorCode, JointsDeg};
-use fs020n_sim::{Controller, ControllerConfig, MotionPhase, MoveKind, Panel, TaskState};
+use fs020n_sim::{
+    Behaviour, Controller, ControllerConfig, MotionPhase, MoveKind, Panel, PlannedAfterBrake,
+    TaskState,
+};
 
 // ------------------------------------------------------------------ command 1 conditions
 
@@ -32,7 +35,7 @@ fn start_refused_with(setup: impl FnOnce(&mut Controller), blocker: &str) {
     );
     assert_eq!(
         c.newest_command(),
-        Some(&Command::StartProgram),
+        Some(Command::StartProgram),
         "still recorded"
     );
     // and a motion command does nothing
@@ -188,7 +191,15 @@ fn a_straight_line_with_no_ik_path_raises_e1088() {
 // ------------------------------------------------------------------ BRAKE
 
 fn moving_fast() -> (Controller, fs020n_sim::SessionId) {
-    let (mut c, id) = running();
+    moving_fast_with(Behaviour::default())
+}
+
+fn moving_fast_with(behaviour: Behaviour) -> (Controller, fs020n_sim::SessionId) {
+    let mut cfg = ControllerConfig::default();
+    cfg.behaviour = behaviour;
+    let mut c = Controller::new(cfg);
+    let id = c.try_accept().unwrap();
+    assert!(raw(&mut c, id, "1040 1 0").task_running);
     raw(&mut c, id, "1040 3 1 100");
     jmove(&mut c, id, [120.0, 40.0, -60.0, 90.0, -30.0, 180.0]);
     c.advance_by(ms(400));
@@ -196,10 +207,17 @@ fn moving_fast() -> (Controller, fs020n_sim::SessionId) {
     (c, id)
 }
 
+const DROP_PLANNED: Behaviour = Behaviour {
+    planned_after_brake: PlannedAfterBrake::Drop,
+    locals_survive_restart: false,
+};
+
 #[test]
 fn command_5_stops_within_the_braking_distance_and_the_program_goes_on() {
     let model = RobotModel::fs020n();
-    let (mut c, id) = moving_fast();
+    // With the planned motion dropped, the arm stays where the brake stops it (the default,
+    // `Execute`, then runs the re-issued JMOVE the look-ahead holds: see below).
+    let (mut c, id) = moving_fast_with(DROP_PLANNED);
     let q0 = c.joints();
     let v0 = c.velocity();
     let s = raw(&mut c, id, "1040 5 0");
@@ -238,7 +256,7 @@ fn command_5_stops_within_the_braking_distance_and_the_program_goes_on() {
 
 #[test]
 fn five_five_brakes_once() {
-    let (mut c, id) = moving_fast();
+    let (mut c, id) = moving_fast_with(DROP_PLANNED);
     raw(&mut c, id, "1040 5 0");
     let mut once = c.clone();
     c.advance_by(ms(50));
@@ -256,19 +274,65 @@ fn five_five_brakes_once() {
     assert_eq!(c.motion_phase(), MotionPhase::Braking);
 }
 
-#[test]
-fn brake_drops_the_planned_motion() {
-    let (mut c, id) = running();
+/// A planned motion when the brake comes, under `behaviour`: returns the controller after
+/// the brake. The program re-issues the newest 6 every pass, so while the arm moves to A
+/// (JT1 90°) the look-ahead holds a re-issued JMOVE A; a newer 6 (B: JT2 30°) waits unread
+/// behind it, and the 5 replaces it as newest before any pass reads it.
+fn brake_with_a_planned_motion(behaviour: Behaviour) -> (Controller, fs020n_sim::SessionId) {
+    let mut cfg = ControllerConfig::default();
+    cfg.behaviour = behaviour;
+    let mut c = Controller::new(cfg);
+    let id = c.try_accept().unwrap();
+    raw(&mut c, id, "1040 1 0");
     raw(&mut c, id, "1040 3 1 100");
     jmove(&mut c, id, [90.0, 0.0, -90.0, 0.0, -90.0, 0.0]);
     c.advance_by(ms(50));
     jmove(&mut c, id, [90.0, 30.0, -90.0, 0.0, -90.0, 0.0]);
     c.advance_by(ms(20));
     assert!(c.robot().has_planned(), "the look-ahead holds one motion");
-    raw(&mut c, id, "1040 5 0");
+    assert_eq!(c.robot().target()[1], 0.0, "B is not read yet");
+    let s = raw(&mut c, id, "1040 5 0");
+    assert_eq!(c.motion_phase(), MotionPhase::Braking);
+    assert!(s.task_running);
+    (c, id)
+}
+
+#[test]
+fn brake_drops_the_planned_motion_when_so_configured() {
+    let (mut c, _) = brake_with_a_planned_motion(DROP_PLANNED);
     assert!(!c.robot().has_planned());
     until(&mut c, ms(3000), is_still);
-    assert!(c.joints()[1].abs() < 1e-9, "the planned motion never ran");
+    c.advance_by(ms(500));
+    assert!(
+        c.joints()[0] < 90.0,
+        "braked short of A; the re-issued A never ran"
+    );
+    assert!(c.joints()[1].abs() < 1e-9, "B never ran");
+}
+
+#[test]
+fn by_default_the_planned_motion_runs_after_the_brake() {
+    // Spec §4, medium confidence: a motion planned by look-ahead is executed after BRAKE. For
+    // a 6 that motion is the program's re-issue of the same target: the arm brakes, then goes
+    // on to A anyway. B, never read, never runs. (Why a client that must stop sends 2.)
+    let (mut c, _) = brake_with_a_planned_motion(Behaviour::default());
+    assert!(
+        c.robot().has_planned(),
+        "kept, re-planned from where the brake stops"
+    );
+    let rest = c.robot().target();
+    assert!(rest[0] < 90.0 && rest[1] == 0.0);
+    // it starts only once the arm has stopped, then goes to the planned target
+    until(&mut c, ms(3000), |c| {
+        c.motion_phase() != MotionPhase::Braking
+    });
+    let planned = JointsDeg::new([90.0, 0.0, -90.0, 0.0, -90.0, 0.0]);
+    until(&mut c, ms(10_000), |c| c.joints() == planned);
+    // the program then goes on with the next step: the newest is the 5, passes do nothing
+    until(&mut c, ms(3000), is_still);
+    let q = c.joints();
+    c.advance_by(ms(1000));
+    assert_eq!(c.joints(), q);
 }
 
 // ------------------------------------------------------------------ look-ahead and blending
@@ -394,7 +458,7 @@ fn command_7_extrapolates_exactly_as_the_formula_says() {
                 "TIMER: 1 ms resolution"
             );
             // the sample as the controller parsed it (3 decimals on the wire, AS reals)
-            let Some(Command::StreamedMove(parsed)) = c.newest_command().cloned() else {
+            let Some(Command::StreamedMove(parsed)) = c.newest_command() else {
                 panic!("newest is not a 7")
             };
             assert!((parsed.t0_s - s.t0_s).abs() < 1e-3);
@@ -411,28 +475,85 @@ fn command_7_extrapolates_exactly_as_the_formula_says() {
         }
     }
     assert!(checked > 20, "checked {checked} passes");
-    // step starts at 0 and follows 0.9 step + 0.1 duration: it grows towards the pass duration
-    assert_eq!(steps[0], 0.0);
-    assert!(c.step_s() >= 0.01 * (1.0 - 0.9f64.powi(checked)) - 1e-9);
+    // step follows 0.9 step + 0.1 (tm − last_tm): the loop overhead (4 ms), never the motion
+    // wait — though these passes waited for their LMOVEs to blend in
+    let overhead = fs020n_sim::PASS_TIME.as_secs_f64();
+    assert!(steps.iter().all(|&s| s <= overhead + 0.001), "{steps:?}");
+    assert!(c.step_s() >= overhead * 0.5, "{}", c.step_s());
     assert!(c.error().is_none());
 }
 
 #[test]
-fn step_is_the_running_average_of_pass_durations() {
+fn step_is_the_running_average_of_the_loop_overhead() {
     let (mut c, id) = running();
-    raw(&mut c, id, "1040 4 0"); // passes that do nothing take PASS_TIME = 10 ms
+    raw(&mut c, id, "1040 4 0"); // passes that do nothing: one every PASS_TIME = 4 ms
     assert_eq!(c.step_s(), 0.0, "step starts at 0");
-    let mut expected = 0.0;
+    // the first pass runs at the next tick, 2 ms after `last_tm` was set at program start
+    c.advance_by(ms(2));
+    let mut expected = 0.1 * 0.002;
+    assert!((c.step_s() - expected).abs() < 1e-12);
     for _ in 0..30 {
-        // first pass at the next tick, then one every PASS_TIME
-        c.advance_by(if expected == 0.0 { ms(2) } else { ms(10) });
-        expected = 0.9 * expected + 0.1 * 0.010;
+        c.advance_by(fs020n_sim::PASS_TIME);
+        expected = 0.9 * expected + 0.1 * fs020n_sim::PASS_TIME.as_secs_f64();
         assert!(
             (c.step_s() - expected).abs() < 1e-12,
             "{} vs {expected}",
             c.step_s()
         );
     }
+}
+
+/// Spec §2.4 "Careful with step": `tm` is read at the start of a pass and `last_tm` after the
+/// previous pass's motion instruction was accepted, so `step` holds the loop overhead and
+/// `ARG2 × step` is a small look-ahead — here 40 passes × 4 ms = 0.16 s, where the old reading
+/// (step ≈ a whole 0.1 s pass with its motion wait) extrapolated about 4 s.
+#[test]
+fn a_large_lookahead_extrapolates_by_the_loop_overhead_not_the_motion_wait() {
+    let start = [0.0, 10.0, -80.0, 0.0, -80.0, 0.0];
+    let (mut c, id) = streaming_at(start, 100.0);
+    let v = 30.0; // deg/s on JT1: the tool moves ≈ 47 mm per 0.1 s LMOVE, beyond ACCURACY
+    let lookahead = 40.0;
+    let mut distances = Vec::new();
+    // a steady stream at 100 Hz: every sample stamped with the controller's own clock, so the
+    // clamp term is ≈ 0 and only ARG2 × step moves the point beyond the sample
+    for k in 0..300 {
+        let t = c.timer1_s();
+        let p = [start[0] + v * 0.01 * k as f64, 10.0, -80.0, 0.0, -80.0, 0.0];
+        let s = sample(t, lookahead, p, [v, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0; 6]);
+        cmd(&mut c, id, Command::StreamedMove(s));
+        let before = c.counters().passes;
+        c.advance_by(ms(10));
+        if k > 100 && c.counters().passes > before {
+            let pass = c.last_pass().unwrap();
+            if let Some(m) = pass.motion {
+                // how far beyond the sample (in time) the controller aimed
+                let Some(Command::StreamedMove(parsed)) = c.newest_command() else {
+                    panic!("newest is not a 7")
+                };
+                let dt_clamp = (pass.tm_s - parsed.t0_s).clamp(-0.5, 0.5);
+                distances.push((
+                    (m.target[0] - parsed.position[0]) / v - dt_clamp,
+                    pass.step_s,
+                ));
+            }
+        }
+    }
+    assert!(distances.len() > 20, "{}", distances.len());
+    let overhead = fs020n_sim::PASS_TIME.as_secs_f64();
+    for (ahead_s, step) in &distances {
+        assert!(
+            (ahead_s - lookahead * step).abs() < 1e-3,
+            "{ahead_s} vs {lookahead} × {step}"
+        );
+        assert!(
+            (step - overhead).abs() < 0.0015,
+            "step {step} is the loop overhead, not the motion wait"
+        );
+        assert!(*ahead_s < 0.25, "extrapolated {ahead_s} s ahead");
+    }
+    // the passes did wait for motion (≈ 0.1 s LMOVEs blending in within 10 mm), yet step
+    // ignores it: without waits there would be a pass every 4 ms, 750 in these 3 s
+    assert!(c.counters().passes < 500, "{}", c.counters().passes);
 }
 
 #[test]
@@ -462,7 +583,8 @@ fn near_singularities_the_30_percent_joint_move_is_used() {
     ] {
         let (mut c, id) = streaming_at([0.0, 10.0, -80.0, 0.0, -80.0, 0.0], 0.0);
         stream_to(&mut c, id, p);
-        c.advance_by(ms(10));
+        // the first pass (at the next tick) reads the 7
+        c.advance_by(ms(3));
         let m = c.last_pass().unwrap().motion.unwrap();
         assert_eq!(m.kind, MoveKind::Joint, "{what}");
         // SPEED 30 with the monitor at 10 %: product, 3 %
@@ -472,7 +594,7 @@ fn near_singularities_the_30_percent_joint_move_is_used() {
     let (mut c, id) = streaming_at([0.0, 10.0, -80.0, 0.0, -80.0, 0.0], 0.0);
     let p = [1.0, 10.0, -5.0, 0.0, -5.0, 0.0];
     stream_to(&mut c, id, p);
-    c.advance_by(ms(10));
+    c.advance_by(ms(3));
     let m = c.last_pass().unwrap().motion.unwrap();
     assert_eq!(m.kind, MoveKind::Linear);
     assert!((m.speed - 1.0).abs() < 1e-9, "{}", m.speed);
@@ -512,7 +634,7 @@ fn speed_is_a_product_before_command_3_and_a_minimum_after() {
     c.set_monitor_speed(50.0).unwrap();
     assert!(!c.abs_speed());
     stream_to(&mut c, id, p);
-    c.advance_by(ms(10));
+    c.advance_by(ms(3));
     assert!(
         (c.last_pass().unwrap().motion.unwrap().speed - 15.0).abs() < 1e-9,
         "30 % x 50 %"
@@ -520,10 +642,13 @@ fn speed_is_a_product_before_command_3_and_a_minimum_after() {
     raw(&mut c, id, "1040 2 0");
     raw(&mut c, id, "1040 3 1 50");
     assert!(c.abs_speed());
+    // the stop by signal 2007 takes its 50 ms edge
+    c.advance_by(ms(60));
+    assert_eq!(c.task(), TaskState::NotRunning);
     raw(&mut c, id, "1040 1 0");
     let p2 = [1.0, 10.0, -3.0, 0.0, -80.0, 0.0];
     stream_to(&mut c, id, p2);
-    c.advance_by(ms(10));
+    c.advance_by(ms(3));
     assert!(
         (c.last_pass().unwrap().motion.unwrap().speed - 30.0).abs() < 1e-9,
         "min(30, 50)"
@@ -722,4 +847,104 @@ fn a_first_7_at_the_current_joints_issues_no_motion() {
         "the program remembers the joints it started at"
     );
     assert!(c.counters().passes > 0);
+}
+
+// ------------------------------------------------------------------ stale arguments (spec §2)
+
+#[test]
+fn arguments_beyond_count_are_stale_not_zero() {
+    let (mut c, id) = running();
+    raw(&mut c, id, "1040 3 1 100");
+    jmove(&mut c, id, [10.0, 5.0, -80.0, 4.0, -70.0, 3.0]);
+    until(&mut c, ms(5000), |c| {
+        c.joints() == JointsDeg::new([10.0, 5.0, -80.0, 4.0, -70.0, 3.0])
+    });
+    // COUNT 6: ARG4–ARG6 (JT1–JT3) come from this request, JT4–JT6 keep the local array's
+    // values from the previous 6: the robot goes to (20, 15, -60, 4, -70, 3), not to zeros.
+    raw(&mut c, id, "1040 6 6 0 0 0 20 15 -60");
+    let expected = JointsDeg::new([20.0, 15.0, -60.0, 4.0, -70.0, 3.0]);
+    until(&mut c, ms(5000), |c| c.joints() == expected);
+    assert!(c.error().is_none());
+}
+
+#[test]
+fn a_short_command_7_extrapolates_with_old_velocities() {
+    let start = [0.0, 10.0, -80.0, 0.0, -80.0, 0.0];
+    let (mut c, id) = streaming_at(start, 100.0);
+    let t = c.timer1_s();
+    let full = sample(t, 0.0, start, [10.0, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0; 6]);
+    cmd(&mut c, id, Command::StreamedMove(full));
+    c.advance_by(ms(3));
+    // now a 7 with COUNT 9 (positions only): the velocities are the previous pass's 10 deg/s
+    let t = c.timer1_s();
+    raw(
+        &mut c,
+        id,
+        &format!("1040 7 9 {:.3} 0 0 1 10 -80 0 -80 0", t - 0.2),
+    );
+    c.advance_by(ms(4));
+    let pass = c.last_pass().unwrap();
+    let m = pass.motion.expect("a motion");
+    // dt = clamp(tm − t0) + 0 ≈ 0.2 s (+ the ms since): JT1 = 1 + 10 × dt, not 1
+    let dt = (pass.tm_s - (t - 0.2)).clamp(-0.5, 0.5);
+    assert!(
+        (m.target[0] - (1.0 + 10.0 * dt)).abs() < 1e-3,
+        "{:?}",
+        m.target
+    );
+    assert!(c.error().is_none());
+}
+
+#[test]
+fn an_argument_never_assigned_stops_the_program_with_e0102() {
+    // A fresh controller: the motion program's local array holds nothing yet.
+    let (mut c, id) = running();
+    let s = raw(&mut c, id, "1040 6 3 0 0 0");
+    assert!(
+        s.error.is_none(),
+        "the communication task stores it without complaint"
+    );
+    c.advance_by(ms(10));
+    assert_eq!(c.error(), ErrorCode::VARIABLE_NOT_DEFINED);
+    assert_eq!(c.error().to_string(), "E0102");
+    assert_eq!(c.task(), TaskState::NotRunning);
+    assert_eq!(c.counters().undefined_arguments, 1);
+    let s = raw(&mut c, id, "0 0 0");
+    assert_eq!(s.error.raw(), -30102);
+    assert_eq!(c.joints(), HOME, "nothing moved");
+}
+
+#[test]
+fn the_full_count_never_reads_stale_values() {
+    // What the client always sends: 9 arguments for 6, 21 for 7.
+    let (mut c, id) = running();
+    raw(&mut c, id, "1040 3 1 100");
+    jmove(&mut c, id, [10.0, 5.0, -80.0, 4.0, -70.0, 3.0]);
+    c.advance_by(ms(20));
+    jmove(&mut c, id, [0.0, 0.0, -90.0, 0.0, -90.0, 0.0]);
+    until(&mut c, ms(10_000), |c| c.joints() == HOME);
+}
+
+#[test]
+fn locals_start_undefined_after_a_restart_unless_configured_to_survive() {
+    for survive in [false, true] {
+        let mut cfg = ControllerConfig::default();
+        cfg.behaviour.locals_survive_restart = survive;
+        let mut c = Controller::new(cfg);
+        let id = c.try_accept().unwrap();
+        raw(&mut c, id, "1040 1 0");
+        jmove(&mut c, id, [1.0, 0.0, -90.0, 0.0, -90.0, 0.0]);
+        c.advance_by(ms(20));
+        raw(&mut c, id, "1040 2 0");
+        c.advance_by(ms(100));
+        assert_eq!(c.task(), TaskState::NotRunning);
+        raw(&mut c, id, "1040 1 0");
+        raw(&mut c, id, "1040 6 6 0 0 0 2 0 -90");
+        c.advance_by(ms(10));
+        if survive {
+            assert!(c.error().is_none(), "JT4–JT6 from the earlier execution");
+        } else {
+            assert_eq!(c.error(), ErrorCode::VARIABLE_NOT_DEFINED);
+        }
+    }
 }

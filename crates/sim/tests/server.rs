@@ -56,7 +56,10 @@ async fn silence_closes_the_session_and_stops_the_robot() {
         SessionEnd::ReceiveTimeout
     );
     assert!(!snap.session.open && snap.session.listening);
-    assert_eq!(snap.task, TaskState::NotRunning);
+    // signal 2007 is raised; the program's ONI fires once it has been stable for 50 ms
+    assert!(emu.with(|c| c.stop_signal()));
+    sleep(fs020n_sim::SIGNAL_EDGE + Duration::from_millis(2)).await;
+    assert_eq!(emu.snapshot().task, TaskState::NotRunning);
     sleep(Duration::from_secs(1)).await;
     let stop = emu.with(|c| c.joints());
     sleep(Duration::from_secs(1)).await;
@@ -127,6 +130,7 @@ async fn send_timeout_ends_the_session_when_the_client_does_not_read() {
     );
     let end = emu.with(|c| c.last_session_end()).expect("ended");
     assert_eq!(end.1, SessionEnd::SendTimeout);
+    sleep(fs020n_sim::SIGNAL_EDGE + Duration::from_millis(2)).await;
     assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
 }
 
@@ -223,7 +227,8 @@ async fn fault_close_connection() {
     assert_eq!(s.read(&mut buf).await.unwrap(), 0);
     let snap = emu.snapshot();
     assert_eq!(snap.session.last_end.unwrap().reason, SessionEnd::Fault);
-    assert_eq!(snap.task, TaskState::NotRunning);
+    sleep(fs020n_sim::SIGNAL_EDGE + Duration::from_millis(2)).await;
+    assert_eq!(emu.snapshot().task, TaskState::NotRunning);
     assert!(emu.connect().is_ok(), "listening again");
 }
 

@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use common::*;
 use fs020n_proto::{Command, ErrorCode, Status};
-use fs020n_sim::{Refused, SessionEnd, TaskState};
+use fs020n_sim::{Refused, SessionEnd, TaskState, SIGNAL_EDGE};
 
 #[test]
 fn five_seconds_of_silence_end_the_session_and_stop_the_robot() {
@@ -23,8 +23,11 @@ fn five_seconds_of_silence_end_the_session_and_stop_the_robot() {
     c.advance_to(Duration::from_millis(6000));
     assert!(!c.is_session_open(id));
     assert_eq!(c.last_session_end(), Some((id, SessionEnd::ReceiveTimeout)));
-    assert_eq!(c.task(), TaskState::NotRunning);
     assert_eq!(c.counters().receive_timeouts, 1);
+    // the communication task raises signal 2007; the program's ONI fires after the edge
+    assert!(c.stop_signal());
+    c.advance_by(SIGNAL_EDGE);
+    assert_eq!(c.task(), TaskState::NotRunning);
     // the robot stops at once (braking), then stands
     until(&mut c, ms(2000), is_still);
     let here = c.joints();
@@ -82,7 +85,7 @@ fn timer_and_ring_reset_on_accept() {
     let s = raw(&mut c, a, "1040 4 0");
     assert_eq!(s.timer.seconds(), Some(2.5));
     assert_eq!(c.newest_index(), Some(1));
-    assert_eq!(c.newest_command(), Some(&Command::Reserved));
+    assert_eq!(c.newest_command(), Some(Command::Reserved));
     raw(&mut c, a, "1040 255 0");
     c.advance_by(ms(700));
     let b = c.try_accept().unwrap();
@@ -142,13 +145,12 @@ fn version_mismatch_and_leading_blank_move_nothing() {
     }
     assert_eq!(c.task(), TaskState::NotRunning);
     assert_eq!(c.newest_index(), Some(0));
-    // a double blank after the version: the command token is empty, VAL("") = 0 — stored as
-    // command 0, which does nothing
+    // a run of blanks between tokens is one separator ($DECODE mode 1 cuts the whole run):
+    // the double blank after the version acts
     let s = raw(&mut c, id, "1040  1 0");
-    assert!(!s.task_running);
+    assert!(s.task_running, "\"1040  1 0\" starts the program");
     assert_eq!(c.newest_index(), Some(1));
-    assert_eq!(c.newest_command().unwrap().number(), 0.0);
-    raw(&mut c, id, "1040 1 0");
+    assert_eq!(c.newest_command().unwrap().number(), 1.0);
     for req in [
         " 1040 6 9 0 0 0 45 0 -90 0 -90 0",
         "1039 6 9 0 0 0 45 0 -90 0 -90 0",
@@ -170,7 +172,7 @@ fn only_the_first_255_bytes_of_one_read_count() {
     raw(&mut c, id, "1040 1 0");
     // Two requests in one read are one request: the second is trailing tokens, ignored.
     raw(&mut c, id, "1040 4 01040 6 9 0 0 0 45 0 -90 0 -90 0");
-    assert_eq!(c.newest_command(), Some(&Command::Reserved));
+    assert_eq!(c.newest_command(), Some(Command::Reserved));
     // A target beyond byte 255 is lost: JT1 reads from the first 255 bytes only.
     let mut req = String::from("1040 6 9 0 0 0 ");
     while req.len() < 254 {
@@ -232,6 +234,9 @@ fn command_255_replies_then_ends_the_session_and_the_program() {
     let s = Status::decode(std::str::from_utf8(&h.reply).unwrap()).unwrap();
     assert!(s.task_running, "the reply is built before the session ends");
     assert_eq!(c.last_session_end(), Some((id, SessionEnd::EndCommand)));
+    // then `SIGNAL 2007`: the program ends once the signal has been stable for 50 ms
+    assert_eq!(c.task(), TaskState::Running);
+    c.advance_by(SIGNAL_EDGE);
     assert_eq!(c.task(), TaskState::NotRunning);
     until(&mut c, ms(2000), is_still);
     assert!(
@@ -241,13 +246,21 @@ fn command_255_replies_then_ends_the_session_and_the_program() {
 }
 
 #[test]
-fn command_2_stops_at_once_and_the_session_stays() {
+fn command_2_stops_after_the_signal_edge_and_the_session_stays() {
     let (mut c, id) = running();
     jmove(&mut c, id, [60.0, 0.0, -90.0, 0.0, -90.0, 0.0]);
     c.advance_by(ms(500));
+    // `SIGNAL 2007` + `ros_move_run = 0`: the reply is built at once, TASK(1) still 1
     let s = raw(&mut c, id, "1040 2 0");
-    assert!(!s.task_running);
+    assert!(s.task_running, "the ONI needs the signal stable for 50 ms");
     assert!(c.is_session_open(id));
+    let q = c.joints();
+    c.advance_by(SIGNAL_EDGE - ms(2));
+    assert!(c.joints()[0] > q[0], "still moving during the edge");
+    assert!(c.task() != TaskState::NotRunning);
+    c.advance_by(ms(2));
+    assert_eq!(c.task(), TaskState::NotRunning, "the ONI fired");
+    assert_eq!(c.motion_phase(), fs020n_sim::MotionPhase::Braking);
     until(&mut c, ms(2000), is_still);
     let stop = c.joints();
     assert!(stop[0] < 59.0);
@@ -259,6 +272,54 @@ fn command_2_stops_at_once_and_the_session_stays() {
     jmove(&mut c, id, [60.0, 0.0, -90.0, 0.0, -90.0, 0.0]);
     c.advance_by(ms(1000));
     assert!(c.joints()[0] > stop[0]);
+}
+
+#[test]
+fn a_1_sent_right_after_a_2_is_lost() {
+    // Spec §4: the server tests `TASK(1) <> 1`; within the signal edge the program still runs
+    // (here it waits at its look-ahead motion, so its loop does not see the cleared flag), so
+    // the 1 is ignored, and then the ONI ends the program.
+    let (mut c, id) = running();
+    jmove(&mut c, id, [60.0, 0.0, -90.0, 0.0, -90.0, 0.0]);
+    c.advance_by(ms(100));
+    raw(&mut c, id, "1040 2 0");
+    c.advance_by(ms(10));
+    let ignored = c.counters().starts_ignored;
+    let s = raw(&mut c, id, "1040 1 0");
+    assert!(s.task_running);
+    assert_eq!(c.counters().starts_ignored, ignored + 1);
+    c.advance_by(SIGNAL_EDGE);
+    assert_eq!(c.task(), TaskState::NotRunning);
+    assert!(!raw(&mut c, id, "0 0 0").task_running);
+    // after the edge, a 1 starts it again
+    assert!(raw(&mut c, id, "1040 1 0").task_running);
+    assert!(
+        !c.stop_signal(),
+        "the program clears signal 2007 when it starts"
+    );
+}
+
+#[test]
+fn command_1_during_task_state_3_reaches_mc_execute_which_is_refused() {
+    // After a 2, the program's loop ends at its next pass (`ros_move_run = 0`): TASK(1) = 3
+    // while its last motion finishes, until the ONI fires. A 1 then passes the server's test
+    // (TASK(1) <> 1) but MC EXECUTE is refused (P1009).
+    let (mut c, id) = running();
+    jmove(&mut c, id, [60.0, 0.0, -90.0, 0.0, -90.0, 0.0]);
+    // the first pass (at 2 ms) starts the JMOVE; a 4 before the next pass (at 6 ms) means no
+    // pass re-issues it, so the loop runs freely while the arm moves
+    c.advance_by(ms(3));
+    raw(&mut c, id, "1040 4 0");
+    c.advance_by(ms(300));
+    raw(&mut c, id, "1040 2 0");
+    c.advance_by(ms(10));
+    assert_eq!(c.task(), TaskState::Finishing);
+    assert_eq!(c.task().as_task_value(), 3);
+    let s = raw(&mut c, id, "1040 1 0");
+    assert!(!s.task_running, "field 7 is TASK(1) == 1: 0 in state 3");
+    assert_eq!(c.counters().starts_refused, 1);
+    c.advance_by(SIGNAL_EDGE);
+    assert_eq!(c.task(), TaskState::NotRunning);
 }
 
 #[test]

@@ -35,16 +35,48 @@ async fn http(
     body: Option<&str>,
     token: Option<&str>,
 ) -> (u16, Value) {
+    http_with(
+        addr,
+        method,
+        path,
+        body,
+        token,
+        &[("Host", &addr.to_string())],
+    )
+    .await
+}
+
+/// Like [`http`] with the given extra headers (a `Host` among them replaces the default).
+async fn http_with(
+    addr: SocketAddr,
+    method: &str,
+    path: &str,
+    body: Option<&str>,
+    token: Option<&str>,
+    headers: &[(&str, &str)],
+) -> (u16, Value) {
     let mut s = TcpStream::connect(addr).await.unwrap();
-    let mut req = format!("{method} {path} HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n");
+    let mut req = format!("{method} {path} HTTP/1.1\r\nConnection: close\r\n");
+    for (k, v) in headers {
+        req.push_str(&format!("{k}: {v}\r\n"));
+    }
     if let Some(t) = token {
         req.push_str(&format!("Authorization: Bearer {t}\r\n"));
     }
     if let Some(b) = body {
-        req.push_str(&format!(
-            "Content-Type: application/json\r\nContent-Length: {}\r\n\r\n{b}",
-            b.len()
-        ));
+        if !headers
+            .iter()
+            .any(|(k, _)| k.eq_ignore_ascii_case("content-type"))
+        {
+            req.push_str("Content-Type: application/json\r\n");
+        }
+        req.push_str(&format!("Content-Length: {}\r\n\r\n{b}", b.len()));
+    } else if method == "POST"
+        && !headers
+            .iter()
+            .any(|(k, _)| k.eq_ignore_ascii_case("content-type"))
+    {
+        req.push_str("Content-Type: application/json\r\nContent-Length: 0\r\n\r\n");
     } else {
         req.push_str("Content-Length: 0\r\n\r\n");
     }
@@ -104,7 +136,14 @@ async fn tcp_session_one_client_255_and_relisten() {
     assert!(st.task_running, "reply to 255 is still sent");
     let mut buf = [0u8; 16];
     assert_eq!(s.read(&mut buf).await.unwrap(), 0, "then the socket closes");
-    assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
+    // then signal 2007 ends the program once stable for 50 ms
+    assert!(emu.with(|c| c.stop_signal()));
+    let mut waited = 0;
+    while emu.with(|c| c.task()) != TaskState::NotRunning {
+        assert!(waited < 200, "the program did not end");
+        tokio::time::sleep(Duration::from_millis(10)).await;
+        waited += 1;
+    }
     let mut again = None;
     for _ in 0..100 {
         if let Ok(c) = TcpStream::connect(server.local_addr()).await {
@@ -382,4 +421,123 @@ async fn run_robot_starts_both_servers_and_several_robots_coexist() {
     .await
     .unwrap_err();
     assert!(e.to_string().contains("token"));
+}
+
+#[tokio::test]
+async fn pendant_refuses_what_a_foreign_web_page_can_send() {
+    let emu = Emulator::new(ControllerConfig::default());
+    let pendant = serve_pendant(emu.clone(), local(), None).await.unwrap();
+    let addr = pendant.local_addr();
+    let own = format!("http://{addr}");
+    let port = addr.port();
+    // DNS rebinding: a page of evil.example resolved to 127.0.0.1 sends its own Host
+    let (st, v) = http_with(
+        addr,
+        "POST",
+        "/estop/press",
+        None,
+        None,
+        &[("Host", &format!("evil.example:{port}"))],
+    )
+    .await;
+    assert_eq!(st, 421, "{v}");
+    assert!(v["remedy"]
+        .as_str()
+        .unwrap()
+        .contains("address it listens on"));
+    let (st, _) = http_with(addr, "GET", "/state", None, None, &[]).await;
+    assert_eq!(st, 421, "no Host at all");
+    // a cross-site fetch from another origin
+    let (st, v) = http_with(
+        addr,
+        "POST",
+        "/estop/press",
+        None,
+        None,
+        &[
+            ("Host", &addr.to_string()),
+            ("Origin", "http://evil.example"),
+        ],
+    )
+    .await;
+    assert_eq!(st, 403, "{v}");
+    let (st, _) = http_with(
+        addr,
+        "POST",
+        "/estop/press",
+        None,
+        None,
+        &[("Host", &addr.to_string()), ("Origin", "null")],
+    )
+    .await;
+    assert_eq!(st, 403);
+    // a form post (text/plain or urlencoded) — the kind a page can send without a preflight
+    for ct in [
+        "text/plain",
+        "application/x-www-form-urlencoded",
+        "multipart/form-data; boundary=x",
+    ] {
+        let (st, v) = http_with(
+            addr,
+            "POST",
+            "/estop/press",
+            Some("{}"),
+            None,
+            &[("Host", &addr.to_string()), ("Content-Type", ct)],
+        )
+        .await;
+        assert_eq!(st, 415, "{ct}: {v}");
+    }
+    assert!(
+        !emu.with(|c| c.panel().estop),
+        "nothing above pressed the E-stop"
+    );
+    // the pendant's own page (same origin, JSON) and curl (no Origin) are served
+    let (st, _) = http_with(
+        addr,
+        "POST",
+        "/estop/press",
+        None,
+        None,
+        &[
+            ("Host", &format!("localhost:{port}")),
+            ("Origin", &own),
+            ("Content-Type", "application/json; charset=utf-8"),
+        ],
+    )
+    .await;
+    assert_eq!(st, 200);
+    assert!(emu.with(|c| c.panel().estop));
+    let (st, _) = http(addr, "POST", "/estop/release", None, None).await;
+    assert_eq!(st, 200);
+    pendant.stop();
+}
+
+#[tokio::test]
+async fn pendant_validates_fault_parameters_and_switches_abs_speed_off() {
+    let emu = Emulator::new(ControllerConfig::default());
+    let pendant = serve_pendant(emu.clone(), local(), None).await.unwrap();
+    let addr = pendant.local_addr();
+    for bad in [
+        r#"{"kind": "split_reply", "parts": 0, "gap_ms": 10}"#,
+        r#"{"kind": "split_reply", "parts": 1, "gap_ms": 10}"#,
+    ] {
+        let (st, v) = http(addr, "POST", "/faults", Some(bad), None).await;
+        assert_eq!(st, 422, "{bad}: {v}");
+    }
+    assert_eq!(emu.with(|c| c.pending_faults()), 0);
+    // ABS.SPEED: on by a command 3, shown, and off only from the pendant
+    emu.with(|c| {
+        let id = c.try_accept().unwrap();
+        c.handle_request(id, b"1040 3 1 40").unwrap();
+        c.handle_request(id, b"1040 255 0").unwrap();
+    });
+    let (_, v) = http(addr, "GET", "/abs_speed", None, None).await;
+    assert_eq!(v["on"], true);
+    let (_, v) = http(addr, "GET", "/state", None, None).await;
+    assert_eq!(v["abs_speed"], true, "survives the session");
+    let (st, v) = http(addr, "POST", "/abs_speed", Some(r#"{"on": false}"#), None).await;
+    assert_eq!(st, 200);
+    assert_eq!(v["abs_speed"], false);
+    pendant.stop();
 }
