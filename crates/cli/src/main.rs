@@ -82,6 +82,22 @@ fn run(cli: Cli) -> CliResult {
     let model = load_model(&cli)?;
     if let Some(path) = &cli.record {
         recording::recording(path)?;
+        let without_session = match &cli.command {
+            Cmd::Decode(_) => Some("decode"),
+            Cmd::Fk { .. } => Some("fk"),
+            Cmd::Ik { .. } => Some("ik"),
+            Cmd::Completions { .. } => Some("completions"),
+            Cmd::Sim(_) => Some("sim"),
+            Cmd::Plot(_) => Some("plot"),
+            Cmd::Replay(_) => Some("replay"),
+            _ => None,
+        };
+        if let Some(name) = without_session {
+            return Err(CliError::input(format!(
+                "--record records the requests and replies of a session with a robot; `{name}` \
+                 has none: leave out --record"
+            )));
+        }
     }
     match &cli.command {
         Cmd::Decode(args) => offline::decode(args, cli.json),

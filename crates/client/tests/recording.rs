@@ -109,8 +109,13 @@ async fn an_mcap_recording_has_ros2_joint_states_and_json_topics() {
         assert_eq!(m.name, JOINT_NAMES);
         assert_eq!(m.position.len(), 6);
         max_jt1 = max_jt1.max(m.position[0]);
-        // Radians: JT3 and JT5 stay near -90 degrees.
-        assert!((m.position[2] + std::f64::consts::FRAC_PI_2).abs() < 1e-6);
+        // Radians: JT3 stays near -90 degrees (the streamed moves are straight lines of the
+        // flange, so the other joints move a little).
+        assert!(
+            (m.position[2] + std::f64::consts::FRAC_PI_2).abs() < 1f64.to_radians(),
+            "{:?}",
+            m.position
+        );
     }
     assert!((max_jt1 - 10f64.to_radians()).abs() < 1e-3, "{max_jt1}");
 
