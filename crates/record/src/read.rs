@@ -342,7 +342,11 @@ fn read_csv(text: &str) -> Result<Run, RecordError> {
         let last = records.len().saturating_sub(1);
         for (k, rec) in records.into_iter().enumerate() {
             let no = k + 2;
-            // A killed writer can leave a last line cut short.
+            // A killed writer can leave a last line cut short (every line ends with a newline).
+            if k == last && !text.ends_with('\n') {
+                truncated = Some(format!("line {no} is cut short (no end of line)"));
+                break;
+            }
             let rec = match rec {
                 Ok(rec) if rec.len() == 6 => rec,
                 Ok(rec) if k == last => {
