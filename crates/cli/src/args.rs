@@ -2,6 +2,7 @@
 
 use std::path::PathBuf;
 
+use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
 /// Drive a Kawasaki FS020N over protocol 1040, or emulate one.
@@ -14,12 +15,15 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 #[command(after_help = "EXAMPLES:
   fs020n demo                                   # everything, on the embedded emulator
   fs020n sim                                    # an emulator on 127.0.0.1:10050
+  fs020n sim --pendant 127.0.0.1:10051          # ... with its web pendant: http://127.0.0.1:10051/
+  fs020n hub --http 127.0.0.1:8080 --listen 127.0.0.1:10060   # share the robot's session
   fs020n --robot 192.168.0.2:10050 status --watch
   fs020n move 0 10 -80 0 -90 0 --speed 20 --wait
+  fs020n move --pose 850 0 1100 0 180 0 --linear
   fs020n play path.csv --mode stream
   fs020n decode ' 1040 -31088 -1 -1 0 -1 0     1.500     0.000     0.000   -90.000     0.000   -90.000     0.000 '
   fs020n ik 850 0 1153.5 0 180 0 --json")]
-pub struct Cli {
+pub(crate) struct Cli {
     /// The robot's address (HOST:PORT); default 127.0.0.1:10050, where `fs020n sim` listens.
     /// `demo` and `bench` use an embedded emulator when it is not given.
     #[arg(long, global = true, env = "FS020N_ROBOT", value_name = "HOST:PORT")]
@@ -27,10 +31,15 @@ pub struct Cli {
     /// Print machine-readable JSON instead of tables.
     #[arg(long, global = true)]
     pub json: bool,
-    /// More logs (-v info, -vv debug: every request and reply, -vvv trace).
+    /// More logs on stderr: -v sessions, -vv every request and reply with its bytes and round
+    /// trip, -vvv also the keep-alive polls (`RUST_LOG` overrides).
     #[arg(short, long, global = true, action = clap::ArgAction::Count)]
     pub verbose: u8,
-    /// How long to keep trying to connect (the controller listens in 3 s windows), seconds.
+    /// Colours on stderr: auto = on a terminal unless NO_COLOR is set.
+    #[arg(long, global = true, value_enum, default_value_t = ColorWhen::Auto, value_name = "WHEN")]
+    pub color: ColorWhen,
+    /// How long to keep trying to connect (the controller listens in 3 s windows), seconds,
+    /// 0.1–3600.
     #[arg(long, global = true, default_value_t = 10.0, value_name = "S")]
     pub connect_timeout: f64,
     /// A robot model file (TOML) instead of the embedded FS020N model.
@@ -45,15 +54,26 @@ pub struct Cli {
     pub command: Cmd,
 }
 
+/// When to colour stderr.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub(crate) enum ColorWhen {
+    /// On a terminal, unless the environment variable NO_COLOR is set (and not empty).
+    Auto,
+    /// Always.
+    Always,
+    /// Never.
+    Never,
+}
+
 /// Subcommands.
 #[derive(Debug, Subcommand)]
-pub enum Cmd {
+pub(crate) enum Cmd {
     /// Show the robot's status (switches, error, program, timer, joints).
     Status {
         /// Redraw the status continuously until Ctrl-C.
         #[arg(long)]
         watch: bool,
-        /// Redraw rate with --watch, Hz.
+        /// Redraw rate with --watch, Hz, 0.01–100.
         #[arg(long, default_value_t = 5.0, value_name = "HZ")]
         rate: f64,
     },
@@ -62,25 +82,17 @@ pub enum Cmd {
     /// Set the monitor speed (percent, 1–100); it persists in the controller.
     Speed {
         /// Percent, 1–100.
+        #[arg(value_name = "PCT")]
         percent: f64,
     },
-    /// Start the program and move the joints to a target (degrees).
+    /// Start the program and move to a target: joints (degrees), or a flange pose with --pose.
     #[command(allow_negative_numbers = true)]
     Move(MoveArgs),
     /// Play a trajectory file (CSV `time_s,j1..j6[,v1..v6,a1..a6]` or JSON).
     Play(PlayArgs),
     /// Record the status: FILE.csv gets a status table; FILE.mcap or FILE.jsonl every request
     /// and reply (docs/RECORDING.md).
-    Record {
-        /// Output file (.csv, .mcap or .jsonl).
-        file: PathBuf,
-        /// Samples per second.
-        #[arg(long, default_value_t = 10.0, value_name = "HZ")]
-        rate: f64,
-        /// Stop after this many seconds (default: until Ctrl-C).
-        #[arg(long, value_name = "S")]
-        duration: Option<f64>,
-    },
+    Record(RecordArgs),
     /// Send one raw request and print the raw reply and its decoding.
     Raw {
         /// The request text, e.g. "0 0 0" or "1040 3 1 20".
@@ -110,16 +122,19 @@ pub enum Cmd {
     },
     /// Lock-step round-trip statistics using side-effect-free status polls.
     Bench {
-        /// Number of round trips.
-        #[arg(long, default_value_t = 1000)]
+        /// Number of round trips, at least 1.
+        #[arg(long, default_value_t = 1000, value_name = "N")]
         count: u32,
     },
     /// Run the controller emulator in the foreground until Ctrl-C.
     Sim(SimArgs),
+    /// Hold the one session with a controller and share it: web page, protocol-1040 face,
+    /// safety fence, Foxglove bridge, recording (docs/HUB.md).
+    Hub(HubArgs),
     /// The full tour on the embedded emulator: preflight, speed, moves, a stream, a report.
     Demo {
-        /// Speed percent for the joint moves.
-        #[arg(long, default_value_t = 50.0)]
+        /// Speed percent for the joint moves, 1–100.
+        #[arg(long, default_value_t = 50.0, value_name = "PCT")]
         speed: f64,
         /// Confirm running the demo on the real robot given by --robot (it moves the arm).
         #[arg(long)]
@@ -134,6 +149,10 @@ pub enum Cmd {
     /// Send a recording's requests again with their original timing (to the embedded emulator,
     /// or --robot) and report where the replies differ.
     Replay(ReplayArgs),
+    /// Run the ROS 2 node (joint states, URDF, FollowJointTrajectory for MoveIt 2, services,
+    /// diagnostics) on the robot until Ctrl-C. See docs/ROS2.md.
+    #[cfg(feature = "ros2")]
+    Ros2(Ros2Args),
     /// Print shell completions.
     Completions {
         /// The shell.
@@ -141,29 +160,64 @@ pub enum Cmd {
     },
 }
 
+/// `record` arguments.
+#[derive(Debug, Args)]
+pub(crate) struct RecordArgs {
+    /// Output file: .csv (the status table), .mcap or .jsonl (every request and reply); refused
+    /// if it exists, unless --force (or --append, CSV only).
+    pub file: PathBuf,
+    /// Samples per second, 0.01–1000.
+    #[arg(long, default_value_t = 10.0, value_name = "HZ")]
+    pub rate: f64,
+    /// Stop after this many seconds, up to a day (default: until Ctrl-C).
+    #[arg(long, value_name = "S")]
+    pub duration: Option<f64>,
+    /// Overwrite the file if it exists.
+    #[arg(long, conflicts_with = "append")]
+    pub force: bool,
+    /// Add rows to the file if it exists (its header must be this command's).
+    #[arg(long)]
+    pub append: bool,
+}
+
 /// `move` arguments.
 #[derive(Debug, Args)]
-pub struct MoveArgs {
+pub(crate) struct MoveArgs {
     /// JT1..JT6, degrees.
-    #[arg(num_args = 6, value_names = ["J1", "J2", "J3", "J4", "J5", "J6"], required = true, allow_negative_numbers = true)]
+    #[arg(num_args = 6, value_names = ["J1", "J2", "J3", "J4", "J5", "J6"], required_unless_present = "pose", conflicts_with = "pose", allow_negative_numbers = true)]
     pub joints: Vec<f64>,
-    /// Set this speed (percent) before moving.
+    /// A flange pose instead of joints: X Y Z (mm) O A T (deg, Z-Y-Z Euler angles as in AS);
+    /// the inverse-kinematics solution nearest the current joints.
+    #[arg(long, num_args = 6, value_names = ["X", "Y", "Z", "O", "A", "T"], allow_negative_numbers = true)]
+    pub pose: Option<Vec<f64>>,
+    /// With --pose: a straight line of the flange, streamed with command 7 (monitor speed set
+    /// to 100 %, which streaming needs; the line's pace is --speed).
+    #[arg(long, requires = "pose")]
+    pub linear: bool,
+    /// Speed percent, 1–100: the monitor speed set before a joint move (default: leave it);
+    /// with --linear, the pace of the line as a percentage of the joints' top speeds
+    /// (default 10).
     #[arg(long, value_name = "PCT")]
     pub speed: Option<f64>,
-    /// Wait until the target is reached (with a progress bar).
+    /// Show a progress bar while moving (the command always waits for the target).
     #[arg(long)]
     pub wait: bool,
-    /// Per-joint tolerance for --wait, degrees.
+    /// Per-joint tolerance at the target, degrees, above 0 and at most 5.
     #[arg(long, default_value_t = 0.1, value_name = "DEG")]
     pub tolerance: f64,
-    /// Give up waiting after this many seconds (default: from the move's duration).
+    /// Give up waiting after this many seconds, up to a day (default: twice the planned
+    /// duration plus 5 s).
     #[arg(long, value_name = "S")]
     pub timeout: Option<f64>,
+    /// When RUN/HOLD is switched to HOLD, wait up to this many seconds for RUN (the controller
+    /// resumes the motion), up to a day; 0 fails at once.
+    #[arg(long, default_value_t = 60.0, value_name = "S")]
+    pub hold_timeout: f64,
 }
 
 /// How `play` sends the trajectory.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum PlayMode {
+pub(crate) enum PlayMode {
     /// Command 7: time-stamped samples extrapolated by the controller.
     Stream,
     /// Command 6: joint-move waypoints at a fixed rate.
@@ -172,26 +226,76 @@ pub enum PlayMode {
 
 /// `play` arguments.
 #[derive(Debug, Args)]
-pub struct PlayArgs {
+pub(crate) struct PlayArgs {
     /// Trajectory file: CSV (`time_s,j1..j6[,v1..v6,a1..a6]`) or JSON.
     pub file: PathBuf,
     /// Streaming mode.
     #[arg(long, value_enum, default_value_t = PlayMode::Stream)]
     pub mode: PlayMode,
-    /// Send rate, Hz.
+    /// Send rate, Hz, 4–500.
     #[arg(long, default_value_t = 50.0, value_name = "HZ")]
     pub rate: f64,
-    /// Speed percent (command 3) before playing.
+    /// Monitor speed percent (command 3) before playing, 1–100.
     #[arg(long, default_value_t = 100.0, value_name = "PCT")]
     pub speed: f64,
     /// If the robot is not at the first point, move there first with a joint move.
     #[arg(long)]
     pub approach: bool,
+    /// When RUN/HOLD is switched to HOLD, wait up to this many seconds for RUN and go on from
+    /// the same point of the trajectory, up to a day; 0 fails at once.
+    #[arg(long, default_value_t = 60.0, value_name = "S")]
+    pub hold_timeout: f64,
+}
+
+/// `ros2` arguments (flags override the parameter file, which overrides the environment).
+#[cfg(feature = "ros2")]
+#[derive(Debug, Args)]
+pub(crate) struct Ros2Args {
+    /// Print a MoveIt configuration file for this robot model and these settings, and exit:
+    /// urdf, joint-limits (joint_limits.yaml) or controllers (moveit_controllers.yaml).
+    #[arg(long, value_name = "WHAT", value_parser = ["urdf", "joint-limits", "controllers"])]
+    pub(crate) print: Option<String>,
+    /// Run on an emulator inside this process instead of a robot (to try MoveIt, or in tests).
+    #[arg(long)]
+    pub(crate) embedded: bool,
+    /// With --embedded: serve the emulator's pendant API (switches, E-stop, faults) here.
+    #[arg(long, value_name = "HOST:PORT")]
+    pub(crate) pendant: Option<String>,
+    /// A ROS 2 parameter file (YAML: `fs020n: {ros__parameters: {joint_names: [...], ...}}`).
+    #[arg(long, value_name = "FILE")]
+    pub(crate) params_file: Option<PathBuf>,
+    /// ROS domain (default: ROS_DOMAIN_ID, else 0).
+    #[arg(long, value_name = "ID")]
+    pub(crate) domain_id: Option<u16>,
+    /// Keep DDS on 127.0.0.1 (also with ROS_LOCALHOST_ONLY=1 or
+    /// ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST).
+    #[arg(long)]
+    pub(crate) localhost_only: bool,
+    /// Service mapping of the ROS 2 middleware of the peers: enhanced (FastDDS, the default of
+    /// Humble and Jazzy), cyclone (rmw_cyclonedds_cpp) or basic.
+    #[arg(long, value_name = "MAPPING")]
+    pub(crate) service_mapping: Option<String>,
+    /// Node name (default fs020n).
+    #[arg(long, value_name = "NAME")]
+    pub(crate) node_name: Option<String>,
+    /// Node namespace (default /).
+    #[arg(long, value_name = "NS")]
+    pub(crate) namespace: Option<String>,
+    /// /joint_states rate, Hz (default 100).
+    #[arg(long, value_name = "HZ")]
+    pub(crate) rate: Option<f64>,
+    /// The action is NS/follow_joint_trajectory (default /fs020n_controller).
+    #[arg(long, value_name = "NS")]
+    pub(crate) action_namespace: Option<String>,
+    /// Start the motion program when a goal arrives and it is not running (default: call
+    /// ~/start first).
+    #[arg(long)]
+    pub(crate) auto_start: bool,
 }
 
 /// `plot` arguments.
 #[derive(Debug, Args)]
-pub struct PlotArgs {
+pub(crate) struct PlotArgs {
     /// The recording: .mcap, .csv (the client's, or `fs020n record`'s status table) or .jsonl.
     pub recording: PathBuf,
     /// The picture: .png or .svg.
@@ -216,7 +320,7 @@ pub struct PlotArgs {
 
 /// `replay` arguments.
 #[derive(Debug, Args)]
-pub struct ReplayArgs {
+pub(crate) struct ReplayArgs {
     /// The recording: .mcap, .csv or .jsonl written with --record.
     pub recording: PathBuf,
     /// A joint differing by more than this is a divergence, degrees.
@@ -233,7 +337,7 @@ pub struct ReplayArgs {
 
 /// `decode` arguments.
 #[derive(Debug, Args)]
-pub struct DecodeArgs {
+pub(crate) struct DecodeArgs {
     /// The text to decode (quote it: replies start with a blank).
     pub text: String,
     /// Decode as a reply.
@@ -246,43 +350,66 @@ pub struct DecodeArgs {
 
 /// `sim` arguments.
 #[derive(Debug, Args)]
-pub struct SimArgs {
-    /// Robot port(s); repeat for several robots in one process.
+pub(crate) struct SimArgs {
+    /// Robot port(s); repeat for several robots in one process (port 0 picks a free one).
     #[arg(long, default_value = "127.0.0.1:10050", value_name = "HOST:PORT")]
     pub listen: Vec<String>,
-    /// Pendant API address(es) (HTTP+JSON), one per robot.
+    /// Pendant address(es), one per robot: the web page at `/`, the JSON API (`/api` lists it).
     #[arg(long, value_name = "HOST:PORT")]
     pub pendant: Vec<String>,
     /// Token required by the pendant API (mandatory off loopback).
-    #[arg(long, env = "FS020N_PENDANT_TOKEN")]
+    #[arg(long, env = "FS020N_PENDANT_TOKEN", value_name = "TOKEN")]
     pub token: Option<String>,
     /// Motor power at start.
-    #[arg(long, default_value = "on", value_parser = on_off, action = clap::ArgAction::Set)]
+    #[arg(long, default_value = "on", value_parser = on_off(), action = clap::ArgAction::Set)]
     pub power: bool,
-    /// RUN/HOLD at start: run or hold.
+    /// RUN/HOLD at start.
     #[arg(long, default_value = "run", value_parser = ["run", "hold"])]
     pub run: String,
-    /// TEACH/REPEAT at start: repeat or teach.
+    /// TEACH/REPEAT at start.
     #[arg(long, default_value = "repeat", value_parser = ["repeat", "teach"])]
     pub mode: String,
     /// TEACH LOCK at start.
-    #[arg(long, default_value = "off", value_parser = on_off, action = clap::ArgAction::Set)]
+    #[arg(long, default_value = "off", value_parser = on_off(), action = clap::ArgAction::Set)]
     pub teach_lock: bool,
-    /// Monitor speed at start, percent (default: the model's, 10 %).
+    /// Monitor speed at start, percent, above 0 and at most 100 (default: the model's, 10 %).
     #[arg(long, value_name = "PCT")]
     pub monitor_speed: Option<f64>,
-    /// Initial joints, degrees (default: the home pose).
-    #[arg(long, num_args = 6, allow_negative_numbers = true, value_name = "DEG")]
+    /// Initial joints, degrees, inside the joint ranges (default: the home pose).
+    #[arg(long, num_args = 6, allow_negative_numbers = true, value_names = ["J1", "J2", "J3", "J4", "J5", "J6"])]
     pub joints: Option<Vec<f64>>,
-    /// An error present at start, e.g. E1088.
-    #[arg(long)]
+    /// An error present at start: an AS code such as E1088 (or its number, -31088).
+    #[arg(long, value_name = "CODE", allow_hyphen_values = true)]
     pub error: Option<String>,
 }
 
-fn on_off(s: &str) -> Result<bool, String> {
-    match s.to_ascii_lowercase().as_str() {
-        "on" | "true" | "1" => Ok(true),
-        "off" | "false" | "0" => Ok(false),
-        _ => Err(format!("{s:?}: expected on or off")),
-    }
+/// `hub` arguments (the controller is `--robot`).
+#[derive(Debug, Args)]
+pub(crate) struct HubArgs {
+    /// Address of the web page (HTTP): the arm, the switches, guarded Cancel and Stop.
+    #[arg(long, default_value = "127.0.0.1:8080", value_name = "HOST:PORT")]
+    pub http: String,
+    /// Serve a protocol-1040 face for existing clients here (one controlling client at a
+    /// time, forwarded in lock-step; the others' polls are answered from the latest status).
+    #[arg(long, value_name = "HOST:PORT")]
+    pub listen: Option<String>,
+    /// Serve a Foxglove WebSocket bridge here (joint states, TF, the URDF); needs the
+    /// `foxglove` feature.
+    #[arg(long, value_name = "HOST:PORT")]
+    pub foxglove: Option<String>,
+    /// A safety fence (TOML): joint ranges, speed cap, workspace box (docs/HUB.md).
+    #[arg(long, value_name = "FILE")]
+    pub fence: Option<PathBuf>,
+    /// Token required by the web page's API (mandatory off loopback).
+    #[arg(long, env = "FS020N_HUB_TOKEN")]
+    pub token: Option<String>,
+    /// Seconds of silence after which the controlling client is taken as gone (the robot is
+    /// stopped with command 2).
+    #[arg(long, default_value_t = 1.0, value_name = "S")]
+    pub silence: f64,
+}
+
+/// `on` or `off` (listed in the help).
+fn on_off() -> impl TypedValueParser<Value = bool> {
+    PossibleValuesParser::new(["on", "off"]).map(|s| s == "on")
 }

@@ -16,7 +16,7 @@ use crate::session::{
 };
 
 /// The poses the demo visits (degrees).
-pub const POSES: [[f64; 6]; 4] = [
+pub(crate) const POSES: [[f64; 6]; 4] = [
     [20.0, 10.0, -80.0, 0.0, -80.0, 0.0],
     [-20.0, 20.0, -70.0, 30.0, -60.0, 45.0],
     [0.0, -10.0, -100.0, -30.0, -70.0, -45.0],
@@ -32,7 +32,7 @@ const CIRCLE_DT_S: f64 = 0.02;
 
 /// A horizontal circle of the flange starting and ending at `start`, with a smooth start and
 /// stop, as joint points with velocities (the solution nearest the previous point at each step).
-pub fn circle(ctx: &Ctx, start: JointsDeg) -> CliResult<Trajectory> {
+pub(crate) fn circle(ctx: &Ctx, start: JointsDeg) -> CliResult<Trajectory> {
     let model = &ctx.model;
     let p0 = model.forward(&start.to_rad());
     let centre = p0.position_m() + Vector3::new(0.0, CIRCLE_RADIUS_M, 0.0);
@@ -70,7 +70,7 @@ pub fn circle(ctx: &Ctx, start: JointsDeg) -> CliResult<Trajectory> {
 }
 
 /// `demo`; with `plot`, a picture of the run (drawn from `ctx.record`).
-pub fn demo(ctx: &Ctx, speed: f64, yes: bool, plot: Option<&std::path::Path>) -> CliResult {
+pub(crate) fn demo(ctx: &Ctx, speed: f64, yes: bool, plot: Option<&std::path::Path>) -> CliResult {
     let speed = check_speed(speed)?;
     if ctx.addr.is_some() && !yes {
         return Err(CliError::input(
@@ -142,6 +142,7 @@ async fn tour(ctx: &Ctx, robot: &Robot, speed: f64) -> CliResult<serde_json::Val
                 tolerance_deg: 0.05,
                 settle: Duration::from_millis(50),
                 timeout: Some(timeout),
+                hold_timeout: None,
             })
             .await
             .map_err(client_error)?;

@@ -4,48 +4,115 @@
 mod args;
 mod demo;
 mod error;
+mod hub;
+mod linear;
 mod offline;
 mod output;
 mod plot;
 mod recording;
 mod replay;
 mod robot_cmds;
+#[cfg(feature = "ros2")]
+mod ros2;
 mod session;
 mod shell;
 mod sim;
 mod trajectory_file;
 
+use std::io::IsTerminal;
 use std::process::ExitCode;
 
-use clap::{CommandFactory, Parser};
+use clap::{CommandFactory, FromArgMatches};
 use fs020n_kin::RobotModel;
 
-use crate::args::{Cli, Cmd};
+use crate::args::{Cli, Cmd, ColorWhen};
 use crate::error::{CliError, CliResult};
 
+/// The command line, with `sim --help` showing only what applies to the emulator: the global
+/// options that mean nothing to it (it has no robot to reach) get hidden twins in `sim`, which
+/// clap then does not replace by the visible global ones.
+fn command() -> clap::Command {
+    use clap::{value_parser, Arg};
+    Cli::command().mut_subcommand("sim", |sim| {
+        sim.arg(
+            Arg::new("robot")
+                .long("robot")
+                .hide(true)
+                .value_parser(value_parser!(String)),
+        )
+        .arg(
+            Arg::new("connect_timeout")
+                .long("connect-timeout")
+                .hide(true)
+                .value_parser(value_parser!(f64)),
+        )
+    })
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
-    init_logging(cli.verbose);
-    match run(cli) {
+    let matches = command().get_matches();
+    let cli = match Cli::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
+    let color = use_color(cli.color);
+    init_logging(cli.verbose, color);
+    let json = cli.json;
+    // `--robot` typed for `sim` (not from FS020N_ROBOT, which may be set for other commands).
+    let typed = |m: &clap::ArgMatches| {
+        m.value_source("robot") == Some(clap::parser::ValueSource::CommandLine)
+    };
+    let robot_typed = typed(&matches) || matches.subcommand().is_some_and(|(_, m)| typed(m));
+    match run(cli, robot_typed) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::from(e.exit as u8)
+            report(&e, json, color);
+            ExitCode::from(e.code())
         }
     }
 }
 
-fn init_logging(verbose: u8) {
+/// Whether stderr gets colours: `--color`, else a terminal without `NO_COLOR` (no-color.org).
+fn use_color(when: ColorWhen) -> bool {
+    match when {
+        ColorWhen::Always => true,
+        ColorWhen::Never => false,
+        ColorWhen::Auto => {
+            std::io::stderr().is_terminal()
+                && std::env::var_os("NO_COLOR").is_none_or(|v| v.is_empty())
+                && std::env::var("TERM").map_or(true, |t| t != "dumb")
+        }
+    }
+}
+
+/// Prints an error on stderr: one JSON object with `--json`, else `error: …` (red on a
+/// colour terminal) with what to do.
+fn report(e: &CliError, json: bool, color: bool) {
+    if json {
+        eprintln!("{}", e.to_json());
+    } else if color {
+        eprintln!("\x1b[1;31merror:\x1b[0m {e}");
+    } else {
+        eprintln!("error: {e}");
+    }
+}
+
+fn init_logging(verbose: u8, color: bool) {
+    // -vv: every exchange of the client (debug); -vvv: also the keep-alive polls (trace).
     let default = match verbose {
         0 => "warn",
         1 => "info",
-        2 => "debug",
-        _ => "trace",
+        2 => "warn,fs020n=debug,fs020n_client=debug,fs020n_sim=debug",
+        _ => "info,fs020n=trace,fs020n_client=trace,fs020n_sim=trace",
     };
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
+        // The DDS stack (the `ros2` command) reports every unreachable peer as a warning.
+        .unwrap_or_else(|_| {
+            tracing_subscriber::EnvFilter::new(format!("{default},rustdds=error,ros2_client=error"))
+        });
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)
+        .with_ansi(color)
         .with_writer(std::io::stderr)
         .try_init();
 }
@@ -70,10 +137,11 @@ fn ctx(cli: &Cli, model: RobotModel) -> session::Ctx {
         json: cli.json,
         model,
         connect_timeout: std::time::Duration::from_secs_f64(cli.connect_timeout.clamp(0.1, 3600.0)),
+        interactive: std::io::stderr().is_terminal(),
     }
 }
 
-fn run(cli: Cli) -> CliResult {
+fn run(cli: Cli, robot_typed: bool) -> CliResult {
     if !(cli.connect_timeout.is_finite() && cli.connect_timeout > 0.0) {
         return Err(CliError::input(
             "--connect-timeout must be a positive number of seconds",
@@ -104,36 +172,23 @@ fn run(cli: Cli) -> CliResult {
         Cmd::Fk { joints } => offline::fk(&model, joints, cli.json),
         Cmd::Ik { pose, near } => offline::ik(&model, pose, near.as_deref(), cli.json),
         Cmd::Completions { shell } => {
-            clap_complete::generate(
-                *shell,
-                &mut Cli::command(),
-                "fs020n",
-                &mut std::io::stdout(),
-            );
+            clap_complete::generate(*shell, &mut command(), "fs020n", &mut std::io::stdout());
             Ok(())
         }
         Cmd::Status { watch, rate } => robot_cmds::status(&ctx(&cli, model), *watch, *rate),
         Cmd::Shell => shell::shell(&ctx(&cli, model)),
         Cmd::Speed { percent } => robot_cmds::speed(&ctx(&cli, model), *percent),
-        Cmd::Move(args) => robot_cmds::move_joints(&ctx(&cli, model), args),
-        Cmd::Play(args) => robot_cmds::play(&ctx(&cli, model), args, args.approach),
-        Cmd::Record {
-            file,
-            rate,
-            duration,
-        } if recording::is_client_recording(file) => {
+        Cmd::Move(args) => robot_cmds::move_cmd(&ctx(&cli, model), args),
+        Cmd::Play(args) => robot_cmds::play(&ctx(&cli, model), args),
+        Cmd::Record(args) if recording::is_client_recording(&args.file) => {
             if cli.record.is_some() {
                 return Err(CliError::input(
                     "record FILE already records every request and reply: leave out --record",
                 ));
             }
-            recording::record(&ctx(&cli, model), file, *rate, *duration)
+            recording::record(&ctx(&cli, model), args)
         }
-        Cmd::Record {
-            file,
-            rate,
-            duration,
-        } => robot_cmds::record(&ctx(&cli, model), file, *rate, *duration),
+        Cmd::Record(args) => robot_cmds::record(&ctx(&cli, model), args),
         Cmd::Plot(args) => plot::plot(args, cli.json),
         Cmd::Replay(args) => replay::run(&ctx(&cli, model), args),
         Cmd::Raw { text, yes } => robot_cmds::raw(&ctx(&cli, model), text, *yes),
@@ -160,6 +215,16 @@ fn run(cli: Cli) -> CliResult {
             }
             r
         }
-        Cmd::Sim(args) => sim::sim(args, &model, cli.json),
+        Cmd::Sim(args) => {
+            if robot_typed {
+                return Err(CliError::input(
+                    "--robot has no meaning for `sim` (it is the robot); use --listen HOST:PORT",
+                ));
+            }
+            sim::sim(args, &model, cli.json)
+        }
+        #[cfg(feature = "ros2")]
+        Cmd::Ros2(args) => ros2::ros2(&ctx(&cli, model), args),
+        Cmd::Hub(args) => hub::hub(args, &ctx(&cli, model), cli.json),
     }
 }

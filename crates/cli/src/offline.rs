@@ -10,7 +10,7 @@ use crate::error::{CliError, CliResult};
 use crate::output::{joints_json, status_json, status_table};
 
 /// `decode`.
-pub fn decode(args: &DecodeArgs, as_json: bool) -> CliResult {
+pub(crate) fn decode(args: &DecodeArgs, as_json: bool) -> CliResult {
     let text = args.text.as_str();
     let as_reply = if args.reply {
         true
@@ -192,7 +192,7 @@ fn joints_from(values: &[f64], what: &str) -> CliResult<JointsDeg> {
 }
 
 /// `fk`.
-pub fn fk(model: &RobotModel, joints: &[f64], as_json: bool) -> CliResult {
+pub(crate) fn fk(model: &RobotModel, joints: &[f64], as_json: bool) -> CliResult {
     let q = joints_from(joints, "joints")?;
     if let Err(e) = model.check_limits(&q) {
         eprintln!("warning: {e}");
@@ -211,7 +211,12 @@ pub fn fk(model: &RobotModel, joints: &[f64], as_json: bool) -> CliResult {
 }
 
 /// `ik`.
-pub fn ik(model: &RobotModel, pose: &[f64], near: Option<&[f64]>, as_json: bool) -> CliResult {
+pub(crate) fn ik(
+    model: &RobotModel,
+    pose: &[f64],
+    near: Option<&[f64]>,
+    as_json: bool,
+) -> CliResult {
     let p: [f64; 6] = pose
         .try_into()
         .map_err(|_| CliError::input("pose: expected X Y Z O A T"))?;

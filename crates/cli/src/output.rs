@@ -1,16 +1,17 @@
 //! Formatting of statuses and numbers for people and for `--json`.
 
 use fs020n_client::RttStats;
+use fs020n_kin::{RobotModel, Xyzoat};
 use fs020n_proto::{JointsDeg, Status, Timer};
 use serde_json::{json, Value};
 
 /// Joint angles as a JSON array.
-pub fn joints_json(j: &JointsDeg) -> Value {
+pub(crate) fn joints_json(j: &JointsDeg) -> Value {
     json!(j.values())
 }
 
 /// A reply as JSON with exactly the documented keys.
-pub fn status_json(s: &Status) -> Value {
+pub(crate) fn status_json(s: &Status) -> Value {
     json!({
         "version": s.version,
         "error_code": s.error.raw(),
@@ -25,8 +26,44 @@ pub fn status_json(s: &Status) -> Value {
     })
 }
 
+/// The flange pose of `joints` (forward kinematics).
+pub(crate) fn flange_pose(model: &RobotModel, joints: &JointsDeg) -> Xyzoat {
+    model.forward(&joints.to_rad()).to_xyzoat()
+}
+
+/// A pose as JSON: `{"x", "y", "z"}` in mm, `{"o", "a", "t"}` in degrees.
+pub(crate) fn pose_json(p: &Xyzoat) -> Value {
+    json!({ "x": p.x_mm, "y": p.y_mm, "z": p.z_mm, "o": p.o_deg, "a": p.a_deg, "t": p.t_deg })
+}
+
+/// A pose for people.
+pub(crate) fn pose_line(p: &Xyzoat) -> String {
+    format!(
+        "X={:.3} Y={:.3} Z={:.3} mm  O={:.3} A={:.3} T={:.3} deg",
+        p.x_mm, p.y_mm, p.z_mm, p.o_deg, p.a_deg, p.t_deg
+    )
+}
+
+/// A robot's status as JSON: the reply's keys ([`status_json`]) and `pose`, the flange pose
+/// computed from the joints with the robot model.
+pub(crate) fn robot_status_json(s: &Status, model: &RobotModel) -> Value {
+    let mut v = status_json(s);
+    v["pose"] = pose_json(&flange_pose(model, &s.joints));
+    v
+}
+
+/// A robot's status for people: the reply's table and the flange pose.
+pub(crate) fn robot_status_table(s: &Status, model: &RobotModel) -> String {
+    let mut t = status_table(s);
+    t.push_str(&format!(
+        "  flange pose    {}\n",
+        pose_line(&flange_pose(model, &s.joints))
+    ));
+    t
+}
+
 /// A reply as a table for people.
-pub fn status_table(s: &Status) -> String {
+pub(crate) fn status_table(s: &Status) -> String {
     let yes = |b: bool, on: &str, off: &str| if b { on.to_owned() } else { off.to_owned() };
     let error = if s.error.is_none() {
         "none".to_owned()
@@ -67,7 +104,7 @@ pub fn status_table(s: &Status) -> String {
 }
 
 /// Round-trip figures for people: `min … µs, mean … µs, p99 … µs, max … µs`.
-pub fn rtt_line(r: &RttStats) -> String {
+pub(crate) fn rtt_line(r: &RttStats) -> String {
     let us = |d: std::time::Duration| d.as_secs_f64() * 1e6;
     format!(
         "min {:.0} µs, mean {:.0} µs, p99 {:.0} µs, max {:.0} µs",

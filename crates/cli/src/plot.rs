@@ -9,7 +9,7 @@ use crate::args::PlotArgs;
 use crate::error::{CliError, CliResult};
 
 /// Maps a recording error to the CLI's: bad options and unreadable files are input errors.
-pub fn record_error(e: fs020n_record::RecordError) -> CliError {
+pub(crate) fn record_error(e: fs020n_record::RecordError) -> CliError {
     use fs020n_record::RecordError as E;
     match e {
         E::Draw(_) | E::Replay(_) => CliError::failure(e.to_string()),
@@ -20,7 +20,7 @@ pub fn record_error(e: fs020n_record::RecordError) -> CliError {
 }
 
 /// Reads a recording, naming the file in errors.
-pub fn read_recording(path: &Path) -> CliResult<fs020n_record::Run> {
+pub(crate) fn read_recording(path: &Path) -> CliResult<fs020n_record::Run> {
     fs020n_record::read(path).map_err(|e| match e {
         fs020n_record::RecordError::Io { .. } => record_error(e),
         other => CliError::input(format!("{}: {other}", path.display())),
@@ -41,7 +41,7 @@ fn joints(list: &[usize]) -> CliResult<Vec<usize>> {
 }
 
 /// Draws `run` (read from `source`) into `out`.
-pub fn draw(
+pub(crate) fn draw(
     run: &fs020n_record::Run,
     source: &Path,
     out: &Path,
@@ -52,7 +52,7 @@ pub fn draw(
 }
 
 /// Prints what was drawn.
-pub fn print_summary(out: &Path, s: &PlotSummary, as_json: bool) {
+pub(crate) fn print_summary(out: &Path, s: &PlotSummary, as_json: bool) {
     if as_json {
         println!(
             "{}",
@@ -76,7 +76,7 @@ pub fn print_summary(out: &Path, s: &PlotSummary, as_json: bool) {
 }
 
 /// `plot`.
-pub fn plot(args: &PlotArgs, as_json: bool) -> CliResult {
+pub(crate) fn plot(args: &PlotArgs, as_json: bool) -> CliResult {
     for (name, v) in [("--from", args.from), ("--to", args.to)] {
         if v.is_some_and(|v| !v.is_finite()) {
             return Err(CliError::input(format!(

@@ -9,13 +9,14 @@ use fs020n_client::{RecordFormat, Recording, Robot};
 use fs020n_record::plot::PlotOptions;
 use serde_json::json;
 
-use crate::error::{CliError, CliResult};
+use crate::args::RecordArgs;
+use crate::error::{CliError, CliResult, Exit};
 use crate::robot_cmds::MIN_RATE_HZ;
 use crate::session::{client_error, close_quietly, runtime, Ctx, Interrupt, MAX_TIMEOUT_S};
 
 /// The client recording for `--record FILE`: the format by extension (`.mcap`, `.csv`,
 /// `.jsonl`); other names are refused before connecting.
-pub fn recording(path: &Path) -> CliResult<Recording> {
+pub(crate) fn recording(path: &Path) -> CliResult<Recording> {
     match RecordFormat::from_path(path) {
         Some(format) => Ok(Recording {
             path: path.to_owned(),
@@ -30,17 +31,19 @@ pub fn recording(path: &Path) -> CliResult<Recording> {
 
 /// `true` when `record FILE` should go through the client's recording (MCAP, JSON lines)
 /// rather than write the status CSV.
-pub fn is_client_recording(file: &Path) -> bool {
+pub(crate) fn is_client_recording(file: &Path) -> bool {
     matches!(
         RecordFormat::from_path(file),
         Some(RecordFormat::Mcap | RecordFormat::JsonLines)
     )
 }
 
-/// `record FILE.mcap|.jsonl`: polls the status at `rate` until `duration` or Ctrl-C; the
-/// client records every request and reply (keep-alive polls included). A killed process leaves
-/// an MCAP file that opens, with everything but the last second.
-pub fn record(ctx: &Ctx, file: &Path, rate: f64, duration: Option<f64>) -> CliResult {
+/// `record FILE.mcap|.jsonl`: polls the status at `--rate` until `--duration` or Ctrl-C (exit
+/// 130, the file complete); the client records every request and reply (keep-alive polls
+/// included). A killed process leaves an MCAP file that opens, with everything but the last
+/// second. An existing file is refused unless `--force`; `--append` is for the status CSV only.
+pub(crate) fn record(ctx: &Ctx, args: &RecordArgs) -> CliResult {
+    let (file, rate, duration) = (args.file.as_path(), args.rate, args.duration);
     if !(rate.is_finite() && (MIN_RATE_HZ..=1000.0).contains(&rate)) {
         return Err(CliError::input(format!(
             "--rate must be from {MIN_RATE_HZ} to 1000 Hz"
@@ -52,6 +55,20 @@ pub fn record(ctx: &Ctx, file: &Path, rate: f64, duration: Option<f64>) -> CliRe
                 "--duration must be above 0 and at most {MAX_TIMEOUT_S} s"
             )));
         }
+    }
+    if args.append {
+        return Err(CliError::input(format!(
+            "{}: --append adds rows to a status CSV; an MCAP or JSON-lines recording is written \
+             whole",
+            file.display()
+        ))
+        .with_remedy("give a new file name, or --force to overwrite it"));
+    }
+    if file.exists() && !args.force {
+        return Err(
+            CliError::input(format!("{} exists; nothing was recorded", file.display()))
+                .with_remedy("give another file, or --force to overwrite it"),
+        );
     }
     let mut config = ctx.client_config();
     config.record = Some(recording(file)?);
@@ -65,10 +82,14 @@ pub fn record(ctx: &Ctx, file: &Path, rate: f64, duration: Option<f64>) -> CliRe
         let end = duration.map(|d| start + Duration::from_secs_f64(d));
         let mut tick = tokio::time::interval(Duration::from_secs_f64(1.0 / rate));
         let mut polls = 0u64;
+        let mut by_ctrl_c = false;
         let result = loop {
             let r = tokio::select! {
-                _ = stop.wait() => break Ok(()),
-                _ = async {
+                () = stop.wait() => {
+                    by_ctrl_c = true;
+                    break Ok(());
+                }
+                () = async {
                     match end {
                         Some(e) => tokio::time::sleep_until(e).await,
                         None => std::future::pending().await,
@@ -107,17 +128,31 @@ pub fn record(ctx: &Ctx, file: &Path, rate: f64, duration: Option<f64>) -> CliRe
                 file.display()
             );
         }
+        if by_ctrl_c {
+            return Err(CliError::new(
+                Exit::Interrupted,
+                format!(
+                    "stopped by Ctrl-C after {polls} poll(s); the recording is complete and the \
+                     session closed"
+                ),
+            ));
+        }
         Ok(())
     })
 }
 
 /// Where `demo --plot` records when no `--record` is given.
-pub fn temporary_recording() -> PathBuf {
+pub(crate) fn temporary_recording() -> PathBuf {
     std::env::temp_dir().join(format!("fs020n-demo-{}.mcap", std::process::id()))
 }
 
 /// After the demo: waits for the recording, reads it and draws it into `out`.
-pub async fn plot_session(robot: &Robot, recorded: &Path, out: &Path, as_json: bool) -> CliResult {
+pub(crate) async fn plot_session(
+    robot: &Robot,
+    recorded: &Path,
+    out: &Path,
+    as_json: bool,
+) -> CliResult {
     robot.flush_recording().await.map_err(client_error)?;
     let run = crate::plot::read_recording(recorded)?;
     let summary = crate::plot::draw(&run, recorded, out, PlotOptions::default())?;

@@ -11,10 +11,10 @@ use crate::plot::{read_recording, record_error};
 use crate::session::{check_speed, runtime, Ctx};
 
 /// Largest `--tolerance`, degrees.
-pub const MAX_TOLERANCE_DEG: f64 = 90.0;
+pub(crate) const MAX_TOLERANCE_DEG: f64 = 90.0;
 
 /// `replay`.
-pub fn run(ctx: &Ctx, args: &ReplayArgs) -> CliResult {
+pub(crate) fn run(ctx: &Ctx, args: &ReplayArgs) -> CliResult {
     if !(args.tolerance.is_finite() && (0.0..=MAX_TOLERANCE_DEG).contains(&args.tolerance)) {
         return Err(CliError::input(format!(
             "--tolerance must be from 0 to {MAX_TOLERANCE_DEG} degrees"

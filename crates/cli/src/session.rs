@@ -4,39 +4,42 @@
 use std::net::SocketAddr;
 use std::time::Duration;
 
-use fs020n_client::{Blocker, ClientConfig, ClientError, Robot};
+use fs020n_client::{Activity, Blocker, ClientConfig, ClientError, RawRefusal, Robot};
 use fs020n_kin::RobotModel;
 use fs020n_sim::{ControllerConfig, Emulator, TcpServer};
 
 use crate::error::{CliError, CliResult, Exit};
 
 /// Default robot address when `--robot` is not given (where `fs020n sim` listens).
-pub const DEFAULT_ROBOT: &str = "127.0.0.1:10050";
+pub(crate) const DEFAULT_ROBOT: &str = "127.0.0.1:10050";
 
 /// What every robot command needs.
-pub struct Ctx {
+#[derive(Debug)]
+pub(crate) struct Ctx {
     /// The robot's address.
-    pub addr: Option<String>,
+    pub(crate) addr: Option<String>,
     /// Print JSON.
-    pub json: bool,
+    pub(crate) json: bool,
     /// The robot model.
-    pub model: RobotModel,
+    pub(crate) model: RobotModel,
     /// Overall connect timeout.
-    pub connect_timeout: Duration,
+    pub(crate) connect_timeout: Duration,
+    /// stderr is a terminal: show what takes time (connecting, progress).
+    pub(crate) interactive: bool,
     /// `--record FILE`: every request and reply of the session.
-    pub record: Option<fs020n_client::Recording>,
+    pub(crate) record: Option<fs020n_client::Recording>,
 }
 
 impl Ctx {
     /// The address to use: `--robot`, else the default.
-    pub fn addr_or_default(&self) -> String {
+    pub(crate) fn addr_or_default(&self) -> String {
         self.addr
             .clone()
             .unwrap_or_else(|| DEFAULT_ROBOT.to_owned())
     }
 
     /// The client configuration for this robot.
-    pub fn client_config(&self) -> ClientConfig {
+    pub(crate) fn client_config(&self) -> ClientConfig {
         ClientConfig {
             model: self.model.clone(),
             connect_timeout: self.connect_timeout,
@@ -48,7 +51,7 @@ impl Ctx {
 
 /// A tokio runtime with worker threads, so the client's keep-alive runs while the main thread
 /// waits for input.
-pub fn runtime() -> CliResult<tokio::runtime::Runtime> {
+pub(crate) fn runtime() -> CliResult<tokio::runtime::Runtime> {
     tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
@@ -56,15 +59,39 @@ pub fn runtime() -> CliResult<tokio::runtime::Runtime> {
         .map_err(|e| CliError::failure(format!("cannot start the async runtime: {e}")))
 }
 
-/// Connects to `addr`.
-pub async fn connect(addr: &str, ctx: &Ctx) -> CliResult<Robot> {
-    Robot::connect(addr, ctx.client_config())
-        .await
-        .map_err(client_error)
+/// A duration for people: `"250 ms"`, `"10.0 s"`.
+pub(crate) fn rounded(d: Duration) -> String {
+    let s = d.as_secs_f64();
+    if s < 1.0 {
+        format!("{:.0} ms", s * 1e3)
+    } else {
+        format!("{s:.1} s")
+    }
+}
+
+/// How long connecting may take before a terminal is told what is going on.
+const CONNECT_NOTICE_AFTER: Duration = Duration::from_millis(300);
+
+/// Connects to `addr`. On a terminal, says so when it takes more than a moment (the
+/// controller listens in 3 s windows, so a connect can take seconds).
+pub(crate) async fn connect(addr: &str, ctx: &Ctx) -> CliResult<Robot> {
+    let connecting = Robot::connect(addr, ctx.client_config());
+    tokio::pin!(connecting);
+    let r = tokio::select! {
+        r = &mut connecting => r,
+        () = tokio::time::sleep(CONNECT_NOTICE_AFTER), if ctx.interactive => {
+            eprintln!(
+                "connecting to {addr} (the controller listens in 3 s windows; giving up after {})…",
+                rounded(ctx.connect_timeout)
+            );
+            connecting.await
+        }
+    };
+    r.map_err(client_error)
 }
 
 /// An emulator inside this process on a free loopback port.
-pub struct Embedded {
+pub(crate) struct Embedded {
     /// The emulator (for observing it).
     pub emulator: Emulator,
     /// Its robot port.
@@ -73,7 +100,7 @@ pub struct Embedded {
 
 impl Embedded {
     /// Starts the embedded emulator (call inside the runtime).
-    pub async fn start(model: &RobotModel) -> CliResult<Embedded> {
+    pub(crate) async fn start(model: &RobotModel) -> CliResult<Embedded> {
         let emulator = Emulator::new(ControllerConfig::new(model.clone()));
         let addr: SocketAddr = ([127, 0, 0, 1], 0).into();
         let server = emulator
@@ -84,14 +111,14 @@ impl Embedded {
     }
 
     /// Its address as HOST:PORT.
-    pub fn addr(&self) -> String {
+    pub(crate) fn addr(&self) -> String {
         self.server.local_addr().to_string()
     }
 }
 
 /// The robot of `demo` and `bench`: `--robot` if given, else an embedded emulator (returned so
 /// that it lives as long as the session).
-pub async fn robot_or_embedded(ctx: &Ctx) -> CliResult<(String, Option<Embedded>)> {
+pub(crate) async fn robot_or_embedded(ctx: &Ctx) -> CliResult<(String, Option<Embedded>)> {
     match &ctx.addr {
         Some(addr) => Ok((addr.clone(), None)),
         None => {
@@ -101,68 +128,215 @@ pub async fn robot_or_embedded(ctx: &Ctx) -> CliResult<(String, Option<Embedded>
     }
 }
 
-/// Lists blockers with their remedies, one per line.
-pub fn blocker_lines(blockers: &[Blocker]) -> String {
-    blockers
-        .iter()
-        .map(|b| {
-            let remedy = match b {
-                Blocker::ProgramNotRunning => {
-                    "start the motion program first (in `fs020n shell`, type `start`)".to_owned()
-                }
-                other => other.remedy(),
-            };
-            format!("  - {} — {remedy}", b.condition())
-        })
-        .collect::<Vec<_>>()
-        .join("\n")
+/// Where an error is reported: remedies name what the user can do there.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Place {
+    /// A one-shot command (`fs020n move …`).
+    Command,
+    /// The `shell` prompt.
+    Shell,
 }
 
-/// Maps a client error to what the user reads and the exit code.
-pub fn client_error(e: ClientError) -> CliError {
-    let exit = match &e {
-        ClientError::Connect { .. } | ClientError::LinkLost(_) | ClientError::Closed => Exit::Link,
-        ClientError::Blocked(_) | ClientError::StartFailed { .. } => Exit::NotReady,
-        ClientError::Aborted { .. }
-        | ClientError::MoveTimeout { .. }
-        | ClientError::StreamUnderrun { .. }
-        | ClientError::Cancelled(_) => Exit::Motion,
-        ClientError::Limit(_)
+/// The remedy of one blocker, as an action of this tool.
+fn blocker_remedy(b: &Blocker, place: Place) -> String {
+    match (b, place) {
+        (Blocker::ProgramNotRunning, Place::Command) => {
+            "start the motion program first (in `fs020n shell`, type `start`)".to_owned()
+        }
+        (Blocker::ProgramNotRunning, Place::Shell) => {
+            "start the motion program first: type `start`".to_owned()
+        }
+        (other, _) => other.remedy(),
+    }
+}
+
+/// Blockers as an error: one line per condition with its remedy.
+fn blocked(exit: Exit, headline: String, blockers: &[Blocker], place: Place) -> CliError {
+    let lines = blockers
+        .iter()
+        .map(|b| format!("  - {} — {}", b.condition(), blocker_remedy(b, place)))
+        .collect::<Vec<_>>()
+        .join("\n");
+    let remedy = blockers
+        .iter()
+        .map(|b| blocker_remedy(b, place))
+        .collect::<Vec<_>>()
+        .join("; ");
+    let mut e = CliError::new(exit, format!("{headline}:\n{lines}"));
+    if !blockers.is_empty() {
+        e = e.with_remedy(remedy);
+        e.remedy_listed = true;
+    }
+    e
+}
+
+/// Maps a client error of a one-shot command to what the user reads and the exit code.
+pub(crate) fn client_error(e: ClientError) -> CliError {
+    describe(e, Place::Command)
+}
+
+/// Maps a client error to what the user reads (remedies as actions of this tool at `place`)
+/// and the exit code.
+pub(crate) fn describe(e: ClientError, place: Place) -> CliError {
+    let again = match place {
+        Place::Command => "run the command again (nothing is resumed automatically)",
+        Place::Shell => "type `reconnect`, then `start` again (nothing is resumed automatically)",
+    };
+    let speed = match place {
+        Place::Command => "give a higher --speed or a longer --timeout",
+        Place::Shell => "set a higher speed (`speed PCT`)",
+    };
+    match e {
+        ClientError::Connect {
+            target,
+            attempts,
+            waited,
+            last,
+        } => CliError::new(
+            Exit::Link,
+            format!(
+                "could not connect to {target} within {} ({attempts} attempts; last error: {last})",
+                rounded(waited)
+            ),
+        )
+        .with_remedy(
+            "check that the controller is on and its AS server program runs, that --robot \
+             names the right address and port, and that no other client holds the session \
+             (the controller serves one at a time)",
+        ),
+        ClientError::Address { target, message } => {
+            CliError::new(Exit::Link, format!("cannot connect to {target}: {message}")).with_remedy(
+                "check the host name in --robot (or FS020N_ROBOT), or give an IP address",
+            )
+        }
+        ClientError::NotAController { target, cause } => CliError::new(
+            Exit::Link,
+            format!("{target} is not a protocol-1040 server: {cause}"),
+        )
+        .with_remedy(
+            "check the address and port in --robot: the robot's port is 10050 unless configured \
+             otherwise (`fs020n sim` listens on 127.0.0.1:10050)",
+        ),
+        ClientError::LinkLost(cause) => CliError::new(
+            Exit::Link,
+            format!(
+                "link to the robot lost: {cause}; the controller ended the session, which stops \
+                 the robot"
+            ),
+        )
+        .with_remedy(again),
+        ClientError::Closed => {
+            CliError::new(Exit::Link, "the session is closed").with_remedy(again)
+        }
+        ClientError::Blocked(b) => blocked(
+            Exit::NotReady,
+            "the robot is not ready to move; nothing was sent".to_owned(),
+            &b,
+            place,
+        ),
+        ClientError::StartFailed { waited, blockers } if !blockers.is_empty() => blocked(
+            Exit::NotReady,
+            format!(
+                "the motion program did not start within {}",
+                rounded(waited)
+            ),
+            &blockers,
+            place,
+        ),
+        ClientError::StartFailed { waited, .. } => CliError::new(
+            Exit::NotReady,
+            format!(
+                "the motion program did not start within {} although no switch blocks it",
+                rounded(waited)
+            ),
+        )
+        .with_remedy("check the controller's terminal for an AS error"),
+        ClientError::Aborted { during, blockers } => {
+            blocked(Exit::Motion, format!("{during} stopped"), &blockers, place)
+        }
+        ClientError::HoldTimeout { during, waited } => CliError::new(
+            Exit::Motion,
+            format!(
+                "the {during} was held (RUN/HOLD on HOLD) for {}, longer than the hold timeout; \
+                 it was cancelled",
+                rounded(waited)
+            ),
+        )
+        .with_remedy(match place {
+            Place::Command => {
+                "switch RUN/HOLD to RUN and run the command again (or give a longer --hold-timeout)"
+            }
+            Place::Shell => "switch RUN/HOLD to RUN and move again",
+        }),
+        ClientError::MoveTimeout {
+            timeout,
+            remaining_deg,
+        } => CliError::new(
+            Exit::Motion,
+            format!(
+                "the move did not reach its target within {} ({remaining_deg:.3} deg to go); it \
+                 was cancelled",
+                rounded(timeout)
+            ),
+        )
+        .with_remedy(format!("check the robot's surroundings; {speed}")),
+        ClientError::StreamUnderrun { gap, allowed } => CliError::new(
+            Exit::Motion,
+            format!(
+                "stream underrun: {} between samples (allowed {}); the stream was cancelled",
+                rounded(gap),
+                rounded(allowed)
+            ),
+        )
+        .with_remedy("lower --rate, or the load on this computer"),
+        ClientError::NoServerClock => CliError::new(
+            Exit::Motion,
+            "no estimate of the controller's clock: no reply carried TIMER(1)",
+        )
+        .with_remedy("run the command again, or play with --mode waypoints"),
+        ClientError::RawRefused(RawRefusal::Motion { text }) => CliError::input(format!(
+            "{text:?} is a motion command (the controller would move the robot); nothing was sent"
+        ))
+        .with_remedy(match place {
+            Place::Command => {
+                "add --yes to send it; it also needs a running program, which a one-shot \
+                 command does not have: type `raw … --yes` in `fs020n shell` after `start`"
+            }
+            Place::Shell => "add --yes to send it",
+        }),
+        ClientError::RawRefused(why) => CliError::input(format!("raw request refused: {why}")),
+        ClientError::Busy(Activity::Stream) => {
+            CliError::new(Exit::Motion, "a stream is running; nothing was sent").with_remedy(
+                match place {
+                    Place::Command => "wait for it to end, or press Ctrl-C",
+                    Place::Shell => "type `cancel` first",
+                },
+            )
+        }
+        ClientError::Cancelled(why) => CliError::new(Exit::Motion, why.to_string()),
+        ClientError::Recording { path, message } => {
+            CliError::failure(format!("cannot open the recording file {path}: {message}"))
+        }
+        e @ (ClientError::Limit(_)
         | ClientError::NonFinite { .. }
         | ClientError::Encode(_)
         | ClientError::Speed { .. }
         | ClientError::Trajectory(_)
         | ClientError::Ik(_)
-        | ClientError::RawRefused { .. }
         | ClientError::Sample(_)
-        | ClientError::Config(_) => Exit::Input,
-        _ => Exit::Failure,
-    };
-    let message = match &e {
-        ClientError::Blocked(b) => format!(
-            "the robot is not ready to move; nothing was sent:\n{}",
-            blocker_lines(b)
-        ),
-        ClientError::StartFailed { blockers, waited } if !blockers.is_empty() => format!(
-            "the robot did not start within {waited:?}:\n{}",
-            blocker_lines(blockers)
-        ),
-        ClientError::Aborted { during, blockers } => {
-            format!("{during} stopped:\n{}", blocker_lines(blockers))
-        }
-        _ => e.to_string(),
-    };
-    CliError::new(exit, message)
+        | ClientError::Config(_)) => CliError::input(e.to_string()),
+        e => CliError::failure(e.to_string()),
+    }
 }
 
 /// Ctrl-C, remembered: once pressed it stays pressed, so a signal that arrives while a command
 /// is busy (in a poll, a move) is never lost. Install it once per command, inside the runtime.
 #[derive(Clone)]
-pub struct Interrupt(std::sync::Arc<tokio::sync::watch::Sender<bool>>);
+pub(crate) struct Interrupt(std::sync::Arc<tokio::sync::watch::Sender<bool>>);
 
 impl Interrupt {
     /// Starts listening for Ctrl-C.
-    pub fn install() -> Interrupt {
+    pub(crate) fn install() -> Interrupt {
         let tx = std::sync::Arc::new(tokio::sync::watch::Sender::new(false));
         let listener = tx.clone();
         tokio::spawn(async move {
@@ -174,7 +348,7 @@ impl Interrupt {
     }
 
     /// Resolves once Ctrl-C has been pressed (and not cleared since).
-    pub async fn wait(&self) {
+    pub(crate) async fn wait(&self) {
         let mut rx = self.0.subscribe();
         if rx.wait_for(|pressed| *pressed).await.is_err() {
             std::future::pending::<()>().await;
@@ -182,20 +356,20 @@ impl Interrupt {
     }
 
     /// Forgets a Ctrl-C already handled (the shell goes on after one).
-    pub fn clear(&self) {
+    pub(crate) fn clear(&self) {
         self.0.send_replace(false);
     }
 }
 
 /// Resolves when the user presses Ctrl-C (for `sim`, which has no session to close).
-pub async fn ctrl_c() {
+pub(crate) async fn ctrl_c() {
     if tokio::signal::ctrl_c().await.is_err() {
         std::future::pending::<()>().await;
     }
 }
 
 /// Ends the session cleanly (255), reporting but not failing on a dead link.
-pub async fn close_quietly(robot: &Robot) {
+pub(crate) async fn close_quietly(robot: &Robot) {
     if let Err(e) = tokio::time::timeout(Duration::from_secs(3), robot.close())
         .await
         .unwrap_or(Err(ClientError::Closed))
@@ -204,8 +378,13 @@ pub async fn close_quietly(robot: &Robot) {
     }
 }
 
-/// Checks a joint target against the model before any connection is made.
-pub fn check_target(model: &RobotModel, values: &[f64]) -> CliResult<fs020n_proto::JointsDeg> {
+/// Checks a joint target against the model; `when` says what was not done yet ("before
+/// connecting", "; nothing was sent").
+pub(crate) fn check_target(
+    model: &RobotModel,
+    values: &[f64],
+    when: &str,
+) -> CliResult<fs020n_proto::JointsDeg> {
     let arr: [f64; 6] = values
         .try_into()
         .map_err(|_| CliError::input("expected 6 joint angles"))?;
@@ -215,15 +394,15 @@ pub fn check_target(model: &RobotModel, values: &[f64]) -> CliResult<fs020n_prot
     }
     model
         .check_limits(&j)
-        .map_err(|e| CliError::input(format!("target refused before connecting: {e}")))?;
+        .map_err(|e| CliError::input(format!("target refused{when}: {e}")))?;
     Ok(j)
 }
 
 /// Longest `--timeout` accepted, seconds (a day).
-pub const MAX_TIMEOUT_S: f64 = 86_400.0;
+pub(crate) const MAX_TIMEOUT_S: f64 = 86_400.0;
 
 /// Checks a `--timeout` in seconds.
-pub fn check_timeout(seconds: f64) -> CliResult<Duration> {
+pub(crate) fn check_timeout(seconds: f64) -> CliResult<Duration> {
     if seconds.is_finite() && seconds > 0.0 && seconds <= MAX_TIMEOUT_S {
         Ok(Duration::from_secs_f64(seconds))
     } else {
@@ -234,7 +413,7 @@ pub fn check_timeout(seconds: f64) -> CliResult<Duration> {
 }
 
 /// Checks a speed percent before any connection is made.
-pub fn check_speed(percent: f64) -> CliResult<f64> {
+pub(crate) fn check_speed(percent: f64) -> CliResult<f64> {
     if percent.is_finite() && (1.0..=100.0).contains(&percent) {
         Ok(percent)
     } else {

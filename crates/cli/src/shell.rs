@@ -8,10 +8,15 @@ use rustyline::history::DefaultHistory;
 use rustyline::Editor;
 
 use crate::error::{CliError, CliResult, Exit};
-use crate::output::{rtt_line, status_json, status_table};
+use crate::output::{robot_status_json, robot_status_table, rtt_line, status_table};
 use crate::session::{
-    check_speed, check_target, client_error, close_quietly, connect, runtime, Ctx, Interrupt,
+    check_speed, check_target, close_quietly, connect, describe, runtime, Ctx, Interrupt, Place,
 };
+
+/// A client error at the prompt: remedies name what to type here.
+fn shell_error(e: fs020n_client::ClientError) -> CliError {
+    describe(e, Place::Shell)
+}
 
 const COMMANDS: &[(&str, &str)] = &[
     ("status", "show the latest status"),
@@ -22,7 +27,10 @@ const COMMANDS: &[(&str, &str)] = &[
     ),
     ("stop", "stop the motion program (command 2)"),
     ("speed", "speed PCT — set the monitor speed (command 3)"),
-    ("cancel", "cancel the current motion (command 5)"),
+    (
+        "cancel",
+        "stop the current motion for sure (commands 5 then 2; `start` again to move)",
+    ),
     (
         "move",
         "move J1 J2 J3 J4 J5 J6 [wait] — joint move (command 6)",
@@ -74,7 +82,7 @@ fn history_path() -> Option<std::path::PathBuf> {
 }
 
 /// `shell`.
-pub fn shell(ctx: &Ctx) -> CliResult {
+pub(crate) fn shell(ctx: &Ctx) -> CliResult {
     let rt = runtime()?;
     let addr = ctx.addr_or_default();
     let mut robot = rt.block_on(connect(&addr, ctx))?;
@@ -107,7 +115,7 @@ pub fn shell(ctx: &Ctx) -> CliResult {
         }
         let outcome = if words[0] == "reconnect" {
             rt.block_on(robot.reconnect())
-                .map_err(client_error)
+                .map_err(shell_error)
                 .map(|()| {
                     last_move = None;
                     println!(
@@ -123,7 +131,7 @@ pub fn shell(ctx: &Ctx) -> CliResult {
                         // Ctrl-C while a command runs (e.g. `move … wait`): stop the arm, keep
                         // the session.
                         let _ = robot.cancel().await;
-                        Err(CliError::new(Exit::Interrupted, "interrupted: motion cancelled; the session stays open"))
+                        Err(CliError::new(Exit::Interrupted, "interrupted: motion cancelled and the program stopped; the session stays open (`start` to move again)"))
                     }
                 }
             })
@@ -138,7 +146,8 @@ pub fn shell(ctx: &Ctx) -> CliResult {
     let lost = robot.link_error();
     rt.block_on(close_quietly(&robot));
     match lost {
-        Some(e) => Err(client_error(e)),
+        // The shell ends here: the remedy is to run it again.
+        Some(e) => Err(crate::session::client_error(e)),
         None => {
             println!("session closed");
             Ok(())
@@ -160,28 +169,28 @@ async fn execute(
             }
         }
         "status" => {
-            let s = robot.poll().await.map_err(client_error)?;
+            let s = robot.poll().await.map_err(shell_error)?;
             if ctx.json {
-                println!("{}", status_json(&s));
+                println!("{}", robot_status_json(&s, &ctx.model));
             } else {
-                print!("{}", status_table(&s));
+                print!("{}", robot_status_table(&s, &ctx.model));
             }
         }
         "preflight" => {
-            robot.preflight().await.map_err(client_error)?;
+            robot.preflight().await.map_err(shell_error)?;
             println!("ready: nothing blocks motion");
         }
         "start" => {
-            robot.start().await.map_err(client_error)?;
+            robot.start().await.map_err(shell_error)?;
             println!("program running");
         }
         "stop" => {
-            robot.stop_program().await.map_err(client_error)?;
+            robot.stop_program().await.map_err(shell_error)?;
             println!("program stopped");
         }
         "cancel" => {
-            robot.cancel().await.map_err(client_error)?;
-            println!("motion cancelled");
+            robot.cancel().await.map_err(shell_error)?;
+            println!("motion cancelled and the program stopped; `start` to move again");
         }
         "speed" => {
             let p = words
@@ -191,7 +200,7 @@ async fn execute(
             robot
                 .set_speed(check_speed(p)?)
                 .await
-                .map_err(client_error)?;
+                .map_err(shell_error)?;
             println!("monitor speed {p} %");
         }
         "move" => {
@@ -202,8 +211,8 @@ async fn execute(
                 .collect();
             let values =
                 values.map_err(|_| CliError::input("usage: move J1 J2 J3 J4 J5 J6 [wait]"))?;
-            let target = check_target(&ctx.model, &values)?;
-            let h = robot.move_joints(target).await.map_err(client_error)?;
+            let target = check_target(&ctx.model, &values, "; nothing was sent")?;
+            let h = robot.move_joints(target).await.map_err(shell_error)?;
             println!(
                 "moving to {target} (about {:.1} s); `wait` to wait, `cancel` to stop",
                 h.planned_duration().as_secs_f64()
@@ -218,7 +227,7 @@ async fn execute(
             let rest = line.trim_start_matches("raw").trim();
             let yes = rest.ends_with("--yes");
             let text = rest.trim_end_matches("--yes").trim().trim_matches('"');
-            let f = robot.send_raw(text, yes).await.map_err(client_error)?;
+            let f = robot.send_raw(text, yes).await.map_err(shell_error)?;
             println!("reply {:?}", f.text);
             print!("{}", status_table(&f.status));
         }
@@ -253,7 +262,7 @@ async fn wait_last(last_move: &mut Option<MoveHandle>) -> CliResult {
             ..Completion::default()
         })
         .await
-        .map_err(client_error)?;
+        .map_err(shell_error)?;
     println!(
         "reached {} in {:.2} s (error {:.4} deg)",
         r.final_joints,

@@ -4,7 +4,8 @@ use std::net::{SocketAddr, ToSocketAddrs};
 
 use fs020n_kin::RobotModel;
 use fs020n_proto::{ErrorCode, JointsDeg};
-use fs020n_sim::{run_robot, Panel, SimOptions};
+use fs020n_sim::{Panel, SimOptions};
+use fs020n_web::run_robot;
 use serde_json::json;
 
 use crate::args::SimArgs;
@@ -19,7 +20,7 @@ fn resolve(text: &str, what: &str) -> CliResult<SocketAddr> {
 }
 
 /// Builds the options of each robot from the flags.
-pub fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOptions>> {
+pub(crate) fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOptions>> {
     if !args.pendant.is_empty() && args.pendant.len() != args.listen.len() {
         return Err(CliError::input(format!(
             "{} --listen but {} --pendant: give one pendant address per robot, or none",
@@ -83,7 +84,7 @@ pub fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOptions>>
 }
 
 /// `sim`.
-pub fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
+pub(crate) fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
     let all = options(args, model)?;
     let rt = runtime()?;
     rt.block_on(async {
@@ -110,7 +111,7 @@ pub fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
             } else {
                 match r.pendant_addr() {
                     Some(p) => println!(
-                        "robot {}: protocol 1040 on {}, pendant API on http://{p}",
+                        "robot {}: protocol 1040 on {}, pendant on http://{p}/ (API: /api)",
                         i + 1,
                         r.robot_addr()
                     ),
@@ -151,13 +152,13 @@ pub fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
 
 /// SIGINT (Ctrl-C) and SIGTERM, handled even when the process was started in the background,
 /// where the shell leaves SIGINT ignored: installing a handler replaces that disposition.
-struct ShutdownSignals {
+pub(crate) struct ShutdownSignals {
     #[cfg(unix)]
     unix: Option<(tokio::signal::unix::Signal, tokio::signal::unix::Signal)>,
 }
 
 impl ShutdownSignals {
-    fn install() -> ShutdownSignals {
+    pub(crate) fn install() -> ShutdownSignals {
         #[cfg(unix)]
         {
             use tokio::signal::unix::{signal, SignalKind};
@@ -174,7 +175,7 @@ impl ShutdownSignals {
     }
 
     /// Waits for the first signal and names it.
-    async fn recv(&mut self) -> &'static str {
+    pub(crate) async fn recv(&mut self) -> &'static str {
         #[cfg(unix)]
         if let Some((int, term)) = &mut self.unix {
             return tokio::select! {

@@ -14,7 +14,7 @@ use crate::error::{CliError, CliResult};
 
 /// One point of a trajectory file.
 #[derive(Debug, Clone, PartialEq)]
-pub struct FilePoint {
+pub(crate) struct FilePoint {
     /// Time from the start, seconds.
     pub time_s: f64,
     /// Joint positions, degrees.
@@ -28,7 +28,7 @@ pub struct FilePoint {
 }
 
 /// Reads and validates a trajectory file.
-pub fn load(path: &Path, model: &RobotModel) -> CliResult<Vec<FilePoint>> {
+pub(crate) fn load(path: &Path, model: &RobotModel) -> CliResult<Vec<FilePoint>> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| CliError::input(format!("cannot read {}: {e}", path.display())))?;
     let is_json = path
@@ -51,7 +51,7 @@ const NAMES: [&str; 19] = [
 ];
 
 /// Parses CSV text.
-pub fn parse_csv(text: &str) -> Result<Vec<FilePoint>, String> {
+pub(crate) fn parse_csv(text: &str) -> Result<Vec<FilePoint>, String> {
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)
         .trim(csv::Trim::All)
@@ -141,15 +141,13 @@ struct JsonPoint {
     acceleration_deg_s2: Option<[f64; 6]>,
 }
 
-#[derive(Deserialize)]
-#[serde(untagged)]
-enum JsonFile {
-    Points(Vec<JsonPoint>),
-    Wrapped { points: Vec<JsonPoint> },
-}
+/// What a JSON trajectory file must look like (for messages).
+const JSON_SHAPE: &str = "an array of points (or {\"points\": [...]}), each \
+    {\"time_s\": number, \"position_deg\": [6 numbers], optional \"velocity_deg_s\": [6 numbers], \
+    optional \"acceleration_deg_s2\": [6 numbers]}";
 
 /// Parses JSON text.
-pub fn parse_json(text: &str) -> Result<Vec<FilePoint>, String> {
+pub(crate) fn parse_json(text: &str) -> Result<Vec<FilePoint>, String> {
     // First a syntax check, which reports line and column.
     let value: serde_json::Value = serde_json::from_str(text).map_err(|e| {
         format!(
@@ -158,27 +156,33 @@ pub fn parse_json(text: &str) -> Result<Vec<FilePoint>, String> {
             e.column()
         )
     })?;
-    let file: JsonFile = serde_json::from_value(value).map_err(|e| {
-        format!("unexpected JSON structure ({e}); expected an array of {{\"time_s\", \"position_deg\": [6 numbers], optional \"velocity_deg_s\", \"acceleration_deg_s2\"}}")
-    })?;
-    let pts = match file {
-        JsonFile::Points(p) | JsonFile::Wrapped { points: p } => p,
+    let items = match value {
+        serde_json::Value::Array(items) => items,
+        serde_json::Value::Object(mut map) => match map.remove("points") {
+            Some(serde_json::Value::Array(items)) if map.is_empty() => items,
+            _ => return Err(format!("expected {JSON_SHAPE}")),
+        },
+        _ => return Err(format!("expected {JSON_SHAPE}")),
     };
-    Ok(pts
+    items
         .into_iter()
         .enumerate()
-        .map(|(i, p)| FilePoint {
-            time_s: p.time_s,
-            position: JointsDeg::new(p.position_deg),
-            velocity: p.velocity_deg_s.map(JointsDeg::new),
-            acceleration: p.acceleration_deg_s2.map(JointsDeg::new),
-            origin: format!("point {}", i + 1),
+        .map(|(i, item)| {
+            let p: JsonPoint = serde_json::from_value(item)
+                .map_err(|e| format!("point {}: {e}; expected {JSON_SHAPE}", i + 1))?;
+            Ok(FilePoint {
+                time_s: p.time_s,
+                position: JointsDeg::new(p.position_deg),
+                velocity: p.velocity_deg_s.map(JointsDeg::new),
+                acceleration: p.acceleration_deg_s2.map(JointsDeg::new),
+                origin: format!("point {}", i + 1),
+            })
         })
-        .collect())
+        .collect()
 }
 
 /// Checks times, finiteness, ranges and speeds between points.
-pub fn validate(points: &[FilePoint], model: &RobotModel) -> Result<(), String> {
+pub(crate) fn validate(points: &[FilePoint], model: &RobotModel) -> Result<(), String> {
     if points.is_empty() {
         return Err("no points".to_owned());
     }
@@ -281,5 +285,17 @@ mod tests {
         assert_eq!(p[0].velocity.unwrap()[0], 1.0);
         let e = parse_json("[{\"time_s\":0,\n\"position_deg\":[0,0]]").unwrap_err();
         assert!(e.contains("line 2"), "{e}");
+        // Structure errors name the point and the field, never the parser's own types.
+        let e = parse_json(r#"[{"time_s":0,"position_deg":[0,0,-90,0,-90,0]},{"time_s":1}]"#)
+            .unwrap_err();
+        assert!(
+            e.starts_with("point 2: missing field `position_deg`"),
+            "{e}"
+        );
+        assert!(!e.contains("untagged") && !e.contains("JsonFile"), "{e}");
+        let e = parse_json(r#"{"pts": []}"#).unwrap_err();
+        assert!(e.starts_with("expected an array of points"), "{e}");
+        let e = parse_json(r#"[{"time_s":0,"position_deg":[0,0,-90,0,-90]}]"#).unwrap_err();
+        assert!(e.contains("point 1") && e.contains("6"), "{e}");
     }
 }

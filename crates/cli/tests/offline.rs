@@ -1,4 +1,5 @@
 //! CLI tests of the commands that need no robot.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use assert_cmd::Command;
 use predicates::prelude::*;

@@ -1,72 +1,15 @@
 //! CLI tests against the emulator (`fs020n sim` in a child process, on loopback).
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use std::io::{BufRead, BufReader, Write};
-use std::process::{Child, Command as StdCommand, Stdio};
+use std::process::{Command as StdCommand, Stdio};
 
 use assert_cmd::Command;
 use predicates::prelude::*;
 use serde_json::Value;
 
-/// An emulator child process, killed on drop.
-struct Sim {
-    child: Child,
-    addr: String,
-    /// The pendant API's HOST:PORT, when started with one.
-    pendant: Option<String>,
-}
-
-impl Sim {
-    fn start(extra: &[&str]) -> Sim {
-        Sim::spawn(extra, false)
-    }
-
-    fn with_pendant() -> Sim {
-        Sim::spawn(&[], true)
-    }
-
-    fn spawn(extra: &[&str], pendant: bool) -> Sim {
-        let mut cmd = StdCommand::new(assert_cmd::cargo::cargo_bin("fs020n"));
-        cmd.args(["--json", "sim", "--listen", "127.0.0.1:0"])
-            .args(extra);
-        if pendant {
-            cmd.args(["--pendant", "127.0.0.1:0"]);
-        }
-        let mut child = cmd
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("spawn fs020n sim");
-        let mut line = String::new();
-        BufReader::new(child.stdout.take().expect("stdout"))
-            .read_line(&mut line)
-            .expect("first line");
-        let v: Value = serde_json::from_str(&line).expect("JSON line with the address");
-        Sim {
-            child,
-            addr: v["listen"].as_str().expect("listen").to_owned(),
-            pendant: v["pendant"]
-                .as_str()
-                .map(|p| p.trim_start_matches("http://").to_owned()),
-        }
-    }
-
-    fn cmd(&self) -> Command {
-        let mut c = Command::cargo_bin("fs020n").expect("binary");
-        c.env_remove("FS020N_ROBOT").args(["--robot", &self.addr]);
-        c
-    }
-}
-
-impl Drop for Sim {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-fn json_of(out: &[u8]) -> Value {
-    serde_json::from_slice(out).unwrap_or_else(|e| panic!("{e}: {}", String::from_utf8_lossy(out)))
-}
+mod common;
+use common::*;
 
 #[test]
 fn status_json_reads_the_emulator() {
@@ -461,17 +404,11 @@ fn status_watch_streams_json_lines_until_interrupted() {
     assert!(timers.windows(2).all(|w| w[1] >= w[0]), "{timers:?}");
     interrupt(&child);
     let status = child.wait().unwrap();
-    assert!(status.success(), "Ctrl-C ends --watch cleanly: {status:?}");
-}
-
-/// Sends SIGINT (Ctrl-C) to a child process.
-fn interrupt(child: &Child) {
-    let ok = StdCommand::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap()
-        .success();
-    assert!(ok, "kill -INT");
+    assert_eq!(
+        status.code(),
+        Some(130),
+        "Ctrl-C ends --watch as it ends every command: {status:?}"
+    );
 }
 
 #[test]
@@ -514,21 +451,6 @@ fn ctrl_c_during_play_cancels_and_closes() {
         j1,
         "standing still"
     );
-}
-
-/// GET a pendant path, returning the JSON body.
-fn pendant_get(addr: &str, path: &str) -> Value {
-    use std::io::Read;
-    let mut s = std::net::TcpStream::connect(addr).unwrap();
-    write!(
-        s,
-        "GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
-    )
-    .unwrap();
-    let mut text = String::new();
-    s.read_to_string(&mut text).unwrap();
-    let body = text.split("\r\n\r\n").nth(1).unwrap();
-    serde_json::from_str(body).unwrap()
 }
 
 #[test]

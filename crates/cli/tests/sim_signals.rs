@@ -1,6 +1,7 @@
 //! `fs020n sim` ends cleanly (exit 0) on SIGINT and SIGTERM, also when started in the
 //! background by a non-interactive shell (which leaves SIGINT ignored in the job).
 #![cfg(unix)]
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};

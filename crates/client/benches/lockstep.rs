@@ -9,6 +9,7 @@
 //! * `blocking/echo` — the blocking client (one-worker runtime: a thread hop per request).
 //!
 //! After the criterion groups a summary prints requests per second and the ratios.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};

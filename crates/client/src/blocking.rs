@@ -8,7 +8,7 @@
 //!
 //! Do not use it from inside an async runtime (tokio forbids blocking there); use
 //! [`crate::Robot`] there. Inside a runtime, every blocking method returns
-//! [`ClientError::Config`] instead of blocking (or panicking), and dropping a [`Robot`] hands
+//! [`ClientError::InsideAsyncRuntime`] instead of blocking (or panicking), and dropping a [`Robot`] hands
 //! the closing 255 and the runtime's shutdown to a helper thread.
 
 use std::future::Future;
@@ -65,11 +65,7 @@ fn in_async_context() -> bool {
 /// Refuses to block inside an async runtime (tokio would panic).
 fn outside_async_context() -> Result<(), ClientError> {
     if in_async_context() {
-        return Err(ClientError::Config(
-            "the blocking client cannot be used inside an async runtime (blocking there is not \
-             allowed); use fs020n_client::Robot, the async API, instead"
-                .into(),
-        ));
+        return Err(ClientError::InsideAsyncRuntime);
     }
     Ok(())
 }
@@ -116,7 +112,7 @@ pub struct Robot {
 
 impl Robot {
     /// See [`crate::Robot::connect`]. Inside an async runtime it returns
-    /// [`ClientError::Config`] (use the async [`crate::Robot`] there).
+    /// [`ClientError::InsideAsyncRuntime`] (use the async [`crate::Robot`] there).
     pub fn connect(addr: &str, config: ClientConfig) -> Result<Robot, ClientError> {
         let rt = runtime()?;
         let inner = rt.block_on(crate::Robot::connect(addr, config))?;
@@ -127,7 +123,7 @@ impl Robot {
     }
 
     /// See [`crate::Robot::connect_with`]. Inside an async runtime it returns
-    /// [`ClientError::Config`].
+    /// [`ClientError::InsideAsyncRuntime`].
     pub fn connect_with(
         connector: impl Connector,
         config: ClientConfig,
@@ -173,12 +169,12 @@ impl Robot {
     }
 
     /// See [`crate::Robot::status`].
-    pub fn status(&self) -> Option<StatusSnapshot> {
+    pub fn status(&self) -> StatusSnapshot {
         self.r().status()
     }
 
     /// See [`crate::Robot::subscribe`] (use `borrow()` / `has_changed()` from blocking code).
-    pub fn subscribe(&self) -> watch::Receiver<Option<StatusSnapshot>> {
+    pub fn subscribe(&self) -> watch::Receiver<StatusSnapshot> {
         self.r().subscribe()
     }
 
@@ -224,6 +220,35 @@ impl Robot {
             rt: self.rt.clone(),
             inner,
         })
+    }
+
+    /// See [`crate::Robot::move_joints_and_wait`]: one call that returns when the robot is at
+    /// the target.
+    ///
+    /// ```no_run
+    /// use fs020n_client::{blocking::Robot, ClientConfig, Completion, JointsDeg};
+    /// let robot = Robot::connect("127.0.0.1:10050", ClientConfig::default())?;
+    /// robot.start()?;
+    /// let target = JointsDeg::new([10.0, 0.0, -90.0, 0.0, -90.0, 0.0]);
+    /// let report = robot.move_joints_and_wait(target, Completion::default())?;
+    /// println!("reached in {:?}", report.elapsed);
+    /// # Ok::<(), fs020n_client::ClientError>(())
+    /// ```
+    pub fn move_joints_and_wait(
+        &self,
+        target: JointsDeg,
+        completion: Completion,
+    ) -> Result<MoveReport, ClientError> {
+        block_on(&self.rt, self.r().move_joints_and_wait(target, completion))
+    }
+
+    /// See [`crate::Robot::move_pose_and_wait`].
+    pub fn move_pose_and_wait(
+        &self,
+        target: impl Into<Pose>,
+        completion: Completion,
+    ) -> Result<MoveReport, ClientError> {
+        block_on(&self.rt, self.r().move_pose_and_wait(target, completion))
     }
 
     /// See [`crate::Robot::move_pose`].
@@ -320,8 +345,10 @@ impl Drop for Robot {
     }
 }
 
-/// Blocking handle of a joint move; see [`crate::MoveHandle`].
+/// Blocking handle of a joint move; see [`crate::MoveHandle`] (dropping the last clone while
+/// the move runs cancels it).
 #[derive(Debug, Clone)]
+#[must_use = "dropping the last MoveHandle cancels the move: keep it and call wait()"]
 pub struct MoveHandle {
     rt: Rt,
     inner: crate::MoveHandle,
@@ -354,8 +381,10 @@ impl MoveHandle {
     }
 }
 
-/// Blocking handle of a stream; see [`crate::StreamHandle`]. Dropping it cancels the stream.
-#[derive(Debug)]
+/// Blocking handle of a stream; see [`crate::StreamHandle`] (dropping the last clone while
+/// the stream runs cancels it).
+#[derive(Debug, Clone)]
+#[must_use = "dropping the last StreamHandle cancels the stream: keep it and call wait()"]
 pub struct StreamHandle {
     rt: Rt,
     inner: crate::StreamHandle,
@@ -363,14 +392,13 @@ pub struct StreamHandle {
 
 impl StreamHandle {
     /// See [`crate::StreamHandle::wait`].
-    pub fn wait(self) -> Result<StreamReport, ClientError> {
-        let StreamHandle { rt, inner } = self;
-        block_on(&rt, inner.wait())
+    pub fn wait(&self) -> Result<StreamReport, ClientError> {
+        block_on(&self.rt, self.inner.wait())
     }
 
     /// See [`crate::StreamHandle::cancel`].
-    pub fn cancel(&self) {
-        self.inner.cancel()
+    pub fn cancel(&self) -> Result<(), ClientError> {
+        block_on(&self.rt, self.inner.cancel())
     }
 
     /// See [`crate::StreamHandle::progress`].

@@ -6,6 +6,7 @@ use std::time::Duration;
 use fs020n_kin::{IkError, LimitError};
 use fs020n_proto::{DecodeError, EncodeError};
 
+use crate::display::Rounded;
 use crate::safety::{self, Blocker, SampleError};
 use crate::trajectory::TrajectoryError;
 
@@ -16,7 +17,7 @@ use crate::trajectory::TrajectoryError;
 #[non_exhaustive]
 pub enum LinkError {
     /// No complete reply within the deadline.
-    #[error("no reply to {request:?} within {deadline:?}")]
+    #[error("no reply to {request:?} within {}", Rounded(*.deadline))]
     ReplyTimeout {
         /// The request text.
         request: String,
@@ -24,7 +25,7 @@ pub enum LinkError {
         deadline: Duration,
     },
     /// The request could not be written within the deadline (the controller stopped reading).
-    #[error("could not send {request:?} within {deadline:?} (the controller is not reading)")]
+    #[error("could not send {request:?} within {} (the controller is not reading)", Rounded(*.deadline))]
     WriteTimeout {
         /// The request text.
         request: String,
@@ -75,15 +76,83 @@ impl LinkError {
     }
 }
 
+/// Why a motion was not sent, or stopped being followed: it was cancelled or replaced.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum Cancellation {
+    /// A cancel, stop or close was requested after the motion was checked and before it was
+    /// sent: nothing was sent.
+    #[error("not sent: a cancel, stop or close was requested after it was checked")]
+    NotSent,
+    /// The motion was cancelled (a cancel, stop or close was requested) while it ran.
+    #[error("the motion was cancelled (a cancel, stop or close was requested)")]
+    Cancelled,
+    /// A newer motion command replaced it (the controller follows only the newest).
+    #[error("the motion was superseded by a newer motion command")]
+    Superseded,
+    /// A servo was stopped by its user ([`ServoHandle::stop`](crate::ServoHandle::stop) or a
+    /// dropped handle): the arm was stopped for sure (commands 5 then 2).
+    #[error("the servo was stopped (ServoHandle::stop; the motion program was stopped too); start it again (Robot::start) and open a new servo to move again")]
+    ServoStopped,
+    /// A servo's watchdog fired: no sample was pushed within its watchdog time, and the arm was
+    /// stopped ([`WatchdogAction`](crate::WatchdogAction)).
+    #[error("the servo's watchdog fired: no sample was pushed within its watchdog time, so the arm was stopped (commands 5 and 2 unless the servo was opened to brake only); start the program again if it was stopped (Robot::start) and open a new servo, pushing at least once per watchdog period")]
+    ServoWatchdog,
+}
+
+/// What holds the motion channel when a request is refused as [`ClientError::Busy`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum Activity {
+    /// A stream ([`Robot::stream`](crate::Robot::stream)) is running.
+    #[error("a stream is running; cancel it first (StreamHandle::cancel or Robot::cancel)")]
+    Stream,
+    /// A servo ([`Robot::servo`](crate::Robot::servo)) is running.
+    #[error("a servo is running; stop it first (ServoHandle::stop or Robot::cancel)")]
+    Servo,
+}
+
+/// Why [`Robot::send_raw`](crate::Robot::send_raw) refuses a text; nothing was sent.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum RawRefusal {
+    /// The text is empty.
+    #[error("the request is empty")]
+    Empty,
+    /// Longer than the controller reads.
+    #[error("the request is {bytes} bytes; the controller reads only the first {max}")]
+    TooLong {
+        /// Its length.
+        bytes: usize,
+        /// What the controller reads.
+        max: usize,
+    },
+    /// Control characters or non-ASCII text.
+    #[error("only printable ASCII and blanks are allowed (the protocol has no terminator)")]
+    NotPrintable,
+    /// A command the controller would execute as a motion (1040 6 or 1040 7, read with the
+    /// controller's own parsing).
+    #[error("{text:?} is a motion command (the controller would move the robot); pass allow_motion to send it")]
+    Motion {
+        /// The text.
+        text: String,
+    },
+}
+
 /// Every error of the client. `Clone`, so that one cause can be reported to every waiter.
+///
+/// The message (`Display`) is complete: what happened and what to do. Errors that wrap a more
+/// specific one also return it as their [`source`](std::error::Error::source), for programs
+/// that match on it; a report that prints the whole chain repeats that part.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ClientError {
     /// Connecting failed for the whole connect timeout.
     #[error(
-        "could not connect to {target} within {waited:?} ({attempts} attempts; last error: {last}); \
+        "could not connect to {target} within {} ({attempts} attempts; last error: {last}); \
          check that the controller is on and its AS server program runs, that the address and port \
-         are right, and that no other client holds the session (the server serves one at a time)"
+         are right, and that no other client holds the session (the server serves one at a time)",
+        Rounded(*.waited)
     )]
     Connect {
         /// What was connected to (e.g. `192.168.0.2:10050`).
@@ -95,13 +164,32 @@ pub enum ClientError {
         /// The last attempt's error.
         last: String,
     },
+    /// The address cannot be used at all (the name does not resolve, or it is malformed):
+    /// retrying cannot help, so the client did not.
+    #[error("cannot connect to {target}: {message}; check the host name and port, or give an IP address")]
+    Address {
+        /// The address as given.
+        target: String,
+        /// Why.
+        message: String,
+    },
+    /// Something answers at the address, but not as a protocol-1040 server (an HTTP server, a
+    /// wrong port): retrying cannot help, so the client did not.
+    #[error("{target} is not a protocol-1040 server: {cause}; check the address and port (the robot's is 10050 unless configured otherwise)")]
+    NotAController {
+        /// The address.
+        target: String,
+        /// What the peer did.
+        #[source]
+        cause: LinkError,
+    },
     /// The link was lost; the handle is dead.
     #[error(
         "link to the robot lost: {0}; the controller ends the session and stops the robot — \
          reconnect explicitly (Robot::reconnect) and start the program again; motion is never \
          resumed automatically"
     )]
-    LinkLost(LinkError),
+    LinkLost(#[from] LinkError),
     /// The session was closed with [`Robot::close`](crate::Robot::close).
     #[error("the session is closed; reconnect (Robot::reconnect) to continue")]
     Closed,
@@ -116,9 +204,24 @@ pub enum ClientError {
         /// What stopped it, each with its remedy.
         blockers: Vec<Blocker>,
     },
+    /// A motion stayed paused by HOLD for longer than its hold timeout
+    /// ([`Completion::hold_timeout`](crate::Completion::hold_timeout),
+    /// [`StreamOptions::hold_timeout`](crate::StreamOptions::hold_timeout)); it was cancelled
+    /// (commands 5 then 2).
+    #[error(
+        "the {during} was held (RUN/HOLD on HOLD) for {}, longer than its hold timeout; it was \
+         cancelled — switch RUN/HOLD to RUN and move again",
+        Rounded(*.waited)
+    )]
+    HoldTimeout {
+        /// What was held ("joint move", "stream").
+        during: &'static str,
+        /// How long it was held.
+        waited: Duration,
+    },
     /// A joint target outside the model's ranges; nothing was sent.
     #[error("target refused before sending: {0}; choose a target inside the joint range")]
-    Limit(LimitError),
+    Limit(#[from] LimitError),
     /// A NaN or infinite value; nothing was sent.
     #[error("{what} is not a finite number; refusing to send it")]
     NonFinite {
@@ -127,28 +230,29 @@ pub enum ClientError {
     },
     /// A request that cannot be encoded (too long, out of range); nothing was sent.
     #[error("request refused before sending: {0}")]
-    Encode(EncodeError),
+    Encode(#[from] EncodeError),
     /// A command-7 sample (raw) that could send the robot out of its ranges, or with a
     /// velocity or acceleration above the model's; nothing was sent.
     #[error("command-7 sample refused before sending: {0}")]
-    Sample(SampleError),
+    Sample(#[from] SampleError),
     /// A speed outside 1–100 %; nothing was sent.
     #[error("speed {percent} % refused: give a speed from 1 to 100 %")]
     Speed {
         /// The requested speed.
         percent: f64,
     },
-    /// An invalid trajectory; nothing was sent.
+    /// An invalid trajectory or stream option; nothing was sent.
     #[error("trajectory refused before sending: {0}")]
-    Trajectory(TrajectoryError),
+    Trajectory(#[from] TrajectoryError),
     /// No inverse-kinematics solution; nothing was sent.
     #[error("no joint solution for the pose: {0}; choose a reachable pose whose joints are inside the ranges")]
-    Ik(IkError),
-    /// A joint move did not finish in time; it was cancelled (command 5).
+    Ik(#[from] IkError),
+    /// A joint move did not finish in time; it was cancelled (commands 5 then 2).
     #[error(
-        "the move did not reach its target within {timeout:?} ({remaining_deg:.3} deg to go); \
+        "the move did not reach its target within {} ({remaining_deg:.3} deg to go); \
          it was cancelled — check the speed (set_speed) and the robot's surroundings, or give a \
-         longer timeout"
+         longer timeout",
+        Rounded(*.timeout)
     )]
     MoveTimeout {
         /// The timeout.
@@ -158,7 +262,8 @@ pub enum ClientError {
     },
     /// Command 1 was sent but the program did not report running in time.
     #[error(
-        "the motion program did not start within {waited:?}{}",
+        "the motion program did not start within {}{}",
+        Rounded(*.waited),
         if .blockers.is_empty() {
             " although no switch blocks it; check the controller's terminal for an AS error".to_string()
         } else {
@@ -171,23 +276,20 @@ pub enum ClientError {
         /// Conditions seen in the last status.
         blockers: Vec<Blocker>,
     },
-    /// A raw request that is refused.
-    #[error("raw request refused: {reason}")]
-    RawRefused {
-        /// Why.
-        reason: String,
-    },
-    /// Another operation holds the motion channel.
+    /// A raw request that is refused; nothing was sent.
+    #[error("raw request refused: {0}")]
+    RawRefused(#[source] RawRefusal),
+    /// Another operation holds the motion channel; nothing was sent.
     #[error("busy: {0}")]
-    Busy(&'static str),
-    /// The operation was cancelled (by [`Robot::cancel`](crate::Robot::cancel), a stop, or a
-    /// newer motion).
+    Busy(#[source] Activity),
+    /// The motion was cancelled, superseded, or not sent because a cancel came first.
     #[error("{0}")]
-    Cancelled(&'static str),
-    /// A stream fell behind by more than the allowed gap; it was cancelled (command 5).
+    Cancelled(#[source] Cancellation),
+    /// A stream fell behind by more than the allowed gap; it was cancelled (commands 5 then 2).
     #[error(
-        "stream underrun: {gap:?} between samples (allowed {allowed:?}); the stream was cancelled — \
-         lower the sample rate or the load on this computer"
+        "stream underrun: {} between samples (allowed {}); the stream was cancelled — \
+         lower the sample rate or the load on this computer",
+        Rounded(*.gap), Rounded(*.allowed)
     )]
     StreamUnderrun {
         /// The gap.
@@ -195,6 +297,13 @@ pub enum ClientError {
         /// The allowed gap.
         allowed: Duration,
     },
+    /// No reply carried TIMER(1) (it shows asterisks after 11.6 days of one session), so
+    /// command-7 samples cannot be stamped.
+    #[error(
+        "no estimate of the controller's clock: no reply carried TIMER(1) (it overflows after \
+         11.6 days of one session); reconnect, or stream with waypoints (command 6)"
+    )]
+    NoServerClock,
     /// The recording file cannot be opened.
     #[error("cannot open the recording file {path}: {message}")]
     Recording {
@@ -204,44 +313,20 @@ pub enum ClientError {
         message: String,
     },
     /// An invalid configuration value ([`ClientConfig`](crate::ClientConfig), a
-    /// [`Completion`](crate::Completion)), or the blocking API used inside an async runtime.
+    /// [`Completion`](crate::Completion)).
     #[error("invalid configuration: {0}")]
     Config(String),
+    /// The blocking API was called inside an async runtime, where blocking is not allowed.
+    #[error(
+        "the blocking client cannot be used inside an async runtime (blocking there is not \
+         allowed); use fs020n_client::Robot, the async API, instead"
+    )]
+    InsideAsyncRuntime,
 }
 
-impl From<LinkError> for ClientError {
-    fn from(e: LinkError) -> Self {
-        ClientError::LinkLost(e)
-    }
-}
-
-impl From<EncodeError> for ClientError {
-    fn from(e: EncodeError) -> Self {
-        ClientError::Encode(e)
-    }
-}
-
-impl From<SampleError> for ClientError {
-    fn from(e: SampleError) -> Self {
-        ClientError::Sample(e)
-    }
-}
-
-impl From<LimitError> for ClientError {
-    fn from(e: LimitError) -> Self {
-        ClientError::Limit(e)
-    }
-}
-
-impl From<TrajectoryError> for ClientError {
-    fn from(e: TrajectoryError) -> Self {
-        ClientError::Trajectory(e)
-    }
-}
-
-impl From<IkError> for ClientError {
-    fn from(e: IkError) -> Self {
-        ClientError::Ik(e)
+impl From<Cancellation> for ClientError {
+    fn from(c: Cancellation) -> Self {
+        ClientError::Cancelled(c)
     }
 }
 
@@ -249,6 +334,25 @@ impl ClientError {
     /// `true` when the session is gone (link lost or closed) and only a reconnect helps.
     pub fn is_link_dead(&self) -> bool {
         matches!(self, ClientError::LinkLost(_) | ClientError::Closed)
+    }
+
+    /// `true` when nothing was sent because the request was refused by a check before sending
+    /// (a value, a trajectory, a raw text, a blocked status, a busy channel).
+    pub fn refused_before_sending(&self) -> bool {
+        matches!(
+            self,
+            ClientError::Blocked(_)
+                | ClientError::Limit(_)
+                | ClientError::NonFinite { .. }
+                | ClientError::Encode(_)
+                | ClientError::Sample(_)
+                | ClientError::Speed { .. }
+                | ClientError::Trajectory(_)
+                | ClientError::Ik(_)
+                | ClientError::RawRefused(_)
+                | ClientError::Busy(_)
+                | ClientError::Cancelled(Cancellation::NotSent)
+        )
     }
 
     /// The blockers carried by this error, if any.
@@ -259,5 +363,43 @@ impl ClientError {
             | ClientError::StartFailed { blockers: b, .. } => b,
             _ => &[],
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::error::Error as _;
+
+    #[test]
+    fn durations_are_rounded_in_messages() {
+        assert_eq!(
+            Rounded(Duration::from_nanos(9_983_816_934)).to_string(),
+            "10.0 s"
+        );
+        assert_eq!(Rounded(Duration::from_millis(250)).to_string(), "250 ms");
+        let e = ClientError::Connect {
+            target: "x:1".into(),
+            attempts: 3,
+            waited: Duration::from_nanos(9_983_816_934),
+            last: "refused".into(),
+        };
+        assert!(e.to_string().contains("within 10.0 s (3 attempts"), "{e}");
+    }
+
+    #[test]
+    fn wrapped_causes_are_sources() {
+        let e = ClientError::from(LinkError::Closed);
+        assert_eq!(
+            e.source().map(ToString::to_string),
+            Some(LinkError::Closed.to_string())
+        );
+        let e = ClientError::RawRefused(RawRefusal::Empty);
+        assert!(e
+            .source()
+            .is_some_and(|s| s.downcast_ref::<RawRefusal>().is_some()));
+        let e = ClientError::from(Cancellation::Superseded);
+        assert!(e.to_string().contains("superseded"));
+        assert!(e.source().is_some());
     }
 }

@@ -12,8 +12,12 @@
 //! * A lost link kills the handle with a typed error ([`ClientError::LinkLost`]); reconnecting
 //!   is explicit ([`Robot::reconnect`]) and never resumes motion.
 //! * Motion: [`Robot::move_joints`] / [`Robot::move_pose`] return a [`MoveHandle`] to wait for
-//!   ([`Completion`]), watch or cancel; [`Robot::stream`] streams a [`Trajectory`] with
-//!   command 7 stamped by the estimated server clock ([`ServerClock`]) or with command 6.
+//!   ([`Completion`]), watch or cancel ([`Robot::move_joints_and_wait`] does both in one call);
+//!   [`Robot::stream`] streams a [`Trajectory`] with command 7 stamped by the estimated server
+//!   clock ([`ServerClock`]) or with command 6, checked first by [`StreamOptions::validate`].
+//! * Without a robot: the `sim` feature adds [`emulated::EmulatorConnector`], which connects to
+//!   an emulated controller in the same process (`examples/emulated_tour.rs`,
+//!   `examples/blocking_move.rs`).
 //! * Safety: [`Robot::preflight`] lists every [`Blocker`] with its remedy; targets are checked
 //!   against the robot model, speeds against 1–100 %, requests against 255 bytes, and every
 //!   command-7 sample over everything the controller can extrapolate it to
@@ -23,12 +27,30 @@
 //!
 //! Architecture, clock estimation, error → remedy table and recording format:
 //! `docs/CLIENT.md`.
+//!
+//! ```no_run
+//! use fs020n_client::{ClientConfig, Completion, JointsDeg, Robot};
+//! # async fn run() -> Result<(), fs020n_client::ClientError> {
+//! let robot = Robot::connect("192.168.0.2:10050", ClientConfig::default()).await?;
+//! robot.preflight().await?;
+//! robot.set_speed(20.0).await?;
+//! robot.start().await?;
+//! let target = JointsDeg::new([10.0, 0.0, -90.0, 0.0, -90.0, 0.0]);
+//! let report = robot.move_joints_and_wait(target, Completion::default()).await?;
+//! println!("reached {} in {:?}", report.final_joints, report.elapsed);
+//! robot.close().await?;
+//! # Ok(()) }
+//! ```
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod blocking;
+mod check;
 pub mod clock;
 mod config;
+mod display;
+#[cfg(feature = "sim")]
+pub mod emulated;
 mod error;
 mod lag;
 mod motion;
@@ -36,6 +58,7 @@ mod record;
 pub mod record_format;
 mod robot;
 mod safety;
+pub mod servo;
 mod session;
 mod stats;
 mod stream;
@@ -44,7 +67,7 @@ mod transport;
 
 pub use clock::{ClockFit, ServerClock};
 pub use config::{ClientConfig, RecordFormat, Recording};
-pub use error::{ClientError, LinkError};
+pub use error::{Activity, Cancellation, ClientError, LinkError, RawRefusal};
 pub use lag::LagCompensation;
 pub use motion::{Completion, MoveHandle, MoveProgress, MoveReport};
 pub use record::{MCAP_CHUNK_INTERVAL, RECORD_QUEUE_LINES};
@@ -53,27 +76,34 @@ pub use safety::{
     blockers, check_stream_sample, extrapolation_window, Blocker, SampleError, ESTOP_REMEDY,
     EXTRAPOLATION_STEP_BOUND_S, MAX_LOOKAHEAD_PASSES,
 };
+pub use servo::{
+    ServoHandle, ServoOptions, ServoOutcome, ServoReport, ServoSample, ServoStats, WatchdogAction,
+};
 pub use session::StatusSnapshot;
 pub use stats::{RttStats, Stats, RTT_WINDOW};
 pub use stream::{
     StreamHandle, StreamMode, StreamOptions, StreamOutcome, StreamProgress, StreamReport,
 };
-pub use trajectory::{Trajectory, TrajectoryError, TrajectoryPoint, TrajectorySample};
+pub use trajectory::{OptionError, Trajectory, TrajectoryError, TrajectoryPoint, TrajectorySample};
 pub use transport::{AsyncReadWrite, BoxedStream, ConnectFuture, Connector, TcpConnector};
 
 pub use fs020n_kin::{Pose, Xyzoat};
 pub use fs020n_proto::{ErrorCode, JointsDeg, ReplyFrame, Status};
 
+/// The README's examples, compiled as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;
+
 #[cfg(test)]
 mod tests {
     fn send_sync<T: Send + Sync>() {}
-    fn send<T: Send>() {}
 
     #[test]
     fn handles_can_cross_threads() {
         send_sync::<super::Robot>();
         send_sync::<super::MoveHandle>();
-        send::<super::StreamHandle>();
+        send_sync::<super::StreamHandle>();
         send_sync::<super::blocking::Robot>();
         send_sync::<super::ClientError>();
         send_sync::<super::StatusSnapshot>();

@@ -11,11 +11,12 @@ use fs020n_proto::{Command, JointsDeg, ReplyFrame, Request, Status};
 use tokio::sync::watch;
 use tokio::time::Instant;
 
+use crate::check::{check_speed, check_target};
 use crate::clock::ClockFit;
 use crate::config::ClientConfig;
-use crate::error::ClientError;
-use crate::motion::MoveHandle;
-use crate::safety::{blockers, check_speed, check_stream_sample, check_target};
+use crate::error::{Activity, Cancellation, ClientError, RawRefusal};
+use crate::motion::{Completion, MoveHandle, MoveReport};
+use crate::safety::{blockers, check_stream_sample};
 use crate::session::{establish, lock, Common, Kind, Link, MotionTag, StatusSnapshot};
 use crate::stats::Stats;
 use crate::stream::{StreamHandle, StreamOptions};
@@ -113,13 +114,13 @@ impl Robot {
     }
 
     /// The latest status with its age, without waiting. Fresh to within the keep-alive period
-    /// while the session is open; `None` only before the first reply (never, after connect).
-    pub fn status(&self) -> Option<StatusSnapshot> {
+    /// while the session is open; after the session ended, the last status it received.
+    pub fn status(&self) -> StatusSnapshot {
         self.link.latest()
     }
 
     /// A receiver of every new status. `changed()` fails when the session ends.
-    pub fn subscribe(&self) -> watch::Receiver<Option<StatusSnapshot>> {
+    pub fn subscribe(&self) -> watch::Receiver<StatusSnapshot> {
         self.link.status.clone()
     }
 
@@ -143,9 +144,7 @@ impl Robot {
     fn not_streaming(&self) -> Result<(), ClientError> {
         if self.link.shared.streaming.load(Ordering::SeqCst) {
             self.common.refused();
-            return Err(ClientError::Busy(
-                "a stream is running; cancel it (StreamHandle::cancel or Robot::cancel) first",
-            ));
+            return Err(ClientError::Busy(Activity::Stream));
         }
         Ok(())
     }
@@ -196,7 +195,8 @@ impl Robot {
         let deadline = started + self.common.config.start_timeout;
         let mut rx = self.link.status.clone();
         loop {
-            if let Some(s) = rx.borrow_and_update().as_ref() {
+            {
+                let s = rx.borrow_and_update();
                 if s.received_at > ex.sent_at && s.status.task_running {
                     return Ok(());
                 }
@@ -286,11 +286,7 @@ impl Robot {
         let text = Request::new(Command::JointMove { target })
             .encode()
             .inspect_err(|_| self.common.refused())?;
-        let from = self
-            .link
-            .latest()
-            .map(|s| s.status.joints)
-            .unwrap_or(target);
+        let from = self.link.latest().status.joints;
         let ex = self.link.exchange(text, Kind::Motion, Some(tag)).await?;
         let speed = self
             .link
@@ -306,6 +302,25 @@ impl Robot {
             ex.sent_at,
             speed,
         ))
+    }
+
+    /// [`move_joints`](Self::move_joints), then [`MoveHandle::wait`]: returns when the robot is
+    /// at the target (or the move failed, see [`MoveHandle::wait`]).
+    pub async fn move_joints_and_wait(
+        &self,
+        target: JointsDeg,
+        completion: Completion,
+    ) -> Result<MoveReport, ClientError> {
+        self.move_joints(target).await?.wait(completion).await
+    }
+
+    /// [`move_pose`](Self::move_pose), then [`MoveHandle::wait`].
+    pub async fn move_pose_and_wait(
+        &self,
+        target: impl Into<Pose>,
+        completion: Completion,
+    ) -> Result<MoveReport, ClientError> {
+        self.move_pose(target).await?.wait(completion).await
     }
 
     /// Moves the tool flange to a pose (`Pose`, or AS `Xyzoat` in mm/deg) with a joint move to
@@ -358,9 +373,7 @@ impl Robot {
         .inspect_err(|_| self.common.refused())?;
         if self.link.shared.current_epoch() != epoch {
             self.common.refused();
-            return Err(ClientError::Cancelled(
-                "the stream was not started: a cancel or stop was requested while it was starting",
-            ));
+            return Err(Cancellation::NotSent.into());
         }
         StreamHandle::spawn(
             self.link.clone(),
@@ -368,6 +381,27 @@ impl Robot {
             trajectory,
             options,
             epoch,
+        )
+    }
+
+    /// Opens an online servo ([`ServoHandle`](crate::ServoHandle)): push samples at your own
+    /// rate, each sent as command 7 stamped with the estimated controller time of the push,
+    /// with the checks of [`stream`](Self::stream) on every push and a watchdog that stops the
+    /// arm for sure (commands 5 then 2, by default) when the pushes stop. Refused like a stream while the
+    /// status blocks motion or another stream or servo runs. See [`crate::servo`].
+    pub async fn servo(
+        &self,
+        options: crate::servo::ServoOptions,
+    ) -> Result<crate::servo::ServoHandle, ClientError> {
+        let epoch = self.link.shared.current_epoch();
+        self.not_streaming()?;
+        let current = self.poll().await?;
+        crate::servo::open(
+            self.link.clone(),
+            self.common.config.model.clone(),
+            options,
+            epoch,
+            &current,
         )
     }
 
@@ -387,24 +421,21 @@ impl Robot {
         text: &str,
         allow_motion: bool,
     ) -> Result<ReplyFrame, ClientError> {
-        let refuse = |reason: String| {
+        let refuse = |why: RawRefusal| {
             self.common.refused();
-            Err(ClientError::RawRefused { reason })
+            Err(ClientError::RawRefused(why))
         };
         if text.is_empty() {
-            return refuse("the request is empty".into());
+            return refuse(RawRefusal::Empty);
         }
         if text.len() > MAX_REQUEST_BYTES {
-            return refuse(format!(
-                "the request is {} bytes; the controller reads only the first {MAX_REQUEST_BYTES}",
-                text.len()
-            ));
+            return refuse(RawRefusal::TooLong {
+                bytes: text.len(),
+                max: MAX_REQUEST_BYTES,
+            });
         }
         if !text.bytes().all(|b| b.is_ascii_graphic() || b == b' ') {
-            return refuse(
-                "only printable ASCII and blanks are allowed (the protocol has no terminator)"
-                    .into(),
-            );
+            return refuse(RawRefusal::NotPrintable);
         }
         let parsed = ServerRequest::parse(text.as_bytes());
         let effective = parsed.version_matches();
@@ -418,10 +449,9 @@ impl Robot {
                     position: target, ..
                 }) => {
                     if !allow_motion {
-                        return refuse(format!(
-                            "{text:?} is a motion command (the controller would move the robot); \
-                             pass allow_motion to send it"
-                        ));
+                        return refuse(RawRefusal::Motion {
+                            text: text.to_owned(),
+                        });
                     }
                     // The tag first: a cancel issued from here on refuses this motion.
                     motion = Some(self.link.shared.motion_tag());

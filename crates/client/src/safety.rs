@@ -3,11 +3,9 @@
 
 use std::fmt;
 
-use fs020n_kin::{LimitError, RobotModel};
-use fs020n_proto::{ErrorCode, JointsDeg, Status, StreamSample, JOINT_COUNT};
+use fs020n_kin::RobotModel;
+use fs020n_proto::{ErrorCode, Status, StreamSample, JOINT_COUNT};
 use serde::Serialize;
-
-use crate::error::ClientError;
 
 /// One condition of the controller that blocks motion (read from a status reply), with its
 /// remedy ([`Blocker::remedy`]).
@@ -76,9 +74,7 @@ impl Blocker {
             Blocker::TeachLock => "turn TEACH LOCK off".into(),
             Blocker::Hold => "switch RUN/HOLD to RUN".into(),
             Blocker::PowerOff => "turn motor power on".into(),
-            Blocker::ProgramNotRunning => {
-                "start the motion program first (Robot::start; in the fs020n shell: `start`)".into()
-            }
+            Blocker::ProgramNotRunning => "start the motion program first (Robot::start)".into(),
         }
     }
 }
@@ -131,18 +127,6 @@ pub fn blockers(status: &Status, need_program: bool) -> Vec<Blocker> {
         v.push(Blocker::ProgramNotRunning);
     }
     v
-}
-
-/// Checks a joint target: finite, inside the model's ranges.
-pub(crate) fn check_target(model: &RobotModel, target: &JointsDeg) -> Result<(), ClientError> {
-    if let Some(i) = target.iter().position(|v| !v.is_finite()) {
-        return Err(ClientError::NonFinite {
-            what: format!("JT{} target ({})", i + 1, target[i]),
-        });
-    }
-    model
-        .check_limits(target)
-        .map_err(|e: LimitError| ClientError::Limit(e))
 }
 
 /// Upper bound of the controller's average pass duration `step` (spec §2.4) assumed when
@@ -323,18 +307,10 @@ pub fn check_stream_sample(model: &RobotModel, sample: &StreamSample) -> Result<
     Ok(())
 }
 
-/// Checks a speed in percent: finite, 1–100.
-pub(crate) fn check_speed(percent: f64) -> Result<(), ClientError> {
-    if !(percent.is_finite() && (1.0..=100.0).contains(&percent)) {
-        return Err(ClientError::Speed { percent });
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use fs020n_proto::Timer;
+    use fs020n_proto::{JointsDeg, Timer};
 
     fn ready() -> Status {
         Status {
@@ -379,10 +355,10 @@ mod tests {
     }
 
     #[test]
-    fn program_not_running_remedy_names_no_missing_cli_command() {
+    fn program_not_running_remedy_names_the_api() {
         let r = Blocker::ProgramNotRunning.remedy();
-        assert!(!r.contains("fs020n start"), "{r}");
-        assert!(r.contains("Robot::start") && r.contains("shell"), "{r}");
+        assert!(!r.contains("fs020n"), "{r}");
+        assert!(r.contains("Robot::start"), "{r}");
     }
 
     fn sample(p: f64, v: f64, a: f64) -> StreamSample {
@@ -470,27 +446,6 @@ mod tests {
                 field: "acceleration",
                 joint: Some(4)
             })
-        ));
-    }
-
-    #[test]
-    fn speed_and_target_checks() {
-        assert!(check_speed(1.0).is_ok() && check_speed(100.0).is_ok());
-        for bad in [0.0, 0.5, 100.1, f64::NAN, f64::INFINITY, -3.0] {
-            assert!(matches!(check_speed(bad), Err(ClientError::Speed { .. })));
-        }
-        let m = RobotModel::fs020n();
-        assert!(check_target(&m, &m.home).is_ok());
-        let mut t = m.home;
-        t[0] = 161.0;
-        assert!(matches!(
-            check_target(&m, &t),
-            Err(ClientError::Limit(LimitError { joint: 1, .. }))
-        ));
-        t[0] = f64::NAN;
-        assert!(matches!(
-            check_target(&m, &t),
-            Err(ClientError::NonFinite { .. })
         ));
     }
 }

@@ -19,7 +19,7 @@ use tokio::time::{sleep_until, timeout, timeout_at, Instant};
 
 use crate::clock::ServerClock;
 use crate::config::ClientConfig;
-use crate::error::{ClientError, LinkError};
+use crate::error::{Cancellation, ClientError, LinkError};
 use crate::record::{Dir, Recorder};
 use crate::safety::blockers;
 use crate::stats::StatsInner;
@@ -224,7 +224,7 @@ impl SessionShared {
 #[derive(Debug, Clone)]
 pub(crate) struct Link {
     tx: mpsc::Sender<Op>,
-    pub(crate) status: watch::Receiver<Option<StatusSnapshot>>,
+    pub(crate) status: watch::Receiver<StatusSnapshot>,
     pub(crate) shared: Arc<SessionShared>,
 }
 
@@ -275,8 +275,31 @@ impl Link {
         self.exchange(text, Kind::Command, None).await
     }
 
-    pub(crate) fn latest(&self) -> Option<StatusSnapshot> {
+    pub(crate) fn latest(&self) -> StatusSnapshot {
         self.status.borrow().clone()
+    }
+
+    /// [`halt`](Self::halt) without waiting for the replies (for `Drop`, where nothing can
+    /// await): queues commands 5 and 2 (in this order: the queue is FIFO).
+    pub(crate) fn halt_detached(&self) {
+        self.shared.bump_epoch();
+        *lock(&self.shared.last_stop) = Some(Instant::now());
+        for command in [Command::CancelMotion, Command::StopProgram] {
+            let Ok(text) = Request::new(command).encode() else {
+                return;
+            };
+            let (reply, _) = oneshot::channel();
+            let op = Op {
+                text: text.into(),
+                kind: Kind::Command,
+                motion: None,
+                reply,
+            };
+            if let Err(e) = self.tx.try_send(op) {
+                tracing::warn!(error = %e, "could not queue the stop of a dropped motion handle");
+                return;
+            }
+        }
     }
 
     pub(crate) async fn close(&self) -> Result<Exchange, ClientError> {
@@ -408,6 +431,13 @@ pub(crate) async fn establish(
                 last = "the connection attempt did not complete in time".into();
                 break;
             }
+            // The address itself is unusable (a name that does not resolve): say so at once.
+            Ok(Err(e)) if e.kind() == std::io::ErrorKind::InvalidInput => {
+                return Err(ClientError::Address {
+                    target: connector.describe(),
+                    message: e.to_string(),
+                })
+            }
             Ok(Err(e)) => last = e.to_string(),
             Ok(Ok(stream)) => {
                 let mut conn = Conn::new(stream);
@@ -418,8 +448,16 @@ pub(crate) async fn establish(
                 );
                 match conn.exchange(POLL, cfg.write_timeout, reply_timeout).await {
                     Ok(ex) => return Ok(spawn(conn, ex, common.clone(), connector.describe())),
-                    Err(e @ LinkError::NotAController { .. }) => {
-                        return Err(ClientError::LinkLost(e))
+                    // Something answered, but not as a controller: retrying cannot help.
+                    Err(
+                        cause @ (LinkError::NotAController { .. }
+                        | LinkError::Undecodable(_)
+                        | LinkError::Unsolicited { .. }),
+                    ) => {
+                        return Err(ClientError::NotAController {
+                            target: connector.describe(),
+                            cause,
+                        })
                     }
                     // Accepted by the kernel but dropped by the server (another session,
                     // listen gap), or silent: try again.
@@ -427,6 +465,7 @@ pub(crate) async fn establish(
                 }
             }
         }
+        tracing::debug!(attempt = attempts, error = %last, "connection attempt failed");
         let now = Instant::now();
         if now + cfg.connect_retry_interval >= deadline {
             break;
@@ -453,7 +492,7 @@ fn spawn(conn: Conn, first: Exchange, common: Arc<Common>, target: String) -> Li
         rtt: first.rtt(),
         seq: 0,
     };
-    let (status_tx, status_rx) = watch::channel(Some(snapshot));
+    let (status_tx, status_rx) = watch::channel(snapshot);
     let (epoch, _) = watch::channel(0);
     let shared = Arc::new(SessionShared {
         id,
@@ -483,6 +522,14 @@ fn spawn(conn: Conn, first: Exchange, common: Arc<Common>, target: String) -> Li
         Some(first.rtt()),
         &first.frame.text,
     );
+    tracing::debug!(
+        session = id,
+        kind = "poll",
+        request = ?POLL,
+        reply = ?first.frame.text,
+        rtt_us = u64::try_from(first.rtt().as_micros()).unwrap_or(u64::MAX),
+        "exchange"
+    );
     tracing::info!(session = id, %target, "connected");
     let (tx, rx) = mpsc::channel(32);
     let task = Task {
@@ -504,7 +551,7 @@ fn spawn(conn: Conn, first: Exchange, common: Arc<Common>, target: String) -> Li
 struct Task {
     conn: Conn,
     rx: mpsc::Receiver<Op>,
-    status_tx: watch::Sender<Option<StatusSnapshot>>,
+    status_tx: watch::Sender<StatusSnapshot>,
     shared: Arc<SessionShared>,
     last_exchange: Instant,
     seq: u64,
@@ -609,15 +656,9 @@ impl Task {
     /// status allows motion.
     fn check_motion(&self, tag: MotionTag) -> Result<(), ClientError> {
         if tag.epoch != self.shared.current_epoch() {
-            return Err(ClientError::Cancelled(
-                "motion not sent: a cancel or stop was requested after it",
-            ));
+            return Err(Cancellation::NotSent.into());
         }
-        let latest = self.status_tx.borrow();
-        let Some(s) = latest.as_ref() else {
-            return Err(ClientError::LinkLost(LinkError::SessionEnded));
-        };
-        let b = blockers(&s.status, true);
+        let b = blockers(&self.status_tx.borrow().status, true);
         if b.is_empty() {
             Ok(())
         } else {
@@ -662,17 +703,37 @@ impl Task {
                 if let Some(t) = ex.frame.status.timer.seconds() {
                     lock(&self.shared.clock).add(ex.sent_at, ex.received_at, t);
                 }
+                if kind == Kind::KeepAlive {
+                    tracing::trace!(
+                        session = id,
+                        kind = kind.as_str(),
+                        request = ?text,
+                        reply = ?ex.frame.text,
+                        rtt_us = u64::try_from(rtt.as_micros()).unwrap_or(u64::MAX),
+                        "exchange"
+                    );
+                } else {
+                    tracing::debug!(
+                        session = id,
+                        kind = kind.as_str(),
+                        request = ?text,
+                        reply = ?ex.frame.text,
+                        rtt_us = u64::try_from(rtt.as_micros()).unwrap_or(u64::MAX),
+                        "exchange"
+                    );
+                }
                 self.seq += 1;
-                self.status_tx.send_replace(Some(StatusSnapshot {
+                self.status_tx.send_replace(StatusSnapshot {
                     status: ex.frame.status.clone(),
                     received_at: ex.received_at,
                     rtt,
                     seq: self.seq,
-                }));
+                });
                 self.last_exchange = ex.received_at;
                 Ok(ex)
             }
             Err(e) => {
+                tracing::debug!(session = id, kind = kind.as_str(), request = ?text, error = %e, "exchange failed");
                 lock(&common.stats).stats.requests += 1;
                 Err(ClientError::LinkLost(e))
             }
@@ -702,7 +763,8 @@ impl Task {
         let now = Instant::now();
         if end != ClientError::Closed {
             lock(&common.stats).stats.links_lost += 1;
-            tracing::warn!(session = self.shared.id, error = %end, "link lost");
+            // The cause is returned to every caller; this is only a trace for the logs.
+            tracing::info!(session = self.shared.id, error = %end, "link lost");
         } else {
             tracing::info!(session = self.shared.id, "session closed");
         }

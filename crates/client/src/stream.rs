@@ -9,16 +9,16 @@ use fs020n_kin::RobotModel;
 use fs020n_proto::{Command, JointsDeg, Request, StreamSample, JOINT_COUNT};
 use serde::Serialize;
 use tokio::sync::watch;
-use tokio::task::JoinHandle;
 use tokio::time::Instant;
 
+use crate::check::check_target;
 use crate::clock::ClockFit;
-use crate::error::ClientError;
+use crate::error::{Activity, ClientError, LinkError};
 use crate::lag::{LagCompensation, LagEstimator};
-use crate::motion::LONGEST_WAIT;
-use crate::safety::{blockers, check_stream_sample, check_target, MAX_LOOKAHEAD_PASSES};
-use crate::session::{lock, Exchange, Kind, Link, SessionShared};
-use crate::trajectory::{Trajectory, TrajectoryError, TrajectorySample};
+use crate::motion::{only_held, LONGEST_WAIT};
+use crate::safety::{blockers, check_stream_sample, MAX_LOOKAHEAD_PASSES};
+use crate::session::{lock, Exchange, Kind, Link, MotionTag, SessionShared};
+use crate::trajectory::{OptionError, Trajectory, TrajectoryError, TrajectorySample};
 
 /// How samples are sent.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -59,6 +59,14 @@ pub struct StreamOptions {
     /// ...for at most this long (not an error: the report gives the final error). Default 3 s;
     /// at most one day.
     pub end_timeout: Duration,
+    /// What HOLD does to the stream. `None` (default): the stream fails at once with
+    /// [`ClientError::Aborted`] (commands 5 then 2 stop the arm). `Some(limit)`: the stream pauses with the
+    /// controller — it sends command 5 (so that switching back to RUN does not replay a stale
+    /// sample), stops its trajectory clock, and goes on from the same trajectory time once the
+    /// controller runs again; after `limit` in HOLD it fails with
+    /// [`ClientError::HoldTimeout`]. [`StreamProgress::held`] tells a progress display. At most
+    /// one day.
+    pub hold_timeout: Option<Duration>,
     /// How command 7 compensates the controller's tracking lag (ignored for waypoints).
     /// Default: estimated online from the replies, a lead of at most 0.3 s ([`LagCompensation`]).
     pub lag_compensation: LagCompensation,
@@ -76,8 +84,107 @@ impl Default for StreamOptions {
             max_gap: Duration::from_millis(250),
             end_tolerance_deg: 0.5,
             end_timeout: Duration::from_secs(3),
+            hold_timeout: None,
             lag_compensation: LagCompensation::default(),
         }
+    }
+}
+
+impl StreamOptions {
+    /// Checks these options and `trajectory` streamed with them against `model` — everything
+    /// [`Robot::stream`](crate::Robot::stream) checks before it sends, except what needs the
+    /// robot (its current joints and status). The options against their ranges; the trajectory
+    /// against the joint ranges and speeds at every point and every sample one `period` apart,
+    /// and the per-cycle step; for command 7 also each sample as it would be sent
+    /// ([`check_stream_sample`](crate::check_stream_sample): velocities, accelerations, every
+    /// target the controller can extrapolate to).
+    ///
+    /// ```
+    /// use fs020n_client::{StreamOptions, Trajectory, TrajectoryPoint};
+    /// use fs020n_kin::RobotModel;
+    /// use fs020n_proto::JointsDeg;
+    /// let model = RobotModel::fs020n();
+    /// let mut end = model.home;
+    /// end[0] = 10.0;
+    /// let t = Trajectory::new(vec![
+    ///     TrajectoryPoint::new(0.0, model.home),
+    ///     TrajectoryPoint::new(2.0, end),
+    /// ])?;
+    /// StreamOptions::default().validate(&model, &t)?;
+    /// # Ok::<(), fs020n_client::TrajectoryError>(())
+    /// ```
+    pub fn validate(
+        &self,
+        model: &RobotModel,
+        trajectory: &Trajectory,
+    ) -> Result<(), TrajectoryError> {
+        self.validate_options()?;
+        match self.mode {
+            StreamMode::Extrapolated { lookahead_passes } => trajectory.validate_extrapolated(
+                model,
+                self.period,
+                self.max_step_deg,
+                lookahead_passes,
+            ),
+            StreamMode::Waypoints => {
+                trajectory.validate_waypoints(model, self.period, self.max_step_deg)
+            }
+        }
+    }
+
+    fn validate_options(&self) -> Result<(), OptionError> {
+        let period = self.period;
+        if !(Duration::from_millis(1)..=Duration::from_secs(1)).contains(&period) {
+            return Err(OptionError::Period { period });
+        }
+        if let StreamMode::Extrapolated { lookahead_passes } = self.mode {
+            if !(lookahead_passes.is_finite()
+                && (0.0..=MAX_LOOKAHEAD_PASSES).contains(&lookahead_passes))
+            {
+                return Err(OptionError::Lookahead {
+                    passes: lookahead_passes,
+                    max: MAX_LOOKAHEAD_PASSES,
+                });
+            }
+        }
+        if !(self.max_step_deg.is_finite() && self.max_step_deg > 0.0) {
+            return Err(OptionError::MaxStep {
+                deg: self.max_step_deg,
+            });
+        }
+        if self.lag_compensation.validate().is_err() {
+            let lead = match self.lag_compensation {
+                LagCompensation::Off => Duration::ZERO,
+                LagCompensation::Fixed(d) | LagCompensation::Online { max: d } => d,
+            };
+            return Err(OptionError::Lead {
+                lead,
+                max: LagCompensation::LIMIT,
+            });
+        }
+        for (option, timeout) in [
+            ("end_timeout", Some(self.end_timeout)),
+            ("hold_timeout", self.hold_timeout),
+        ] {
+            if let Some(timeout) = timeout.filter(|t| *t > LONGEST_WAIT) {
+                return Err(OptionError::Timeout { option, timeout });
+            }
+        }
+        if self.max_gap < period * 2 || self.max_gap > Duration::from_millis(500) {
+            return Err(OptionError::MaxGap {
+                gap: self.max_gap,
+                period,
+            });
+        }
+        for (option, deg) in [
+            ("start_tolerance_deg", self.start_tolerance_deg),
+            ("end_tolerance_deg", self.end_tolerance_deg),
+        ] {
+            if !(deg.is_finite() && deg > 0.0) {
+                return Err(OptionError::Tolerance { option, deg });
+            }
+        }
+        Ok(())
     }
 }
 
@@ -98,6 +205,9 @@ pub struct StreamProgress {
     pub tracking_error_max_deg: f64,
     /// All samples sent (the robot may still be settling).
     pub done: bool,
+    /// The controller holds the motion (RUN/HOLD on HOLD) and the stream waits for RUN
+    /// ([`StreamOptions::hold_timeout`]).
+    pub held: bool,
 }
 
 /// How a stream ended.
@@ -148,62 +258,15 @@ pub struct StreamReport {
     pub clock: Option<ClockFit>,
 }
 
-/// Checks done before anything is sent.
+/// Checks done before anything is sent: [`StreamOptions::validate`], then the start against
+/// the current joints.
 pub(crate) fn check(
     model: &RobotModel,
     trajectory: &Trajectory,
     options: &StreamOptions,
     current: &JointsDeg,
 ) -> Result<(), ClientError> {
-    let opt = |m: String| Err(ClientError::Trajectory(TrajectoryError::Options(m)));
-    let period = options.period.as_secs_f64();
-    if !(0.001..=1.0).contains(&period) {
-        return opt(format!(
-            "period {:?} must be from 1 ms to 1 s",
-            options.period
-        ));
-    }
-    if let StreamMode::Extrapolated { lookahead_passes } = options.mode {
-        if !(lookahead_passes.is_finite()
-            && (0.0..=MAX_LOOKAHEAD_PASSES).contains(&lookahead_passes))
-        {
-            return opt(format!(
-                "lookahead_passes {lookahead_passes} must be from 0 to {MAX_LOOKAHEAD_PASSES}"
-            ));
-        }
-    }
-    if let Err(e) = options.lag_compensation.validate() {
-        return opt(e);
-    }
-    if options.end_timeout > LONGEST_WAIT {
-        return opt(format!(
-            "end_timeout {:?} must be at most {LONGEST_WAIT:?}",
-            options.end_timeout
-        ));
-    }
-    if options.max_gap < options.period * 2 || options.max_gap > Duration::from_millis(500) {
-        return opt(format!(
-            "max_gap {:?} must be at least two periods and at most 500 ms",
-            options.max_gap
-        ));
-    }
-    for (name, v) in [
-        ("start_tolerance_deg", options.start_tolerance_deg),
-        ("end_tolerance_deg", options.end_tolerance_deg),
-    ] {
-        if !(v.is_finite() && v > 0.0) {
-            return opt(format!("{name} {v} must be above 0"));
-        }
-    }
-    match options.mode {
-        StreamMode::Extrapolated { lookahead_passes } => trajectory.validate_extrapolated(
-            model,
-            period,
-            options.max_step_deg,
-            lookahead_passes,
-        )?,
-        StreamMode::Waypoints => trajectory.validate(model, period, options.max_step_deg)?,
-    }
+    options.validate(model, trajectory)?;
     let first = trajectory.first();
     let (joint, distance) = (0..JOINT_COUNT)
         .map(|j| (j + 1, (first[j] - current[j]).abs()))
@@ -219,14 +282,45 @@ pub(crate) fn check(
     Ok(())
 }
 
-/// A running stream. Dropping the handle cancels the stream (commands 5 and 2).
-#[derive(Debug)]
-#[must_use = "dropping a StreamHandle cancels the stream: keep it and call wait()"]
+/// A running stream: wait for it, watch it, cancel it. Clones share the stream.
+///
+/// Like [`MoveHandle`](crate::MoveHandle): [`wait`](Self::wait) and [`cancel`](Self::cancel)
+/// take `&self`; `cancel` acts only while this stream is the current motion; and dropping the
+/// last clone while the stream runs cancels it (commands 5 and 2), also while the robot
+/// settles on the last point.
+#[derive(Debug, Clone)]
+#[must_use = "dropping the last StreamHandle cancels the stream: keep it and call wait()"]
 pub struct StreamHandle {
+    inner: Arc<StreamInner>,
+}
+
+type StreamResult = Option<Result<StreamReport, ClientError>>;
+
+#[derive(Debug)]
+struct StreamInner {
     progress: watch::Receiver<StreamProgress>,
+    result: watch::Receiver<StreamResult>,
     shared: Arc<SessionShared>,
     epoch: u64,
-    task: Option<JoinHandle<Result<StreamReport, ClientError>>>,
+}
+
+impl StreamInner {
+    fn is_finished(&self) -> bool {
+        // A sender dropped without a result: the task was aborted (runtime shut down).
+        self.result.borrow().is_some() || self.result.has_changed().is_err()
+    }
+
+    fn cancel_now(&self) {
+        if !self.is_finished() && self.shared.current_epoch() == self.epoch {
+            self.shared.bump_epoch();
+        }
+    }
+}
+
+impl Drop for StreamInner {
+    fn drop(&mut self) {
+        self.cancel_now();
+    }
 }
 
 impl StreamHandle {
@@ -242,13 +336,13 @@ impl StreamHandle {
     ) -> Result<StreamHandle, ClientError> {
         let shared = link.shared.clone();
         if shared.streaming.swap(true, Ordering::SeqCst) {
-            return Err(ClientError::Busy("a stream is already running"));
+            return Err(ClientError::Busy(Activity::Stream));
         }
         let (tx, progress) = watch::channel(StreamProgress::default());
+        let (result_tx, result) = watch::channel(None);
         let guard = StreamingGuard(shared.clone());
-        let task = tokio::spawn(async move {
-            let _guard = guard;
-            Streamer {
+        tokio::spawn(async move {
+            let r = Streamer {
                 link,
                 model,
                 trajectory,
@@ -257,57 +351,57 @@ impl StreamHandle {
                 epoch,
             }
             .run()
-            .await
+            .await;
+            // Not streaming any more before anyone learns the result.
+            drop(guard);
+            result_tx.send_replace(Some(r));
         });
         Ok(StreamHandle {
-            progress,
-            shared,
-            epoch,
-            task: Some(task),
+            inner: Arc::new(StreamInner {
+                progress,
+                result,
+                shared,
+                epoch,
+            }),
         })
     }
 
     /// The latest progress.
     pub fn progress(&self) -> StreamProgress {
-        *self.progress.borrow()
+        *self.inner.progress.borrow()
     }
 
     /// A receiver of progress updates (one per sample).
     pub fn subscribe(&self) -> watch::Receiver<StreamProgress> {
-        self.progress.clone()
+        self.inner.progress.clone()
     }
 
-    /// Cancels the stream: no further sample is sent, command 5 brakes the robot and command 2
-    /// ends the motion program (so no planned segment runs after the brake).
-    /// [`wait`](Self::wait) then returns a report with [`StreamOutcome::Cancelled`].
-    pub fn cancel(&self) {
-        if self.shared.current_epoch() == self.epoch {
-            self.shared.bump_epoch();
+    /// Cancels the stream, if it is still the current motion: no further sample is sent,
+    /// command 5 brakes the robot and command 2 ends the motion program (so no planned segment
+    /// runs after the brake). Returns once the stream has ended; [`wait`](Self::wait) then
+    /// gives a report with [`StreamOutcome::Cancelled`]. After a newer motion, a cancel or a
+    /// stop, or once the stream has ended, it does nothing.
+    pub async fn cancel(&self) -> Result<(), ClientError> {
+        self.inner.cancel_now();
+        match self.wait().await {
+            Err(e) if e.is_link_dead() => Err(e),
+            _ => Ok(()),
         }
     }
 
     /// `true` once the stream task has ended.
     pub fn is_finished(&self) -> bool {
-        !matches!(&self.task, Some(t) if !t.is_finished())
+        self.inner.is_finished()
     }
 
-    /// Waits for the end of the stream and its report.
-    pub async fn wait(mut self) -> Result<StreamReport, ClientError> {
-        let Some(task) = self.task.take() else {
-            return Err(ClientError::Cancelled("the stream was already waited for"));
+    /// Waits for the end of the stream and returns its report (every clone gets the same).
+    pub async fn wait(&self) -> Result<StreamReport, ClientError> {
+        let mut rx = self.inner.result.clone();
+        let r = match rx.wait_for(Option::is_some).await {
+            Ok(r) => r.clone(),
+            Err(_) => None,
         };
-        match task.await {
-            Ok(r) => r,
-            Err(_) => Err(ClientError::LinkLost(crate::error::LinkError::SessionEnded)),
-        }
-    }
-}
-
-impl Drop for StreamHandle {
-    fn drop(&mut self) {
-        if self.task.as_ref().is_some_and(|t| !t.is_finished()) {
-            self.cancel();
-        }
+        r.unwrap_or(Err(LinkError::SessionEnded.into()))
     }
 }
 
@@ -409,9 +503,12 @@ impl Streamer {
             // point (the newest command is still a 7): brake either way.
             Settle::Cancelled => {
                 self.brake().await;
-                let err = self.link.latest().map_or(f64::NAN, |s| {
-                    s.status.joints.max_abs_diff(&self.trajectory.last())
-                });
+                let err = self
+                    .link
+                    .latest()
+                    .status
+                    .joints
+                    .max_abs_diff(&self.trajectory.last());
                 (StreamOutcome::Cancelled, err, false)
             }
         };
@@ -455,11 +552,7 @@ impl Streamer {
         check_target(&self.model, &s.position)?;
         Ok(match self.options.mode {
             StreamMode::Extrapolated { lookahead_passes } => {
-                let t0_s = t0_s.ok_or(ClientError::Config(
-                    "no server-clock estimate: no reply carried TIMER(1) (it shows asterisks after \
-                     11.6 days of one session); reconnect, or use StreamMode::Waypoints"
-                        .into(),
-                ))?;
+                let t0_s = t0_s.ok_or(ClientError::NoServerClock)?;
                 let sample = StreamSample {
                     t0_s,
                     lookahead_passes,
@@ -476,19 +569,79 @@ impl Streamer {
         })
     }
 
+    /// `true` when the stream should wait out this HOLD rather than fail.
+    fn waits_in(&self, b: &[crate::Blocker]) -> bool {
+        self.options.hold_timeout.is_some() && only_held(b)
+    }
+
+    /// The controller holds the motion: command 5 (so that RUN does not replay the last
+    /// sample, stale by then — but not command 2, which would end the program the controller
+    /// is about to resume), then wait for RUN. `Ok(Some(held))` when the controller runs again,
+    /// `Ok(None)` on a cancel.
+    async fn hold(&self) -> Result<Option<Duration>, ClientError> {
+        let since = Instant::now();
+        let limit = self
+            .options
+            .hold_timeout
+            .unwrap_or_default()
+            .min(LONGEST_WAIT);
+        self.progress.send_modify(|p| p.held = true);
+        tracing::info!("stream held (RUN/HOLD on HOLD); waiting for RUN");
+        self.link
+            .command(&Request::new(Command::CancelMotion))
+            .await?;
+        let mut rx = self.link.status.clone();
+        let mut epoch_rx = self.link.shared.epoch.subscribe();
+        loop {
+            if self.cancelled() {
+                return Ok(None);
+            }
+            let b = blockers(&rx.borrow_and_update().status, true);
+            if b.is_empty() {
+                self.progress.send_modify(|p| p.held = false);
+                tracing::info!("stream resumed");
+                return Ok(Some(since.elapsed()));
+            }
+            if !only_held(&b) {
+                return Err(ClientError::Aborted {
+                    during: "stream",
+                    blockers: b,
+                });
+            }
+            tokio::select! {
+                r = rx.changed() => if r.is_err() { return Err(self.link.shared.death()) },
+                _ = epoch_rx.changed() => {}
+                _ = tokio::time::sleep_until(since + limit) => {
+                    return Err(ClientError::HoldTimeout { during: "stream", waited: since.elapsed() });
+                }
+            }
+        }
+    }
+
     async fn send_all(&self, tally: &mut Tally) -> Result<End, ClientError> {
         let period = self.options.period;
         let period_s = period.as_secs_f64();
-        let (t_begin, t_end) = (self.trajectory.start_s(), self.trajectory.duration_s());
+        let (t_begin, t_end) = (self.trajectory.start_s(), self.trajectory.end_s());
         let span = (t_end - t_begin).max(0.0);
         let mut epoch_rx = self.link.shared.epoch.subscribe();
-        let local_start = Instant::now();
+        // Local time of trajectory time `t_begin`; moved on by the time spent in HOLD.
+        let mut local_start = Instant::now();
         let mut last_sent: Option<Instant> = None;
         let mut prev_pos = self.trajectory.first();
-        let mut rtt_est = self.link.latest().map_or(Duration::ZERO, |s| s.rtt);
+        let mut rtt_est = self.link.latest().rtt;
         loop {
             if self.cancelled() {
                 return Ok(End::Cancelled);
+            }
+            if self.waits_in(&blockers(&self.link.latest().status, true)) {
+                match self.hold().await? {
+                    None => return Ok(End::Cancelled),
+                    Some(held) => {
+                        local_start += held;
+                        last_sent = None;
+                        continue;
+                    }
+                }
             }
             let now = Instant::now();
             let mut allowed_step = self.options.max_step_deg;
@@ -509,7 +662,7 @@ impl Streamer {
             }
             // The sample the controller should act on: where the trajectory is when the request
             // arrives (half a round trip from now).
-            let elapsed = now.duration_since(local_start) + rtt_est / 2;
+            let elapsed = now.saturating_duration_since(local_start) + rtt_est / 2;
             let tau = (t_begin + elapsed.as_secs_f64()).min(t_end);
             let last = tau >= t_end;
             let sample = if last {
@@ -550,13 +703,15 @@ impl Streamer {
             if tag.epoch != self.epoch {
                 return Ok(End::Cancelled);
             }
-            let tag = crate::session::MotionTag {
+            let tag = MotionTag {
                 epoch: self.epoch,
                 id: tag.id,
             };
             let ex = match self.link.exchange(text, Kind::Motion, Some(tag)).await {
                 Ok(ex) => ex,
                 Err(ClientError::Cancelled(_)) => return Ok(End::Cancelled),
+                // HOLD arrived with a keep-alive before this sample left: it was not sent.
+                Err(ClientError::Blocked(b)) if self.waits_in(&b) => continue,
                 Err(ClientError::Blocked(b)) => {
                     return Err(ClientError::Aborted {
                         during: "stream",
@@ -585,7 +740,7 @@ impl Streamer {
             prev_pos = sample.position;
             self.track(&ex, local_start, t_begin, t_end, tally);
             let b = blockers(&ex.frame.status, true);
-            if !b.is_empty() {
+            if !b.is_empty() && !self.waits_in(&b) {
                 return Err(ClientError::Aborted {
                     during: "stream",
                     blockers: b,
@@ -603,9 +758,14 @@ impl Streamer {
                 underruns: tally.underruns,
                 tracking_error_max_deg: tally.track_max,
                 done: last,
+                held: false,
             });
             if last {
                 return Ok(End::Done);
+            }
+            if !b.is_empty() {
+                // Held: the next turn of the loop waits for RUN.
+                continue;
             }
             let next = ex.sent_at + period;
             tokio::select! {
@@ -657,36 +817,56 @@ impl Streamer {
     async fn settle(&self) -> Result<Settle, ClientError> {
         let target = self.trajectory.last();
         let now = Instant::now();
-        let deadline = now
+        let mut deadline = now
             .checked_add(self.options.end_timeout.min(LONGEST_WAIT))
             .unwrap_or(now + LONGEST_WAIT);
         let mut rx = self.link.status.clone();
         let mut epoch_rx = self.link.shared.epoch.subscribe();
-        let mut err = f64::NAN;
+        let mut held_since: Option<Instant> = None;
         loop {
-            if let Some(s) = rx.borrow_and_update().as_ref() {
-                let b = blockers(&s.status, true);
-                if !b.is_empty() {
-                    return Err(ClientError::Aborted {
-                        during: "stream",
-                        blockers: b,
-                    });
-                }
-                err = s.status.joints.max_abs_diff(&target);
-                if self.cancelled() {
-                    return Ok(Settle::Cancelled);
-                }
-                if err <= self.options.end_tolerance_deg {
-                    return Ok(Settle::Reached(err));
-                }
+            let s = rx.borrow_and_update().clone();
+            let b = blockers(&s.status, true);
+            // The last sample holds the end point with zero velocity: after HOLD the robot
+            // just goes on to it, so a held settle needs no brake.
+            let held = self.waits_in(&b);
+            if !b.is_empty() && !held {
+                return Err(ClientError::Aborted {
+                    during: "stream",
+                    blockers: b,
+                });
             }
+            match (held, held_since) {
+                (true, None) => {
+                    held_since = Some(s.received_at);
+                    self.progress.send_modify(|p| p.held = true);
+                }
+                (false, Some(since)) => {
+                    deadline += s.received_at.saturating_duration_since(since);
+                    held_since = None;
+                    self.progress.send_modify(|p| p.held = false);
+                }
+                _ => {}
+            }
+            let err = s.status.joints.max_abs_diff(&target);
             if self.cancelled() {
                 return Ok(Settle::Cancelled);
             }
+            if !held && err <= self.options.end_tolerance_deg {
+                return Ok(Settle::Reached(err));
+            }
+            let wake = match (held_since, self.options.hold_timeout) {
+                (Some(since), Some(limit)) => since + limit.min(LONGEST_WAIT),
+                _ => deadline,
+            };
             tokio::select! {
                 r = rx.changed() => if r.is_err() { return Err(self.link.shared.death()) },
                 _ = epoch_rx.changed() => {}
-                _ = tokio::time::sleep_until(deadline) => return Ok(Settle::TimedOut(err)),
+                _ = tokio::time::sleep_until(wake) => {
+                    if let Some(since) = held_since {
+                        return Err(ClientError::HoldTimeout { during: "stream", waited: since.elapsed() });
+                    }
+                    return Ok(Settle::TimedOut(err));
+                }
             }
         }
     }

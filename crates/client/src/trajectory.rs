@@ -10,10 +10,92 @@
 //! coarse trajectory's spline can demand several times what the arm can do at its knots);
 //! given accelerations are never changed, and are refused when above the maximum.
 
+use std::time::Duration;
+
 use fs020n_kin::{LimitError, RobotModel};
 use fs020n_proto::{JointsDeg, StreamSample, JOINT_COUNT};
 
+use crate::display::Rounded;
 use crate::safety::{check_stream_sample, SampleError};
+
+/// Most stream cycles a trajectory may take at its period.
+pub(crate) const MAX_CYCLES: f64 = 10_000_000.0;
+
+/// A stream option ([`StreamOptions`](crate::StreamOptions)) outside its range.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum OptionError {
+    /// `period` outside 1 ms – 1 s.
+    #[error("period {} must be from 1 ms to 1 s", Rounded(*.period))]
+    Period {
+        /// The period given.
+        period: Duration,
+    },
+    /// `max_step_deg` not a finite number above 0.
+    #[error("max_step_deg {deg} must be a finite number above 0")]
+    MaxStep {
+        /// The value given, degrees.
+        deg: f64,
+    },
+    /// `lookahead_passes` outside 0–[`MAX_LOOKAHEAD_PASSES`](crate::MAX_LOOKAHEAD_PASSES).
+    #[error("lookahead_passes {passes} must be from 0 to {max}")]
+    Lookahead {
+        /// The value given.
+        passes: f64,
+        /// The largest accepted.
+        max: f64,
+    },
+    /// A lag-compensation lead (`lag_compensation`) above the controller's ±0.5 s time clamp.
+    #[error("a lag_compensation lead of {:.3} s is more than the controller's {:.1} s time clamp; use at most {:.1} s", .lead.as_secs_f64(), .max.as_secs_f64(), .max.as_secs_f64())]
+    Lead {
+        /// The lead given.
+        lead: Duration,
+        /// The largest lead.
+        max: Duration,
+    },
+    /// A timeout (`end_timeout`, `hold_timeout`) longer than one day.
+    #[error("{option} {} must be at most one day", Rounded(*.timeout))]
+    Timeout {
+        /// Which option.
+        option: &'static str,
+        /// The value given.
+        timeout: Duration,
+    },
+    /// `max_gap` shorter than two periods or longer than 500 ms.
+    #[error("max_gap {} must be at least two periods ({}) and at most 500 ms", Rounded(*.gap), Rounded(*.period * 2))]
+    MaxGap {
+        /// The value given.
+        gap: Duration,
+        /// The period.
+        period: Duration,
+    },
+    /// A tolerance (`start_tolerance_deg`, `end_tolerance_deg`) not a finite number above 0.
+    #[error("{option} {deg} must be a finite number above 0")]
+    Tolerance {
+        /// Which option.
+        option: &'static str,
+        /// The value given, degrees.
+        deg: f64,
+    },
+    /// A servo's `watchdog` outside its range.
+    #[error("servo watchdog {} must be from {} to {}", Rounded(*.watchdog), Rounded(*.min), Rounded(*.max))]
+    Watchdog {
+        /// The value given.
+        watchdog: Duration,
+        /// The shortest accepted.
+        min: Duration,
+        /// The longest accepted.
+        max: Duration,
+    },
+    /// The trajectory takes more than ten million cycles at this period.
+    #[error("the trajectory takes {cycles} cycles of {}; at most ten million are streamed — use a longer period or split it", Rounded(*.period))]
+    TooManyCycles {
+        /// Cycles it would take.
+        cycles: f64,
+        /// The period.
+        period: Duration,
+    },
+}
 
 /// One point of a trajectory. Units are in the names and types: seconds and degrees.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -92,7 +174,7 @@ pub enum TrajectoryError {
         max_deg_s: f64,
     },
     /// Two consecutive samples (one stream period apart) differ by more than the step limit.
-    #[error("at t = {time_s:.3} s: JT{joint} steps {step_deg:.3} deg in one cycle, above the limit {max_deg} deg; slow the trajectory down, stream faster, or raise StreamOptions::max_step_deg")]
+    #[error("at t = {time_s:.3} s: JT{joint} steps {step_deg:.3} deg in one cycle, above the limit {max_deg} deg; slow the trajectory down or stream at a higher rate")]
     StepTooLarge {
         /// Trajectory time, seconds.
         time_s: f64,
@@ -104,7 +186,7 @@ pub enum TrajectoryError {
         max_deg: f64,
     },
     /// The trajectory does not start where the robot is.
-    #[error("the trajectory starts {distance_deg:.3} deg (JT{joint}) from the robot's current position, more than {tolerance_deg} deg; move to its first point first (move_joints)")]
+    #[error("the trajectory starts {distance_deg:.3} deg (JT{joint}) from the robot's current position, more than {tolerance_deg} deg; move to its first point first")]
     StartTooFar {
         /// 1-based joint with the largest difference.
         joint: usize,
@@ -123,9 +205,9 @@ pub enum TrajectoryError {
         /// The violation.
         error: SampleError,
     },
-    /// Stream options out of their ranges.
+    /// A stream option out of its range.
     #[error("invalid stream option: {0}")]
-    Options(String),
+    Options(#[from] OptionError),
 }
 
 /// A validated sequence of [`TrajectoryPoint`]s: at least one point, finite values, strictly
@@ -158,7 +240,7 @@ impl Trajectory {
     /// let mut end = home;
     /// end[0] = 10.0;
     /// let t = Trajectory::new(vec![TrajectoryPoint::new(0.0, home), TrajectoryPoint::new(2.0, end)])?;
-    /// assert_eq!(t.duration_s(), 2.0);
+    /// assert_eq!((t.start_s(), t.end_s(), t.duration_s()), (0.0, 2.0, 2.0));
     /// assert!((t.sample(1.0).position[0] - 5.0).abs() < 1e-9);
     /// # Ok::<(), fs020n_client::TrajectoryError>(())
     /// ```
@@ -217,8 +299,14 @@ impl Trajectory {
     }
 
     /// Time of the last point, seconds (the stream ends there).
-    pub fn duration_s(&self) -> f64 {
+    pub fn end_s(&self) -> f64 {
         self.points[self.points.len() - 1].time_s
+    }
+
+    /// How long the trajectory lasts: [`end_s`](Self::end_s) − [`start_s`](Self::start_s),
+    /// seconds.
+    pub fn duration_s(&self) -> f64 {
+        self.end_s() - self.start_s()
     }
 
     /// The first position.
@@ -268,7 +356,7 @@ impl Trajectory {
         if n == 1 || t.is_nan() || t <= self.start_s() {
             return rest(self.first());
         }
-        if t >= self.duration_s() {
+        if t >= self.end_s() {
             return rest(self.last());
         }
         // Segment i: points[i] .. points[i + 1] with points[i].time_s <= t < points[i+1].time_s.
@@ -319,24 +407,22 @@ impl Trajectory {
         )
     }
 
-    /// Checks the trajectory against the model and a cycle `period_s`: every point and every
+    /// Checks the trajectory against the model and a cycle `period`: every point and every
     /// sample one period apart inside the joint ranges and below the maximum joint speeds,
-    /// and no joint stepping more than `max_step_deg` between consecutive samples.
-    pub fn validate(
+    /// and no joint stepping more than `max_step_deg` between consecutive samples. (The public
+    /// check is [`StreamOptions::validate`](crate::StreamOptions::validate).)
+    pub(crate) fn validate_waypoints(
         &self,
         model: &RobotModel,
-        period_s: f64,
+        period: Duration,
         max_step_deg: f64,
     ) -> Result<(), TrajectoryError> {
-        if !(period_s.is_finite() && period_s > 0.0) {
-            return Err(TrajectoryError::Options(format!(
-                "period {period_s} s must be above 0"
-            )));
+        let period_s = period.as_secs_f64();
+        if period_s <= 0.0 {
+            return Err(OptionError::Period { period }.into());
         }
         if !(max_step_deg.is_finite() && max_step_deg > 0.0) {
-            return Err(TrajectoryError::Options(format!(
-                "max_step_deg {max_step_deg} must be above 0"
-            )));
+            return Err(OptionError::MaxStep { deg: max_step_deg }.into());
         }
         let max_speed = model.max_speeds_deg_s();
         let check = |t: f64, s: &TrajectorySample| -> Result<(), TrajectoryError> {
@@ -363,12 +449,10 @@ impl Trajectory {
             };
             check(p.time_s, &s)?;
         }
-        let (t0, t1) = (self.start_s(), self.duration_s());
+        let (t0, t1) = (self.start_s(), self.end_s());
         let cycles = ((t1 - t0) / period_s).ceil();
-        if cycles > 10_000_000.0 {
-            return Err(TrajectoryError::Options(format!(
-                "{cycles} cycles of {period_s} s: the trajectory is too long for this period"
-            )));
+        if cycles > MAX_CYCLES {
+            return Err(OptionError::TooManyCycles { cycles, period }.into());
         }
         let cycles = cycles as u64;
         let mut prev = self.sample(t0);
@@ -392,21 +476,22 @@ impl Trajectory {
         Ok(())
     }
 
-    /// [`validate`](Self::validate), then the checks of command 7 with `lookahead_passes`:
+    /// [`validate_waypoints`](Self::validate_waypoints), then the checks of command 7 with `lookahead_passes`:
     /// at every point and every sample one period apart, the sample as it would be sent
     /// ([`sample_for_streaming`](Self::sample_for_streaming)) passes
     /// [`check_stream_sample`](crate::check_stream_sample) — velocities and accelerations at
     /// most the model's maxima, and every target the controller can extrapolate to over
     /// [`extrapolation_window`](crate::extrapolation_window) inside the joint ranges
     /// ([`TrajectoryError::Sample`]).
-    pub fn validate_extrapolated(
+    pub(crate) fn validate_extrapolated(
         &self,
         model: &RobotModel,
-        period_s: f64,
+        period: Duration,
         max_step_deg: f64,
         lookahead_passes: f64,
     ) -> Result<(), TrajectoryError> {
-        self.validate(model, period_s, max_step_deg)?;
+        self.validate_waypoints(model, period, max_step_deg)?;
+        let period_s = period.as_secs_f64();
         let check = |t: f64| -> Result<(), TrajectoryError> {
             let s = self.sample_for_streaming(t, model);
             check_stream_sample(
@@ -424,8 +509,8 @@ impl Trajectory {
         for p in &self.points {
             check(p.time_s)?;
         }
-        let (t0, t1) = (self.start_s(), self.duration_s());
-        // `validate` bounded the number of cycles.
+        let (t0, t1) = (self.start_s(), self.end_s());
+        // `validate_waypoints` bounded the number of cycles.
         let cycles = ((t1 - t0) / period_s).ceil() as u64;
         for k in 1..=cycles {
             check((t0 + k as f64 * period_s).min(t1))?;
@@ -494,23 +579,24 @@ mod tests {
     #[test]
     fn validation_against_model_and_period() {
         let m = RobotModel::fs020n();
-        assert!(line(10.0, 2.0).validate(&m, 0.02, 1.0).is_ok());
+        let ms20 = Duration::from_millis(20);
+        assert!(line(10.0, 2.0).validate_waypoints(&m, ms20, 1.0).is_ok());
         // 7.5 deg/s peak * 0.02 s = 0.15 deg per cycle.
         assert!(matches!(
-            line(10.0, 2.0).validate(&m, 0.02, 0.1),
+            line(10.0, 2.0).validate_waypoints(&m, ms20, 0.1),
             Err(TrajectoryError::StepTooLarge { joint: 1, .. })
         ));
         assert!(matches!(
-            line(170.0, 20.0).validate(&m, 0.02, 5.0),
+            line(170.0, 20.0).validate_waypoints(&m, ms20, 5.0),
             Err(TrajectoryError::OutOfRange { .. })
         ));
         assert!(matches!(
-            line(150.0, 0.5).validate(&m, 0.02, 100.0),
+            line(150.0, 0.5).validate_waypoints(&m, ms20, 100.0),
             Err(TrajectoryError::TooFast { joint: 1, .. })
         ));
         assert!(matches!(
-            line(10.0, 2.0).validate(&m, 0.0, 1.0),
-            Err(TrajectoryError::Options(_))
+            line(10.0, 2.0).validate_waypoints(&m, Duration::ZERO, 1.0),
+            Err(TrajectoryError::Options(OptionError::Period { .. }))
         ));
     }
 }

@@ -23,7 +23,10 @@ pub type BoxedStream = Box<dyn AsyncReadWrite>;
 pub type ConnectFuture<'a> = Pin<Box<dyn Future<Output = io::Result<BoxedStream>> + Send + 'a>>;
 
 /// Makes connections to a controller. One call = one connection attempt; the client retries
-/// across the server's listen gaps itself.
+/// across the server's listen gaps itself. Return an error of kind
+/// [`InvalidInput`](io::ErrorKind::InvalidInput) when retrying cannot help (the address does
+/// not resolve, or is malformed): the client then stops at once with
+/// [`ClientError::Address`](crate::ClientError::Address).
 ///
 /// ```
 /// use fs020n_client::{BoxedStream, ConnectFuture, Connector};
@@ -49,7 +52,8 @@ pub trait Connector: Send + Sync + 'static {
 }
 
 /// Connects over TCP to `host:port` (or `host`, port 10050), resolving the name on every attempt
-/// and setting `TCP_NODELAY` (every request must leave in one segment, at once).
+/// and setting `TCP_NODELAY` (every request must leave in one segment, at once). A name that
+/// does not resolve is an [`InvalidInput`](io::ErrorKind::InvalidInput) error (no retries).
 #[derive(Debug, Clone)]
 pub struct TcpConnector {
     target: String,
@@ -75,16 +79,26 @@ impl TcpConnector {
         {
             return Ok(vec![SocketAddr::new(ip, DEFAULT_PORT)]);
         }
+        let unresolvable = |e: io::Error| {
+            io::Error::new(
+                io::ErrorKind::InvalidInput,
+                format!("the name does not resolve ({e})"),
+            )
+        };
         let addrs: Vec<SocketAddr> = match t.rsplit_once(':') {
-            Some((_, port)) if port.parse::<u16>().is_ok() => {
-                tokio::net::lookup_host(t).await?.collect()
-            }
-            _ => tokio::net::lookup_host((t, DEFAULT_PORT)).await?.collect(),
+            Some((_, port)) if port.parse::<u16>().is_ok() => tokio::net::lookup_host(t)
+                .await
+                .map_err(unresolvable)?
+                .collect(),
+            _ => tokio::net::lookup_host((t, DEFAULT_PORT))
+                .await
+                .map_err(unresolvable)?
+                .collect(),
         };
         if addrs.is_empty() {
             return Err(io::Error::new(
-                io::ErrorKind::NotFound,
-                format!("{t} resolves to no address"),
+                io::ErrorKind::InvalidInput,
+                "the name resolves to no address",
             ));
         }
         Ok(addrs)
@@ -131,5 +145,10 @@ mod tests {
         let c = TcpConnector::new("localhost:4321");
         assert!(c.resolve().await.unwrap().iter().all(|a| a.port() == 4321));
         assert_eq!(c.describe(), "localhost:4321");
+        let c = TcpConnector::new("no-such-host.invalid:10050");
+        assert_eq!(
+            c.resolve().await.unwrap_err().kind(),
+            io::ErrorKind::InvalidInput
+        );
     }
 }

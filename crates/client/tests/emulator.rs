@@ -7,8 +7,8 @@ use std::time::Duration;
 
 use common::*;
 use fs020n_client::{
-    Blocker, ClientConfig, ClientError, Completion, LinkError, RecordFormat, Recording, Robot,
-    StreamMode, StreamOptions, StreamOutcome, TrajectoryError, ESTOP_REMEDY,
+    Blocker, Cancellation, ClientConfig, ClientError, Completion, LinkError, RecordFormat,
+    Recording, Robot, StreamMode, StreamOptions, StreamOutcome, TrajectoryError, ESTOP_REMEDY,
 };
 use fs020n_kin::RobotModel;
 use fs020n_proto::{Command, ErrorCode, JointsDeg};
@@ -33,7 +33,7 @@ async fn connects_across_a_listen_gap() {
     );
     assert!(emu.with(|c| c.counters().refused) >= 1);
     assert_eq!(emu.with(|c| c.counters().sessions), 1);
-    let s = robot.status().expect("a status right after connect");
+    let s = robot.status();
     assert_eq!(s.status.joints, home());
     assert!(robot.is_connected());
 }
@@ -179,7 +179,7 @@ async fn keep_alive_holds_an_idle_session_for_30_s() {
     assert_eq!(emu.with(|c| c.counters().receive_timeouts), 0);
     assert!(emu.with(|c| c.session()).is_some());
     assert!(robot.is_connected());
-    let snap = robot.status().unwrap();
+    let snap = robot.status();
     assert!(snap.age() <= Duration::from_millis(100), "{:?}", snap.age());
     let st = robot.stats();
     assert!(st.keepalive_polls >= 290, "{st:?}");
@@ -246,8 +246,76 @@ async fn a_peer_that_is_not_a_controller_is_rejected() {
         .unwrap_err();
     assert_eq!(
         err,
-        ClientError::LinkLost(LinkError::NotAController { version: 2000 })
+        ClientError::NotAController {
+            target: "impostor".into(),
+            cause: LinkError::NotAController { version: 2000 }
+        }
     );
+}
+
+#[tokio::test(start_paused = true)]
+async fn an_http_server_is_rejected_at_once_without_retries() {
+    use fs020n_client::{BoxedStream, ConnectFuture, Connector};
+    use std::sync::atomic::{AtomicU32, Ordering};
+    use std::sync::Arc;
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    struct Http(Arc<AtomicU32>);
+    impl Connector for Http {
+        fn connect(&self) -> ConnectFuture<'_> {
+            self.0.fetch_add(1, Ordering::SeqCst);
+            Box::pin(async {
+                let (client, mut server) = tokio::io::duplex(1024);
+                tokio::spawn(async move {
+                    let mut buf = [0u8; 256];
+                    if server.read(&mut buf).await.is_ok() {
+                        let _ = server
+                            .write_all(b"HTTP/1.1 400 Bad Request\r\ncontent-length: 0\r\n\r\n")
+                            .await;
+                    }
+                    // Keep the connection open, as a keep-alive HTTP server would.
+                    tokio::time::sleep(Duration::from_secs(60)).await;
+                });
+                Ok(Box::new(client) as BoxedStream)
+            })
+        }
+        fn describe(&self) -> String {
+            "web server".into()
+        }
+    }
+    let attempts = Arc::new(AtomicU32::new(0));
+    let started = tokio::time::Instant::now();
+    let err = Robot::connect_with(Http(attempts.clone()), ClientConfig::default())
+        .await
+        .unwrap_err();
+    assert!(
+        matches!(
+            &err,
+            ClientError::NotAController {
+                cause: LinkError::Undecodable(_),
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    assert!(
+        err.to_string().contains("not a protocol-1040 server"),
+        "{err}"
+    );
+    assert_eq!(attempts.load(Ordering::SeqCst), 1, "no retries");
+    assert!(
+        started.elapsed() < Duration::from_secs(1),
+        "{:?}",
+        started.elapsed()
+    );
+}
+
+#[tokio::test]
+async fn a_name_that_does_not_resolve_fails_at_once() {
+    let err = Robot::connect("no-such-host.invalid:10050", ClientConfig::default())
+        .await
+        .unwrap_err();
+    assert!(matches!(&err, ClientError::Address { .. }), "{err:?}");
+    assert!(err.to_string().contains("check the host name"), "{err}");
 }
 
 // ------------------------------------------------------------------ preflight and start
@@ -348,7 +416,7 @@ async fn start_confirms_the_program_runs() {
     let robot = connect(&emu).await;
     robot.start().await.expect("start");
     assert_eq!(emu.with(|c| c.task()), TaskState::Running);
-    assert!(robot.status().unwrap().status.task_running);
+    assert!(robot.status().status.task_running);
     // Already running: no second command 1 (it would make the robot pause).
     let before = effective(&emu);
     robot.start().await.expect("start again");
@@ -604,12 +672,12 @@ async fn cancel_and_supersede_end_a_wait_without_sending() {
     let second = robot.move_joints(with_jt1(-30.0)).await.unwrap();
     assert!(matches!(
         first.wait(Completion::default()).await,
-        Err(ClientError::Cancelled(m)) if m.contains("superseded")
+        Err(ClientError::Cancelled(Cancellation::Superseded))
     ));
     robot.cancel().await.unwrap();
     assert!(matches!(
         second.wait(Completion::default()).await,
-        Err(ClientError::Cancelled(m)) if m.contains("cancelled")
+        Err(ClientError::Cancelled(Cancellation::Cancelled))
     ));
 }
 
@@ -674,7 +742,7 @@ async fn cancelling_a_stream_brakes_and_reports() {
     sleep_ms(1000).await;
     let p = handle.progress();
     assert!(p.fraction > 0.2 && p.fraction < 0.5, "{p:?}");
-    handle.cancel();
+    handle.cancel().await.unwrap();
     let report = handle.wait().await.unwrap();
     assert_eq!(report.outcome, StreamOutcome::Cancelled);
     assert_eq!(emu.with(|c| c.newest_command()), Some(Command::StopProgram));
@@ -810,7 +878,7 @@ async fn after_an_emulator_restart_reconnect_works_and_motion_is_not_resumed() {
     assert_eq!(effective(&fresh), 0);
     assert_eq!(fresh.with(|c| c.task()), TaskState::NotRunning);
     assert_eq!(fresh.with(|c| c.joints()), home());
-    let s = robot.status().unwrap().status;
+    let s = robot.status().status;
     assert!(!s.task_running);
     // The old handle cannot move anything on the new session.
     assert!(mv.cancel().await.unwrap_err().is_link_dead());

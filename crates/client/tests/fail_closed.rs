@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use common::*;
 use fs020n_client::{
-    ClientError, Completion, SampleError, StreamOptions, StreamOutcome, Trajectory,
+    ClientError, Completion, OptionError, SampleError, StreamOptions, StreamOutcome, Trajectory,
     TrajectoryError, TrajectoryPoint,
 };
 use fs020n_kin::RobotModel;
@@ -235,7 +235,7 @@ async fn cancelling_a_stream_while_it_settles_brakes_and_reports_cancelled() {
     let emu = emulator();
     let (_robot, handle) = stream_until_done(&emu).await;
     let at_cancel = emu.with(|c| c.joints())[0];
-    handle.cancel();
+    handle.cancel().await.unwrap();
     let report = handle.wait().await.unwrap();
     assert_eq!(report.outcome, StreamOutcome::Cancelled);
     assert!(!report.settled);
@@ -422,7 +422,13 @@ async fn a_huge_stream_end_timeout_is_refused_before_sending() {
         .await
         .unwrap_err();
     assert!(
-        matches!(err, ClientError::Trajectory(TrajectoryError::Options(_))),
+        matches!(
+            err,
+            ClientError::Trajectory(TrajectoryError::Options(OptionError::Timeout {
+                option: "end_timeout",
+                ..
+            }))
+        ),
         "{err:?}"
     );
     assert!(err.to_string().contains("end_timeout"), "{err}");

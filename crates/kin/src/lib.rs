@@ -10,6 +10,7 @@
 //! - Forward and analytic inverse kinematics, the geometric Jacobian and singularity measures
 //!   (methods of [`RobotModel`]).
 //! - [`JointMove`]: time-optimal synchronized trapezoidal joint moves.
+//! - [`RobotModel::to_urdf`]: a URDF of the arm generated from the model (ROS, Foxglove).
 //!
 //! Frames, signs and formulas: `docs/KINEMATICS.md`.
 //!
@@ -30,6 +31,7 @@ pub mod kinematics;
 pub mod model;
 pub mod motion;
 pub mod pose;
+pub mod urdf;
 
 pub use fs020n_proto::{JointsDeg, JointsRad, JOINT_COUNT};
 pub use kinematics::{
@@ -41,3 +43,9 @@ pub use model::{
 };
 pub use motion::{JointMove, MotionError};
 pub use pose::{Pose, Xyzoat};
+pub use urdf::URDF_JOINT_NAMES;
+
+/// The README's examples, compiled as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

@@ -1,4 +1,5 @@
 //! Model-file loading: every error kind, with its file position.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use fs020n_kin::{FilePosition, ModelError, RobotModel, FS020N_TOML};
 

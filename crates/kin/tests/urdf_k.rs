@@ -5,6 +5,7 @@
 //! The URDF splits the forearm like the lab URDF of the FS020N (JT4 axis 0.225 m after JT3, the
 //! wrist centre 0.475 m further) and gives JT3/JT5 their axes as `0 -1 0`, so it is not a copy of
 //! the chain formula in `src/kinematics.rs`.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use fs020n_kin::{JointsDeg, JointsRad, RobotModel};
 use proptest::prelude::*;

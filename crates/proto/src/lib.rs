@@ -41,3 +41,8 @@ pub use joints::{JointsDeg, JointsRad, JOINT_COUNT};
 pub use reply::{Status, Timer, REPLY_FIELDS};
 pub use request::{Command, Request, StreamSample};
 pub use session::PROTOCOL_VERSION;
+
+/// The README's examples, compiled as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

@@ -7,7 +7,7 @@
 //!   arm), advanced by a clock it is given — virtual time in tests, real time for users.
 //! - [`Emulator`]: the controller on a tokio clock, served over TCP with the controller's listen
 //!   windows ([`Emulator::serve_tcp`]) or in memory ([`Emulator::connect`]).
-//! - [`serve_pendant`]: the pendant API (HTTP + JSON): state, switches, E-stop, reset, monitor
+//! - `serve_pendant` (default feature `pendant`): the pendant API (HTTP + JSON): state, switches, E-stop, reset, monitor
 //!   speed, fault injection ([`Fault`]).
 //! - [`run_robot`] with [`SimOptions`]: a whole robot (robot port + pendant) for a command line.
 //! - [`Snapshot`]: the serializable state.
@@ -18,6 +18,7 @@ pub mod controller;
 pub mod fault;
 pub mod motion;
 pub mod panel;
+#[cfg(feature = "pendant")]
 pub mod pendant;
 pub mod run;
 pub mod server;
@@ -31,7 +32,13 @@ pub use controller::{
 pub use fault::{Fault, ReplyFault};
 pub use motion::MotionPhase;
 pub use panel::Panel;
+#[cfg(feature = "pendant")]
 pub use pendant::{pendant_router, serve_pendant, PendantAccess, PendantServer};
 pub use run::{run_robot, RunningRobot, SimOptions};
 pub use server::{Emulator, TcpServer};
 pub use snapshot::{CommandInfo, ErrorInfo, LastEnd, SessionInfo, Snapshot};
+
+/// The README's examples, compiled as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

@@ -166,7 +166,7 @@ pub fn pendant_router(emulator: Emulator, token: Option<String>, bound: SocketAd
         access: Arc::new(PendantAccess::bound_to(bound)),
     };
     Router::new()
-        .route("/", get(index))
+        .route("/api", get(index))
         .route("/state", get(state_handler))
         .route("/model", get(model))
         .route("/panel", get(panel_get).post(panel_post))
@@ -256,8 +256,10 @@ async fn auth(State(st): State<AppState>, req: Request, next: Next) -> Response 
                 "send the header `Authorization: Bearer <token>` with the token the emulator was started with",
             )
             .into_response();
-            r.headers_mut()
-                .insert(header::WWW_AUTHENTICATE, "Bearer".parse().expect("valid"));
+            r.headers_mut().insert(
+                header::WWW_AUTHENTICATE,
+                header::HeaderValue::from_static("Bearer"),
+            );
             return r;
         }
     }
@@ -275,7 +277,7 @@ async fn index() -> Json<Value> {
     Json(serde_json::json!({
         "service": "fs020n emulator pendant API",
         "endpoints": [
-            "GET /state", "GET /model", "GET /panel", "POST /panel",
+            "GET /api", "GET /state", "GET /model", "GET /panel", "POST /panel",
             "POST /estop/press", "POST /estop/release", "POST /reset", "POST /speed",
             "GET /abs_speed", "POST /abs_speed", "POST /faults", "DELETE /faults"
         ],
@@ -287,7 +289,7 @@ async fn not_found(uri: axum::http::Uri) -> ApiError {
     ApiError::new(
         StatusCode::NOT_FOUND,
         format!("no such endpoint: {}", uri.path()),
-        "GET / lists the endpoints; docs/EMULATOR.md describes them",
+        "GET /api lists the endpoints; docs/EMULATOR.md describes them",
     )
 }
 
@@ -295,7 +297,7 @@ async fn method_not_allowed(method: axum::http::Method, uri: axum::http::Uri) ->
     ApiError::new(
         StatusCode::METHOD_NOT_ALLOWED,
         format!("{method} is not allowed on {}", uri.path()),
-        "GET / lists the endpoints with their methods",
+        "GET /api lists the endpoints with their methods",
     )
 }
 

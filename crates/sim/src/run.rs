@@ -11,6 +11,7 @@ use fs020n_proto::{ErrorCode, JointsDeg};
 
 use crate::controller::ControllerConfig;
 use crate::panel::Panel;
+#[cfg(feature = "pendant")]
 use crate::pendant::{serve_pendant, PendantServer};
 use crate::server::{Emulator, TcpServer};
 
@@ -156,6 +157,7 @@ impl SimOptions {
 pub struct RunningRobot {
     emulator: Emulator,
     robot: TcpServer,
+    #[cfg(feature = "pendant")]
     pendant: Option<PendantServer>,
 }
 
@@ -170,14 +172,18 @@ impl RunningRobot {
         self.robot.local_addr()
     }
 
-    /// The bound pendant API address, if served.
+    /// The bound pendant API address, if served (always `None` without the `pendant` feature).
     pub fn pendant_addr(&self) -> Option<SocketAddr> {
-        self.pendant.as_ref().map(PendantServer::local_addr)
+        #[cfg(feature = "pendant")]
+        return self.pendant.as_ref().map(PendantServer::local_addr);
+        #[cfg(not(feature = "pendant"))]
+        None
     }
 
     /// Stops both servers (an open session is dropped).
     pub fn stop(self) {
         self.robot.stop();
+        #[cfg(feature = "pendant")]
         if let Some(p) = self.pendant {
             p.stop();
         }
@@ -189,6 +195,16 @@ impl RunningRobot {
 /// runtime; the servers run until [`RunningRobot::stop`].
 pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
     let config = opts.controller_config()?;
+    #[cfg(not(feature = "pendant"))]
+    if let Some(addr) = opts.pendant {
+        return Err(io::Error::new(
+            io::ErrorKind::Unsupported,
+            format!(
+                "a pendant API on {addr} was asked for, but this build has none (enable the \
+                 `pendant` feature of fs020n-sim)"
+            ),
+        ));
+    }
     if let Some(addr) = opts.pendant {
         if !addr.ip().is_loopback() && opts.pendant_token.as_deref().unwrap_or("").is_empty() {
             return Err(io::Error::new(
@@ -204,6 +220,7 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
             format!("cannot listen on robot port {}: {e}", opts.listen),
         )
     })?;
+    #[cfg(feature = "pendant")]
     let pendant = match opts.pendant {
         Some(addr) => match serve_pendant(emulator.clone(), addr, opts.pendant_token.clone()).await
         {
@@ -224,10 +241,12 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
             "the robot port is bound off loopback: protocol 1040 has no authentication"
         );
     }
-    tracing::info!(robot = %robot.local_addr(), pendant = ?pendant.as_ref().map(|p| p.local_addr()), "emulated robot running");
-    Ok(RunningRobot {
+    let running = RunningRobot {
         emulator,
         robot,
+        #[cfg(feature = "pendant")]
         pendant,
-    })
+    };
+    tracing::info!(robot = %running.robot_addr(), pendant = ?running.pendant_addr(), "emulated robot running");
+    Ok(running)
 }

@@ -1,5 +1,6 @@
 //! End-to-end over real loopback TCP: the robot port (listen windows, one client, 255) and the
 //! pendant HTTP API, and `run_robot`. Fast: no test waits for a 3-second window in real time.
+#![cfg(feature = "pendant")]
 
 use std::net::SocketAddr;
 use std::time::Duration;

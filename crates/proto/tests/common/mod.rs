@@ -10,11 +10,11 @@ use fs020n_proto::{
 use proptest::prelude::*;
 
 /// The spec's example reply (§3.1), byte for byte.
-pub const SPEC_EXAMPLE: &str =
+pub(crate) const SPEC_EXAMPLE: &str =
     " 1040 0 -1 -1 0 -1 -1    12.500     0.000    30.000     0.000     0.000     0.000     0.000 ";
 
 /// The status of [`SPEC_EXAMPLE`].
-pub fn spec_example_status() -> Status {
+pub(crate) fn spec_example_status() -> Status {
     Status {
         version: 1040,
         error: ErrorCode::NONE,
@@ -29,7 +29,7 @@ pub fn spec_example_status() -> Status {
 }
 
 /// A status with the given timer and joints, everything else as in the spec example.
-pub fn status_with(timer: Timer, joints: [f64; 6]) -> Status {
+pub(crate) fn status_with(timer: Timer, joints: [f64; 6]) -> Status {
     Status {
         timer,
         joints: JointsDeg::new(joints),
@@ -38,22 +38,22 @@ pub fn status_with(timer: Timer, joints: [f64; 6]) -> Status {
 }
 
 /// `value` rounded to 3 decimals the way `/F10.3` keeps it.
-pub fn round3(value: f64) -> f64 {
+pub(crate) fn round3(value: f64) -> f64 {
     (value * 1000.0).round() / 1000.0
 }
 
 /// `value` as the controller stores it: an AS real, a 32-bit float.
-pub fn as_real(value: f64) -> f64 {
+pub(crate) fn as_real(value: f64) -> f64 {
     f64::from(value as f32)
 }
 
 /// `true` when `a` and `b` agree to the precision of an AS real (32-bit float).
-pub fn close_f32(a: f64, b: f64) -> bool {
+pub(crate) fn close_f32(a: f64, b: f64) -> bool {
     (a - b).abs() <= a.abs().max(b.abs()) * f64::from(f32::EPSILON) + 1e-30
 }
 
 /// A value in thousandths, spread over the widths `/F10.3` prints (1 to 10 characters).
-pub fn milli(max_abs: i64) -> impl Strategy<Value = i64> {
+pub(crate) fn milli(max_abs: i64) -> impl Strategy<Value = i64> {
     prop_oneof![
         Just(0i64),
         -999i64..=999,
@@ -65,12 +65,12 @@ pub fn milli(max_abs: i64) -> impl Strategy<Value = i64> {
 }
 
 /// A joint angle within ±99999.999, already at the 3 decimals the wire keeps.
-pub fn joint_value() -> impl Strategy<Value = f64> {
+pub(crate) fn joint_value() -> impl Strategy<Value = f64> {
     milli(99_999_999).prop_map(|m| m as f64 / 1000.0)
 }
 
 /// TIMER(1): 0..=99999.999 s or overflow.
-pub fn timer_value() -> impl Strategy<Value = Timer> {
+pub(crate) fn timer_value() -> impl Strategy<Value = Timer> {
     prop_oneof![
         9 => (0i64..=99_999_999).prop_map(|m| Timer::Seconds(m as f64 / 1000.0)),
         1 => (0i64..=999).prop_map(|m| Timer::Seconds(m as f64 / 1000.0)),
@@ -80,7 +80,7 @@ pub fn timer_value() -> impl Strategy<Value = Timer> {
 
 /// Any valid status: the version as a real server (1040) or any 32-bit number, any 32-bit
 /// error code, any switches, a timer and six joints as above.
-pub fn arb_status() -> impl Strategy<Value = Status> {
+pub(crate) fn arb_status() -> impl Strategy<Value = Status> {
     (
         prop_oneof![3 => Just(1040i64), 1 => any::<i32>().prop_map(i64::from)],
         prop_oneof![Just(0i32), Just(-31088), -49_999i32..=-10_000, any::<i32>()],
@@ -103,7 +103,7 @@ pub fn arb_status() -> impl Strategy<Value = Status> {
 
 /// How a reply's fields are laid out on the wire.
 #[derive(Debug, Clone)]
-pub enum Layout {
+pub(crate) enum Layout {
     /// The controller's exact layout ([`Status::encode`]), without its leading and final blank
     /// (those are chosen separately). Touching 10-character fields happen here.
     Exact,
@@ -117,14 +117,14 @@ pub enum Layout {
 
 /// What comes before the first field.
 #[derive(Debug, Clone, Copy)]
-pub enum Leading {
+pub(crate) enum Leading {
     None,
     Blanks(usize),
 }
 
 /// What comes after the last field.
 #[derive(Debug, Clone, Copy)]
-pub enum Trailing {
+pub(crate) enum Trailing {
     None,
     Blanks(usize),
     CrLf,
@@ -132,14 +132,14 @@ pub enum Trailing {
 }
 
 impl Trailing {
-    pub fn is_none(self) -> bool {
+    pub(crate) fn is_none(self) -> bool {
         matches!(self, Trailing::None)
     }
 }
 
 /// One way of writing a reply.
 #[derive(Debug, Clone)]
-pub struct Variant {
+pub(crate) struct Variant {
     pub layout: Layout,
     pub leading: Leading,
     pub trailing: Trailing,
@@ -147,7 +147,7 @@ pub struct Variant {
 
 impl Variant {
     /// The controller's exact bytes.
-    pub fn exact() -> Variant {
+    pub(crate) fn exact() -> Variant {
         Variant {
             layout: Layout::Exact,
             leading: Leading::Blanks(1),
@@ -156,7 +156,7 @@ impl Variant {
     }
 }
 
-pub fn arb_layout() -> impl Strategy<Value = Layout> {
+pub(crate) fn arb_layout() -> impl Strategy<Value = Layout> {
     prop_oneof![
         2 => Just(Layout::Exact),
         1 => (
@@ -167,7 +167,7 @@ pub fn arb_layout() -> impl Strategy<Value = Layout> {
     ]
 }
 
-pub fn arb_leading() -> impl Strategy<Value = Leading> {
+pub(crate) fn arb_leading() -> impl Strategy<Value = Leading> {
     prop_oneof![
         1 => Just(Leading::None),
         3 => Just(Leading::Blanks(1)),
@@ -175,7 +175,7 @@ pub fn arb_leading() -> impl Strategy<Value = Leading> {
     ]
 }
 
-pub fn arb_trailing() -> impl Strategy<Value = Trailing> {
+pub(crate) fn arb_trailing() -> impl Strategy<Value = Trailing> {
     prop_oneof![
         1 => Just(Trailing::None),
         3 => Just(Trailing::Blanks(1)),
@@ -185,7 +185,7 @@ pub fn arb_trailing() -> impl Strategy<Value = Trailing> {
     ]
 }
 
-pub fn arb_variant() -> impl Strategy<Value = Variant> {
+pub(crate) fn arb_variant() -> impl Strategy<Value = Variant> {
     (arb_layout(), arb_leading(), arb_trailing()).prop_map(|(layout, leading, trailing)| Variant {
         layout,
         leading,
@@ -200,7 +200,7 @@ fn exponent_form(value: f64) -> String {
 }
 
 /// The 14 fields of `s`, trimmed, as the controller would print them.
-pub fn field_texts(s: &Status, exponent: &[bool]) -> Vec<String> {
+pub(crate) fn field_texts(s: &Status, exponent: &[bool]) -> Vec<String> {
     let b = |v: bool| if v { "-1" } else { "0" }.to_owned();
     let mut out = vec![
         s.version.to_string(),
@@ -229,7 +229,7 @@ pub fn field_texts(s: &Status, exponent: &[bool]) -> Vec<String> {
 }
 
 /// Renders `s` in the given variant.
-pub fn render(s: &Status, v: &Variant) -> String {
+pub(crate) fn render(s: &Status, v: &Variant) -> String {
     let body = match &v.layout {
         Layout::Exact => {
             let e = s.encode();
@@ -260,7 +260,7 @@ pub fn render(s: &Status, v: &Variant) -> String {
 
 /// Pushes `stream` into a fresh decoder in the given chunks and collects every reply, checking
 /// after each push that the buffer stays bounded. Returns the statuses and the decoder.
-pub fn decode_in_chunks(
+pub(crate) fn decode_in_chunks(
     stream: &[u8],
     cuts: &[usize],
 ) -> (Vec<Result<Status, DecodeError>>, ReplyDecoder) {
@@ -283,7 +283,7 @@ pub fn decode_in_chunks(
 }
 
 /// Takes every reply (or error) the decoder can give now.
-pub fn drain(d: &mut ReplyDecoder, out: &mut Vec<Result<Status, DecodeError>>) {
+pub(crate) fn drain(d: &mut ReplyDecoder, out: &mut Vec<Result<Status, DecodeError>>) {
     loop {
         let before = d.buffered().len();
         match d.next_reply() {
@@ -307,7 +307,7 @@ pub fn drain(d: &mut ReplyDecoder, out: &mut Vec<Result<Status, DecodeError>>) {
 }
 
 /// Compares two commands with the precision of an AS real.
-pub fn commands_close(a: &Command, b: &Command) -> bool {
+pub(crate) fn commands_close(a: &Command, b: &Command) -> bool {
     let joints =
         |x: &JointsDeg, y: &JointsDeg| x.iter().zip(y.iter()).all(|(p, q)| close_f32(p, q));
     match (a, b) {

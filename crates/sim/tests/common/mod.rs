@@ -6,18 +6,18 @@ use std::time::Duration;
 use fs020n_proto::{Command, JointsDeg, Request, Status, StreamSample};
 use fs020n_sim::{Controller, ControllerConfig, SessionId};
 
-pub const HOME: JointsDeg = JointsDeg::new([0.0, 0.0, -90.0, 0.0, -90.0, 0.0]);
+pub(crate) const HOME: JointsDeg = JointsDeg::new([0.0, 0.0, -90.0, 0.0, -90.0, 0.0]);
 
-pub fn ms(n: u64) -> Duration {
+pub(crate) fn ms(n: u64) -> Duration {
     Duration::from_millis(n)
 }
 
-pub fn ctl() -> Controller {
+pub(crate) fn ctl() -> Controller {
     Controller::new(ControllerConfig::default())
 }
 
 /// A controller with an open session and the program running.
-pub fn running() -> (Controller, SessionId) {
+pub(crate) fn running() -> (Controller, SessionId) {
     let mut c = ctl();
     let id = c.try_accept().unwrap();
     let s = raw(&mut c, id, "1040 1 0");
@@ -26,18 +26,18 @@ pub fn running() -> (Controller, SessionId) {
 }
 
 /// Sends raw request bytes, returns the decoded reply.
-pub fn raw(c: &mut Controller, id: SessionId, text: &str) -> Status {
+pub(crate) fn raw(c: &mut Controller, id: SessionId, text: &str) -> Status {
     let h = c.handle_request(id, text.as_bytes()).unwrap();
     Status::decode(std::str::from_utf8(&h.reply).unwrap()).unwrap()
 }
 
 /// Sends a command as the client library encodes it.
-pub fn cmd(c: &mut Controller, id: SessionId, command: Command) -> Status {
+pub(crate) fn cmd(c: &mut Controller, id: SessionId, command: Command) -> Status {
     let text = Request::new(command).encode().unwrap();
     raw(c, id, &text)
 }
 
-pub fn jmove(c: &mut Controller, id: SessionId, target: [f64; 6]) -> Status {
+pub(crate) fn jmove(c: &mut Controller, id: SessionId, target: [f64; 6]) -> Status {
     cmd(
         c,
         id,
@@ -47,7 +47,7 @@ pub fn jmove(c: &mut Controller, id: SessionId, target: [f64; 6]) -> Status {
     )
 }
 
-pub fn sample(t0: f64, look: f64, p: [f64; 6], v: [f64; 6], a: [f64; 6]) -> StreamSample {
+pub(crate) fn sample(t0: f64, look: f64, p: [f64; 6], v: [f64; 6], a: [f64; 6]) -> StreamSample {
     StreamSample {
         t0_s: t0,
         lookahead_passes: look,
@@ -58,7 +58,7 @@ pub fn sample(t0: f64, look: f64, p: [f64; 6], v: [f64; 6], a: [f64; 6]) -> Stre
 }
 
 /// Advances in ticks until `pred` holds; returns the time it took. Panics after `max`.
-pub fn until(
+pub(crate) fn until(
     c: &mut Controller,
     max: Duration,
     mut pred: impl FnMut(&Controller) -> bool,
@@ -75,7 +75,7 @@ pub fn until(
 }
 
 /// Advances in steps of 1 s, polling with `0 0 0` to keep the session alive.
-pub fn wait_polling(c: &mut Controller, id: SessionId, d: Duration) {
+pub(crate) fn wait_polling(c: &mut Controller, id: SessionId, d: Duration) {
     let end = c.now() + d;
     while c.now() < end {
         let step = (end - c.now()).min(Duration::from_secs(1));
@@ -86,12 +86,12 @@ pub fn wait_polling(c: &mut Controller, id: SessionId, d: Duration) {
     }
 }
 
-pub fn is_still(c: &Controller) -> bool {
+pub(crate) fn is_still(c: &Controller) -> bool {
     c.velocity().iter().all(|v| v == 0.0) && c.motion_phase() == fs020n_sim::MotionPhase::Idle
 }
 
 /// Sends a command 7 holding `p` (zero velocity and acceleration), stamped now.
-pub fn stream_to(c: &mut Controller, id: SessionId, p: [f64; 6]) -> Status {
+pub(crate) fn stream_to(c: &mut Controller, id: SessionId, p: [f64; 6]) -> Status {
     let s = sample(c.timer1_s(), 0.0, p, [0.0; 6], [0.0; 6]);
     cmd(c, id, Command::StreamedMove(s))
 }

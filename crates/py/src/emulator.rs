@@ -1,0 +1,376 @@
+//! `fs020n.Emulator`: an emulated FS020N controller in this process, on real time, serving
+//! protocol 1040 on a free loopback port.
+
+use std::net::SocketAddr;
+use std::sync::Mutex;
+
+use fs020n_proto::{ErrorCode, JointsDeg};
+use fs020n_sim::{run_robot, Panel, PanelChange, RunningRobot, SimOptions};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyString};
+
+use crate::errors::{base_error, limit_error};
+use crate::{block, json_to_py, py_to_json, six, OnInterrupt};
+
+/// An emulated FS020N controller running in this process (real time), serving protocol 1040
+/// on a free port of 127.0.0.1 — the same emulator as `fs020n sim`, rule for rule. Use it as
+/// the robot of your own tests: no robot and no extra process needed.
+///
+/// ```python
+/// with fs020n.Emulator() as emu:
+///     with fs020n.Robot(emu.address) as robot:
+///         ...
+///     emu.set_panel(run=False)        # operate the panel like a person at the pendant
+///     emu.press_estop(); emu.release_estop(); emu.reset_error()
+///     emu.raise_error("E1130")       # inject a controller error
+///     emu.inject("delay_replies", count=1, delay_ms=400)   # and network faults
+/// ```
+///
+/// By default the controller is ready (power on, RUN, REPEAT, teach lock off, no error) at
+/// the home pose [0, 0, -90, 0, -90, 0] with the monitor speed at 10 %.
+#[pyclass(module = "fs020n", frozen)]
+#[derive(Debug)]
+pub struct Emulator {
+    running: Mutex<Option<RunningRobot>>,
+    emulator: fs020n_sim::Emulator,
+    addr: SocketAddr,
+    pendant: Option<SocketAddr>,
+}
+
+fn error_name(code: ErrorCode) -> Option<String> {
+    (!code.is_none()).then(|| code.to_string())
+}
+
+fn parse_code(py: Python<'_>, code: &Bound<'_, PyAny>) -> PyResult<ErrorCode> {
+    let parsed = if let Ok(s) = code.cast::<PyString>() {
+        s.extract::<String>()?
+            .parse::<ErrorCode>()
+            .map_err(|e| PyValueError::new_err(e.to_string()))?
+    } else {
+        let raw: i32 = code.extract().map_err(|_| {
+            PyValueError::new_err("an error code is a name such as \"E1130\" or its wire number")
+        })?;
+        ErrorCode(raw)
+    };
+    if parsed.is_none() {
+        return Err(limit_error(
+            py,
+            "an error code must not be 0; to clear an error use reset_error()",
+        ));
+    }
+    Ok(parsed)
+}
+
+impl Emulator {
+    fn with<R>(&self, f: impl FnOnce(&mut fs020n_sim::Controller) -> R) -> R {
+        self.emulator.with(f)
+    }
+}
+
+#[pymethods]
+impl Emulator {
+    /// Starts the emulator. `port=0` picks a free port (see `address`); `pendant=True` also
+    /// serves the HTTP pendant API on another free loopback port (`pendant_address`). The
+    /// panel switches, the joints (degrees), the monitor speed (%) and an initial error
+    /// (`"E1088"`) can be chosen.
+    #[new]
+    #[pyo3(signature = (*, port=0, joints=None, monitor_speed=None, power=true, run=true, repeat=true, teach_lock=false, error=None, pendant=false))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        port: u16,
+        joints: Option<&Bound<'_, PyAny>>,
+        monitor_speed: Option<f64>,
+        power: bool,
+        run: bool,
+        repeat: bool,
+        teach_lock: bool,
+        error: Option<&Bound<'_, PyAny>>,
+        pendant: bool,
+    ) -> PyResult<Emulator> {
+        let loopback = |port| SocketAddr::from(([127, 0, 0, 1], port));
+        let mut opts = SimOptions::default().listen(loopback(port)).panel(Panel {
+            power,
+            run,
+            repeat,
+            teach_lock,
+            estop: false,
+        });
+        if pendant {
+            opts = opts.pendant(loopback(0));
+        }
+        if let Some(j) = joints {
+            opts = opts.joints(JointsDeg::new(six(j, "joints")?));
+        }
+        if let Some(p) = monitor_speed {
+            opts = opts.monitor_speed(p);
+        }
+        if let Some(code) = error {
+            opts = opts.error(parse_code(py, code)?);
+        }
+        let running = block(py, run_robot(opts), OnInterrupt::Nothing)?
+            .map_err(|e| base_error(py, &format!("cannot start the emulator: {e}")))?;
+        Ok(Emulator {
+            emulator: running.emulator().clone(),
+            addr: running.robot_addr(),
+            pendant: running.pendant_addr(),
+            running: Mutex::new(Some(running)),
+        })
+    }
+
+    /// `"127.0.0.1:PORT"`: give it to `fs020n.Robot`.
+    #[getter]
+    fn address(&self) -> String {
+        self.addr.to_string()
+    }
+
+    /// The port of the protocol server.
+    #[getter]
+    fn port(&self) -> u16 {
+        self.addr.port()
+    }
+
+    /// `"127.0.0.1:PORT"` of the HTTP pendant API, or `None` (start with `pendant=True`).
+    #[getter]
+    fn pendant_address(&self) -> Option<String> {
+        self.pendant.map(|a| a.to_string())
+    }
+
+    /// The emulated encoders: six joint angles, degrees.
+    #[getter]
+    fn joints(&self) -> Vec<f64> {
+        self.with(|c| c.joints()).values().to_vec()
+    }
+
+    /// The panel switches: a dict with `power`, `run`, `repeat`, `teach_lock`, `estop`.
+    #[getter]
+    fn panel<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let p = self.with(|c| c.panel());
+        let d = PyDict::new(py);
+        d.set_item("power", p.power)?;
+        d.set_item("run", p.run)?;
+        d.set_item("repeat", p.repeat)?;
+        d.set_item("teach_lock", p.teach_lock)?;
+        d.set_item("estop", p.estop)?;
+        Ok(d)
+    }
+
+    /// Changes panel switches like a person at the controller: `power`, `run` (False = HOLD),
+    /// `repeat` (False = TEACH), `teach_lock`; the ones not given stay. HOLD pauses the motion
+    /// (RUN resumes it); TEACH, the lock and power off stop the program. Power on is refused
+    /// while the emergency stop is pressed.
+    #[pyo3(signature = (*, power=None, run=None, repeat=None, teach_lock=None))]
+    fn set_panel(
+        &self,
+        py: Python<'_>,
+        power: Option<bool>,
+        run: Option<bool>,
+        repeat: Option<bool>,
+        teach_lock: Option<bool>,
+    ) -> PyResult<()> {
+        let change = PanelChange {
+            power,
+            run,
+            repeat,
+            teach_lock,
+        };
+        self.with(|c| c.apply_panel(change))
+            .map_err(|e| base_error(py, &e.to_string()))
+    }
+
+    /// Presses the emergency stop: motor power is cut, the robot stops dead, the program
+    /// ends and error E3808 is raised.
+    fn press_estop(&self) {
+        self.with(|c| c.press_estop());
+    }
+
+    /// Releases the emergency stop (the error stays until `reset_error()`, power stays off
+    /// until `set_panel(power=True)`).
+    fn release_estop(&self) {
+        self.with(|c| c.release_estop());
+    }
+
+    /// Raises a controller error, e.g. `"E1130"` (or its wire number, -31130): the robot
+    /// brakes and the program stops.
+    fn raise_error(&self, py: Python<'_>, code: &Bound<'_, PyAny>) -> PyResult<()> {
+        let code = parse_code(py, code)?;
+        self.with(|c| c.inject(fs020n_sim::Fault::RaiseError { code }));
+        Ok(())
+    }
+
+    /// Resets the error (ERESET at the pendant). Refused while the emergency stop is pressed.
+    fn reset_error(&self, py: Python<'_>) -> PyResult<()> {
+        self.with(|c| c.reset_error())
+            .map_err(|e| base_error(py, &e.to_string()))
+    }
+
+    /// The current error as on the wire (0: none; E1130 is -31130).
+    #[getter]
+    fn error(&self) -> i32 {
+        self.with(|c| c.error()).raw()
+    }
+
+    /// The current error's name (`"E1130"`), or `None`.
+    #[getter]
+    fn error_name(&self) -> Option<String> {
+        error_name(self.with(|c| c.error()))
+    }
+
+    /// The monitor speed, percent.
+    #[getter]
+    fn monitor_speed(&self) -> f64 {
+        self.with(|c| c.monitor_speed())
+    }
+
+    /// Sets the monitor speed at the pendant (0 < percent <= 100).
+    fn set_monitor_speed(&self, py: Python<'_>, percent: f64) -> PyResult<()> {
+        self.with(|c| c.set_monitor_speed(percent))
+            .map_err(|e| limit_error(py, &e.to_string()))
+    }
+
+    /// `True` while the motion program runs (paused by HOLD counts as not running, as in
+    /// reply field 7).
+    #[getter]
+    fn program_running(&self) -> bool {
+        self.with(|c| c.task()) == fs020n_sim::TaskState::Running
+    }
+
+    /// `True` while a client holds the session.
+    #[getter]
+    fn session_open(&self) -> bool {
+        self.with(|c| c.session().is_some())
+    }
+
+    /// The number of the newest command the controller acts on (the motion program reads
+    /// only that one, spec §2.2): 1 start, 2 stop, 3 speed, 5 cancel, 6 joint move,
+    /// 7 streamed move, 255 end of session, 0 right after a session was accepted; `None`
+    /// before the first session.
+    #[getter]
+    fn newest_command(&self) -> Option<f64> {
+        self.with(|c| c.newest_command().map(|cmd| cmd.number()))
+    }
+
+    /// How the latest session ended: `"end_command"` (the client sent 255),
+    /// `"receive_timeout"` (no request for 5 s), `"send_timeout"`, `"disconnected"` (the
+    /// client dropped the connection), `"fault"` (injected); `None` before any ended.
+    #[getter]
+    fn last_session_end(&self, py: Python<'_>) -> PyResult<Option<String>> {
+        let Some((_, end)) = self.with(|c| c.last_session_end()) else {
+            return Ok(None);
+        };
+        let v = serde_json::to_value(end)
+            .map_err(|e| base_error(py, &format!("cannot describe the session end: {e}")))?;
+        Ok(v.as_str().map(str::to_owned))
+    }
+
+    /// Counters of the controller (requests, effective requests, sessions, …) as a dict.
+    #[getter]
+    fn counters(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        let c = self.with(|c| c.counters());
+        let v = serde_json::to_value(c)
+            .map_err(|e| base_error(py, &format!("cannot describe the counters: {e}")))?;
+        json_to_py(py, &v)
+    }
+
+    /// The whole state as a dict (what the pendant API's GET /state returns).
+    fn snapshot(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        let v = serde_json::to_value(self.emulator.snapshot())
+            .map_err(|e| base_error(py, &format!("cannot describe the emulator: {e}")))?;
+        json_to_py(py, &v)
+    }
+
+    /// Injects a fault, by kind with its parameters: `"delay_replies"` (count, delay_ms),
+    /// `"withhold_replies"` (count), `"garbage_reply"` (text), `"split_reply"` (parts,
+    /// gap_ms), `"close_connection"`, `"stop_reading"` (duration_ms), `"raise_error"` (code).
+    ///
+    /// ```python
+    /// emu.inject("delay_replies", count=1, delay_ms=400)
+    /// ```
+    #[pyo3(signature = (kind, **params))]
+    fn inject(
+        &self,
+        py: Python<'_>,
+        kind: &str,
+        params: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<()> {
+        let mut obj = serde_json::Map::new();
+        obj.insert("kind".into(), serde_json::Value::from(kind));
+        if let Some(p) = params {
+            for (k, v) in p.iter() {
+                obj.insert(k.extract::<String>()?, py_to_json(&v)?);
+            }
+        }
+        let fault =
+            fs020n_sim::pendant::parse_fault(serde_json::Value::Object(obj)).map_err(|e| {
+                limit_error(
+                    py,
+                    &format!(
+                        "not a fault: {e}; kinds: delay_replies(count, delay_ms), \
+                         withhold_replies(count), garbage_reply(text), split_reply(parts, gap_ms), \
+                         close_connection(), stop_reading(duration_ms), raise_error(code)"
+                    ),
+                )
+            })?;
+        self.with(|c| c.inject(fault));
+        Ok(())
+    }
+
+    /// Drops the client's connection at once (a lost link, as a cut cable would be).
+    fn drop_connection(&self) {
+        self.with(|c| c.inject(fs020n_sim::Fault::CloseConnection));
+    }
+
+    /// Stops the servers (an open session is dropped). Idempotent.
+    fn stop(&self) {
+        let running = self
+            .running
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .take();
+        if let Some(r) = running {
+            // Aborting the tasks needs the runtime's context.
+            if let Ok(rt) = crate::runtime() {
+                let _guard = rt.enter();
+                r.stop();
+            }
+        }
+    }
+
+    /// `True` until `stop()`.
+    #[getter]
+    fn running(&self) -> bool {
+        self.running
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .is_some()
+    }
+
+    fn __enter__(slf: Bound<'_, Self>) -> Bound<'_, Self> {
+        slf
+    }
+
+    fn __exit__(
+        &self,
+        _ty: Option<&Bound<'_, PyAny>>,
+        _value: Option<&Bound<'_, PyAny>>,
+        _tb: Option<&Bound<'_, PyAny>>,
+    ) -> bool {
+        self.stop();
+        false
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Emulator(address={:?}, running={})",
+            self.address(),
+            self.running()
+        )
+    }
+}
+
+impl Drop for Emulator {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}

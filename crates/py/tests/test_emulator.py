@@ -1,0 +1,73 @@
+import re
+
+import pytest
+
+import fs020n
+
+
+def test_address_is_a_free_loopback_port_and_stop_frees_it():
+    with fs020n.Emulator() as a, fs020n.Emulator() as b:
+        assert re.fullmatch(r"127\.0\.0\.1:\d+", a.address)
+        assert a.address != b.address
+        assert a.port == int(a.address.rsplit(":", 1)[1])
+        assert a.running
+    assert not a.running
+    with pytest.raises(fs020n.ConnectError):
+        fs020n.Robot(a.address, connect_timeout=0.3)
+
+
+def test_panel_estop_and_errors(emu):
+    assert emu.joints == [0.0, 0.0, -90.0, 0.0, -90.0, 0.0]
+    assert emu.panel == {"power": True, "run": True, "repeat": True, "teach_lock": False, "estop": False}
+    emu.set_panel(run=False, teach_lock=True)
+    assert emu.panel["run"] is False and emu.panel["teach_lock"] is True
+    assert emu.panel["power"] is True  # not given: unchanged
+    emu.set_panel(run=True, teach_lock=False)
+
+    emu.press_estop()
+    assert emu.error == -33808 and emu.error_name == "E3808"
+    assert emu.panel["estop"] and not emu.panel["power"]
+    with pytest.raises(fs020n.Error, match="emergency stop"):
+        emu.set_panel(power=True)
+    with pytest.raises(fs020n.Error, match="emergency stop"):
+        emu.reset_error()
+    emu.release_estop()
+    emu.reset_error()
+    emu.set_panel(power=True)
+    assert emu.error == 0 and emu.error_name is None
+
+    emu.raise_error("E1130")
+    assert emu.error == -31130
+    emu.reset_error()
+    emu.raise_error(-31088)
+    assert emu.error_name == "E1088"
+    with pytest.raises(ValueError):
+        emu.raise_error("Z12")
+    with pytest.raises(fs020n.LimitError):
+        emu.raise_error(0)
+
+
+def test_options_snapshot_counters_and_faults():
+    with fs020n.Emulator(joints=[10, 0, -90, 0, -90, 0], monitor_speed=30, run=False,
+                         error="E1088", pendant=True) as emu:
+        assert emu.joints[0] == 10.0
+        assert emu.monitor_speed == 30.0
+        assert emu.panel["run"] is False
+        assert emu.error_name == "E1088"
+        assert re.fullmatch(r"127\.0\.0\.1:\d+", emu.pendant_address)
+        snap = emu.snapshot()
+        assert snap["joints_deg"][0] == 10.0 and snap["error"]["name"] == "E1088"
+        assert emu.counters["sessions"] == 0
+        assert emu.session_open is False and emu.newest_command is None
+        emu.set_monitor_speed(55)
+        assert emu.monitor_speed == 55.0
+        with pytest.raises(fs020n.LimitError):
+            emu.set_monitor_speed(150)
+        emu.inject("delay_replies", count=2, delay_ms=10)
+        assert emu.snapshot()["pending_faults"] >= 1
+        with pytest.raises(fs020n.LimitError, match="kinds"):
+            emu.inject("melt_down")
+        with pytest.raises(fs020n.LimitError):
+            emu.inject("delay_replies", count="many")
+    with pytest.raises(fs020n.Error, match="cannot start the emulator"):
+        fs020n.Emulator(joints=[500, 0, 0, 0, 0, 0])

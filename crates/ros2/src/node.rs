@@ -1,0 +1,722 @@
+//! The ROS 2 node on DDS (`ros2-client` / RustDDS): topics, services and the
+//! `FollowJointTrajectory` action around one robot session.
+
+use std::future::Future;
+use std::net::{IpAddr, Ipv4Addr};
+use std::pin::Pin;
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
+
+use fs020n_client::{blockers, Blocker, Robot};
+use fs020n_kin::RobotModel;
+use ros2_client::action::{
+    ActionServerQosPolicies, AsyncActionServer, ExecutingGoalHandle, GoalEndStatus,
+};
+use ros2_client::dds::rustdds::DomainParticipantBuilder;
+use ros2_client::log::LogLevel;
+use ros2_client::qos::{Durability, History, Reliability, WhenFull};
+use ros2_client::{
+    ActionTypeName, Context, MessageTypeName, Name, NodeName, NodeOptions, ParameterValue,
+    QosProfile, RosoutRaw, ServiceTypeName,
+};
+use tokio::sync::{mpsc, watch};
+
+use crate::config::NodeConfig;
+use crate::diagnostics::{robot_status, NodeState};
+use crate::error::Ros2Error;
+use crate::execute::{execute, GoalEnd, Outcome};
+use crate::goal::{plan, GoalRefusal};
+use crate::msg::{
+    error_code, DiagnosticArray, FollowJointTrajectoryFeedback, FollowJointTrajectoryGoal,
+    FollowJointTrajectoryResult, Header, JointState, SetSpeedRequest, SetSpeedResponse, StringMsg,
+    Time, TriggerRequest, TriggerResponse,
+};
+use crate::urdf;
+
+/// Where the node gets its robot session. The standalone node holds one
+/// `Arc<fs020n_client::Robot>`; a host that manages sessions itself (reconnects, shares the
+/// session with other faces) implements this to hand out the current one.
+pub trait RobotSource: Send + Sync + 'static {
+    /// The session to use now; `None` while there is none (the node then publishes no joint
+    /// states, reports the link in `/diagnostics` and refuses goals and services).
+    fn robot(&self) -> Option<Arc<Robot>>;
+}
+
+impl RobotSource for Arc<Robot> {
+    fn robot(&self) -> Option<Arc<Robot>> {
+        Some(self.clone())
+    }
+}
+
+type Server<Req, Resp> = ros2_client::Server<Req, Resp>;
+type ActionServer = AsyncActionServer<
+    FollowJointTrajectoryGoal,
+    FollowJointTrajectoryResult,
+    FollowJointTrajectoryFeedback,
+>;
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+fn dds<E: std::fmt::Display>(what: &str) -> impl FnOnce(E) -> Ros2Error + '_ {
+    move |e| Ros2Error::Dds(format!("{what}: {e}"))
+}
+
+fn name(namespace: &str, base: &str) -> Result<Name, Ros2Error> {
+    Name::new(namespace, base)
+        .map_err(|e| Ros2Error::Config(format!("name {namespace}/{base}: {e:?}")))
+}
+
+/// Splits `/a/b/c` into (`/a/b`, `c`).
+fn split_name(full: &str) -> Result<Name, Ros2Error> {
+    match full.rsplit_once('/') {
+        Some(("", base)) => name("/", base),
+        Some((ns, base)) => name(ns, base),
+        None => name("/", full),
+    }
+}
+
+/// What every part of the node shares.
+struct Shared {
+    config: NodeConfig,
+    model: RobotModel,
+    source: Arc<dyn RobotSource>,
+    state: Mutex<NodeState>,
+    logger: ros2_client::NodeLoggingHandle,
+    busy: std::sync::atomic::AtomicBool,
+}
+
+impl Shared {
+    fn log(&self, level: LogLevel, msg: &str) {
+        self.logger.rosout_raw(
+            ros2_client::builtin_interfaces::Time::now(),
+            level,
+            &self.config.node_name,
+            msg,
+            file!(),
+            "",
+            line!(),
+        );
+    }
+
+    fn robot(&self) -> Result<Arc<Robot>, String> {
+        match self.source.robot() {
+            Some(r) if r.is_connected() => Ok(r),
+            Some(r) => Err(format!(
+                "the robot session has ended ({}); restart the node",
+                r.link_error().map_or("closed".into(), |e| e.to_string())
+            )),
+            None => Err("no robot session at the moment; try again when it is connected".into()),
+        }
+    }
+}
+
+fn joint_state_qos() -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability(Reliability::Reliable {
+            when_full: WhenFull::Fail,
+        })
+        .history(History::KeepLast { depth: 10 })
+}
+
+fn latched_qos() -> QosProfile {
+    QosProfile::publisher_default()
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 1 })
+}
+
+fn service_qos() -> QosProfile {
+    QosProfile::publisher_default().history(History::KeepLast { depth: 10 })
+}
+
+/// Runs the node until `shutdown` resolves (or a DDS entity fails). A goal still executing
+/// then is cancelled (commands 5 and 2: the robot brakes). The robot model gives the URDF and the
+/// checks; use the session's own (`robot.model()`).
+///
+/// What it serves (`~` is the node's name, `/fs020n` by default):
+///
+/// * `/joint_states` (`sensor_msgs/msg/JointState`, radians) at `joint_state_rate_hz`;
+/// * `/robot_description` (`std_msgs/msg/String`, transient local): [`urdf::generate`];
+/// * `/diagnostics` (`diagnostic_msgs/msg/DiagnosticArray`) at `diagnostics_rate_hz`;
+/// * `<action_namespace>/follow_joint_trajectory` (`control_msgs/action/FollowJointTrajectory`);
+/// * `~/start`, `~/stop`, `~/cancel` (`std_srvs/srv/Trigger`), `~/set_speed`
+///   (`fs020n_msgs/srv/SetSpeed`).
+pub async fn run(
+    config: NodeConfig,
+    model: RobotModel,
+    source: Arc<dyn RobotSource>,
+    shutdown: impl Future<Output = ()>,
+) -> Result<(), Ros2Error> {
+    config.validate()?;
+    let mut builder = DomainParticipantBuilder::new(config.dds.domain_id);
+    if config.dds.localhost_only {
+        builder = builder.with_only_networks([IpAddr::V4(Ipv4Addr::LOCALHOST)]);
+    }
+    let participant = builder.build().map_err(dds("DDS participant"))?;
+    let context = Context::from_domain_participant(participant).map_err(dds("ROS 2 context"))?;
+    let fqn = config.fully_qualified_name();
+    // Parameters, readable with `ros2 param`; read-only while the node runs.
+    let declared: Vec<(&str, ParameterValue)> = vec![
+        (
+            "joint_names",
+            ParameterValue::StringArray(config.joint_names.to_vec()),
+        ),
+        (
+            "joint_state_rate_hz",
+            ParameterValue::Double(config.joint_state_rate_hz),
+        ),
+        (
+            "diagnostics_rate_hz",
+            ParameterValue::Double(config.diagnostics_rate_hz),
+        ),
+        (
+            "action_namespace",
+            ParameterValue::String(config.action_namespace.clone()),
+        ),
+    ];
+    let initial: Vec<(String, ParameterValue)> = declared
+        .iter()
+        .map(|(n, v)| ((*n).to_owned(), v.clone()))
+        .collect();
+    let mut options = NodeOptions::new()
+        .enable_rosout(true)
+        .start_parameter_services(true);
+    for (n, v) in declared {
+        options = options.declare_parameter(n, v);
+    }
+    let options = options.parameter_validator(Box::new(move |name, value| {
+        if initial.iter().any(|(n, v)| n == name && v == value) {
+            return Ok(());
+        }
+        Err(format!(
+            "{name} is read-only while the node runs: set it in the parameter file \
+             (--params-file) and restart; the speed has the ~/set_speed service"
+        ))
+    }));
+    let node_name = NodeName::new(&config.namespace, &config.node_name)
+        .map_err(|e| Ros2Error::Config(format!("node name {fqn}: {e:?}")))?;
+    let mut node = context
+        .new_node(node_name, options)
+        .map_err(dds("ROS 2 node"))?;
+    let mapping = config.dds.service_mapping.to_client();
+
+    // Topics.
+    let joint_states = {
+        let topic = node
+            .create_topic(
+                &name("/", "joint_states")?,
+                MessageTypeName::new("sensor_msgs", "JointState"),
+                &joint_state_qos(),
+            )
+            .map_err(dds("/joint_states"))?;
+        node.create_publisher::<JointState>(&topic, Some(joint_state_qos()))
+            .map_err(dds("/joint_states"))?
+    };
+    let description = {
+        let topic = node
+            .create_topic(
+                &name("/", "robot_description")?,
+                MessageTypeName::new("std_msgs", "String"),
+                &latched_qos(),
+            )
+            .map_err(dds("/robot_description"))?;
+        node.create_publisher::<StringMsg>(&topic, Some(latched_qos()))
+            .map_err(dds("/robot_description"))?
+    };
+    let diagnostics = {
+        let topic = node
+            .create_topic(
+                &name("/", "diagnostics")?,
+                MessageTypeName::new("diagnostic_msgs", "DiagnosticArray"),
+                &joint_state_qos(),
+            )
+            .map_err(dds("/diagnostics"))?;
+        node.create_publisher::<DiagnosticArray>(&topic, Some(joint_state_qos()))
+            .map_err(dds("/diagnostics"))?
+    };
+
+    // Services.
+    let trigger = ServiceTypeName::new("std_srvs", "Trigger");
+    let mut trigger_server =
+        |base: &str| -> Result<Server<TriggerRequest, TriggerResponse>, Ros2Error> {
+            node.create_server(
+                mapping,
+                &name(&fqn, base)?,
+                &trigger,
+                service_qos(),
+                service_qos(),
+            )
+            .map_err(dds("~/ service"))
+        };
+    let start_srv = trigger_server("start")?;
+    let stop_srv = trigger_server("stop")?;
+    let cancel_srv = trigger_server("cancel")?;
+    let speed_srv: Server<SetSpeedRequest, SetSpeedResponse> = node
+        .create_server(
+            mapping,
+            &name(&fqn, "set_speed")?,
+            &ServiceTypeName::new("fs020n_msgs", "SetSpeed"),
+            service_qos(),
+            service_qos(),
+        )
+        .map_err(dds("~/set_speed"))?;
+
+    // The action, with the QoS of ROS 2 actions: volatile services and feedback, a
+    // transient-local status.
+    let volatile = QosProfile::publisher_default()
+        .durability(Durability::Volatile)
+        .history(History::KeepLast { depth: 10 });
+    let action = node
+        .create_action_server::<FollowJointTrajectoryGoal, FollowJointTrajectoryResult, FollowJointTrajectoryFeedback>(
+            mapping,
+            &split_name(&config.action_name())?,
+            &ActionTypeName::new("control_msgs", "FollowJointTrajectory"),
+            ActionServerQosPolicies {
+                goal_service: volatile.clone(),
+                result_service: volatile.clone(),
+                cancel_service: volatile.clone(),
+                feedback_publisher: volatile,
+                status_publisher: latched_qos(),
+            },
+        )
+        .map_err(dds("follow_joint_trajectory action"))?;
+    let action = AsyncActionServer::new(action);
+    let spinner = node.spinner().map_err(dds("ROS 2 spinner"))?;
+
+    let shared = Shared {
+        model,
+        source,
+        state: Mutex::new(NodeState::default()),
+        logger: node.logging_handle(),
+        busy: std::sync::atomic::AtomicBool::new(false),
+        config,
+    };
+    let shared = &shared;
+
+    // The URDF, latched.
+    let urdf_text = urdf::generate(&shared.model, &shared.config.joint_names);
+    description
+        .publish(StringMsg { data: urdf_text })
+        .map_err(|e| Ros2Error::Dds(format!("/robot_description: {e:?}")))?;
+
+    // The speed this node runs at.
+    if let (Some(percent), Ok(robot)) = (shared.config.speed_percent, shared.robot()) {
+        match robot.set_speed(percent).await {
+            Ok(_) => lock(&shared.state).speed_percent = Some(percent),
+            Err(e) => shared.log(
+                LogLevel::Warn,
+                &format!("could not set the speed to {percent} %: {e}"),
+            ),
+        }
+    }
+    shared.log(
+        LogLevel::Info,
+        &format!(
+            "{} ready: /joint_states at {} Hz, action {}",
+            shared.config.fully_qualified_name(),
+            shared.config.joint_state_rate_hz,
+            shared.config.action_name()
+        ),
+    );
+
+    let spin = async {
+        let _ = spinner.spin().await;
+        std::future::pending::<Result<(), Ros2Error>>().await
+    };
+    let work = async {
+        tokio::try_join!(
+            joint_state_loop(shared, &joint_states),
+            diagnostics_loop(shared, &diagnostics),
+            trigger_loop(shared, &start_srv, Trigger::Start),
+            trigger_loop(shared, &stop_srv, Trigger::Stop),
+            trigger_loop(shared, &cancel_srv, Trigger::Cancel),
+            speed_loop(shared, &speed_srv),
+            action_loop(shared, &action),
+            spin,
+        )
+        .map(|_| ())
+    };
+    tokio::select! {
+        r = work => r,
+        _ = shutdown => Ok(()),
+    }
+}
+
+async fn joint_state_loop(
+    shared: &Shared,
+    publisher: &ros2_client::Publisher<JointState>,
+) -> Result<(), Ros2Error> {
+    let period = Duration::from_secs_f64(1.0 / shared.config.joint_state_rate_hz);
+    let mut ticker = tokio::time::interval(period);
+    ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut last_seq = None;
+    loop {
+        ticker.tick().await;
+        let Ok(robot) = shared.robot() else { continue };
+        let mut s = robot.status();
+        // Idle, the session polls at its keep-alive rate: poll when the status is older than
+        // one period, so that every message carries a fresh reply.
+        if s.age() > period && robot.poll().await.is_ok() {
+            s = robot.status();
+        }
+        if last_seq == Some(s.seq) && s.age() > period * 2 {
+            continue;
+        }
+        last_seq = Some(s.seq);
+        let stamp = std::time::SystemTime::now()
+            .checked_sub(s.age())
+            .map_or_else(Time::now, Time::from_system);
+        let msg = JointState {
+            header: Header {
+                stamp,
+                frame_id: String::new(),
+            },
+            name: shared.config.joint_names.to_vec(),
+            position: s.status.joints.iter().map(|d| d.to_radians()).collect(),
+            velocity: Vec::new(),
+            effort: Vec::new(),
+        };
+        if let Err(e) = publisher.publish(msg) {
+            tracing::debug!("joint state not published: {e:?}");
+        }
+    }
+}
+
+async fn diagnostics_loop(
+    shared: &Shared,
+    publisher: &ros2_client::Publisher<DiagnosticArray>,
+) -> Result<(), Ros2Error> {
+    let period = Duration::from_secs_f64(1.0 / shared.config.diagnostics_rate_hz);
+    let mut ticker = tokio::time::interval(period);
+    ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let hardware_id = shared.model.name().to_owned();
+    loop {
+        ticker.tick().await;
+        let robot = shared.source.robot();
+        let mut state = lock(&shared.state).clone();
+        if let Some(r) = &robot {
+            state.link_error = r.link_error().map(|e| e.to_string());
+        } else {
+            state.link_error = Some("no robot session".into());
+        }
+        let snapshot = robot.as_ref().map(|r| r.status());
+        let status = robot_status(
+            &format!("{}: robot", shared.config.node_name),
+            &hardware_id,
+            snapshot.as_ref(),
+            &state,
+        );
+        let msg = DiagnosticArray {
+            header: Header {
+                stamp: Time::now(),
+                frame_id: String::new(),
+            },
+            status: vec![status],
+        };
+        if let Err(e) = publisher.publish(msg) {
+            tracing::debug!("diagnostics not published: {e:?}");
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Trigger {
+    Start,
+    Stop,
+    Cancel,
+}
+
+async fn trigger_loop(
+    shared: &Shared,
+    server: &Server<TriggerRequest, TriggerResponse>,
+    which: Trigger,
+) -> Result<(), Ros2Error> {
+    loop {
+        let (id, _req) = match server.async_receive_request().await {
+            Ok(r) => r,
+            Err(e) => {
+                tracing::warn!("{which:?} request not read: {e:?}");
+                continue;
+            }
+        };
+        let response = match shared.robot() {
+            Err(message) => TriggerResponse {
+                success: false,
+                message,
+            },
+            Ok(robot) => {
+                let r = match which {
+                    Trigger::Start => robot
+                        .start()
+                        .await
+                        .map(|()| "the motion program is running (command 1)".to_owned()),
+                    Trigger::Stop => robot.stop_program().await.map(|_| {
+                        "the robot stopped and the motion program ended (command 2); ~/start \
+                         runs it again"
+                            .to_owned()
+                    }),
+                    Trigger::Cancel => robot.cancel().await.map(|_| {
+                        "the current motion was cancelled: the robot braked to a stop and the motion program ended (commands 5 and 2); ~/start runs it again"
+                            .to_owned()
+                    }),
+                };
+                match r {
+                    Ok(message) => TriggerResponse {
+                        success: true,
+                        message,
+                    },
+                    Err(e) => TriggerResponse {
+                        success: false,
+                        message: e.to_string(),
+                    },
+                }
+            }
+        };
+        shared.log(
+            if response.success {
+                LogLevel::Info
+            } else {
+                LogLevel::Warn
+            },
+            &format!("~/{which:?}: {}", response.message).to_lowercase(),
+        );
+        if let Err(e) = server.async_send_response(id, response).await {
+            tracing::warn!("{which:?} response not sent: {e:?}");
+        }
+    }
+}
+
+async fn speed_loop(
+    shared: &Shared,
+    server: &Server<SetSpeedRequest, SetSpeedResponse>,
+) -> Result<(), Ros2Error> {
+    loop {
+        let (id, req) = match server.async_receive_request().await {
+            Ok(r) => r,
+            Err(e) => {
+                tracing::warn!("set_speed request not read: {e:?}");
+                continue;
+            }
+        };
+        let response = match shared.robot() {
+            Err(message) => SetSpeedResponse {
+                success: false,
+                message,
+            },
+            Ok(robot) => match robot.set_speed(req.percent).await {
+                Ok(_) => {
+                    lock(&shared.state).speed_percent = Some(req.percent);
+                    SetSpeedResponse {
+                        success: true,
+                        message: format!("monitor speed set to {} % (command 3)", req.percent),
+                    }
+                }
+                Err(e) => SetSpeedResponse {
+                    success: false,
+                    message: e.to_string(),
+                },
+            },
+        };
+        if let Err(e) = server.async_send_response(id, response).await {
+            tracing::warn!("set_speed response not sent: {e:?}");
+        }
+    }
+}
+
+/// Checks a new goal against the robot now (session, switches, program) and plans it.
+async fn admit(
+    shared: &Shared,
+    goal: &FollowJointTrajectoryGoal,
+) -> Result<(Arc<Robot>, crate::goal::Plan), GoalRefusal> {
+    let refuse = |m: String| GoalRefusal::new(error_code::INVALID_GOAL, m);
+    let robot = shared.robot().map_err(refuse)?;
+    let status = robot.poll().await.map_err(|e| refuse(e.to_string()))?;
+    let list = blockers(&status, true);
+    if list == [Blocker::ProgramNotRunning] && shared.config.execution.auto_start {
+        robot
+            .start()
+            .await
+            .map_err(|e| refuse(format!("could not start the motion program: {e}")))?;
+    } else if !list.is_empty() {
+        let text = list
+            .iter()
+            .map(|b| match b {
+                Blocker::ProgramNotRunning => format!(
+                    "{}: call the {}/start service (std_srvs/srv/Trigger) first",
+                    b.condition(),
+                    shared.config.fully_qualified_name()
+                ),
+                other => other.to_string(),
+            })
+            .collect::<Vec<_>>()
+            .join("; ");
+        return Err(refuse(format!("the robot is not ready to move — {text}")));
+    }
+    let p = plan(
+        goal,
+        &shared.config.joint_names,
+        &shared.model,
+        &shared.config.execution,
+        &status.joints,
+        Time::now(),
+    )?;
+    Ok((robot, p))
+}
+
+type Executing<'a> = Pin<Box<dyn Future<Output = Outcome> + Send + 'a>>;
+type Finishing<'a> = Pin<Box<dyn Future<Output = ()> + Send + 'a>>;
+
+async fn action_loop(shared: &Shared, server: &ActionServer) -> Result<(), Ros2Error> {
+    let (feedback_tx, mut feedback_rx) = mpsc::channel::<FollowJointTrajectoryFeedback>(4);
+    let feedback_tx = &feedback_tx;
+    let mut current: Option<(
+        ExecutingGoalHandle<FollowJointTrajectoryGoal>,
+        watch::Sender<bool>,
+    )> = None;
+    let mut executing: Option<Executing<'_>> = None;
+    let mut finishing: Vec<Finishing<'_>> = Vec::new();
+    let feedback_period = Duration::from_secs_f64(1.0 / shared.config.feedback_rate_hz);
+    loop {
+        tokio::select! {
+            new_goal = server.receive_new_goal() => {
+                let handle = match new_goal {
+                    Ok(h) => h,
+                    Err(e) => {
+                        tracing::warn!("goal request not read: {e:?}");
+                        continue;
+                    }
+                };
+                let Some(goal) = server.get_new_goal(handle.clone()) else { continue };
+                let admitted = if current.is_some() {
+                    Err(GoalRefusal::new(
+                        error_code::INVALID_GOAL,
+                        "a goal is executing; cancel it first (the robot follows one trajectory at a time)",
+                    ))
+                } else {
+                    admit(shared, &goal).await
+                };
+                match admitted {
+                    Err(refusal) => {
+                        let text = format!("goal rejected ({}): {}", refusal.code, refusal.message);
+                        shared.log(LogLevel::Warn, &text);
+                        lock(&shared.state).last_goal = Some(text);
+                        if let Err(e) = server.reject_goal(handle).await {
+                            tracing::warn!("goal rejection not sent: {e:?}");
+                        }
+                    }
+                    Ok((robot, p)) => {
+                        let accepted = match server.accept_goal(handle).await {
+                            Ok(a) => a,
+                            Err(e) => {
+                                tracing::warn!("goal acceptance not sent: {e:?}");
+                                continue;
+                            }
+                        };
+                        let exec_handle = match server.start_executing_goal(accepted).await {
+                            Ok(h) => h,
+                            Err(e) => {
+                                tracing::warn!("goal not started: {e:?}");
+                                continue;
+                            }
+                        };
+                        let text = format!(
+                            "executing a trajectory of {} points over {:.3} s",
+                            goal.trajectory.points.len(),
+                            p.duration_s()
+                        );
+                        shared.log(LogLevel::Info, &text);
+                        lock(&shared.state).last_goal = Some(text);
+                        shared.busy.store(true, std::sync::atomic::Ordering::SeqCst);
+                        let (cancel_tx, cancel_rx) = watch::channel(false);
+                        current = Some((exec_handle, cancel_tx));
+                        let exec = &shared.config.execution;
+                        let names = &shared.config.joint_names;
+                        executing = Some(Box::pin(async move {
+                            execute(&robot, &p, exec, names, feedback_period, cancel_rx, feedback_tx).await
+                        }));
+                    }
+                }
+            }
+            cancel = server.receive_cancel_request() => {
+                let cancel = match cancel {
+                    Ok(c) => c,
+                    Err(e) => {
+                        tracing::warn!("cancel request not read: {e:?}");
+                        continue;
+                    }
+                };
+                let mine: Vec<_> = match &current {
+                    Some((h, tx)) if cancel.contains_goal(&h.goal_id()) => {
+                        tx.send_replace(true);
+                        vec![h.goal_id()]
+                    }
+                    _ => Vec::new(),
+                };
+                if !mine.is_empty() {
+                    shared.log(LogLevel::Info, "goal cancel requested: braking (commands 5 and 2)");
+                }
+                if let Err(e) = server.respond_to_cancel_requests(&cancel, mine.into_iter()).await {
+                    tracing::warn!("cancel response not sent: {e:?}");
+                }
+            }
+            Some(fb) = feedback_rx.recv() => {
+                if let Some((h, _)) = &current {
+                    // After a cancel request the goal is "canceling": no more feedback.
+                    let _ = server.publish_feedback(h.clone(), fb).await;
+                }
+            }
+            outcome = maybe(&mut executing), if executing.is_some() => {
+                executing = None;
+                shared.busy.store(false, std::sync::atomic::Ordering::SeqCst);
+                let Some((h, _)) = current.take() else { continue };
+                let status = match outcome.end {
+                    GoalEnd::Succeeded => GoalEndStatus::Succeeded,
+                    GoalEnd::Aborted => GoalEndStatus::Aborted,
+                    GoalEnd::Canceled => GoalEndStatus::Canceled,
+                };
+                let text = format!(
+                    "goal {:?} ({}): {}",
+                    outcome.end, outcome.result.error_code, outcome.result.error_string
+                );
+                shared.log(
+                    if outcome.end == GoalEnd::Succeeded { LogLevel::Info } else { LogLevel::Warn },
+                    &text,
+                );
+                lock(&shared.state).last_goal = Some(text);
+                let result = outcome.result;
+                finishing.push(Box::pin(async move {
+                    // The client asks for the result as soon as the goal is accepted; do not
+                    // wait for ever for one that never does.
+                    match tokio::time::timeout(RESULT_WAIT, server.send_result_response(h, status, result)).await {
+                        Ok(Ok(())) => {}
+                        Ok(Err(e)) => tracing::warn!("goal result not sent: {e:?}"),
+                        Err(_) => tracing::warn!("no client asked for the goal's result within {RESULT_WAIT:?}"),
+                    }
+                }));
+            }
+            done = first_done(&mut finishing), if !finishing.is_empty() => {
+                drop(finishing.swap_remove(done));
+            }
+        }
+    }
+}
+
+/// How long a finished goal's result waits for the client's request.
+const RESULT_WAIT: Duration = Duration::from_secs(60);
+
+/// Awaits the future in `slot`, or never when there is none.
+async fn maybe<F: Future + Unpin>(slot: &mut Option<F>) -> F::Output {
+    match slot {
+        Some(f) => f.await,
+        None => std::future::pending().await,
+    }
+}
+
+/// The index of the first of `futures` to finish (never, when there are none).
+async fn first_done<F: Future + Unpin>(futures: &mut [F]) -> usize {
+    if futures.is_empty() {
+        return std::future::pending().await;
+    }
+    futures::future::select_all(futures.iter_mut()).await.1
+}

@@ -1,0 +1,550 @@
+"""The ROS 2 node (`fs020n ros2`) seen from an independent DDS participant (Eclipse Cyclone DDS,
+Python binding from PyPI): no ROS installation. The participant speaks ROS 2 on the wire —
+topic names `rt/…`, service topics `rq/…Request` / `rr/…Reply`, type names
+`pkg::msg::dds_::Type_` — subscribes to /joint_states, /robot_description and /diagnostics,
+calls ~/start, and drives the emulated arm through the FollowJointTrajectory action's DDS topics
+(send_goal, get_result, cancel_goal, feedback).
+
+DDS stays on 127.0.0.1: the node runs with --localhost-only and Cyclone DDS gets a loopback-only
+configuration without multicast (CYCLONEDDS_URI), each run on its own random ROS domain.
+Timeouts are generous (a loaded 2-core machine); no wall-clock speed is asserted.
+"""
+
+import json
+import math
+import os
+import random
+import signal
+import subprocess
+import tempfile
+import threading
+import time
+import urllib.request
+import uuid
+from dataclasses import dataclass, field
+
+import pytest
+
+LOOPBACK_CONFIG = """<CycloneDDS><Domain Id="any">
+  <General><Interfaces><NetworkInterface address="127.0.0.1"/></Interfaces>
+    <AllowMulticast>false</AllowMulticast></General>
+  <Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>30</MaxAutoParticipantIndex>
+    <Peers><Peer address="127.0.0.1"/></Peers></Discovery>
+</Domain></CycloneDDS>"""
+
+# Cyclone DDS reads CYCLONEDDS_URI when the first participant is created: set it before.
+_cfg = tempfile.NamedTemporaryFile("w", suffix=".xml", delete=False)
+_cfg.write(LOOPBACK_CONFIG)
+_cfg.close()
+os.environ["CYCLONEDDS_URI"] = "file://" + _cfg.name
+
+from cyclonedds.core import Policy, Qos  # noqa: E402
+from cyclonedds.domain import DomainParticipant  # noqa: E402
+from cyclonedds.idl import IdlStruct  # noqa: E402
+from cyclonedds.idl.types import array, float64, int8, int32, sequence, uint8, uint16, uint32  # noqa: E402
+from cyclonedds.pub import DataWriter  # noqa: E402
+from cyclonedds.sub import DataReader  # noqa: E402
+from cyclonedds.topic import Topic  # noqa: E402
+from cyclonedds.util import duration  # noqa: E402
+
+TIMEOUT = 60.0  # seconds: generous, the machine is shared
+JOINTS = [f"joint_{i}" for i in range(1, 7)]
+HOME_RAD = [0.0, 0.0, math.radians(-90), 0.0, math.radians(-90), 0.0]
+
+
+# --------------------------------------------------------------------------- ROS 2 types
+
+
+@dataclass
+class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
+    sec: int32 = 0
+    nanosec: uint32 = 0
+
+
+@dataclass
+class Duration(IdlStruct, typename="builtin_interfaces::msg::dds_::Duration_"):
+    sec: int32 = 0
+    nanosec: uint32 = 0
+
+
+@dataclass
+class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
+    stamp: Time = field(default_factory=Time)
+    frame_id: str = ""
+
+
+@dataclass
+class String(IdlStruct, typename="std_msgs::msg::dds_::String_"):
+    data: str = ""
+
+
+@dataclass
+class JointState(IdlStruct, typename="sensor_msgs::msg::dds_::JointState_"):
+    header: Header = field(default_factory=Header)
+    name: sequence[str] = field(default_factory=list)
+    position: sequence[float64] = field(default_factory=list)
+    velocity: sequence[float64] = field(default_factory=list)
+    effort: sequence[float64] = field(default_factory=list)
+
+
+@dataclass
+class KeyValue(IdlStruct, typename="diagnostic_msgs::msg::dds_::KeyValue_"):
+    key: str = ""
+    value: str = ""
+
+
+@dataclass
+class DiagnosticStatus(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticStatus_"):
+    level: uint8 = 0
+    name: str = ""
+    message: str = ""
+    hardware_id: str = ""
+    values: sequence[KeyValue] = field(default_factory=list)
+
+
+@dataclass
+class DiagnosticArray(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticArray_"):
+    header: Header = field(default_factory=Header)
+    status: sequence[DiagnosticStatus] = field(default_factory=list)
+
+
+@dataclass
+class TriggerRequest(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Request_"):
+    structure_needs_at_least_one_member: uint8 = 0
+
+
+@dataclass
+class TriggerResponse(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Response_"):
+    success: bool = False
+    message: str = ""
+
+
+@dataclass
+class JointTrajectoryPoint(IdlStruct, typename="trajectory_msgs::msg::dds_::JointTrajectoryPoint_"):
+    positions: sequence[float64] = field(default_factory=list)
+    velocities: sequence[float64] = field(default_factory=list)
+    accelerations: sequence[float64] = field(default_factory=list)
+    effort: sequence[float64] = field(default_factory=list)
+    time_from_start: Duration = field(default_factory=Duration)
+
+
+@dataclass
+class JointTrajectory(IdlStruct, typename="trajectory_msgs::msg::dds_::JointTrajectory_"):
+    header: Header = field(default_factory=Header)
+    joint_names: sequence[str] = field(default_factory=list)
+    points: sequence[JointTrajectoryPoint] = field(default_factory=list)
+
+
+@dataclass
+class Vector3(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
+    x: float64 = 0.0
+    y: float64 = 0.0
+    z: float64 = 0.0
+
+
+@dataclass
+class Quaternion(IdlStruct, typename="geometry_msgs::msg::dds_::Quaternion_"):
+    x: float64 = 0.0
+    y: float64 = 0.0
+    z: float64 = 0.0
+    w: float64 = 1.0
+
+
+@dataclass
+class Transform(IdlStruct, typename="geometry_msgs::msg::dds_::Transform_"):
+    translation: Vector3 = field(default_factory=Vector3)
+    rotation: Quaternion = field(default_factory=Quaternion)
+
+
+@dataclass
+class Twist(IdlStruct, typename="geometry_msgs::msg::dds_::Twist_"):
+    linear: Vector3 = field(default_factory=Vector3)
+    angular: Vector3 = field(default_factory=Vector3)
+
+
+@dataclass
+class MultiDOFJointTrajectoryPoint(
+    IdlStruct, typename="trajectory_msgs::msg::dds_::MultiDOFJointTrajectoryPoint_"
+):
+    transforms: sequence[Transform] = field(default_factory=list)
+    velocities: sequence[Twist] = field(default_factory=list)
+    accelerations: sequence[Twist] = field(default_factory=list)
+    time_from_start: Duration = field(default_factory=Duration)
+
+
+@dataclass
+class MultiDOFJointTrajectory(IdlStruct, typename="trajectory_msgs::msg::dds_::MultiDOFJointTrajectory_"):
+    header: Header = field(default_factory=Header)
+    joint_names: sequence[str] = field(default_factory=list)
+    points: sequence[MultiDOFJointTrajectoryPoint] = field(default_factory=list)
+
+
+@dataclass
+class JointTolerance(IdlStruct, typename="control_msgs::msg::dds_::JointTolerance_"):
+    name: str = ""
+    position: float64 = 0.0
+    velocity: float64 = 0.0
+    acceleration: float64 = 0.0
+
+
+@dataclass
+class JointComponentTolerance(IdlStruct, typename="control_msgs::msg::dds_::JointComponentTolerance_"):
+    joint_name: str = ""
+    component: uint16 = 0
+    position: float64 = 0.0
+    velocity: float64 = 0.0
+    acceleration: float64 = 0.0
+
+
+@dataclass
+class Goal(IdlStruct, typename="control_msgs::action::dds_::FollowJointTrajectory_Goal_"):
+    trajectory: JointTrajectory = field(default_factory=JointTrajectory)
+    multi_dof_trajectory: MultiDOFJointTrajectory = field(default_factory=MultiDOFJointTrajectory)
+    path_tolerance: sequence[JointTolerance] = field(default_factory=list)
+    component_path_tolerance: sequence[JointComponentTolerance] = field(default_factory=list)
+    goal_tolerance: sequence[JointTolerance] = field(default_factory=list)
+    component_goal_tolerance: sequence[JointComponentTolerance] = field(default_factory=list)
+    goal_time_tolerance: Duration = field(default_factory=Duration)
+
+
+@dataclass
+class Result(IdlStruct, typename="control_msgs::action::dds_::FollowJointTrajectory_Result_"):
+    error_code: int32 = 0
+    error_string: str = ""
+
+
+@dataclass
+class Feedback(IdlStruct, typename="control_msgs::action::dds_::FollowJointTrajectory_Feedback_"):
+    header: Header = field(default_factory=Header)
+    joint_names: sequence[str] = field(default_factory=list)
+    desired: JointTrajectoryPoint = field(default_factory=JointTrajectoryPoint)
+    actual: JointTrajectoryPoint = field(default_factory=JointTrajectoryPoint)
+    error: JointTrajectoryPoint = field(default_factory=JointTrajectoryPoint)
+    multi_dof_joint_names: sequence[str] = field(default_factory=list)
+    multi_dof_desired: MultiDOFJointTrajectoryPoint = field(default_factory=MultiDOFJointTrajectoryPoint)
+    multi_dof_actual: MultiDOFJointTrajectoryPoint = field(default_factory=MultiDOFJointTrajectoryPoint)
+    multi_dof_error: MultiDOFJointTrajectoryPoint = field(default_factory=MultiDOFJointTrajectoryPoint)
+
+
+@dataclass
+class UUID(IdlStruct, typename="unique_identifier_msgs::msg::dds_::UUID_"):
+    uuid: array[uint8, 16] = field(default_factory=lambda: [0] * 16)
+
+
+@dataclass
+class SendGoalRequest(IdlStruct, typename="control_msgs::action::dds_::FollowJointTrajectory_SendGoal_Request_"):
+    goal_id: UUID = field(default_factory=UUID)
+    goal: Goal = field(default_factory=Goal)
+
+
+@dataclass
+class SendGoalResponse(IdlStruct, typename="control_msgs::action::dds_::FollowJointTrajectory_SendGoal_Response_"):
+    accepted: bool = False
+    stamp: Time = field(default_factory=Time)
+
+
+@dataclass
+class GetResultRequest(IdlStruct, typename="control_msgs::action::dds_::FollowJointTrajectory_GetResult_Request_"):
+    goal_id: UUID = field(default_factory=UUID)
+
+
+@dataclass
+class GetResultResponse(IdlStruct, typename="control_msgs::action::dds_::FollowJointTrajectory_GetResult_Response_"):
+    status: int8 = 0
+    result: Result = field(default_factory=Result)
+
+
+@dataclass
+class FeedbackMessage(IdlStruct, typename="control_msgs::action::dds_::FollowJointTrajectory_FeedbackMessage_"):
+    goal_id: UUID = field(default_factory=UUID)
+    feedback: Feedback = field(default_factory=Feedback)
+
+
+@dataclass
+class GoalInfo(IdlStruct, typename="action_msgs::msg::dds_::GoalInfo_"):
+    goal_id: UUID = field(default_factory=UUID)
+    stamp: Time = field(default_factory=Time)
+
+
+@dataclass
+class CancelGoalRequest(IdlStruct, typename="action_msgs::srv::dds_::CancelGoal_Request_"):
+    goal_info: GoalInfo = field(default_factory=GoalInfo)
+
+
+@dataclass
+class CancelGoalResponse(IdlStruct, typename="action_msgs::srv::dds_::CancelGoal_Response_"):
+    return_code: int8 = 0
+    goals_canceling: sequence[GoalInfo] = field(default_factory=list)
+
+
+STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED = 4, 5, 6
+
+# --------------------------------------------------------------------------- helpers
+
+RELIABLE = Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.KeepLast(50))
+LATCHED = Qos(
+    Policy.Reliability.Reliable(duration(seconds=1)),
+    Policy.Durability.TransientLocal,
+    Policy.History.KeepLast(1),
+)
+
+
+def wait_until(what, predicate, timeout=TIMEOUT, step=0.05):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(step)
+    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+
+
+class Node:
+    """An `fs020n ros2 --embedded` process on a private ROS domain."""
+
+    def __init__(self, domain):
+        binary = os.environ.get("FS020N_BIN")
+        assert binary, "FS020N_BIN must name the fs020n binary built with --features ros2 (scripts/test-all)"
+        self.proc = subprocess.Popen(
+            [binary, "--json", "ros2", "--embedded", "--localhost-only", "--domain-id", str(domain),
+             "--pendant", "127.0.0.1:0"],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        )
+        self.stderr = []
+        threading.Thread(target=lambda: self.stderr.extend(self.proc.stderr), daemon=True).start()
+        lines = []
+        reader = threading.Thread(target=lambda: lines.append(self.proc.stdout.readline()), daemon=True)
+        reader.start()
+        reader.join(TIMEOUT)
+        assert lines and lines[0].strip(), f"the node printed nothing; stderr: {''.join(self.stderr)}"
+        self.info = json.loads(lines[0])
+        self.pendant = self.info["pendant"]
+
+    def post(self, path):
+        req = urllib.request.Request(self.pendant + path, method="POST", data=b"{}",
+                                     headers={"Content-Type": "application/json"})
+        with urllib.request.urlopen(req, timeout=TIMEOUT) as r:
+            return json.loads(r.read())
+
+    def stop(self):
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)
+            try:
+                return self.proc.wait(TIMEOUT)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(TIMEOUT)
+                raise AssertionError("the node did not stop on SIGINT")
+        return self.proc.returncode
+
+
+class Peer:
+    """The independent DDS participant: readers, writers and service/action calls."""
+
+    def __init__(self, domain, action="fs020n_controller/follow_joint_trajectory", node="fs020n"):
+        self.dp = DomainParticipant(domain)
+        self.joint_states = self.reader("rt/joint_states", JointState, RELIABLE)
+        self.description = self.reader("rt/robot_description", String, LATCHED)
+        self.diagnostics = self.reader("rt/diagnostics", DiagnosticArray, RELIABLE)
+        a = f"{action}/_action"
+        self.send_goal = self.service(f"{a}/send_goal", SendGoalRequest, SendGoalResponse)
+        self.get_result = self.service(f"{a}/get_result", GetResultRequest, GetResultResponse)
+        self.cancel_goal = self.service(f"{a}/cancel_goal", CancelGoalRequest, CancelGoalResponse)
+        self.feedback = self.reader(f"rt/{a}/feedback", FeedbackMessage, RELIABLE)
+        self.start = self.service(f"{node}/start", TriggerRequest, TriggerResponse)
+        self.latest = None
+
+    def reader(self, topic, cls, qos):
+        return DataReader(self.dp, Topic(self.dp, topic, cls), qos=qos)
+
+    def service(self, name, req, resp):
+        writer = DataWriter(self.dp, Topic(self.dp, f"rq/{name}Request", req), qos=RELIABLE)
+        reader = self.reader(f"rr/{name}Reply", resp, RELIABLE)
+        return writer, reader
+
+    def call(self, service, request, timeout=TIMEOUT):
+        writer, reader = service
+        wait_until("the service to be discovered",
+                   lambda: writer.get_matched_subscriptions() and reader.get_matched_publications(),
+                   timeout)
+        reader.take(N=100)  # stale replies
+        writer.write(request)
+        replies = wait_until("a reply", lambda: reader.take(N=1), timeout)
+        return replies[0]
+
+    def settled_joints(self, timeout=TIMEOUT):
+        """The joints once two readings half a second apart agree (the arm is at rest)."""
+        def still():
+            a = self.joints()
+            time.sleep(0.5)
+            b = self.joints()
+            return b if all(abs(x - y) < 1e-9 for x, y in zip(a, b)) else None
+        return wait_until("the arm to rest", still, timeout)
+
+    def joints(self, timeout=TIMEOUT):
+        """The newest /joint_states positions."""
+        def newest():
+            samples = self.joint_states.take(N=1000)
+            if samples:
+                self.latest = samples[-1]
+            return self.latest
+        return list(wait_until("/joint_states", newest, timeout).position)
+
+
+def goal_to(target_rad, seconds, steps=4, tolerance=None, start=None):
+    """A goal from `start` (default: home) to `target_rad`; its first point is at
+    seconds/steps, so the node prepends the current position at time 0."""
+    points = []
+    start = start or HOME_RAD
+    for k in range(1, steps + 1):
+        f = k / steps
+        t = seconds * f
+        points.append(JointTrajectoryPoint(
+            positions=[a + (b - a) * f for a, b in zip(start, target_rad)],
+            time_from_start=Duration(sec=int(t), nanosec=int(round((t - int(t)) * 1e9))),
+        ))
+    g = Goal(trajectory=JointTrajectory(joint_names=list(JOINTS), points=points))
+    if tolerance is not None:
+        g.goal_tolerance = [JointTolerance(name=n, position=tolerance) for n in JOINTS]
+    return SendGoalRequest(goal_id=UUID(uuid=list(uuid.uuid4().bytes)), goal=g)
+
+
+def with_jt1(rad):
+    t = list(HOME_RAD)
+    t[0] = rad
+    return t
+
+
+# --------------------------------------------------------------------------- fixtures
+
+
+@pytest.fixture(scope="module")
+def system():
+    domain = random.randint(100, 230)
+    node = Node(domain)
+    peer = Peer(domain)
+    try:
+        yield node, peer
+    finally:
+        code = node.stop()
+        assert code == 0, f"the node exited {code}; stderr: {''.join(node.stderr)}"
+
+
+# --------------------------------------------------------------------------- tests
+
+
+def test_joint_states_carry_the_six_joints_in_radians(system):
+    node, peer = system
+    wait_until("a joint state", lambda: peer.joint_states.take(N=1))
+    samples = []
+    wait_until("20 joint states", lambda: samples.extend(peer.joint_states.take(N=100)) or len(samples) >= 20)
+    s = samples[-1]
+    assert list(s.name) == JOINTS
+    assert all(abs(a - b) < 1e-6 for a, b in zip(s.position, HOME_RAD)), s.position
+    assert s.header.stamp.sec > 1_600_000_000
+
+
+def test_robot_description_is_latched_urdf_from_the_model(system):
+    node, peer = system
+    msg = wait_until("/robot_description", lambda: peer.description.take(N=1))[0]
+    assert msg.data.startswith("<?xml")
+    for j in JOINTS:
+        assert f'<joint name="{j}" type="revolute">' in msg.data
+    assert 'lower="-2.792526803190927"' in msg.data  # JT1 -160 deg
+
+
+def test_start_service_then_diagnostics_report_the_program(system):
+    node, peer = system
+    reply = peer.call(peer.start, TriggerRequest())
+    assert reply.success, reply.message
+
+    def running():
+        for arr in peer.diagnostics.take(N=100):
+            for st in arr.status:
+                values = {kv.key: kv.value for kv in st.values}
+                if values.get("program") == "running":
+                    return st
+        return None
+
+    st = wait_until("diagnostics with the program running", running)
+    assert st.level == 0, st.message
+    values = {kv.key: kv.value for kv in st.values}
+    assert values["teach_repeat"] == "REPEAT" and values["motor_power"] == "ON"
+    assert values["error"] == "none"
+
+
+def test_a_goal_moves_the_emulated_arm_and_succeeds(system):
+    node, peer = system
+    peer.call(peer.start, TriggerRequest())
+    request = goal_to(with_jt1(0.3), 2.0, tolerance=0.01)
+    reply = peer.call(peer.send_goal, request)
+    assert reply.accepted
+    result = peer.call(peer.get_result, GetResultRequest(goal_id=request.goal_id))
+    assert result.status == STATUS_SUCCEEDED, result.result.error_string
+    assert result.result.error_code == 0
+    feedback = peer.feedback.take(N=1000)
+    assert feedback, "no feedback while moving"
+    assert list(feedback[-1].feedback.joint_names) == JOINTS
+    assert any(0.0 < f.feedback.actual.positions[0] for f in feedback)
+    # /joint_states show the arm where the trajectory ended.
+    wait_until("joint_1 at 0.3 rad", lambda: abs(peer.joints()[0] - 0.3) < 0.01)
+
+
+def test_a_goal_out_of_range_is_rejected_and_nothing_moves(system):
+    node, peer = system
+    before = peer.settled_joints()
+    request = goal_to(with_jt1(3.0), 4.0)  # 172 deg: JT1 stops at 160 deg
+    reply = peer.call(peer.send_goal, request)
+    assert not reply.accepted
+    time.sleep(0.5)
+    after = peer.joints()
+    assert all(abs(a - b) < 1e-6 for a, b in zip(before, after)), (before, after)
+
+
+def test_unknown_joint_names_are_rejected(system):
+    node, peer = system
+    request = goal_to(with_jt1(0.0), 2.0)
+    request.goal.trajectory.joint_names[0] = "shoulder_pan_joint"
+    assert not peer.call(peer.send_goal, request).accepted
+
+
+def test_cancel_brakes_the_arm_short_of_the_goal(system):
+    node, peer = system
+    peer.call(peer.start, TriggerRequest())
+    joints = peer.joints()
+    start = joints[0]
+    request = goal_to(with_jt1(1.2), 8.0, steps=8, start=joints)
+    assert peer.call(peer.send_goal, request).accepted
+    wait_until("the arm to move", lambda: peer.joints()[0] > start + 0.05)
+    reply = peer.call(peer.cancel_goal, CancelGoalRequest(goal_info=GoalInfo(goal_id=request.goal_id)))
+    assert reply.return_code == 0
+    assert [list(g.goal_id.uuid) for g in reply.goals_canceling] == [list(request.goal_id.uuid)]
+    result = peer.call(peer.get_result, GetResultRequest(goal_id=request.goal_id))
+    assert result.status == STATUS_CANCELED, result.result.error_string
+    # Braked: it comes to rest well short of 1.2 rad and stays there.
+    stopped = peer.joints()[0]
+    time.sleep(1.0)
+    rest = peer.joints()[0]
+    assert rest < 1.0, rest
+    assert abs(rest - stopped) < 0.05, (stopped, rest)
+
+
+def test_an_emergency_stop_aborts_the_goal_with_an_error_code():
+    domain = random.randint(100, 230)
+    node = Node(domain)
+    try:
+        peer = Peer(domain)
+        assert peer.call(peer.start, TriggerRequest()).success
+        request = goal_to(with_jt1(1.0), 8.0, steps=8)
+        assert peer.call(peer.send_goal, request).accepted
+        wait_until("the arm to move", lambda: peer.joints()[0] > 0.05)
+        node.post("/estop/press")
+        result = peer.call(peer.get_result, GetResultRequest(goal_id=request.goal_id))
+        assert result.status == STATUS_ABORTED
+        assert result.result.error_code == -4  # PATH_TOLERANCE_VIOLATED: the robot stopped
+        assert "E3808" in result.result.error_string or "emergency" in result.result.error_string.lower(), \
+            result.result.error_string
+        # A new goal is refused before anything moves while the E-stop is pressed.
+        assert not peer.call(peer.send_goal, goal_to(with_jt1(0.0), 4.0)).accepted
+    finally:
+        assert node.stop() == 0, "".join(node.stderr)
