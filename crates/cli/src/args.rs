@@ -45,6 +45,10 @@ pub(crate) struct Cli {
     /// A robot model file (TOML) instead of the embedded FS020N model.
     #[arg(long, global = true, value_name = "FILE")]
     pub model: Option<PathBuf>,
+    /// Record every request and reply of the session to FILE: .mcap (Foxglove, PlotJuggler,
+    /// ros2 bag), .csv or .jsonl (docs/RECORDING.md).
+    #[arg(long, global = true, value_name = "FILE")]
+    pub record: Option<PathBuf>,
     /// The command.
     #[command(subcommand)]
     pub command: Cmd,
@@ -86,7 +90,8 @@ pub(crate) enum Cmd {
     Move(MoveArgs),
     /// Play a trajectory file (CSV `time_s,j1..j6[,v1..v6,a1..a6]` or JSON).
     Play(PlayArgs),
-    /// Record the status to a CSV file.
+    /// Record the status: FILE.csv gets a status table; FILE.mcap or FILE.jsonl every request
+    /// and reply (docs/RECORDING.md).
     Record(RecordArgs),
     /// Send one raw request and print the raw reply and its decoding.
     Raw {
@@ -134,7 +139,16 @@ pub(crate) enum Cmd {
         /// Confirm running the demo on the real robot given by --robot (it moves the arm).
         #[arg(long)]
         yes: bool,
+        /// Draw a picture of the run into FILE (.png or .svg).
+        #[arg(long, value_name = "FILE")]
+        plot: Option<PathBuf>,
     },
+    /// Draw a recording (.mcap, .csv, .jsonl): joints commanded and actual, tracking error,
+    /// round trips.
+    Plot(PlotArgs),
+    /// Send a recording's requests again with their original timing (to the embedded emulator,
+    /// or --robot) and report where the replies differ.
+    Replay(ReplayArgs),
     /// Run the ROS 2 node (joint states, URDF, FollowJointTrajectory for MoveIt 2, services,
     /// diagnostics) on the robot until Ctrl-C. See docs/ROS2.md.
     #[cfg(feature = "ros2")]
@@ -149,7 +163,8 @@ pub(crate) enum Cmd {
 /// `record` arguments.
 #[derive(Debug, Args)]
 pub(crate) struct RecordArgs {
-    /// Output CSV file (refused if it exists, unless --force or --append).
+    /// Output file: .csv (the status table), .mcap or .jsonl (every request and reply); refused
+    /// if it exists, unless --force (or --append, CSV only).
     pub file: PathBuf,
     /// Samples per second, 0.01–1000.
     #[arg(long, default_value_t = 10.0, value_name = "HZ")]
@@ -278,6 +293,48 @@ pub(crate) struct Ros2Args {
     pub(crate) auto_start: bool,
 }
 
+/// `plot` arguments.
+#[derive(Debug, Args)]
+pub(crate) struct PlotArgs {
+    /// The recording: .mcap, .csv (the client's, or `fs020n record`'s status table) or .jsonl.
+    pub recording: PathBuf,
+    /// The picture: .png or .svg.
+    #[arg(short, long, value_name = "FILE")]
+    pub output: PathBuf,
+    /// Joints to draw, e.g. 1,2 (default all six).
+    #[arg(long, value_delimiter = ',', value_name = "J")]
+    pub joints: Vec<usize>,
+    /// Start of the window, seconds since the recording started.
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    pub from: Option<f64>,
+    /// End of the window, seconds since the recording started.
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    pub to: Option<f64>,
+    /// Image width, pixels.
+    #[arg(long, default_value_t = 1600, value_name = "PX")]
+    pub width: u32,
+    /// Image height, pixels (default: from the number of panels).
+    #[arg(long, value_name = "PX")]
+    pub height: Option<u32>,
+}
+
+/// `replay` arguments.
+#[derive(Debug, Args)]
+pub(crate) struct ReplayArgs {
+    /// The recording: .mcap, .csv or .jsonl written with --record.
+    pub recording: PathBuf,
+    /// A joint differing by more than this is a divergence, degrees.
+    #[arg(long, default_value_t = 1.0, value_name = "DEG")]
+    pub tolerance: f64,
+    /// Monitor speed of the embedded emulator at start, percent (the recording does not say
+    /// it unless it set it; default the model's, 10 %).
+    #[arg(long, value_name = "PCT")]
+    pub monitor_speed: Option<f64>,
+    /// Confirm replaying on the real robot given by --robot (it moves the arm).
+    #[arg(long)]
+    pub yes: bool,
+}
+
 /// `decode` arguments.
 #[derive(Debug, Args)]
 pub(crate) struct DecodeArgs {
@@ -355,9 +412,6 @@ pub(crate) struct HubArgs {
     /// `foxglove` feature.
     #[arg(long, value_name = "HOST:PORT")]
     pub foxglove: Option<String>,
-    /// Record every request and reply of the session (.csv, or .jsonl for JSON lines).
-    #[arg(long, value_name = "FILE")]
-    pub record: Option<PathBuf>,
     /// A safety fence (TOML): joint ranges, speed cap, workspace box (docs/HUB.md).
     #[arg(long, value_name = "FILE")]
     pub fence: Option<PathBuf>,

@@ -69,8 +69,8 @@ pub(crate) fn circle(ctx: &Ctx, start: JointsDeg) -> CliResult<Trajectory> {
     Trajectory::new(points).map_err(|e| CliError::failure(format!("demo circle: {e}")))
 }
 
-/// `demo`.
-pub(crate) fn demo(ctx: &Ctx, speed: f64, yes: bool) -> CliResult {
+/// `demo`; with `plot`, a picture of the run (drawn from `ctx.record`).
+pub(crate) fn demo(ctx: &Ctx, speed: f64, yes: bool, plot: Option<&std::path::Path>) -> CliResult {
     let speed = check_speed(speed)?;
     if ctx.addr.is_some() && !yes {
         return Err(CliError::input(
@@ -96,6 +96,9 @@ pub(crate) fn demo(ctx: &Ctx, speed: f64, yes: bool) -> CliResult {
         };
         close_quietly(&robot).await;
         let report = result?;
+        if let (Some(out), Some(rec)) = (plot, &ctx.record) {
+            crate::recording::plot_session(&robot, &rec.path, out, ctx.json).await?;
+        }
         if let Some(e) = &embedded {
             let c = e.emulator.with(|c| c.counters());
             say(ctx, &format!(

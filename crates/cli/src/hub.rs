@@ -2,10 +2,8 @@
 //! face for existing clients, a safety fence, a Foxglove bridge, a recording (docs/HUB.md).
 
 use std::net::{SocketAddr, ToSocketAddrs};
-use std::path::Path;
 use std::time::Duration;
 
-use fs020n_client::{RecordFormat, Recording};
 use fs020n_kin::RobotModel;
 use fs020n_web::hub::{serve_face, serve_hub_page, Fence};
 use fs020n_web::{Hub, HubConfig};
@@ -23,16 +21,6 @@ fn resolve(text: &str, what: &str) -> CliResult<SocketAddr> {
         .ok_or_else(|| CliError::input(format!("{what} {text:?}: no address")))
 }
 
-/// The recording format for a file name: `.jsonl`/`.json` → JSON lines, anything else CSV.
-fn record_format(path: &Path) -> RecordFormat {
-    match path.extension().and_then(|e| e.to_str()) {
-        Some(e) if e.eq_ignore_ascii_case("jsonl") || e.eq_ignore_ascii_case("json") => {
-            RecordFormat::JsonLines
-        }
-        _ => RecordFormat::Csv,
-    }
-}
-
 /// Checks the options and builds the hub's configuration (before anything connects).
 fn config(args: &HubArgs, ctx: &Ctx, model: &RobotModel) -> CliResult<HubConfig> {
     let mut config = HubConfig::new(model.clone());
@@ -48,12 +36,8 @@ fn config(args: &HubArgs, ctx: &Ctx, model: &RobotModel) -> CliResult<HubConfig>
         config.fence =
             Some(Fence::from_file(path, model).map_err(|e| CliError::input(e.to_string()))?);
     }
-    if let Some(path) = &args.record {
-        config.client.record = Some(Recording {
-            path: path.clone(),
-            format: record_format(path),
-        });
-    }
+    // The global `--record FILE` (.mcap, .csv or .jsonl).
+    config.client.record = ctx.record.clone();
     Ok(config)
 }
 
@@ -120,7 +104,7 @@ pub(crate) fn hub(args: &HubArgs, ctx: &Ctx, as_json: bool) -> CliResult {
                     "listen": face.as_ref().map(|f| f.local_addr().to_string()),
                     "foxglove": foxglove_addr.map(|a| format!("ws://{a}")),
                     "fence": args.fence.as_ref().map(|p| p.display().to_string()),
-                    "record": args.record.as_ref().map(|p| p.display().to_string()),
+                    "record": ctx.record.as_ref().map(|r| r.path.display().to_string()),
                 })
             );
         } else {
@@ -138,8 +122,8 @@ pub(crate) fn hub(args: &HubArgs, ctx: &Ctx, as_json: bool) -> CliResult {
             if let Some(p) = &args.fence {
                 println!("  fence       {}", p.display());
             }
-            if let Some(p) = &args.record {
-                println!("  recording   {}", p.display());
+            if let Some(r) = &ctx.record {
+                println!("  recording   {}", r.path.display());
             }
             println!("Ctrl-C or SIGTERM ends the session (255: the controller stops the robot)");
         }
@@ -161,17 +145,4 @@ pub(crate) fn hub(args: &HubArgs, ctx: &Ctx, as_json: bool) -> CliResult {
         }
         Ok(())
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn record_format_by_extension() {
-        assert_eq!(record_format(Path::new("a.jsonl")), RecordFormat::JsonLines);
-        assert_eq!(record_format(Path::new("a.JSON")), RecordFormat::JsonLines);
-        assert_eq!(record_format(Path::new("a.csv")), RecordFormat::Csv);
-        assert_eq!(record_format(Path::new("a")), RecordFormat::Csv);
-    }
 }

@@ -9,6 +9,9 @@ mod hub;
 mod linear;
 mod offline;
 mod output;
+mod plot;
+mod recording;
+mod replay;
 mod robot_cmds;
 #[cfg(feature = "ros2")]
 mod ros2;
@@ -125,7 +128,12 @@ fn load_model(cli: &Cli) -> CliResult<RobotModel> {
 }
 
 fn ctx(cli: &Cli, model: RobotModel) -> session::Ctx {
+    let record = cli
+        .record
+        .as_deref()
+        .and_then(|p| recording::recording(p).ok());
     session::Ctx {
+        record,
         addr: cli.robot.clone(),
         json: cli.json,
         model,
@@ -141,6 +149,25 @@ fn run(cli: Cli, robot_typed: bool) -> CliResult {
         ));
     }
     let model = load_model(&cli)?;
+    if let Some(path) = &cli.record {
+        recording::recording(path)?;
+        let without_session = match &cli.command {
+            Cmd::Decode(_) => Some("decode"),
+            Cmd::Fk { .. } => Some("fk"),
+            Cmd::Ik { .. } => Some("ik"),
+            Cmd::Completions { .. } => Some("completions"),
+            Cmd::Sim(_) => Some("sim"),
+            Cmd::Plot(_) => Some("plot"),
+            Cmd::Replay(_) => Some("replay"),
+            _ => None,
+        };
+        if let Some(name) = without_session {
+            return Err(CliError::input(format!(
+                "--record records the requests and replies of a session with a robot; `{name}` \
+                 has none: leave out --record"
+            )));
+        }
+    }
     match &cli.command {
         Cmd::Decode(args) => offline::decode(args, cli.json),
         Cmd::Fk { joints } => offline::fk(&model, joints, cli.json),
@@ -154,10 +181,41 @@ fn run(cli: Cli, robot_typed: bool) -> CliResult {
         Cmd::Speed { percent } => robot_cmds::speed(&ctx(&cli, model), *percent),
         Cmd::Move(args) => robot_cmds::move_cmd(&ctx(&cli, model), args),
         Cmd::Play(args) => robot_cmds::play(&ctx(&cli, model), args),
+        Cmd::Record(args) if recording::is_client_recording(&args.file) => {
+            if cli.record.is_some() {
+                return Err(CliError::input(
+                    "record FILE already records every request and reply: leave out --record",
+                ));
+            }
+            recording::record(&ctx(&cli, model), args)
+        }
         Cmd::Record(args) => robot_cmds::record(&ctx(&cli, model), args),
+        Cmd::Plot(args) => plot::plot(args, cli.json),
+        Cmd::Replay(args) => replay::run(&ctx(&cli, model), args),
         Cmd::Raw { text, yes } => robot_cmds::raw(&ctx(&cli, model), text, *yes),
         Cmd::Bench { count } => robot_cmds::bench(&ctx(&cli, model), *count),
-        Cmd::Demo { speed, yes } => demo::demo(&ctx(&cli, model), *speed, *yes),
+        Cmd::Demo { speed, yes, plot } => {
+            if let Some(p) = plot {
+                if fs020n_record::plot::ImageFormat::from_path(p).is_none() {
+                    return Err(CliError::input(format!(
+                        "--plot {}: name the picture .png or .svg",
+                        p.display()
+                    )));
+                }
+            }
+            let mut c = ctx(&cli, model);
+            // The plot is drawn from a recording: a temporary one without --record.
+            let temporary =
+                (plot.is_some() && c.record.is_none()).then(recording::temporary_recording);
+            if let Some(t) = &temporary {
+                c.record = Some(fs020n_client::Recording::new(t));
+            }
+            let r = demo::demo(&c, *speed, *yes, plot.as_deref());
+            if let Some(t) = temporary {
+                let _ = std::fs::remove_file(t);
+            }
+            r
+        }
         Cmd::Sim(args) => {
             if robot_typed {
                 return Err(CliError::input(

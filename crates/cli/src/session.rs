@@ -26,6 +26,8 @@ pub(crate) struct Ctx {
     pub(crate) connect_timeout: Duration,
     /// stderr is a terminal: show what takes time (connecting, progress).
     pub(crate) interactive: bool,
+    /// `--record FILE`: every request and reply of the session.
+    pub(crate) record: Option<fs020n_client::Recording>,
 }
 
 impl Ctx {
@@ -41,6 +43,7 @@ impl Ctx {
         ClientConfig {
             model: self.model.clone(),
             connect_timeout: self.connect_timeout,
+            record: self.record.clone(),
             ..ClientConfig::default()
         }
     }

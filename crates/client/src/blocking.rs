@@ -283,6 +283,11 @@ impl Robot {
         self.r().stats()
     }
 
+    /// See [`crate::Robot::flush_recording`].
+    pub fn flush_recording(&self) -> Result<(), ClientError> {
+        block_on(&self.rt, self.r().flush_recording())
+    }
+
     /// See [`crate::Robot::server_clock`].
     pub fn server_clock(&self) -> Option<ClockFit> {
         self.r().server_clock()

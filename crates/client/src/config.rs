@@ -8,7 +8,7 @@ use fs020n_proto::session::{RECEIVE_TIMEOUT, SEND_TIMEOUT};
 
 use crate::error::ClientError;
 
-/// File format of a [`Recording`].
+/// File format of a [`Recording`] (`docs/RECORDING.md`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum RecordFormat {
@@ -18,15 +18,51 @@ pub enum RecordFormat {
     Csv,
     /// One JSON object per line: `{"t_s":…,"session":…,"dir":…,"kind":…,"rtt_ms":…,"text":…}`.
     JsonLines,
+    /// MCAP (zstd-compressed chunks) with ROS 2 `sensor_msgs/msg/JointState` topics and JSON
+    /// status, exchange and event topics ([`record_format`](crate::record_format)): opens in
+    /// Foxglove, PlotJuggler and `ros2 bag`. Needs the `mcap` feature (on by default).
+    Mcap,
 }
 
-/// Record every request and reply to a file (see `docs/CLIENT.md`, "Recording").
+impl RecordFormat {
+    /// The format a file name asks for: `.mcap` → MCAP, `.jsonl` / `.ndjson` → JSON lines,
+    /// `.csv` → CSV; `None` for anything else.
+    ///
+    /// ```
+    /// use fs020n_client::RecordFormat;
+    /// assert_eq!(RecordFormat::from_path("run.MCAP".as_ref()), Some(RecordFormat::Mcap));
+    /// assert_eq!(RecordFormat::from_path("run.jsonl".as_ref()), Some(RecordFormat::JsonLines));
+    /// assert_eq!(RecordFormat::from_path("run.txt".as_ref()), None);
+    /// ```
+    pub fn from_path(path: &std::path::Path) -> Option<RecordFormat> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        match ext.as_str() {
+            "mcap" => Some(RecordFormat::Mcap),
+            "jsonl" | "ndjson" => Some(RecordFormat::JsonLines),
+            "csv" => Some(RecordFormat::Csv),
+            _ => None,
+        }
+    }
+}
+
+/// Record every request and reply to a file (`docs/RECORDING.md`). The file is written by a
+/// thread of its own: a slow disk never delays a request or a reply deadline.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Recording {
     /// The file (created or truncated).
     pub path: PathBuf,
     /// Its format.
     pub format: RecordFormat,
+}
+
+impl Recording {
+    /// A recording in the format the file name asks for ([`RecordFormat::from_path`]), CSV
+    /// when the extension says nothing.
+    pub fn new(path: impl Into<PathBuf>) -> Recording {
+        let path = path.into();
+        let format = RecordFormat::from_path(&path).unwrap_or_default();
+        Recording { path, format }
+    }
 }
 
 /// Settings of a [`Robot`](crate::Robot). `ClientConfig::default()` suits a real FS020N.

@@ -55,6 +55,7 @@ mod error;
 mod lag;
 mod motion;
 mod record;
+pub mod record_format;
 mod robot;
 mod safety;
 pub mod servo;
@@ -69,6 +70,7 @@ pub use config::{ClientConfig, RecordFormat, Recording};
 pub use error::{Activity, Cancellation, ClientError, LinkError, RawRefusal};
 pub use lag::LagCompensation;
 pub use motion::{Completion, MoveHandle, MoveProgress, MoveReport};
+pub use record::{MCAP_CHUNK_INTERVAL, RECORD_QUEUE_LINES};
 pub use robot::{Robot, STOP_SETTLE};
 pub use safety::{
     blockers, check_stream_sample, extrapolation_window, Blocker, SampleError, ESTOP_REMEDY,

@@ -491,6 +491,16 @@ impl Robot {
         lock(&self.common.stats).snapshot()
     }
 
+    /// Waits until every request and reply recorded so far is in the recording file (an MCAP
+    /// file is then complete up to here for every reader). Does nothing without a recording.
+    /// The file is written by a thread of its own: requests never wait for the disk, only this.
+    pub async fn flush_recording(&self) -> Result<(), ClientError> {
+        match &self.common.recorder {
+            Some(r) => r.flush().await,
+            None => Ok(()),
+        }
+    }
+
     /// The current estimate of the controller's clock (TIMER(1)) against the local clock.
     pub fn server_clock(&self) -> Option<ClockFit> {
         lock(&self.link.shared.clock).fit()

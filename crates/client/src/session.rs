@@ -118,7 +118,7 @@ struct Op {
 pub(crate) struct Common {
     pub(crate) config: ClientConfig,
     pub(crate) stats: Mutex<StatsInner>,
-    pub(crate) recorder: Option<Mutex<Recorder>>,
+    pub(crate) recorder: Option<Recorder>,
     pub(crate) sessions: AtomicU64,
 }
 
@@ -126,7 +126,7 @@ impl Common {
     pub(crate) fn new(config: ClientConfig) -> Result<Common, ClientError> {
         config.validate()?;
         let recorder = match &config.record {
-            Some(r) => Some(Mutex::new(Recorder::open(r)?)),
+            Some(r) => Some(Recorder::open(r, config.late_reply_after)?),
             None => None,
         };
         Ok(Common {
@@ -142,14 +142,14 @@ impl Common {
         at: Instant,
         session: u64,
         dir: Dir,
-        kind: &str,
+        kind: &'static str,
         rtt: Option<Duration>,
         text: &str,
     ) {
         if let Some(r) = &self.recorder {
-            if let Err(e) = lock(r).line(at, session, dir, kind, rtt, text) {
-                lock(&self.stats).stats.record_errors += 1;
-                tracing::warn!(error = %e, "cannot write the recording");
+            // Never blocks: the line goes to the recording's writer thread.
+            if let Err(lost) = r.line(at, session, dir, kind, rtt, text) {
+                lock(&self.stats).stats.record_errors += lost;
             }
         }
     }

@@ -933,6 +933,8 @@ async fn every_request_and_reply_is_recorded() {
         sleep_ms(1000).await;
         let st = robot.stats();
         robot.close().await.unwrap();
+        // The file is written by its own thread: wait until it has every line.
+        robot.flush_recording().await.unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
         let tx = text.matches("tx").count() as u64;
         let rx = text.matches("rx").count() as u64;
