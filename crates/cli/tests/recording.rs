@@ -1,5 +1,6 @@
 //! `--record`, `record FILE.mcap`, `plot`, `replay` and `demo --plot` through the binary,
 //! against `fs020n sim` in a child process (loopback) or the embedded emulator.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use std::io::{BufRead, BufReader};
 use std::path::Path;
