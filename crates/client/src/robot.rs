@@ -55,6 +55,11 @@ pub struct Robot {
 /// program seen running within this time of either is not trusted as running.
 pub const STOP_SETTLE: Duration = Duration::from_millis(200);
 
+/// How often [`Robot::start`] sends command 1 again while the program does not run and
+/// nothing blocks it: the controller refuses a start (P1009) while the previous program is
+/// still finishing — its last motion, or the brake after a stop.
+const START_RETRY: Duration = Duration::from_millis(100);
+
 impl std::fmt::Debug for Robot {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Robot")
@@ -154,7 +159,9 @@ impl Robot {
     /// is running already (a second 1 would only make the robot pause after its motion) — but a
     /// program seen running within [`STOP_SETTLE`] of the session's start or of a command 2
     /// is on its way out (signal 2007 stops it after 50 ms, and a 1 sent meanwhile is
-    /// ignored): `start` waits for it to end and then starts it anew.
+    /// ignored): `start` waits for it to end and then starts it anew. A 1 refused because the
+    /// previous program is still finishing (its last motion, or the brake after a stop) is
+    /// sent again every 100 ms until the program runs or the timeout.
     pub async fn start(&self) -> Result<(), ClientError> {
         self.not_streaming()?;
         let started = Instant::now();
@@ -194,15 +201,37 @@ impl Robot {
         }
         let deadline = started + self.common.config.start_timeout;
         let mut rx = self.link.status.clone();
+        let mut sent_at = ex.sent_at;
+        let mut retry_at = Instant::now() + START_RETRY;
         loop {
             {
                 let s = rx.borrow_and_update();
-                if s.received_at > ex.sent_at && s.status.task_running {
+                if s.received_at > sent_at && s.status.task_running {
                     return Ok(());
                 }
             }
             tokio::select! {
                 r = rx.changed() => if r.is_err() { return Err(self.link.shared.death()) },
+                // A 1 that reached `MC EXECUTE` while the old program was still finishing
+                // (TASK(1) = 3: its last motion, or the brake after a stop) was refused
+                // (P1009): send it again while nothing else blocks the start.
+                _ = tokio::time::sleep_until(retry_at) => {
+                    retry_at += START_RETRY;
+                    let last = self.poll().await?;
+                    if last.task_running {
+                        return Ok(());
+                    }
+                    if blockers(&last, false).is_empty() {
+                        let ex = self
+                            .link
+                            .command(&Request::new(Command::StartProgram))
+                            .await?;
+                        if ex.frame.status.task_running {
+                            return Ok(());
+                        }
+                        sent_at = ex.sent_at;
+                    }
+                }
                 _ = tokio::time::sleep_until(deadline) => {
                     let last = self.poll().await?;
                     if last.task_running {
