@@ -388,8 +388,9 @@ struct SignalState {
 enum Flow {
     /// Go on (pc already set).
     Next,
-    /// The task waits (pc already set to where it resumes).
-    Wait(Wait),
+    /// The task waits (pc already set to where it resumes). Boxed: a step's result stays
+    /// two words.
+    Wait(Box<Wait>),
     /// The step may have changed other tasks (sockets, signals, monitor commands).
     Shared,
 }
@@ -446,13 +447,14 @@ pub const MAX_STRING: usize = 255;
 /// Most bytes one `TCP_RECV` or `TCP_SEND` moves.
 pub const MAX_TRANSFER: usize = 4096;
 
-type R<T> = Result<T, RuntimeError>;
+/// A runtime error, boxed: results stay two words (returned in registers) on the hot path.
+type R<T> = Result<T, Box<RuntimeError>>;
 
 fn check(v: f32, what: &str) -> R<f32> {
     if v.is_finite() {
         Ok(v)
     } else {
-        Err(RuntimeError::Overflow(what.to_owned()))
+        Err(Box::new(RuntimeError::Overflow(what.to_owned())))
     }
 }
 
@@ -479,9 +481,9 @@ fn to_i32(v: f32) -> i32 {
 
 fn secs(v: f32, what: &str) -> R<Duration> {
     if !(v.is_finite() && v >= 0.0) {
-        return Err(RuntimeError::IllegalValue(format!(
+        return Err(Box::new(RuntimeError::IllegalValue(format!(
             "{what} {v} (expected seconds ≥ 0)"
-        )));
+        ))));
     }
     Ok(Duration::from_secs_f64(f64::from(v).min(1.0e7)))
 }
@@ -913,6 +915,42 @@ impl Interpreter {
         best
     }
 
+    /// The next event in one pass over the tasks: its time, its task, whether it is that
+    /// task's interrupt, and the horizon — what [`Self::next_event_from`] gives with that task's
+    /// own steps skipped (where a run of its steps must stop).
+    fn next_event_and_horizon(&self) -> Option<(Duration, usize, bool, Option<Duration>)> {
+        let n = self.tasks.len().min(6);
+        let ints = if self.tasks.iter().any(|t| !t.interrupts.is_empty()) {
+            self.interrupt_times()
+        } else {
+            [None; 6]
+        };
+        let mut wakes = [None; 6];
+        for (k, w) in wakes.iter_mut().enumerate().take(n) {
+            *w = self.task_wake(k);
+        }
+        let mut best: Option<(Duration, usize)> = None;
+        for k in 0..n {
+            for t in [ints[k], wakes[k]].into_iter().flatten() {
+                if best.is_none_or(|(b, _)| t < b) {
+                    best = Some((t, k));
+                }
+            }
+        }
+        let (at, i) = best?;
+        let mut horizon: Option<Duration> = None;
+        for k in 0..n {
+            let own = if k == i { None } else { wakes[k] };
+            for t in [ints[k], own].into_iter().flatten() {
+                if horizon.is_none_or(|h| t < h) {
+                    horizon = Some(t);
+                }
+            }
+        }
+        let interrupt = ints[i].is_some_and(|it| it <= at);
+        Some((at, i, interrupt, horizon))
+    }
+
     /// Runs every task up to `until` (statements, timeouts, waits, interrupts), calling
     /// [`System::advance_to`] before each step. Events at exactly `until` run.
     pub fn run_until(&mut self, sys: &mut dyn System, until: Duration) {
@@ -927,7 +965,7 @@ impl Interpreter {
             }
         }
         let mut guard: u64 = 0;
-        while let Some((t, i)) = self.next_event_from(None) {
+        while let Some((t, i, interrupt, horizon)) = self.next_event_and_horizon() {
             if t > until {
                 break;
             }
@@ -939,11 +977,13 @@ impl Interpreter {
                 self.now = t;
                 sys.advance_to(t);
             }
-            if self.interrupt_time(i).is_some_and(|it| it <= self.now) {
+            // The system cannot change the interpreter's signals: the interrupt due at `t` is
+            // still due now.
+            if interrupt {
                 self.fire_interrupt(i, sys);
                 continue;
             }
-            self.wake(i, sys, until);
+            self.wake(i, sys, until, horizon);
         }
         if until > self.now {
             self.now = until;
@@ -951,14 +991,21 @@ impl Interpreter {
         }
     }
 
-    /// Task `i` is due: poll its wait, then run its steps until another event is due.
-    fn wake(&mut self, i: usize, sys: &mut dyn System, until: Duration) {
+    /// Task `i` is due: poll its wait, then run its steps until another event is due
+    /// (`horizon`: the earliest event other than this task's steps, as found before the poll).
+    fn wake(&mut self, i: usize, sys: &mut dyn System, until: Duration, horizon: Option<Duration>) {
+        let epoch = self.int_epoch;
         if !self.poll(i, sys) {
             return;
         }
-        let mut horizon = self
-            .next_event_from(Some(i))
-            .map_or(until, |(t, _)| t.min(until));
+        // The poll changes only this task (its steps are not in the horizon) — unless it
+        // changed a signal or an interrupt.
+        let mut horizon = if self.int_epoch == epoch {
+            horizon.map_or(until, |t| t.min(until))
+        } else {
+            self.next_event_from(Some(i))
+                .map_or(until, |(t, _)| t.min(until))
+        };
         let code = Arc::clone(&self.code);
         let poll = self.cfg.poll_period;
         // The system is brought to a step's time only when the step touches it, or once per
@@ -1003,7 +1050,7 @@ impl Interpreter {
                         .map_or(until, |(t, _)| t.min(until));
                 }
                 Ok(Flow::Wait(w)) => {
-                    self.set_wait(i, w);
+                    self.set_wait(i, *w);
                     return;
                 }
                 Err(e) => {
@@ -1237,7 +1284,7 @@ impl Interpreter {
         }
     }
 
-    fn fail(&mut self, i: usize, e: RuntimeError, sys: &mut dyn System) {
+    fn fail(&mut self, i: usize, e: Box<RuntimeError>, sys: &mut dyn System) {
         sys.advance_to(self.now);
         let id = self.tasks[i].id;
         let where_ = self.tasks[i].frames.last().map(|f| {
@@ -1308,7 +1355,7 @@ impl Interpreter {
         args: &[(ArgVal, Option<ByRefTarget>)],
     ) -> R<()> {
         if self.tasks[i].frames.len() >= self.cfg.max_call_depth {
-            return Err(RuntimeError::CallDepth(self.cfg.max_call_depth));
+            return Err(Box::new(RuntimeError::CallDepth(self.cfg.max_call_depth)));
         }
         let mut store = self.new_locals(i, prog);
         let code = self.code.clone();
@@ -1334,12 +1381,12 @@ impl Interpreter {
                     store.trans[s].set(&[], *v);
                 }
                 _ => {
-                    return Err(RuntimeError::IllegalValue(format!(
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
                         "argument {} of {} has the wrong type for parameter {}",
                         k + 1,
                         p.name,
                         var_display(param.ty, false, &p.local_names[param.ty as usize][s])
-                    )))
+                    ))))
                 }
             }
             if param.by_ref {
@@ -1503,11 +1550,11 @@ impl Interpreter {
             let v = self.eval_r(i, e, sys)?;
             let n = v.trunc();
             if !(0.0..=MAX_INDEX as f32).contains(&n) {
-                return Err(RuntimeError::IndexRange(format!(
+                return Err(Box::new(RuntimeError::IndexRange(format!(
                     "{} in {}",
                     v,
                     self.lref_name(i, l, Ty::Real)
-                )));
+                ))));
             }
             out[k] = n as i32;
         }
@@ -1529,20 +1576,20 @@ impl Interpreter {
         var_display(ty, l.var.global, &name)
     }
 
-    fn undefined(&self, i: usize, l: &LRef, ty: Ty, idx: &[i32]) -> RuntimeError {
+    fn undefined(&self, i: usize, l: &LRef, ty: Ty, idx: &[i32]) -> Box<RuntimeError> {
         let mut s = self.lref_name(i, l, ty);
         if !idx.is_empty() {
             let v: Vec<String> = idx.iter().map(|x| x.to_string()).collect();
             s.push_str(&format!("[{}]", v.join(",")));
         }
-        RuntimeError::Undefined(s)
+        Box::new(RuntimeError::Undefined(s))
     }
 
     fn count_element(&mut self, created: bool) -> R<()> {
         if created {
             self.elements += 1;
             if self.elements > MAX_ELEMENTS {
-                return Err(RuntimeError::MemoryFull(MAX_ELEMENTS));
+                return Err(Box::new(RuntimeError::MemoryFull(MAX_ELEMENTS)));
             }
         }
         Ok(())
@@ -1628,7 +1675,7 @@ impl Interpreter {
 
     fn write_s_at(&mut self, i: usize, var: VarRef, idx: &[i32], v: Bytes) -> R<()> {
         if v.len() > MAX_STRING {
-            return Err(RuntimeError::StringTooLong(v.len()));
+            return Err(Box::new(RuntimeError::StringTooLong(v.len())));
         }
         let created = match self.store(i, var.global).strs.get_mut(var.slot as usize) {
             Some(x) => x.set(idx, v),
@@ -1640,7 +1687,7 @@ impl Interpreter {
     fn write_s(&mut self, i: usize, l: &LRef, v: Bytes, sys: &mut dyn System) -> R<()> {
         if l.idx.is_empty() {
             if v.len() > MAX_STRING {
-                return Err(RuntimeError::StringTooLong(v.len()));
+                return Err(Box::new(RuntimeError::StringTooLong(v.len())));
             }
             if let Some(x) = self
                 .store(i, l.var.global)
@@ -1760,20 +1807,20 @@ impl Interpreter {
                     BinOp::Mul => check(x * y, "*")?,
                     BinOp::Div => {
                         if y == 0.0 {
-                            return Err(RuntimeError::DivisionByZero);
+                            return Err(Box::new(RuntimeError::DivisionByZero));
                         }
                         check(x / y, "/")?
                     }
                     BinOp::Mod => {
                         if y == 0.0 {
-                            return Err(RuntimeError::DivisionByZero);
+                            return Err(Box::new(RuntimeError::DivisionByZero));
                         }
                         check(x % y, "MOD")?
                     }
                     BinOp::Pow => {
                         let r = x.powf(y);
                         if r.is_nan() {
-                            return Err(RuntimeError::IllegalValue(format!("{x} ^ {y}")));
+                            return Err(Box::new(RuntimeError::IllegalValue(format!("{x} ^ {y}"))));
                         }
                         check(r, "^")?
                     }
@@ -1841,9 +1888,9 @@ impl Interpreter {
                 };
                 let n = self.eval_r(i, n, sys)?.trunc();
                 if !(1.0..=6.0).contains(&n) {
-                    return Err(RuntimeError::IllegalValue(format!(
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
                         "DEXT element {n} (1 to 6)"
-                    )));
+                    ))));
                 }
                 v[n as usize - 1]
             }
@@ -1874,7 +1921,7 @@ impl Interpreter {
             RFunc::Abs => x.abs(),
             RFunc::Sqrt => {
                 if x < 0.0 {
-                    return Err(RuntimeError::IllegalValue(format!("SQRT({x})")));
+                    return Err(Box::new(RuntimeError::IllegalValue(format!("SQRT({x})"))));
                 }
                 x.sqrt()
             }
@@ -1890,7 +1937,9 @@ impl Interpreter {
                 for s in &v[..n] {
                     let s = signal_number(*s);
                     if s == 0 || !Self::signal_number_ok(s, false) {
-                        return Err(RuntimeError::IllegalValue(format!("signal number {s}")));
+                        return Err(Box::new(RuntimeError::IllegalValue(format!(
+                            "signal number {s}"
+                        ))));
                     }
                     all &= self.signal(s.abs()) == (s > 0);
                 }
@@ -1918,7 +1967,9 @@ impl Interpreter {
             RFunc::Timer => {
                 let n = x.trunc();
                 if !(0.0..=10.0).contains(&n) {
-                    return Err(RuntimeError::IllegalValue(format!("TIMER({x}) (0 to 10)")));
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
+                        "TIMER({x}) (0 to 10)"
+                    ))));
                 }
                 let since = if n == 0.0 {
                     Some(0)
@@ -1945,7 +1996,7 @@ impl Interpreter {
                 let x = self.eval_s(i, a, sys)?;
                 let y = self.eval_s(i, b, sys)?;
                 if x.len() + y.len() > MAX_STRING {
-                    return Err(RuntimeError::StringTooLong(x.len() + y.len()));
+                    return Err(Box::new(RuntimeError::StringTooLong(x.len() + y.len())));
                 }
                 let mut v = Vec::with_capacity(x.len() + y.len());
                 v.extend_from_slice(&x);
@@ -1960,10 +2011,10 @@ impl Interpreter {
                     None => None,
                 };
                 if start < 1.0 || n.is_some_and(|n| n < 0.0) {
-                    return Err(RuntimeError::IllegalValue(format!(
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
                         "$MID start {start} (from 1), count {}",
                         n.unwrap_or(0.0)
-                    )));
+                    ))));
                 }
                 let a = (start as usize - 1).min(s.len());
                 let b = match n {
@@ -1976,7 +2027,7 @@ impl Interpreter {
                 let s = self.eval_s(i, s, sys)?;
                 let n = self.eval_r(i, n, sys)?.trunc();
                 if n < 0.0 {
-                    return Err(RuntimeError::IllegalValue(format!("count {n}")));
+                    return Err(Box::new(RuntimeError::IllegalValue(format!("count {n}"))));
                 }
                 let n = (n as usize).min(s.len());
                 if matches!(e, SExpr::Left(..)) {
@@ -1988,14 +2039,16 @@ impl Interpreter {
             SExpr::Chr(n) => {
                 let n = self.eval_r(i, n, sys)?.trunc();
                 if !(0.0..=255.0).contains(&n) {
-                    return Err(RuntimeError::IllegalValue(format!("$CHR({n}) (0 to 255)")));
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
+                        "$CHR({n}) (0 to 255)"
+                    ))));
                 }
                 Bytes::from(&[n as u8][..])
             }
             SExpr::Encode(items) => {
                 let (bytes, _) = self.encode(i, items, sys)?;
                 if bytes.len() > MAX_STRING {
-                    return Err(RuntimeError::StringTooLong(bytes.len()));
+                    return Err(Box::new(RuntimeError::StringTooLong(bytes.len())));
                 }
                 bytes.into()
             }
@@ -2060,9 +2113,9 @@ impl Interpreter {
             TExpr::Here => match sys.pose() {
                 Some(p) => p.map(|x| x as f32),
                 None => {
-                    return Err(RuntimeError::IllegalValue(
+                    return Err(Box::new(RuntimeError::IllegalValue(
                         "HERE: this controller has no kinematics".into(),
-                    ))
+                    )))
                 }
             },
             TExpr::Compose(a, b) => {
@@ -2122,7 +2175,9 @@ impl Interpreter {
                 }
             }
             if out.len() + bytes.len() > 64 * 1024 {
-                return Err(RuntimeError::StringTooLong(out.len() + bytes.len()));
+                return Err(Box::new(RuntimeError::StringTooLong(
+                    out.len() + bytes.len(),
+                )));
             }
         }
         bytes.extend_from_slice(out.as_bytes());
@@ -2138,7 +2193,7 @@ impl Interpreter {
                 return Ok(Flow::Next);
             }
             if self.mc_hold || !sys.panel().run {
-                return Ok(Flow::Wait(Wait::Held));
+                return Ok(Flow::Wait(Box::new(Wait::Held)));
             }
         }
         let Some(frame) = self.tasks[i].frames.last() else {
@@ -2253,7 +2308,7 @@ impl Interpreter {
                     None => 1.0,
                 };
                 if step == 0.0 {
-                    return Err(RuntimeError::IllegalValue("FOR … STEP 0".into()));
+                    return Err(Box::new(RuntimeError::IllegalValue("FOR … STEP 0".into())));
                 }
                 self.write_r(i, var, from, sys)?;
                 self.set_hidden_r(i, *limit, to);
@@ -2357,28 +2412,28 @@ impl Interpreter {
             }
             Op::Twait(e) => {
                 let d = secs(self.eval_r(i, e, sys)?, "TWAIT")?;
-                Flow::Wait(Wait::Until(now + d))
+                Flow::Wait(Box::new(Wait::Until(now + d)))
             }
             Op::Wait(e) => {
                 if truthy(self.eval_r(i, e, sys)?) {
                     Flow::Next
                 } else {
                     self.set_pc(i, pc);
-                    Flow::Wait(Wait::Cond)
+                    Flow::Wait(Box::new(Wait::Cond))
                 }
             }
             Op::Halt | Op::Stop => {
                 self.end_program(i, sys, false);
                 Flow::Next
             }
-            Op::Pause => Flow::Wait(Wait::Paused),
+            Op::Pause => Flow::Wait(Box::new(Wait::Paused)),
             Op::Signal(v) => {
                 for e in v.iter() {
                     let s = signal_number(self.eval_r(i, e, sys)?);
                     if s == 0 || !Self::signal_number_ok(s, true) {
-                        return Err(RuntimeError::IllegalValue(format!(
+                        return Err(Box::new(RuntimeError::IllegalValue(format!(
                             "SIGNAL {s} (outputs 1–999, internal 2001–2960)"
-                        )));
+                        ))));
                     }
                     self.write_signal(s.abs(), s > 0);
                 }
@@ -2391,13 +2446,15 @@ impl Interpreter {
                 call,
             } => {
                 if *immediate && !robot {
-                    return Err(RuntimeError::WrongTask(
+                    return Err(Box::new(RuntimeError::WrongTask(
                         "ONI is allowed only in robot programs".into(),
-                    ));
+                    )));
                 }
                 let s = signal_number(self.eval_r(i, signal, sys)?);
                 if s == 0 || !Self::signal_number_ok(s, false) {
-                    return Err(RuntimeError::IllegalValue(format!("signal number {s}")));
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
+                        "signal number {s}"
+                    ))));
                 }
                 let depth = self.tasks[i].frames.len();
                 let t = &mut self.tasks[i];
@@ -2427,9 +2484,9 @@ impl Interpreter {
                 cycles,
             } => {
                 if robot {
-                    return Err(RuntimeError::WrongTask(
+                    return Err(Box::new(RuntimeError::WrongTask(
                         "EXECUTE/MC is allowed only in PC programs".into(),
-                    ));
+                    )));
                 }
                 let args = self.eval_args(i, args, sys)?;
                 let cycles = match cycles {
@@ -2484,9 +2541,9 @@ impl Interpreter {
                 Flow::Shared
             }
             Op::McAbort | Op::McHold | Op::McContinue | Op::McSpeed(_) | Op::McEreset if robot => {
-                return Err(RuntimeError::WrongTask(
+                return Err(Box::new(RuntimeError::WrongTask(
                     "MC is allowed only in PC programs".into(),
-                ));
+                )));
             }
             Op::McAbort => {
                 if self.tasks[0].run == Run::Running {
@@ -2533,7 +2590,9 @@ impl Interpreter {
                 let n = self.eval_r(i, n, sys)?.trunc();
                 let v = self.eval_r(i, v, sys)?;
                 if !(1.0..=10.0).contains(&n) {
-                    return Err(RuntimeError::IllegalValue(format!("TIMER {n} (1 to 10)")));
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
+                        "TIMER {n} (1 to 10)"
+                    ))));
                 }
                 let offset = (f64::from(v).clamp(-1.0e9, 1.0e9) * 1e9) as i128;
                 self.timers[n as usize] = Some(now.as_nanos() as i128 - offset);
@@ -2550,9 +2609,9 @@ impl Interpreter {
                     let mut at = idx;
                     at[0] = idx[0] + k as i32;
                     if at[0] > MAX_INDEX {
-                        return Err(RuntimeError::IndexRange(format!(
+                        return Err(Box::new(RuntimeError::IndexRange(format!(
                             "DECOMPOSE beyond index {MAX_INDEX}"
-                        )));
+                        ))));
                     }
                     self.write_r_at(i, target.var, &at[..dims], *x)?;
                 }
@@ -2565,9 +2624,9 @@ impl Interpreter {
             }
             Op::HereT(l) => {
                 let Some(p) = sys.pose() else {
-                    return Err(RuntimeError::IllegalValue(
+                    return Err(Box::new(RuntimeError::IllegalValue(
                         "HERE: this controller has no kinematics".into(),
-                    ));
+                    )));
                 };
                 self.write_loc_var(i, l, Ty::Trans, p.map(|x| x as f32), sys)?;
                 Flow::Next
@@ -2594,7 +2653,7 @@ impl Interpreter {
                 self.require_robot(robot, "DELAY")?;
                 let d = self.eval_r(i, e, sys)?;
                 if !(d.is_finite() && d >= 0.0) {
-                    return Err(RuntimeError::IllegalValue(format!("DELAY {d}")));
+                    return Err(Box::new(RuntimeError::IllegalValue(format!("DELAY {d}"))));
                 }
                 let here = Target::Joints(sys.joints());
                 self.motion(i, MotionKind::Delay, here, f64::from(d), sys)?
@@ -2606,7 +2665,7 @@ impl Interpreter {
             Op::Break => {
                 self.require_robot(robot, "BREAK")?;
                 if sys.motion_in_progress() {
-                    Flow::Wait(Wait::MotionDone)
+                    Flow::Wait(Box::new(Wait::MotionDone))
                 } else {
                     Flow::Next
                 }
@@ -2618,7 +2677,7 @@ impl Interpreter {
                     SpeedUnit::Percent => Speed::Percent(v.clamp(0.01, 100.0)),
                     other => {
                         if !(v.is_finite() && v > 0.0) {
-                            return Err(RuntimeError::IllegalValue(format!("SPEED {v}")));
+                            return Err(Box::new(RuntimeError::IllegalValue(format!("SPEED {v}"))));
                         }
                         match other {
                             SpeedUnit::MmPerS => Speed::MmPerS(v),
@@ -2639,7 +2698,9 @@ impl Interpreter {
             Op::Accuracy(e, fine, always) => {
                 let v = f64::from(self.eval_r(i, e, sys)?);
                 if !(v.is_finite() && v >= 0.0) {
-                    return Err(RuntimeError::IllegalValue(format!("ACCURACY {v}")));
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
+                        "ACCURACY {v}"
+                    ))));
                 }
                 let m = &mut self.tasks[i].motion;
                 if *always {
@@ -2694,7 +2755,7 @@ impl Interpreter {
                         self.finish_accept(i, r, sys)?;
                         Flow::Shared
                     }
-                    SockPoll::Pending => Flow::Wait(Wait::Accept { port, deadline }),
+                    SockPoll::Pending => Flow::Wait(Box::new(Wait::Accept { port, deadline })),
                 }
             }
             Op::TcpConnect {
@@ -2718,7 +2779,9 @@ impl Interpreter {
                         None => return Err(self.undefined(i, ip, Ty::Real, &at[..n.max(1)])),
                     };
                     if !(0.0..=255.0).contains(&v) {
-                        return Err(RuntimeError::IllegalValue(format!("IP address byte {v}")));
+                        return Err(Box::new(RuntimeError::IllegalValue(format!(
+                            "IP address byte {v}"
+                        ))));
                     }
                     *b = v as u8;
                 }
@@ -2728,11 +2791,11 @@ impl Interpreter {
                         self.finish_ret(i, r.unwrap_or_else(|e| e) as f32, sys)?;
                         Flow::Shared
                     }
-                    SockPoll::Pending => Flow::Wait(Wait::Connect {
+                    SockPoll::Pending => Flow::Wait(Box::new(Wait::Connect {
                         ip: addr,
                         port,
                         deadline,
-                    }),
+                    })),
                 }
             }
             Op::TcpRecv {
@@ -2744,9 +2807,9 @@ impl Interpreter {
                     Some(m) => {
                         let m = self.eval_r(i, m, sys)?.trunc();
                         if !(1.0..=255.0).contains(&m) {
-                            return Err(RuntimeError::IllegalValue(format!(
+                            return Err(Box::new(RuntimeError::IllegalValue(format!(
                                 "TCP_RECV element size {m} (1 to 255)"
-                            )));
+                            ))));
                         }
                         m as usize
                     }
@@ -2758,11 +2821,11 @@ impl Interpreter {
                         self.finish_recv(i, r, max, sys)?;
                         Flow::Shared
                     }
-                    SockPoll::Pending => Flow::Wait(Wait::Recv {
+                    SockPoll::Pending => Flow::Wait(Box::new(Wait::Recv {
                         sock,
                         max,
                         deadline,
-                    }),
+                    })),
                 }
             }
             Op::TcpSend {
@@ -2776,9 +2839,9 @@ impl Interpreter {
                 let deadline = now + self.timeout(i, timeout.as_ref(), sys)?;
                 let count = self.eval_r(i, n, sys)?.trunc();
                 if !(0.0..=MAX_INDEX as f32).contains(&count) {
-                    return Err(RuntimeError::IllegalValue(format!(
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
                         "TCP_SEND element count {count}"
-                    )));
+                    ))));
                 }
                 let dims = buf.idx.len().clamp(1, 3);
                 let base = self.indices(i, buf, sys)?;
@@ -2810,11 +2873,11 @@ impl Interpreter {
                         self.finish_ret(i, r.map_or_else(|e| e as f32, |()| 0.0), sys)?;
                         Flow::Shared
                     }
-                    SockPoll::Pending => Flow::Wait(Wait::Send {
+                    SockPoll::Pending => Flow::Wait(Box::new(Wait::Send {
                         sock,
                         data,
                         deadline,
-                    }),
+                    })),
                 }
             }
             Op::TcpClose(ret, sock) => {
@@ -2833,9 +2896,9 @@ impl Interpreter {
         if robot {
             Ok(())
         } else {
-            Err(RuntimeError::WrongTask(format!(
+            Err(Box::new(RuntimeError::WrongTask(format!(
                 "{what} is allowed only in robot programs"
-            )))
+            ))))
         }
     }
 
@@ -2848,9 +2911,9 @@ impl Interpreter {
     fn port(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<u16> {
         let p = self.eval_r(i, e, sys)?.trunc();
         if !(8192.0..=65535.0).contains(&p) {
-            return Err(RuntimeError::IllegalValue(format!(
+            return Err(Box::new(RuntimeError::IllegalValue(format!(
                 "port {p} (8192 to 65535)"
-            )));
+            ))));
         }
         Ok(p as u16)
     }
@@ -2861,9 +2924,9 @@ impl Interpreter {
             None => 1.0,
         };
         if !(0.0..=60.0).contains(&v) {
-            return Err(RuntimeError::IllegalValue(format!(
+            return Err(Box::new(RuntimeError::IllegalValue(format!(
                 "timeout {v} s (0 to 60)"
-            )));
+            ))));
         }
         Ok(Duration::from_secs_f64(f64::from(v)))
     }
@@ -3052,8 +3115,8 @@ impl Interpreter {
         };
         match sys.issue_motion(&req) {
             Ok(Issued::Started) => Ok(Flow::Next),
-            Ok(Issued::Planned) => Ok(Flow::Wait(Wait::MotionPlanned)),
-            Err(code) => Err(RuntimeError::System(code)),
+            Ok(Issued::Planned) => Ok(Flow::Wait(Box::new(Wait::MotionPlanned))),
+            Err(code) => Err(Box::new(RuntimeError::System(code))),
         }
     }
 }
@@ -3102,9 +3165,9 @@ fn val(s: &[u8], radix: f32) -> R<f32> {
             1 => (2, t),
             2 => (16, t),
             other => {
-                return Err(RuntimeError::IllegalValue(format!(
+                return Err(Box::new(RuntimeError::IllegalValue(format!(
                     "VAL radix code {other} (0, 1 or 2)"
-                )))
+                ))))
             }
         }
     };
