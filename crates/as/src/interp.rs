@@ -1547,7 +1547,7 @@ impl Interpreter {
     fn indices(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<[i32; 3]> {
         let mut out = [0i32; 3];
         for (k, e) in l.idx.iter().enumerate().take(3) {
-            let v = self.eval_r(i, e, sys)?;
+            let v = self.operand_r(i, e, sys)?;
             let n = v.trunc();
             if !(0.0..=MAX_INDEX as f32).contains(&n) {
                 return Err(Box::new(RuntimeError::IndexRange(format!(
@@ -1593,6 +1593,47 @@ impl Interpreter {
             }
         }
         Ok(())
+    }
+
+    /// A real scalar's value; `None` when it was never assigned.
+    #[inline]
+    fn scalar_r(&self, i: usize, var: VarRef) -> Option<f32> {
+        let store = if var.global {
+            &self.globals
+        } else {
+            match self.tasks[i].frames.last() {
+                Some(f) => &f.locals,
+                None => &self.globals,
+            }
+        };
+        store.reals.get(var.slot as usize).and_then(|v| v.scalar)
+    }
+
+    /// A real operand: a constant or a scalar read in place (the common leaves of an
+    /// expression and of array indices), anything else through the evaluator.
+    #[inline(always)]
+    fn operand_r(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<f32> {
+        match e {
+            RExpr::Const(v) => Ok(*v),
+            RExpr::Var(l) if l.idx.is_empty() => match self.scalar_r(i, l.var) {
+                Some(v) => Ok(v),
+                None => Err(self.undefined(i, l, Ty::Real, &[])),
+            },
+            _ => self.eval_r(i, e, sys),
+        }
+    }
+
+    /// A real variable or element (a scalar read in place).
+    #[inline(always)]
+    fn operand_r_var(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<f32> {
+        if l.idx.is_empty() {
+            match self.scalar_r(i, l.var) {
+                Some(v) => Ok(v),
+                None => Err(self.undefined(i, l, Ty::Real, &[])),
+            }
+        } else {
+            self.read_r(i, l, sys)
+        }
     }
 
     fn read_r(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<f32> {
@@ -1793,14 +1834,14 @@ impl Interpreter {
     fn eval_r(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<f32> {
         Ok(match e {
             RExpr::Const(v) => *v,
-            RExpr::Var(l) => self.read_r(i, l, sys)?,
+            RExpr::Var(l) => self.operand_r_var(i, l, sys)?,
             RExpr::Neg(a) => -self.eval_r(i, a, sys)?,
             RExpr::Not(a) => as_bool(!truthy(self.eval_r(i, a, sys)?)),
             RExpr::Com(a) => !to_i32(self.eval_r(i, a, sys)?) as f32,
             RExpr::Bin(op, a, b) => {
-                let x = self.eval_r(i, a, sys)?;
+                let x = self.operand_r(i, a, sys)?;
                 // AND/OR evaluate both sides (AS has no short circuit).
-                let y = self.eval_r(i, b, sys)?;
+                let y = self.operand_r(i, b, sys)?;
                 match op {
                     BinOp::Add => check(x + y, "+")?,
                     BinOp::Sub => check(x - y, "-")?,
