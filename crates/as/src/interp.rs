@@ -925,30 +925,35 @@ impl Interpreter {
         } else {
             [None; 6]
         };
-        let mut wakes = [None; 6];
-        for (k, w) in wakes.iter_mut().enumerate().take(n) {
-            *w = self.task_wake(k);
+        fn earlier(a: Option<Duration>, b: Option<Duration>) -> Option<Duration> {
+            match (a, b) {
+                (Some(x), Some(y)) => Some(x.min(y)),
+                (x, y) => x.or(y),
+            }
         }
+        // Each task's earliest event; the earliest of all (ties: the lower task) and the
+        // earliest among the other tasks.
         let mut best: Option<(Duration, usize)> = None;
+        let mut others: Option<Duration> = None;
         for k in 0..n {
-            for t in [ints[k], wakes[k]].into_iter().flatten() {
-                if best.is_none_or(|(b, _)| t < b) {
-                    best = Some((t, k));
+            // An idle task has no step and no armed interrupt (`interrupt_times`).
+            if self.tasks[k].run == Run::Idle {
+                continue;
+            }
+            let Some(c) = earlier(ints[k], self.task_wake(k)) else {
+                continue;
+            };
+            match best {
+                Some((b, _)) if c >= b => others = earlier(others, Some(c)),
+                _ => {
+                    others = earlier(others, best.map(|(b, _)| b));
+                    best = Some((c, k));
                 }
             }
         }
         let (at, i) = best?;
-        let mut horizon: Option<Duration> = None;
-        for k in 0..n {
-            let own = if k == i { None } else { wakes[k] };
-            for t in [ints[k], own].into_iter().flatten() {
-                if horizon.is_none_or(|h| t < h) {
-                    horizon = Some(t);
-                }
-            }
-        }
         let interrupt = ints[i].is_some_and(|it| it <= at);
-        Some((at, i, interrupt, horizon))
+        Some((at, i, interrupt, earlier(others, ints[i])))
     }
 
     /// Runs every task up to `until` (statements, timeouts, waits, interrupts), calling
@@ -2271,7 +2276,7 @@ impl Interpreter {
         // By default the next step is the following op.
         self.set_pc(i, pc + 1);
         let depth = self.tasks[i].frames.len();
-        let r = self.exec(i, sys, code, prog, pc, now, cost);
+        let r = self.exec(i, sys, code, op, pc, now, cost);
         if r.is_err() && self.tasks[i].frames.len() == depth {
             // Errors name the step that failed.
             self.set_pc(i, pc);
@@ -2286,14 +2291,11 @@ impl Interpreter {
         i: usize,
         sys: &mut dyn System,
         code: &Code,
-        prog: usize,
+        op: &Op,
         pc: usize,
         now: Duration,
         mut cost: Duration,
     ) -> R<Flow> {
-        let Some(op) = code.programs.get(prog).and_then(|p| p.ops.get(pc)) else {
-            return Ok(Flow::Next);
-        };
         let robot = i == 0;
         let flow = match op {
             Op::Nop => Flow::Next,
