@@ -23,7 +23,7 @@ use crate::keywords::SYSTEM_SWITCHES;
 use crate::system::{
     Issued, MotionKind, MotionRequest, PanelState, SockPoll, Speed, System, Target, TaskId,
 };
-use crate::value::{Bytes, Store, MAX_ELEMENTS, MAX_INDEX};
+use crate::value::{Bytes, Store, Var, MAX_ELEMENTS, MAX_INDEX};
 
 /// How long statements take (see docs/AS.md, "Cost model").
 ///
@@ -1899,6 +1899,25 @@ impl Interpreter {
             }
             RExpr::Func(f, args) => self.eval_func(i, *f, args, sys)?,
             RExpr::Val(s, radix) => {
+                // VAL of a string scalar (the server's tokens) reads it in place.
+                if let (SExpr::Var(l), None) = (&**s, radix) {
+                    if l.idx.is_empty() {
+                        let store = if l.var.global {
+                            &self.globals
+                        } else {
+                            match self.tasks[i].frames.last() {
+                                Some(f) => &f.locals,
+                                None => &self.globals,
+                            }
+                        };
+                        return match store.strs.get(l.var.slot as usize) {
+                            Some(Var {
+                                scalar: Some(b), ..
+                            }) => val(b, 0.0),
+                            _ => Err(self.undefined(i, l, Ty::Str, &[])),
+                        };
+                    }
+                }
                 let s = self.eval_s(i, s, sys)?;
                 let radix = match radix {
                     Some(r) => self.eval_r(i, r, sys)?,
@@ -2100,7 +2119,15 @@ impl Interpreter {
             }
             SExpr::Decode(var, delims, mode) => {
                 let s = self.read_s(i, var, sys)?;
-                let d = self.eval_s(i, delims, sys)?;
+                // Constant delimiters (the usual case) are used in place.
+                let evaluated;
+                let d: &[u8] = match &**delims {
+                    SExpr::Const(b) => b,
+                    other => {
+                        evaluated = self.eval_s(i, other, sys)?;
+                        &evaluated
+                    }
+                };
                 let mode = self.eval_r(i, mode, sys)?;
                 let is_delim = |c: u8| d.iter().any(|x| x.eq_ignore_ascii_case(&c));
                 let cut = if mode <= 0.0 {
@@ -2108,8 +2135,7 @@ impl Interpreter {
                 } else {
                     s.iter().position(|&c| !is_delim(c)).unwrap_or(s.len())
                 };
-                let head: Bytes = s.slice(0, cut);
-                let rest: Bytes = s.slice(cut, s.len());
+                let (head, rest) = s.split_off_head(cut);
                 self.write_s(i, var, rest, sys)?;
                 head
             }
