@@ -450,12 +450,18 @@ pub const MAX_TRANSFER: usize = 4096;
 /// A runtime error, boxed: results stay two words (returned in registers) on the hot path.
 type R<T> = Result<T, Box<RuntimeError>>;
 
+#[inline]
 fn check(v: f32, what: &str) -> R<f32> {
     if v.is_finite() {
         Ok(v)
     } else {
-        Err(Box::new(RuntimeError::Overflow(what.to_owned())))
+        Err(overflow(what))
     }
+}
+
+#[cold]
+fn overflow(what: &str) -> Box<RuntimeError> {
+    Box::new(RuntimeError::Overflow(what.to_owned()))
 }
 
 fn truthy(v: f32) -> bool {
