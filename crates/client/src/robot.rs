@@ -284,15 +284,18 @@ impl Robot {
     /// Ends the session: 255 (the controller stops the robot and ends the program), then waits
     /// for the server to close the connection. Later calls fail with [`ClientError::Closed`]
     /// until [`reconnect`](Self::reconnect). Closing a session that is already gone is not an
-    /// error.
+    /// error. With a recording, everything recorded so far is in the file when `close` returns.
     pub async fn close(&self) -> Result<(), ClientError> {
-        if self.link.shared.is_dead() {
-            return Ok(());
-        }
-        match self.link.close().await {
-            Ok(_) | Err(ClientError::Closed) => Ok(()),
-            Err(e) => Err(e),
-        }
+        let closed = if self.link.shared.is_dead() {
+            Ok(())
+        } else {
+            match self.link.close().await {
+                Ok(_) | Err(ClientError::Closed) => Ok(()),
+                Err(e) => Err(e),
+            }
+        };
+        let flushed = self.flush_recording().await;
+        closed.and(flushed)
     }
 
     /// Starts a joint move (command 6) to `target`, after checking it (finite, inside the
