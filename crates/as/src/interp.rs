@@ -941,12 +941,12 @@ impl Interpreter {
         // earliest among the other tasks.
         let mut best: Option<(Duration, usize)> = None;
         let mut others: Option<Duration> = None;
-        for k in 0..n {
+        for (k, &int) in ints.iter().enumerate().take(n) {
             // An idle task has no step and no armed interrupt (`interrupt_times`).
             if self.tasks[k].run == Run::Idle {
                 continue;
             }
-            let Some(c) = earlier(ints[k], self.task_wake(k)) else {
+            let Some(c) = earlier(int, self.task_wake(k)) else {
                 continue;
             };
             match best {
