@@ -975,6 +975,8 @@ impl Interpreter {
                 t.kick = true;
             }
         }
+        // The code never changes once loaded: one handle for the whole run.
+        let code = Arc::clone(&self.code);
         let mut guard: u64 = 0;
         while let Some((t, i, interrupt, horizon)) = self.next_event_and_horizon() {
             if t > until {
@@ -994,7 +996,7 @@ impl Interpreter {
                 self.fire_interrupt(i, sys);
                 continue;
             }
-            self.wake(i, sys, until, horizon);
+            self.wake(i, sys, until, horizon, &code);
         }
         if until > self.now {
             self.now = until;
@@ -1004,7 +1006,14 @@ impl Interpreter {
 
     /// Task `i` is due: poll its wait, then run its steps until another event is due
     /// (`horizon`: the earliest event other than this task's steps, as found before the poll).
-    fn wake(&mut self, i: usize, sys: &mut dyn System, until: Duration, horizon: Option<Duration>) {
+    fn wake(
+        &mut self,
+        i: usize,
+        sys: &mut dyn System,
+        until: Duration,
+        horizon: Option<Duration>,
+        code: &Arc<Code>,
+    ) {
         let epoch = self.int_epoch;
         if !self.poll(i, sys) {
             return;
@@ -1017,7 +1026,6 @@ impl Interpreter {
             self.next_event_from(Some(i))
                 .map_or(until, |(t, _)| t.min(until))
         };
-        let code = Arc::clone(&self.code);
         let poll = self.cfg.poll_period;
         // The system is brought to a step's time only when the step touches it, or once per
         // poll period (pure computation does not need the arm's state).
@@ -1048,7 +1056,7 @@ impl Interpreter {
                 synced = at;
                 first = false;
             }
-            match self.step(i, sys, &code, sync) {
+            match self.step(i, sys, code, sync) {
                 Ok(Flow::Next) => {}
                 Ok(Flow::Shared) => {
                     for (k, t) in self.tasks.iter_mut().enumerate() {
@@ -1807,14 +1815,13 @@ impl Interpreter {
         self.store(i, false)
             .reals
             .get(s)
-            .and_then(|v| v.get(&[]))
-            .copied()
+            .and_then(|v| v.scalar)
             .unwrap_or(0.0)
     }
 
     fn set_hidden_r(&mut self, i: usize, slot: u32, v: f32) {
         if let Some(x) = self.store(i, false).reals.get_mut(slot as usize) {
-            x.set(&[], v);
+            x.scalar = Some(v);
         }
     }
 
@@ -2135,7 +2142,14 @@ impl Interpreter {
                     }
                 };
                 let mode = self.eval_r(i, mode, sys)?;
-                let is_delim = |c: u8| d.iter().any(|x| x.eq_ignore_ascii_case(&c));
+                let one = match d {
+                    [x] => Some(x.to_ascii_lowercase()),
+                    _ => None,
+                };
+                let is_delim = |c: u8| match one {
+                    Some(x) => c.to_ascii_lowercase() == x,
+                    None => d.iter().any(|x| x.eq_ignore_ascii_case(&c)),
+                };
                 let cut = if mode <= 0.0 {
                     s.iter().position(|&c| is_delim(c)).unwrap_or(s.len())
                 } else {
@@ -2289,7 +2303,6 @@ impl Interpreter {
         };
         let now = self.now;
         let cost = self.cfg.cost.statement;
-        self.tasks[i].steps += 1;
         if let Some(trace) = &mut self.trace {
             if !matches!(op, Op::Jump(_)) {
                 let line = p.lines.get(pc).copied().unwrap_or(0);
@@ -2306,8 +2319,12 @@ impl Interpreter {
             }
         }
         // By default the next step is the following op.
-        self.set_pc(i, pc + 1);
-        let depth = self.tasks[i].frames.len();
+        let t = &mut self.tasks[i];
+        t.steps += 1;
+        let depth = t.frames.len();
+        if let Some(f) = t.frames.last_mut() {
+            f.pc = pc + 1;
+        }
         let r = self.exec(i, sys, code, op, pc, now, cost);
         if r.is_err() && self.tasks[i].frames.len() == depth {
             // Errors name the step that failed.

@@ -754,11 +754,12 @@ impl Controller {
                 self.program_pass(t);
             }
         }
-        // TASK(1) = 3 ends when the last motion has.
+        self.robot.tick(&self.model, self.timing.tick.as_secs_f64());
+        // TASK(1) = 3 ends when the last motion has: in the tick the arm comes to rest (as
+        // the interpreter's finishing task sees it on its poll at this instant).
         if self.program.as_ref().is_some_and(|r| r.finishing) && self.robot.is_still() {
             self.end_program();
         }
-        self.robot.tick(&self.model, self.timing.tick.as_secs_f64());
     }
 
     /// The end of a pass whose motion instruction was accepted at `t` (or that issued none):
