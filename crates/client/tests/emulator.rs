@@ -1037,3 +1037,45 @@ async fn a_number_that_goes_on_after_ten_characters_is_read_whole() {
     // And nothing is left over to poison the next exchange.
     assert_eq!(robot.poll().await.unwrap().joints[5], 0.0001);
 }
+
+/// The previous session ends while its program runs (mid-move or idle, then 255); a new
+/// session connects at once and may find the old program still on its way out (TASK(1) = 3
+/// while its last motion finishes: field 7 shows 0, and a command 1 would be refused with
+/// P1009). `start` must still start the program, without sending a 1 into the old program's end.
+#[tokio::test(start_paused = true)]
+async fn start_right_after_a_session_ended_with_the_program_running() {
+    let cases = [
+        (0u64, true),
+        (0, false),
+        (10, true),
+        (30, true),
+        (45, false),
+    ];
+    for ((delay_ms, moving), interpreted) in cases.iter().flat_map(|&c| [(c, false), (c, true)]) {
+        // The native emulator, and the AS text of the server run by the AS interpreter.
+        let connector = if interpreted {
+            AnyConnector::Program(ProgramConnector(interpreted_emulator()))
+        } else {
+            AnyConnector::Native(EmuConnector::new(&emulator()))
+        };
+        sleep_ms(10).await;
+        let first = Robot::connect_with(connector.clone(), ClientConfig::default())
+            .await
+            .unwrap();
+        first.set_speed(100.0).await.unwrap();
+        first.start().await.unwrap();
+        if moving {
+            let _mv = first.move_joints(with_jt1(90.0)).await.unwrap();
+            sleep_ms(100).await;
+        }
+        first.close().await.unwrap();
+        sleep_ms(delay_ms).await;
+        let second = Robot::connect_with(connector.clone(), ClientConfig::default())
+            .await
+            .unwrap();
+        second.start().await.unwrap_or_else(|e| {
+            panic!("delay {delay_ms} ms, moving {moving}, interpreted {interpreted}: {e}")
+        });
+        assert!(second.poll().await.unwrap().task_running);
+    }
+}
