@@ -22,7 +22,7 @@ use crate::output::{
 };
 use crate::session::{
     check_speed, check_target, check_timeout, client_error, close_quietly, connect, describe,
-    robot_or_embedded, rounded, runtime, Ctx, Interrupt, Place, MAX_TIMEOUT_S,
+    robot_or_embedded, rounded, runtime, runtime_one_thread, Ctx, Interrupt, Place, MAX_TIMEOUT_S,
 };
 use crate::trajectory_file;
 
@@ -836,11 +836,17 @@ pub(crate) fn bench(ctx: &Ctx, count: u32) -> CliResult {
     if count == 0 {
         return Err(CliError::input("--count must be at least 1"));
     }
-    let rt = runtime()?;
+    let rt = runtime_one_thread()?;
     rt.block_on(async {
         let (addr, embedded) = robot_or_embedded(ctx).await?;
-        let robot = connect(&addr, ctx).await?;
-        let result = measure(&robot, count).await;
+        let robot = std::sync::Arc::new(connect(&addr, ctx).await?);
+        // A task of the runtime, not the `block_on` future: waking it after each reply only
+        // queues it (the `block_on` future's wake-up costs one more poll of the I/O driver).
+        let r2 = robot.clone();
+        let result = match tokio::spawn(async move { measure(&r2, count).await }).await {
+            Ok(r) => r,
+            Err(e) => Err(CliError::failure(format!("the benchmark task failed: {e}"))),
+        };
         close_quietly(&robot).await;
         let r = result?;
         if ctx.json {

@@ -59,6 +59,16 @@ pub(crate) fn runtime() -> CliResult<tokio::runtime::Runtime> {
         .map_err(|e| CliError::failure(format!("cannot start the async runtime: {e}")))
 }
 
+/// A single-threaded runtime for a command that talks to one robot: the client's session task
+/// and the command's own loop share one thread, so a round trip wakes no other thread (fewer
+/// context switches and futex calls than on a thread pool; docs/PERFORMANCE.md, "Client").
+pub(crate) fn runtime_one_thread() -> CliResult<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| CliError::failure(format!("cannot start the async runtime: {e}")))
+}
+
 /// A duration for people: `"250 ms"`, `"10.0 s"`.
 pub(crate) fn rounded(d: Duration) -> String {
     let s = d.as_secs_f64();

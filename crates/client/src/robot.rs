@@ -156,12 +156,17 @@ impl Robot {
 
     /// Starts the motion program: preflight, command 1, then waits (up to
     /// `config.start_timeout`) for reply field 7 to show the program running. Does nothing if it
-    /// is running already (a second 1 would only make the robot pause after its motion) — but a
-    /// program seen running within [`STOP_SETTLE`] of the session's start or of a command 2
-    /// is on its way out (signal 2007 stops it after 50 ms, and a 1 sent meanwhile is
-    /// ignored): `start` waits for it to end and then starts it anew. A 1 refused because the
-    /// previous program is still finishing (its last motion, or the brake after a stop) is
-    /// sent again every 100 ms until the program runs or the timeout.
+    /// is running already (a second 1 would only make the robot pause after its motion).
+    ///
+    /// Within [`STOP_SETTLE`] of the session's start (reply field 8) or of a command 2, the
+    /// status cannot be trusted either way: signal 2007 stops the program only after 50 ms, and
+    /// a program finishing its last motion (TASK(1) = 3) shows field 7 = 0 although a 1 sent
+    /// then is refused (P1009) — as when the previous session ended while its program ran.
+    /// `start` waits out the rest of [`STOP_SETTLE`], polls again, and sends the 1 only to a
+    /// program that has ended.
+    /// A 1 still refused because the previous program is finishing (its last motion, or a
+    /// brake after a stop that outlasts [`STOP_SETTLE`]) is sent again every 100 ms until the
+    /// program runs or the timeout.
     pub async fn start(&self) -> Result<(), ClientError> {
         self.not_streaming()?;
         let started = Instant::now();
@@ -171,9 +176,6 @@ impl Robot {
             if !b.is_empty() {
                 return Err(ClientError::Blocked(b));
             }
-            if !status.task_running {
-                break;
-            }
             let session_age = status.timer.seconds().map_or(Duration::MAX, |s| {
                 Duration::try_from_secs_f64(s.max(0.0)).unwrap_or(Duration::MAX)
             });
@@ -181,7 +183,10 @@ impl Robot {
                 lock(&self.link.shared.last_stop).map_or(Duration::MAX, |t| t.elapsed());
             let settled = session_age.min(since_stop);
             if settled >= STOP_SETTLE {
-                return Ok(());
+                if status.task_running {
+                    return Ok(());
+                }
+                break;
             }
             if started.elapsed() > self.common.config.start_timeout {
                 return Err(ClientError::StartFailed {

@@ -309,6 +309,11 @@ impl Link {
     }
 }
 
+/// How long bytes that form a complete reply but for the final blank wait for more before they
+/// are taken as the reply (the controller sends the blank in the same write: this is only for a
+/// peer that omits it).
+const OPEN_REPLY_QUIET: Duration = Duration::from_millis(20);
+
 /// The connection with its decoder.
 struct Conn {
     stream: BoxedStream,
@@ -360,8 +365,14 @@ impl Conn {
             Ok(Err(e)) => return Err(LinkError::io(&e)),
             Ok(Ok(())) => {}
         }
+        let mut quiet = false;
         loop {
-            match self.decoder.next_reply() {
+            let next = if std::mem::take(&mut quiet) {
+                self.decoder.take_open_reply()
+            } else {
+                self.decoder.next_reply()
+            };
+            match next {
                 Err(e) => return Err(LinkError::Undecodable(e)),
                 Ok(Some(frame)) => {
                     let received_at = Instant::now();
@@ -381,7 +392,23 @@ impl Conn {
                 }
                 Ok(None) => {}
             }
-            let n = match timeout_at(deadline, self.stream.read(&mut self.buf)).await {
+            // The controller sends its final blank with the reply. Bytes that would be a
+            // complete reply but for it are taken once the peer has been quiet for a moment.
+            let quiet_at = if self.decoder.may_be_open_reply() {
+                Some(Instant::now() + OPEN_REPLY_QUIET).filter(|&at| at < deadline)
+            } else {
+                None
+            };
+            let n = match timeout_at(
+                quiet_at.unwrap_or(deadline),
+                self.stream.read(&mut self.buf),
+            )
+            .await
+            {
+                Err(_) if quiet_at.is_some() => {
+                    quiet = true;
+                    continue;
+                }
                 Err(_) => {
                     return Err(LinkError::ReplyTimeout {
                         request: text.to_owned(),

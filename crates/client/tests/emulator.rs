@@ -971,3 +971,111 @@ async fn stats_count_round_trips() {
     let fit = robot.server_clock().unwrap();
     assert!((fit.rate - 1.0).abs() <= 1e-3);
 }
+
+/// A peer that answers like the controller, each reply written as given pieces with a pause
+/// between them.
+struct Pieces(Vec<&'static str>, Duration);
+
+impl fs020n_client::Connector for Pieces {
+    fn connect(&self) -> fs020n_client::ConnectFuture<'_> {
+        use tokio::io::{AsyncReadExt, AsyncWriteExt};
+        let (pieces, gap) = (self.0.clone(), self.1);
+        Box::pin(async move {
+            let (client, mut server) = tokio::io::duplex(1024);
+            tokio::spawn(async move {
+                let mut buf = [0u8; 256];
+                while let Ok(n) = server.read(&mut buf).await {
+                    if n == 0 {
+                        break;
+                    }
+                    for (k, p) in pieces.iter().enumerate() {
+                        if k > 0 {
+                            tokio::time::sleep(gap).await;
+                        }
+                        if server.write_all(p.as_bytes()).await.is_err() {
+                            return;
+                        }
+                    }
+                }
+            });
+            Ok(Box::new(client) as fs020n_client::BoxedStream)
+        })
+    }
+    fn describe(&self) -> String {
+        "pieces".into()
+    }
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_reply_without_its_final_blank_is_taken_once_the_peer_is_quiet() {
+    let reply = " 1040 0 -1 -1 0 -1 0     1.500     0.000    30.000     0.000     0.000     0.000     0.000";
+    let robot = Robot::connect_with(Pieces(vec![reply], Duration::ZERO), ClientConfig::default())
+        .await
+        .unwrap();
+    let started = tokio::time::Instant::now();
+    let status = robot.poll().await.unwrap();
+    assert_eq!(status.joints[1], 30.0);
+    // Taken after the short quiet period, far before the reply deadline.
+    assert!(
+        started.elapsed() < Duration::from_millis(500),
+        "{:?}",
+        started.elapsed()
+    );
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_number_that_goes_on_after_ten_characters_is_read_whole() {
+    // Cut after a whole /F10.3 field, then one more digit: the value is 0.0001, not 0.000.
+    let head = " 1040 0 -1 -1 0 -1 0     1.500     0.000    30.000     0.000     0.000     0.000     0.000";
+    let robot = Robot::connect_with(
+        Pieces(vec![head, "1 "], Duration::from_millis(5)),
+        ClientConfig::default(),
+    )
+    .await
+    .unwrap();
+    assert_eq!(robot.poll().await.unwrap().joints[5], 0.0001);
+    // And nothing is left over to poison the next exchange.
+    assert_eq!(robot.poll().await.unwrap().joints[5], 0.0001);
+}
+
+/// The previous session ends while its program runs (mid-move or idle, then 255); a new
+/// session connects at once and may find the old program still on its way out (TASK(1) = 3
+/// while its last motion finishes: field 7 shows 0, and a command 1 would be refused with
+/// P1009). `start` must still start the program, without sending a 1 into the old program's end.
+#[tokio::test(start_paused = true)]
+async fn start_right_after_a_session_ended_with_the_program_running() {
+    let cases = [
+        (0u64, true),
+        (0, false),
+        (10, true),
+        (30, true),
+        (45, false),
+    ];
+    for ((delay_ms, moving), interpreted) in cases.iter().flat_map(|&c| [(c, false), (c, true)]) {
+        // The native emulator, and the AS text of the server run by the AS interpreter.
+        let connector = if interpreted {
+            AnyConnector::Program(ProgramConnector(interpreted_emulator()))
+        } else {
+            AnyConnector::Native(EmuConnector::new(&emulator()))
+        };
+        sleep_ms(10).await;
+        let first = Robot::connect_with(connector.clone(), ClientConfig::default())
+            .await
+            .unwrap();
+        first.set_speed(100.0).await.unwrap();
+        first.start().await.unwrap();
+        if moving {
+            let _mv = first.move_joints(with_jt1(90.0)).await.unwrap();
+            sleep_ms(100).await;
+        }
+        first.close().await.unwrap();
+        sleep_ms(delay_ms).await;
+        let second = Robot::connect_with(connector.clone(), ClientConfig::default())
+            .await
+            .unwrap();
+        second.start().await.unwrap_or_else(|e| {
+            panic!("delay {delay_ms} ms, moving {moving}, interpreted {interpreted}: {e}")
+        });
+        assert!(second.poll().await.unwrap().task_running);
+    }
+}

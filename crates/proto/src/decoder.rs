@@ -1,8 +1,10 @@
 //! Incremental reply decoder for a byte stream.
 //!
-//! There is no terminator in protocol 1040: a reply is complete when its 14 fields have arrived.
-//! Feed the decoder whatever the socket returns, split anywhere; it answers "need more"
-//! (`Ok(None)`) or yields one complete reply. Garbage gives an error quoting the offending
+//! There is no terminator in protocol 1040: a reply is complete when its 14 fields have arrived
+//! and the last is followed by a blank (the controller's final blank). Feed the decoder whatever
+//! the socket returns, split anywhere; it answers "need more" (`Ok(None)`) or yields one
+//! complete reply — the same replies however the bytes were split. A reply missing its final
+//! blank is taken with [`ReplyDecoder::take_open_reply`] once the peer has gone quiet. Garbage gives an error quoting the offending
 //! bytes. The buffer is bounded by [`MAX_BUFFERED`]; the decoder never panics.
 //!
 //! ```
@@ -17,7 +19,7 @@
 //! ```
 
 use crate::error::{excerpt, DecodeError};
-use crate::number::{parse_field, F10_OVERFLOW, F10_WIDTH};
+use crate::number::{is_f10_3_field, parse_field, F10_OVERFLOW, F10_WIDTH};
 use crate::reply::{decode_fixed_layout, is_blank, is_reply_byte, Status, REPLY_FIELDS};
 
 /// Most bytes the decoder holds without a complete reply. A reply is about 100 bytes and the
@@ -77,8 +79,46 @@ impl ReplyDecoder {
     /// Yields the next complete reply, `Ok(None)` when more bytes are needed, or an error when
     /// the bytes cannot be a reply. After an error the buffer is cleared: a text stream without
     /// terminators cannot be resynchronised reliably, so the connection should be dropped.
+    ///
+    /// A reply is complete when its last field is followed by a blank (the controller always
+    /// sends the final blank in the same write), so the result never depends on how the bytes
+    /// were split. A reply whose final blank is missing is recognised by
+    /// [`take_open_reply`](Self::take_open_reply) once the peer has gone quiet.
     pub fn next_reply(&mut self) -> Result<Option<ReplyFrame>, DecodeError> {
-        let (end, decoded) = match find_reply(&self.buf) {
+        self.take(false)
+    }
+
+    /// `true` when the buffered bytes end with a whole `/F10.3` field (three decimals, or
+    /// asterisks): they may be a complete reply in the controller's fixed layout whose final
+    /// blank is missing. Cheap; call it after [`next_reply`](Self::next_reply) gave `Ok(None)`
+    /// to decide whether to wait briefly for more bytes and then call
+    /// [`take_open_reply`](Self::take_open_reply).
+    pub fn may_be_open_reply(&self) -> bool {
+        let b = &self.buf;
+        b.len() >= F10_WIDTH && is_f10_3_field(&b[b.len() - F10_WIDTH..])
+    }
+
+    /// Like [`next_reply`](Self::next_reply), but also takes a reply in the controller's
+    /// fixed layout that ends at the end of the buffer without its final blank (seven
+    /// integers, then seven 10-character fields, the last a whole `/F10.3` field). Call it
+    /// only when the peer has sent nothing more for a while: a number that goes on
+    /// (`"     0.000"` then `"1"`) would otherwise be cut.
+    ///
+    /// ```
+    /// use fs020n_proto::ReplyDecoder;
+    /// let mut d = ReplyDecoder::new();
+    /// d.push(b" 1040 0 -1 -1 0 -1 -1    12.500     0.000    30.000     0.000     0.000     0.000     0.000").unwrap();
+    /// assert!(d.next_reply().unwrap().is_none(), "the final blank is missing");
+    /// assert!(d.may_be_open_reply());
+    /// let reply = d.take_open_reply().unwrap().unwrap();
+    /// assert_eq!(reply.status.joints[1], 30.0);
+    /// ```
+    pub fn take_open_reply(&mut self) -> Result<Option<ReplyFrame>, DecodeError> {
+        self.take(true)
+    }
+
+    fn take(&mut self, open_end: bool) -> Result<Option<ReplyFrame>, DecodeError> {
+        let (end, decoded) = match find_reply(&self.buf, open_end) {
             Ok(Some(found)) => found,
             Ok(None) => return Ok(None),
             Err(e) => {
@@ -122,14 +162,20 @@ const MAX_TOKENS: usize = REPLY_FIELDS + 1;
 /// values are invalid (asterisks in a joint, a non-integer in fields 1–7) — is the reply. A
 /// candidate before the 14th blank-separated field can only be the controller's fixed layout
 /// with touching fields, and only if it leaves room for seven integers and 70 characters, so the
-/// usual reply is decoded once. An unterminated last field may go on, so at the end of the
-/// buffer only the fixed layout (whose last field is complete at 10 characters) counts.
+/// usual reply is decoded once. An unterminated last field may go on (`"     0.000"`, then
+/// `"1"`), and taking it early would decode differently from the same bytes received in one
+/// read; so a candidate must be followed by a blank, except with `open_end` (the peer has gone
+/// quiet): then the fixed layout ending at the end of the buffer counts too, when its last 10
+/// characters are a whole `/F10.3` field (three decimals, or asterisks).
 ///
 /// Errors are reported as soon as they are certain: a byte no reply contains, one of the six
 /// leading fields (always blank-separated) that is not a number, or 14 blank-separated fields
 /// that still do not form a reply.
 #[allow(clippy::type_complexity)]
-fn find_reply(b: &[u8]) -> Result<Option<(usize, Result<Status, DecodeError>)>, DecodeError> {
+fn find_reply(
+    b: &[u8],
+    open_end: bool,
+) -> Result<Option<(usize, Result<Status, DecodeError>)>, DecodeError> {
     if let Some(pos) = b.iter().position(|&c| !is_reply_byte(c)) {
         return Err(DecodeError::Garbage {
             reason: "unexpected byte",
@@ -172,7 +218,9 @@ fn find_reply(b: &[u8]) -> Result<Option<(usize, Result<Status, DecodeError>)>, 
     for (k, &(_, end)) in spans.iter().enumerate().take(n.min(REPLY_FIELDS)).skip(6) {
         let decoded = if k == REPLY_FIELDS - 1 && terminated(k) {
             Status::decode(text(0, end))
-        } else if end >= fixed_min_end {
+        } else if end >= fixed_min_end
+            && (terminated(k) || (open_end && is_f10_3_field(&b[end - F10_WIDTH..end])))
+        {
             decode_fixed_layout(text(0, end))
         } else {
             continue;
@@ -220,8 +268,8 @@ mod tests {
             }
         }
         let (k, f) = got.expect("a reply");
-        // Complete at the 70th character of the fixed-width block, before the final blank.
-        assert_eq!(k, EXACT.len() - 2);
+        // Complete at the final blank: until then the last number might go on.
+        assert_eq!(k, EXACT.len() - 1);
         assert_eq!(f.status.timer.seconds(), Some(12.5));
         assert!(d.is_empty());
     }
@@ -259,17 +307,61 @@ mod tests {
         assert!(matches!(d.push(b" "), Err(DecodeError::Overflow { .. })));
     }
 
+    /// Found by the mutation fuzz test: a blank inserted before the last field (which touched
+    /// its neighbour) made its 10-character window `"      0.00"` at a chunk boundary. Taken
+    /// there, it decoded as 0.00 while the same bytes in one read decode as 0.001.
+    #[test]
+    fn a_padded_short_last_field_waits_for_more() {
+        let text = "1040 0 0 0 0 0 0     0.000     0.000     0.000     0.000 99999.999     0.000      0.001  ";
+        let whole = Status::decode(text).unwrap();
+        assert_eq!(whole.joints[5], 0.001);
+        for cut in 0..=text.len() {
+            let mut d = ReplyDecoder::new();
+            let mut got = Vec::new();
+            for chunk in [&text[..cut], &text[cut..]] {
+                d.push(chunk.as_bytes()).unwrap();
+                while let Some(f) = d.next_reply().unwrap() {
+                    got.push(f.status);
+                }
+            }
+            assert_eq!(got, vec![whole.clone()], "cut at {cut}");
+            assert!(d.is_empty());
+        }
+    }
+
+    /// Found by the mutation fuzz test: a whole `/F10.3` field followed by one more digit. Cut
+    /// after the 10th character it looked complete (-0.000); it is -0.0001.
+    #[test]
+    fn a_number_that_goes_on_after_ten_characters() {
+        let text = " 100000 -100000000 0 -1 0 -1 -1     0.000     0.000     0.000     0.000     0.000     0.000    -0.0001 ";
+        let cut = text.len() - 2;
+        let mut d = ReplyDecoder::new();
+        d.push(&text.as_bytes()[..cut]).unwrap();
+        assert!(d.next_reply().unwrap().is_none());
+        d.push(&text.as_bytes()[cut..]).unwrap();
+        let f = d.next_reply().unwrap().unwrap();
+        assert_eq!(f.status, Status::decode(text).unwrap());
+        assert_eq!(f.status.joints[5], -0.0001);
+    }
+
     #[test]
     fn touching_fields_and_short_format() {
         let mut d = ReplyDecoder::new();
         d.push(b"1040 0 -1 -1 0 -1 -1 100000.000-12345.678     0.000     0.000     0.000     0.000     0.000").unwrap();
-        let f = d.next_reply().unwrap().unwrap();
+        assert!(d.next_reply().unwrap().is_none(), "no final blank yet");
+        assert!(d.may_be_open_reply());
+        let f = d.take_open_reply().unwrap().unwrap();
         assert_eq!(f.status.timer.seconds(), Some(100000.0));
         assert_eq!(f.status.joints[0], -12345.678);
         d.push(b"1040 0 0 0 0 0 0 1 2 3 4 5 6 7").unwrap();
         assert!(
             d.next_reply().unwrap().is_none(),
             "the last field may go on"
+        );
+        assert!(!d.may_be_open_reply());
+        assert!(
+            d.take_open_reply().unwrap().is_none(),
+            "not the fixed layout"
         );
         d.push(b" ").unwrap();
         assert_eq!(d.next_reply().unwrap().unwrap().status.joints[5], 7.0);

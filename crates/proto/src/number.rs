@@ -350,6 +350,34 @@ pub(crate) fn write_default_int(out: &mut Vec<u8>, value: i64) {
     out.extend_from_slice(&field[i - 1..]);
 }
 
+/// `true` when `field` is exactly what `/F10.3` prints: ten characters holding blanks, an
+/// optional minus sign, at least one digit, the point and exactly three decimals — or the ten
+/// asterisks of an overflow. Such a field cannot be the beginning of a longer `/F10.3` field.
+///
+/// ```
+/// use fs020n_proto::number::is_f10_3_field;
+/// assert!(is_f10_3_field(b"    12.500"));
+/// assert!(is_f10_3_field(b"**********"));
+/// assert!(!is_f10_3_field(b"      0.00"), "two decimals: the field may go on");
+/// assert!(!is_f10_3_field(b"   12.5000"));
+/// ```
+pub fn is_f10_3_field(field: &[u8]) -> bool {
+    if field.len() != F10_WIDTH {
+        return false;
+    }
+    if field == F10_OVERFLOW.as_bytes() {
+        return true;
+    }
+    let (int, frac) = field.split_at(F10_WIDTH - 4);
+    if frac[0] != b'.' || !frac[1..].iter().all(u8::is_ascii_digit) {
+        return false;
+    }
+    let lead = int.iter().take_while(|&&c| c == b' ').count();
+    let number = &int[lead..];
+    let digits = number.strip_prefix(b"-").unwrap_or(number);
+    !digits.is_empty() && digits.iter().all(u8::is_ascii_digit)
+}
+
 /// Parses one reply field: a decimal number, optionally with an exponent. Returns `None` for
 /// anything else (including asterisks, which the caller handles).
 pub(crate) fn parse_field(token: &str) -> Option<f64> {

@@ -85,3 +85,49 @@ pub(crate) fn jt1_ramp(from: f64, to: f64, secs: f64) -> fs020n_client::Trajecto
         .collect();
     fs020n_client::Trajectory::new(points).unwrap()
 }
+
+/// Connects to the emulator running the AS text of the server (`Emulator::with_program`).
+#[derive(Clone)]
+pub(crate) struct ProgramConnector(pub Emulator);
+
+impl Connector for ProgramConnector {
+    fn connect(&self) -> ConnectFuture<'_> {
+        let emu = self.0.clone();
+        Box::pin(async move { Ok(Box::new(emu.connect_program()?) as BoxedStream) })
+    }
+
+    fn describe(&self) -> String {
+        "in-memory emulator running server1040.as".into()
+    }
+}
+
+/// The emulator running this project's AS text of the protocol-1040 server.
+pub(crate) fn interpreted_emulator() -> Emulator {
+    Emulator::with_program(
+        ControllerConfig::default(),
+        fs020n_sim::ServerProgram::server_1040().expect("the server's AS text loads"),
+    )
+}
+
+/// Connects to the emulator, natively or through its AS program.
+#[derive(Clone)]
+pub(crate) enum AnyConnector {
+    Native(EmuConnector),
+    Program(ProgramConnector),
+}
+
+impl Connector for AnyConnector {
+    fn connect(&self) -> ConnectFuture<'_> {
+        match self {
+            AnyConnector::Native(c) => c.connect(),
+            AnyConnector::Program(c) => c.connect(),
+        }
+    }
+
+    fn describe(&self) -> String {
+        match self {
+            AnyConnector::Native(c) => c.describe(),
+            AnyConnector::Program(c) => c.describe(),
+        }
+    }
+}
