@@ -164,6 +164,7 @@ impl Robot {
     /// then is refused (P1009) — as when the previous session ended while its program ran.
     /// `start` waits out the rest of [`STOP_SETTLE`], polls again, and sends the 1 only to a
     /// program that has ended.
+    ///
     /// A 1 still refused because the previous program is finishing (its last motion, or a
     /// brake after a stop that outlasts [`STOP_SETTLE`]) is sent again every 100 ms until the
     /// program runs or the timeout.
