@@ -232,7 +232,7 @@ struct Frame {
 
 #[derive(Debug, Clone)]
 enum Wait {
-    Until(Duration),
+    Until(Ns),
     Cond,
     MotionPlanned,
     MotionDone,
@@ -240,22 +240,22 @@ enum Wait {
     Paused,
     Accept {
         port: u16,
-        deadline: Duration,
+        deadline: Ns,
     },
     Connect {
         ip: [u8; 4],
         port: u16,
-        deadline: Duration,
+        deadline: Ns,
     },
     Recv {
         sock: i32,
         max: usize,
-        deadline: Duration,
+        deadline: Ns,
     },
     Send {
         sock: i32,
         data: Vec<u8>,
-        deadline: Duration,
+        deadline: Ns,
     },
 }
 
@@ -299,7 +299,7 @@ struct Interrupt {
     goto: Option<usize>,
     call: Option<usize>,
     depth: usize,
-    armed_at: Duration,
+    armed_at: Ns,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -342,12 +342,12 @@ struct Task {
     id: TaskId,
     run: Run,
     frames: Vec<Frame>,
-    ready_at: Duration,
+    ready_at: Ns,
     wait: Option<Wait>,
     /// Re-check a socket wait now (another task used a socket).
     kick: bool,
     /// Next poll of a polled wait (a grid point of the poll period).
-    poll_at: Duration,
+    poll_at: Ns,
     cycles_left: i64,
     motion: MotionParams,
     interrupts: Vec<Interrupt>,
@@ -363,10 +363,10 @@ impl Task {
             id,
             run: Run::Idle,
             frames: Vec::new(),
-            ready_at: Duration::ZERO,
+            ready_at: 0,
             wait: None,
             kick: false,
-            poll_at: Duration::ZERO,
+            poll_at: 0,
             cycles_left: 0,
             motion: MotionParams::default(),
             interrupts: Vec::new(),
@@ -381,7 +381,7 @@ impl Task {
 #[derive(Debug, Clone, Copy)]
 struct SignalState {
     on: bool,
-    changed: Duration,
+    changed: Ns,
 }
 
 /// Flow after one step.
@@ -422,7 +422,7 @@ enum LocVal {
 pub struct Interpreter {
     code: Arc<Code>,
     cfg: Config,
-    now: Duration,
+    now: Ns,
     globals: Store,
     /// With [`Config::persistent_locals`]: the locals of (task, program) between executions.
     kept: HashMap<(usize, usize), Store>,
@@ -436,7 +436,7 @@ pub struct Interpreter {
     /// Bumped whenever a signal or an armed interrupt changes.
     int_epoch: u64,
     /// `interrupt_time` per task, valid for `int_epoch`.
-    int_cache: std::cell::Cell<(u64, [Option<Duration>; 6])>,
+    int_cache: std::cell::Cell<(u64, [Option<Ns>; 6])>,
     terminal: VecDeque<TerminalLine>,
     trace: Option<Vec<TraceLine>>,
 }
@@ -485,6 +485,17 @@ fn to_i32(v: f32) -> i32 {
     v as i32
 }
 
+/// Interpreter time in nanoseconds: the scheduler compares and adds times on every step, and
+/// a `u64` does that in one instruction where a [`Duration`] takes two fields (584 years of
+/// virtual time; every wait the language allows is far shorter).
+type Ns = u64;
+
+/// A duration in [`Ns`] (saturating).
+#[inline]
+fn ns(d: Duration) -> Ns {
+    u64::try_from(d.as_nanos()).unwrap_or(u64::MAX)
+}
+
 fn secs(v: f32, what: &str) -> R<Duration> {
     if !(v.is_finite() && v >= 0.0) {
         return Err(Box::new(RuntimeError::IllegalValue(format!(
@@ -527,7 +538,7 @@ impl Interpreter {
         Ok(Interpreter {
             code: Arc::new(code),
             cfg,
-            now: Duration::ZERO,
+            now: 0,
             globals,
             kept: HashMap::new(),
             elements,
@@ -566,7 +577,7 @@ impl Interpreter {
 
     /// Interpreter time (since it was created).
     pub fn now(&self) -> Duration {
-        self.now
+        Duration::from_nanos(self.now)
     }
 
     /// Controller start: runs `autostart.pc` in PC task 1 and `autostart2.pc` …
@@ -767,7 +778,7 @@ impl Interpreter {
             _ => None,
         };
         since.map_or(0.0, |s| {
-            let ms = (self.now.as_nanos() as i128 - s).div_euclid(1_000_000);
+            let ms = (i128::from(self.now) - s).div_euclid(1_000_000);
             (ms as f64 / 1000.0) as f32
         })
     }
@@ -814,18 +825,19 @@ impl Interpreter {
     /// poll of a waiting condition, an interrupt), `None` when every task is idle or waits
     /// only for outside events.
     pub fn next_event(&self) -> Option<Duration> {
-        self.next_event_from(None).map(|(t, _)| t)
+        self.next_event_from(None)
+            .map(|(t, _)| Duration::from_nanos(t))
     }
 
     // ------------------------------------------------------------------ scheduler
 
-    fn next_tick(&self, after: Duration) -> Duration {
+    fn next_tick(&self, after: Ns) -> Ns {
         let p = self.cfg.poll_period.as_nanos().max(1);
-        let n = after.as_nanos() / p + 1;
-        Duration::from_nanos((n * p).min(u64::MAX as u128) as u64)
+        let n = u128::from(after) / p + 1;
+        (n * p).min(u64::MAX as u128) as u64
     }
 
-    fn task_wake(&self, i: usize) -> Option<Duration> {
+    fn task_wake(&self, i: usize) -> Option<Ns> {
         let t = &self.tasks[i];
         if t.run == Run::Ending {
             return Some(t.poll_at);
@@ -857,11 +869,7 @@ impl Interpreter {
 
     /// Stores a wait of task `i` and schedules its next poll.
     fn set_wait(&mut self, i: usize, w: Wait) {
-        let base = self.now.max(
-            self.tasks[i]
-                .ready_at
-                .saturating_sub(Duration::from_nanos(1)),
-        );
+        let base = self.now.max(self.tasks[i].ready_at.saturating_sub(1));
         let at = self.next_tick(base);
         let t = &mut self.tasks[i];
         t.poll_at = at;
@@ -869,9 +877,10 @@ impl Interpreter {
     }
 
     /// When each task's earliest armed interrupt fires (idle tasks: never).
-    fn interrupt_times(&self) -> [Option<Duration>; 6] {
+    fn interrupt_times(&self) -> [Option<Ns>; 6] {
         let (epoch, mut times) = self.int_cache.get();
         if epoch != self.int_epoch {
+            let debounce = ns(self.cfg.signal_debounce);
             for (k, t) in self.tasks.iter().enumerate().take(6) {
                 times[k] = t
                     .interrupts
@@ -881,7 +890,7 @@ impl Interpreter {
                         let want = int.signal > 0;
                         let s = self.signals.get(&n)?;
                         (s.on == want && s.changed > int.armed_at)
-                            .then(|| s.changed + self.cfg.signal_debounce)
+                            .then(|| s.changed.saturating_add(debounce))
                     })
                     .min();
             }
@@ -895,13 +904,13 @@ impl Interpreter {
         times
     }
 
-    fn interrupt_time(&self, i: usize) -> Option<Duration> {
+    fn interrupt_time(&self, i: usize) -> Option<Ns> {
         self.interrupt_times().get(i).copied().flatten()
     }
 
     /// Earliest event, skipping task `skip`'s own steps; ties go to the lower task.
-    fn next_event_from(&self, skip: Option<usize>) -> Option<(Duration, usize)> {
-        let mut best: Option<(Duration, usize)> = None;
+    fn next_event_from(&self, skip: Option<usize>) -> Option<(Ns, usize)> {
+        let mut best: Option<(Ns, usize)> = None;
         let ints = if self.tasks.iter().any(|t| !t.interrupts.is_empty()) {
             self.interrupt_times()
         } else {
@@ -924,14 +933,14 @@ impl Interpreter {
     /// The next event in one pass over the tasks: its time, its task, whether it is that
     /// task's interrupt, and the horizon — what [`Self::next_event_from`] gives with that task's
     /// own steps skipped (where a run of its steps must stop).
-    fn next_event_and_horizon(&self) -> Option<(Duration, usize, bool, Option<Duration>)> {
+    fn next_event_and_horizon(&self) -> Option<(Ns, usize, bool, Option<Ns>)> {
         let n = self.tasks.len().min(6);
         let ints = if self.tasks.iter().any(|t| !t.interrupts.is_empty()) {
             self.interrupt_times()
         } else {
             [None; 6]
         };
-        fn earlier(a: Option<Duration>, b: Option<Duration>) -> Option<Duration> {
+        fn earlier(a: Option<Ns>, b: Option<Ns>) -> Option<Ns> {
             match (a, b) {
                 (Some(x), Some(y)) => Some(x.min(y)),
                 (x, y) => x.or(y),
@@ -939,8 +948,8 @@ impl Interpreter {
         }
         // Each task's earliest event; the earliest of all (ties: the lower task) and the
         // earliest among the other tasks.
-        let mut best: Option<(Duration, usize)> = None;
-        let mut others: Option<Duration> = None;
+        let mut best: Option<(Ns, usize)> = None;
+        let mut others: Option<Ns> = None;
         for (k, &int) in ints.iter().enumerate().take(n) {
             // An idle task has no step and no armed interrupt (`interrupt_times`).
             if self.tasks[k].run == Run::Idle {
@@ -965,6 +974,7 @@ impl Interpreter {
     /// Runs every task up to `until` (statements, timeouts, waits, interrupts), calling
     /// [`System::advance_to`] before each step. Events at exactly `until` run.
     pub fn run_until(&mut self, sys: &mut dyn System, until: Duration) {
+        let until = ns(until);
         if until < self.now {
             return;
         }
@@ -988,7 +998,7 @@ impl Interpreter {
             }
             if t > self.now {
                 self.now = t;
-                sys.advance_to(t);
+                sys.advance_to(Duration::from_nanos(t));
             }
             // The system cannot change the interpreter's signals: the interrupt due at `t` is
             // still due now.
@@ -1000,7 +1010,7 @@ impl Interpreter {
         }
         if until > self.now {
             self.now = until;
-            sys.advance_to(until);
+            sys.advance_to(Duration::from_nanos(until));
         }
     }
 
@@ -1010,8 +1020,8 @@ impl Interpreter {
         &mut self,
         i: usize,
         sys: &mut dyn System,
-        until: Duration,
-        horizon: Option<Duration>,
+        until: Ns,
+        horizon: Option<Ns>,
         code: &Arc<Code>,
     ) {
         let epoch = self.int_epoch;
@@ -1026,7 +1036,7 @@ impl Interpreter {
             self.next_event_from(Some(i))
                 .map_or(until, |(t, _)| t.min(until))
         };
-        let poll = self.cfg.poll_period;
+        let poll = ns(self.cfg.poll_period);
         // The system is brought to a step's time only when the step touches it, or once per
         // poll period (pure computation does not need the arm's state).
         let mut synced = self.now;
@@ -1050,9 +1060,9 @@ impl Interpreter {
                 .last()
                 .and_then(|f| code.programs.get(f.prog)?.touches.get(f.pc).copied())
                 .unwrap_or(true);
-            let sync = first || touches || at >= synced + poll;
+            let sync = first || touches || at >= synced.saturating_add(poll);
             if sync {
-                sys.advance_to(at);
+                sys.advance_to(Duration::from_nanos(at));
                 synced = at;
                 first = false;
             }
@@ -1248,12 +1258,14 @@ impl Interpreter {
 
     fn fire_interrupt(&mut self, i: usize, sys: &mut dyn System) {
         let now = self.now;
-        let debounce = self.cfg.signal_debounce;
+        let debounce = ns(self.cfg.signal_debounce);
         let signals = &self.signals;
         let pos = self.tasks[i].interrupts.iter().position(|int| {
             let n = int.signal.abs();
             signals.get(&n).is_some_and(|s| {
-                s.on == (int.signal > 0) && s.changed > int.armed_at && s.changed + debounce <= now
+                s.on == (int.signal > 0)
+                    && s.changed > int.armed_at
+                    && s.changed.saturating_add(debounce) <= now
             })
         });
         let Some(pos) = pos else { return };
@@ -1304,7 +1316,7 @@ impl Interpreter {
     }
 
     fn fail(&mut self, i: usize, e: Box<RuntimeError>, sys: &mut dyn System) {
-        sys.advance_to(self.now);
+        sys.advance_to(Duration::from_nanos(self.now));
         let id = self.tasks[i].id;
         let where_ = self.tasks[i].frames.last().map(|f| {
             let p = &self.code.programs[f.prog];
@@ -1327,7 +1339,7 @@ impl Interpreter {
     fn message(&mut self, sys: &mut dyn System, task: TaskId, text: String) {
         sys.terminal(task, &text);
         self.terminal.push_back(TerminalLine {
-            at: self.now,
+            at: Duration::from_nanos(self.now),
             task,
             text,
         });
@@ -1838,7 +1850,7 @@ impl Interpreter {
         let now = self.now;
         let e = self.signals.entry(n).or_insert(SignalState {
             on: false,
-            changed: Duration::ZERO,
+            changed: 0,
         });
         if e.on != on {
             e.on = on;
@@ -2057,7 +2069,7 @@ impl Interpreter {
                 match since {
                     Some(s) => {
                         // 1 ms resolution, truncated.
-                        let ms = (self.now.as_nanos() as i128 - s).div_euclid(1_000_000);
+                        let ms = (i128::from(self.now) - s).div_euclid(1_000_000);
                         (ms as f64 / 1000.0) as f32
                     }
                     None => 0.0,
@@ -2302,12 +2314,12 @@ impl Interpreter {
             return Ok(Flow::Next);
         };
         let now = self.now;
-        let cost = self.cfg.cost.statement;
+        let cost = ns(self.cfg.cost.statement);
         if let Some(trace) = &mut self.trace {
             if !matches!(op, Op::Jump(_)) {
                 let line = p.lines.get(pc).copied().unwrap_or(0);
                 trace.push(TraceLine {
-                    at: now,
+                    at: Duration::from_nanos(now),
                     task: self.tasks[i].id,
                     program: p.name.clone(),
                     line,
@@ -2342,8 +2354,8 @@ impl Interpreter {
         code: &Code,
         op: &Op,
         pc: usize,
-        now: Duration,
-        mut cost: Duration,
+        now: Ns,
+        mut cost: Ns,
     ) -> R<Flow> {
         let robot = i == 0;
         let flow = match op {
@@ -2483,8 +2495,8 @@ impl Interpreter {
             }
             Op::Print(items) => {
                 let (bytes, no_newline) = self.encode(i, items, sys)?;
-                cost += self.cfg.cost.print
-                    + self.cfg.cost.print_per_byte * bytes.len().min(100_000) as u32;
+                cost = cost.saturating_add(ns(self.cfg.cost.print
+                    + self.cfg.cost.print_per_byte * bytes.len().min(100_000) as u32));
                 let text = String::from_utf8_lossy(&bytes).into_owned();
                 let id = self.tasks[i].id;
                 let mut parts: Vec<&str> = text.split('\n').collect();
@@ -2504,7 +2516,7 @@ impl Interpreter {
             }
             Op::Twait(e) => {
                 let d = secs(self.eval_r(i, e, sys)?, "TWAIT")?;
-                Flow::Wait(Box::new(Wait::Until(now + d)))
+                Flow::Wait(Box::new(Wait::Until(now.saturating_add(ns(d)))))
             }
             Op::Wait(e) => {
                 if truthy(self.eval_r(i, e, sys)?) {
@@ -2687,7 +2699,7 @@ impl Interpreter {
                     ))));
                 }
                 let offset = (f64::from(v).clamp(-1.0e9, 1.0e9) * 1e9) as i128;
-                self.timers[n as usize] = Some(now.as_nanos() as i128 - offset);
+                self.timers[n as usize] = Some(i128::from(now) - offset);
                 Flow::Next
             }
             Op::Decompose(target, l) => {
@@ -2840,7 +2852,7 @@ impl Interpreter {
             }
             Op::TcpAccept { port, timeout, .. } => {
                 let port = self.port(i, port, sys)?;
-                let deadline = now + self.timeout(i, timeout.as_ref(), sys)?;
+                let deadline = now.saturating_add(ns(self.timeout(i, timeout.as_ref(), sys)?));
                 self.set_pc(i, pc);
                 match sys.tcp_accept(port) {
                     SockPoll::Ready(r) => {
@@ -2854,7 +2866,7 @@ impl Interpreter {
                 port, ip, timeout, ..
             } => {
                 let port = self.port(i, port, sys)?;
-                let deadline = now + self.timeout(i, timeout.as_ref(), sys)?;
+                let deadline = now.saturating_add(ns(self.timeout(i, timeout.as_ref(), sys)?));
                 let mut addr = [0u8; 4];
                 let n = ip.idx.len().min(3);
                 let base = self.indices(i, ip, sys)?;
@@ -2894,7 +2906,7 @@ impl Interpreter {
                 sock, timeout, max, ..
             } => {
                 let sock = self.eval_r(i, sock, sys)?.trunc() as i32;
-                let deadline = now + self.timeout(i, timeout.as_ref(), sys)?;
+                let deadline = now.saturating_add(ns(self.timeout(i, timeout.as_ref(), sys)?));
                 let max = match max {
                     Some(m) => {
                         let m = self.eval_r(i, m, sys)?.trunc();
@@ -2928,7 +2940,7 @@ impl Interpreter {
                 timeout,
             } => {
                 let sock = self.eval_r(i, sock, sys)?.trunc() as i32;
-                let deadline = now + self.timeout(i, timeout.as_ref(), sys)?;
+                let deadline = now.saturating_add(ns(self.timeout(i, timeout.as_ref(), sys)?));
                 let count = self.eval_r(i, n, sys)?.trunc();
                 if !(0.0..=MAX_INDEX as f32).contains(&count) {
                     return Err(Box::new(RuntimeError::IllegalValue(format!(
@@ -2980,7 +2992,7 @@ impl Interpreter {
             }
         };
         let t = &mut self.tasks[i];
-        t.ready_at = now + cost;
+        t.ready_at = now.saturating_add(cost);
         Ok(flow)
     }
 
