@@ -878,6 +878,18 @@ impl Interpreter {
 
     /// When each task's earliest armed interrupt fires (idle tasks: never).
     fn interrupt_times(&self) -> [Option<Ns>; 6] {
+        let mut times = self.interrupt_times_cached();
+        for (k, t) in self.tasks.iter().enumerate().take(6) {
+            if t.run == Run::Idle {
+                times[k] = None;
+            }
+        }
+        times
+    }
+
+    /// [`Self::interrupt_times`] without idle tasks set to `None` (the same for every task
+    /// that is not idle).
+    fn interrupt_times_cached(&self) -> [Option<Ns>; 6] {
         let (epoch, mut times) = self.int_cache.get();
         if epoch != self.int_epoch {
             let debounce = ns(self.cfg.signal_debounce);
@@ -895,11 +907,6 @@ impl Interpreter {
                     .min();
             }
             self.int_cache.set((self.int_epoch, times));
-        }
-        for (k, t) in self.tasks.iter().enumerate().take(6) {
-            if t.run == Run::Idle {
-                times[k] = None;
-            }
         }
         times
     }
@@ -935,8 +942,9 @@ impl Interpreter {
     /// own steps skipped (where a run of its steps must stop).
     fn next_event_and_horizon(&self) -> Option<(Ns, usize, bool, Option<Ns>)> {
         let n = self.tasks.len().min(6);
+        // Idle tasks are skipped below: the cached times serve as they are.
         let ints = if self.tasks.iter().any(|t| !t.interrupts.is_empty()) {
-            self.interrupt_times()
+            self.interrupt_times_cached()
         } else {
             [None; 6]
         };
@@ -3256,7 +3264,12 @@ fn xyzoat(v: &[f32; 6]) -> Xyzoat {
 /// AS `VAL`: decimal through fs020n-proto's `as_val` (the protocol server's own reading),
 /// `^H`/`^B` prefixes, and radix codes 1 (binary) and 2 (hexadecimal).
 fn val(s: &[u8], radix: f32) -> R<f32> {
-    let text = String::from_utf8_lossy(s);
+    // Valid UTF-8 (the usual case) is read in place; `from_utf8_lossy` gives the same text
+    // but walks it chunk by chunk.
+    let text = match std::str::from_utf8(s) {
+        Ok(t) => std::borrow::Cow::Borrowed(t),
+        Err(_) => String::from_utf8_lossy(s),
+    };
     let t = text.trim_start_matches([' ', '\t']);
     let (radix, digits) = if let Some(rest) = t.strip_prefix("^H").or_else(|| t.strip_prefix("^h"))
     {
