@@ -1587,15 +1587,15 @@ impl Interpreter {
         let mut out = [0i32; 3];
         for (k, e) in l.idx.iter().enumerate().take(3) {
             let v = self.operand_r(i, e, sys)?;
-            let n = v.trunc();
-            if !(0.0..=MAX_INDEX as f32).contains(&n) {
+            // `0 <= trunc(v) <= MAX_INDEX` without a call of `truncf` (NaN fails both).
+            if !(v > -1.0 && v < (MAX_INDEX + 1) as f32) {
                 return Err(Box::new(RuntimeError::IndexRange(format!(
                     "{} in {}",
                     v,
                     self.lref_name(i, l, Ty::Real)
                 ))));
             }
-            out[k] = n as i32;
+            out[k] = v as i32;
         }
         Ok(out)
     }

@@ -414,6 +414,20 @@ fn arrays_have_up_to_three_dimensions() {
 }
 
 #[test]
+fn computed_array_indices_truncate_toward_zero() {
+    let (i, s) = run_pc(
+        "  x = -0.99\n  y = 9999.9\n  z = 2.7\n  a[x] = 1\n  a[y] = 2\n  a[z] = 3\n  b = a[z] + a[x]\n  w = 9999.999\n  a[w + 1] = 4",
+        0.1,
+    );
+    assert_eq!(i.real_at("a", &[0]), Some(1.0));
+    assert_eq!(i.real_at("a", &[9999]), Some(2.0));
+    assert_eq!(i.real_at("a", &[2]), Some(3.0));
+    assert_eq!(i.real("b"), Some(4.0));
+    // 10000.999 truncates to 10000: out of range (E0104), the task stops there.
+    assert_eq!(s.error, ErrorCode(-30104), "{:?}", s.terminal);
+}
+
+#[test]
 fn data_sections_load_into_globals() {
     let src = ".PROGRAM autostart.pc()\n  a = count + tab[2]\n  $b = $name + \"!\"\n  c = DEXT(#home, 3)\n  d = DEXT(pick, 3)\n.END\n\
                .REALS\ncount = 2.5\ntab[2] = -1\n.END\n\
