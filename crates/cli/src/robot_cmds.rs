@@ -39,7 +39,15 @@ fn with_robot<T>(
     ctx: &Ctx,
     body: impl AsyncFnOnce(&Robot, &Interrupt) -> CliResult<T>,
 ) -> CliResult<T> {
-    let rt = runtime()?;
+    with_robot_on(runtime()?, ctx, body)
+}
+
+/// [`with_robot`] on a given runtime.
+fn with_robot_on<T>(
+    rt: tokio::runtime::Runtime,
+    ctx: &Ctx,
+    body: impl AsyncFnOnce(&Robot, &Interrupt) -> CliResult<T>,
+) -> CliResult<T> {
     rt.block_on(async {
         let stop = Interrupt::install();
         let addr = ctx.addr_or_default();
@@ -517,7 +525,9 @@ pub(crate) fn play(ctx: &Ctx, args: &PlayArgs) -> CliResult {
             false => e,
         }
     })?;
-    with_robot(ctx, async |robot: &Robot, stop: &Interrupt| {
+    // One thread: the stream's pacing, its round trips and the keep-alive task share it, so a
+    // sample wakes no other thread (docs/PERFORMANCE.md, "Client").
+    with_robot_on(runtime_one_thread()?, ctx, async |robot: &Robot, stop: &Interrupt| {
         let first = trajectory.first();
         let here = robot.poll().await.map_err(client_error)?.joints;
         let away = here.max_abs_diff(&first) > options.start_tolerance_deg;

@@ -135,8 +135,11 @@ impl LagEstimator {
         if !moving || !actual.is_finite() {
             return;
         }
-        let cost = |t: f64| {
-            let q = trajectory.sample(t).position;
+        // The grid's times increase: each sample starts its segment search where the previous
+        // one ended (two walks, one per cost).
+        let (mut hint_p, mut hint_a) = (0usize, 0usize);
+        let cost = |t: f64, hint: &mut usize| {
+            let q = trajectory.position_near(t, hint);
             (0..JOINT_COUNT)
                 .map(|j| (q[j] - actual[j]).powi(2))
                 .sum::<f64>()
@@ -152,8 +155,8 @@ impl LagEstimator {
             .enumerate()
         {
             let shift = GRID_MIN_S + k as f64 * GRID_STEP_S;
-            *p = *p * forget + cost(tau + lead_then_s - shift);
-            *a += cost(tau - shift);
+            *p = *p * forget + cost(tau + lead_then_s - shift, &mut hint_p);
+            *a += cost(tau - shift, &mut hint_a);
         }
         self.observations += 1;
         if let LagCompensation::Online { max } = self.mode {
