@@ -241,18 +241,42 @@ pub(crate) struct Link {
 }
 
 impl Link {
-    /// One round trip, made by the caller.
+    /// One round trip, made by the caller. A motion goes out only once its caller polls again:
+    /// a caller that stops waiting at once (a zero timeout, a `select!` that another branch
+    /// wins) sends nothing — nobody would learn that it was sent, nor watch or cancel it.
     pub(crate) async fn exchange(
         &self,
         text: impl Into<Cow<'static, str>>,
         kind: Kind,
         motion: Option<MotionTag>,
     ) -> Result<Exchange, ClientError> {
+        self.exchange_with(text.into(), kind, motion, motion.is_some())
+            .await
+    }
+
+    /// [`exchange`](Self::exchange) for the client's own motion loops (stream, servo), which
+    /// own the handle their caller watches: the motion goes out on the first poll.
+    pub(crate) async fn exchange_own_motion(
+        &self,
+        text: impl Into<Cow<'static, str>>,
+        tag: MotionTag,
+    ) -> Result<Exchange, ClientError> {
+        self.exchange_with(text.into(), Kind::Motion, Some(tag), false)
+            .await
+    }
+
+    async fn exchange_with(
+        &self,
+        text: Cow<'static, str>,
+        kind: Kind,
+        motion: Option<MotionTag>,
+        second_poll: bool,
+    ) -> Result<Exchange, ClientError> {
         if self.shared.is_dead() {
             return Err(self.shared.death());
         }
         let io = self.shared.lock_io().await;
-        exchange_locked(&self.shared, io, text.into(), kind, motion).await
+        exchange_locked(&self.shared, io, text, kind, motion, second_poll).await
     }
 
     /// Stops the arm for sure: command 5 (`BRAKE`: the current motion stops at once), then
@@ -884,17 +908,17 @@ async fn exchange_locked(
     text: Cow<'static, str>,
     kind: Kind,
     motion: Option<MotionTag>,
+    second_poll: bool,
 ) -> Result<Exchange, ClientError> {
     if io.conn.is_none() {
         return Err(shared.death());
     }
     if let Some(tag) = motion {
-        // A motion goes out only once its caller polls again: a caller that stops waiting at
-        // once (a zero timeout, a `select!` that another branch wins) sends nothing — nobody
-        // would learn that it was sent, nor watch or cancel it.
-        let gone = CallerGone(&shared.common);
-        tokio::task::yield_now().await;
-        std::mem::forget(gone);
+        if second_poll {
+            let gone = CallerGone(&shared.common);
+            tokio::task::yield_now().await;
+            std::mem::forget(gone);
+        }
         if let Err(e) = shared.check_motion(&io, tag) {
             shared.common.refused();
             return Err(e);

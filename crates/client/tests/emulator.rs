@@ -1134,3 +1134,32 @@ async fn concurrent_requests_stay_in_lock_step() {
     assert!(robot.is_connected());
     assert!(robot.poll().await.is_ok());
 }
+
+/// Samples go out on a fixed schedule: the runtime's timers fire on whole milliseconds, and a
+/// period of 4.5 ms must still give 222 samples a second, not 200 (each late timer delaying
+/// the ones after it).
+#[tokio::test(start_paused = true)]
+async fn a_stream_keeps_its_rate_when_timers_fire_late() {
+    let emu = emulator();
+    let robot = ready(&emu, 100.0).await;
+    let period = Duration::from_micros(4500);
+    let opts = StreamOptions {
+        period,
+        max_gap: StreamOptions::default().max_gap.max(period * 2),
+        ..StreamOptions::default()
+    };
+    let report = robot
+        .stream(jt1_ramp(0.0, 10.0, 2.0), opts)
+        .await
+        .unwrap()
+        .wait()
+        .await
+        .unwrap();
+    assert_eq!(report.outcome, StreamOutcome::Completed);
+    let expected = 2.0 / period.as_secs_f64();
+    let sent = report.samples_sent as f64;
+    assert!(
+        sent >= expected * 0.97 && sent <= expected * 1.03 + 2.0,
+        "{sent} samples, {expected:.0} expected"
+    );
+}
