@@ -80,6 +80,9 @@ const MEMORY_S: f64 = 0.2;
 const MIN_SPEED_DEG_S: f64 = 1.0;
 /// Observations before the online lead moves.
 const WARMUP: u32 = 10;
+/// Least trajectory time between two observations, seconds: faster streams (250 Hz) add
+/// nothing the forgetting would keep, and each observation costs ~320 trajectory samples.
+const MIN_OBSERVATION_INTERVAL_S: f64 = 0.0075;
 
 /// Estimates the lag online and keeps the lead.
 #[derive(Debug, Clone)]
@@ -133,6 +136,12 @@ impl LagEstimator {
             .iter()
             .any(|v| v.abs() >= MIN_SPEED_DEG_S);
         if !moving || !actual.is_finite() {
+            return;
+        }
+        if self
+            .last_tau
+            .is_some_and(|last| (tau - last).abs() < MIN_OBSERVATION_INTERVAL_S)
+        {
             return;
         }
         // The grid's times increase: each sample starts its segment search where the previous
@@ -226,6 +235,24 @@ mod tests {
             est.observe(&traj, tau, &actual, lead);
         }
         assert!((est.lead_s() - pipeline).abs() < 0.004, "{}", est.lead_s());
+    }
+
+    #[test]
+    fn replies_closer_than_the_observation_interval_are_skipped() {
+        let traj = ramp();
+        let mut fast = LagEstimator::new(LagCompensation::default());
+        let mut slow = LagEstimator::new(LagCompensation::default());
+        for k in 0..600 {
+            // 250 Hz replies; the slow estimator gets every other one (125 Hz).
+            let tau = 0.5 + k as f64 * 0.004;
+            let actual = traj.sample(tau - 0.1).position;
+            fast.observe(&traj, tau, &actual, 0.0);
+            if k % 2 == 0 {
+                slow.observe(&traj, tau, &actual, 0.0);
+            }
+        }
+        assert_eq!(fast.observations, slow.observations);
+        assert!((fast.apparent_lag_s().unwrap() - 0.1).abs() < 0.003);
     }
 
     #[test]
