@@ -152,6 +152,43 @@ def test_the_pages_api_calls_follow_the_pendant_rules(sim, driver):
     wait_until(lambda: http_json(pendant, "/state")["pending_faults"] == 0, what="the faults cleared")
 
 
+def test_the_page_shows_the_as_programs_tasks_and_terminal(driver):
+    """With an AS program (`sim --as-program`), the page lists each task's program, line and
+    state and shows the terminal; a client's session changes what the tasks do."""
+    program = Path(__file__).resolve().parents[1] / "crates" / "as" / "programs" / "server1040.as"
+    s = start_sim("--as-program", str(program))
+    try:
+        driver.get(s.info["pendant"] + "/")
+        wait_until(lambda: driver.find_element(By.ID, "live-status").text == "live", what="the live feed")
+        panel = driver.find_element(By.ID, "as-panel")
+        wait_until(lambda: panel.is_displayed(), what="the AS panel shown")
+        assert "server1040.as" in driver.find_element(By.ID, "as-program").text
+
+        def row(task):
+            return driver.find_element(By.CSS_SELECTOR, f'#as-tasks tr[data-task="{task}"]')
+
+        wait_until(lambda: "TCP_ACCEPT" in row("pc1").text, what="PC task 1 waiting in TCP_ACCEPT")
+        assert row("pc1").get_attribute("data-state") == "running"
+        assert "autostart.pc" in row("pc1").text
+        assert row("robot").get_attribute("data-state") == "idle"
+        wait_until(lambda: "autostart.pc started in PC task 1" in driver.find_element(By.ID, "as-terminal").text,
+                   what="the terminal line")
+        # A client starts the motion program: the robot task runs it.
+        raw = Raw(s.info["listen"])
+        raw.request("1040 1 0")
+        wait_until(lambda: row("robot").get_attribute("data-state") == "running", what="the robot task running")
+        assert "ros_move" in row("robot").text.lower()
+        raw.close()
+    finally:
+        s.stop()
+
+
+def test_the_emulator_page_hides_the_as_panel_without_a_program(sim, driver):
+    driver.get(sim.info["pendant"] + "/")
+    wait_until(lambda: driver.find_element(By.ID, "live-status").text == "live", what="the live feed")
+    assert not driver.find_element(By.ID, "as-panel").is_displayed()
+
+
 def test_the_hub_page_shows_a_real_robot_and_guards_stop(sim, driver, tmp_path):
     hub = start_hub(sim.info["listen"])
     raw = None

@@ -206,3 +206,45 @@ def test_an_independent_foxglove_client_receives_joint_states(rig):
     urdf = got["/robot_description"][0]["data"]
     assert '<joint name="joint_6" type="revolute">' in urdf
     a.close()
+
+
+def test_the_hub_records_everything_that_passes_through_to_mcap(tmp_path):
+    """`hub --record FILE.mcap`: the face client's requests and the replies, the joint states and
+    the commanded targets, read back by the Python `mcap` reader and `mcap-ros2-support`."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    sim = start_sim()
+    record = tmp_path / "hub.mcap"
+    hub = start_hub(sim.info["listen"], "--record", str(record))
+    try:
+        a = Raw(hub.info["listen"])
+        a.request("1040 1 0")
+        a.request("1040 6 9 0 0 0 12 0 -90 0 -90 0")
+        wait_until(lambda: abs(a.request("0 0 0")[8] - 12.0) < 1e-3, every=0.1, what="the move")
+        a.request("1040 2 0")
+        a.close()
+    finally:
+        hub.stop()  # SIGTERM: a clean end writes the summary
+        sim.stop()
+    assert hub.proc.returncode == 0, hub.stderr()
+    with open(record, "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        summary = reader.get_summary()
+        assert summary is not None, "a clean end writes the summary"
+        topics = {c.topic for c in summary.channels.values()}
+        assert {"/joint_states", "/fs020n/commanded", "/fs020n/exchange", "/fs020n/status"} <= topics
+        exchanges = [json.loads(m.data) for _, _, m in reader.iter_messages(topics=["/fs020n/exchange"])]
+        requests = [e["request"] for e in exchanges]
+        for forwarded in ("1040 1 0", "1040 6 9 0 0 0 12 0 -90 0 -90 0", "1040 2 0"):
+            assert forwarded in requests, requests[-20:]
+        assert all(e["reply"] for e in exchanges if e["request"] == "1040 6 9 0 0 0 12 0 -90 0 -90 0")
+        f.seek(0)
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        commanded = [m for _, _, _, m in reader.iter_decoded_messages(topics=["/fs020n/commanded"])]
+        assert any(abs(c.position[0] - 12.0 * 3.141592653589793 / 180) < 1e-9 for c in commanded)
+        f.seek(0)
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        states = [m for _, _, _, m in reader.iter_decoded_messages(topics=["/joint_states"])]
+        assert list(states[-1].name) == [f"joint_{i}" for i in range(1, 7)]
+        assert abs(states[-1].position[0] - 12.0 * 3.141592653589793 / 180) < 1e-6

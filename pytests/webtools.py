@@ -60,9 +60,12 @@ def start_sim(*extra):
     return Child("sim", "--listen", "127.0.0.1:0", "--pendant", "127.0.0.1:0", *extra)
 
 
-def start_hub(robot, *extra):
-    """`fs020n hub` on free loopback ports. info: http (URL), listen, foxglove."""
-    return Child("--robot", robot, "hub", "--http", "127.0.0.1:0", "--listen", "127.0.0.1:0", *extra)
+def start_hub(robot, *extra, timeout=30.0):
+    """`fs020n hub` on free loopback ports. info: http (URL), listen, foxglove, ros2."""
+    return Child(
+        "--robot", robot, "hub", "--http", "127.0.0.1:0", "--listen", "127.0.0.1:0", *extra,
+        timeout=timeout,
+    )
 
 
 def http_json(base, path, method="GET", body=None):

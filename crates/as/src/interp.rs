@@ -23,7 +23,7 @@ use crate::keywords::SYSTEM_SWITCHES;
 use crate::system::{
     Issued, MotionKind, MotionRequest, PanelState, SockPoll, Speed, System, Target, TaskId,
 };
-use crate::value::{Bytes, Store, MAX_ELEMENTS, MAX_INDEX};
+use crate::value::{Bytes, Store, Var, MAX_ELEMENTS, MAX_INDEX};
 
 /// How long statements take (see docs/AS.md, "Cost model").
 ///
@@ -388,8 +388,9 @@ struct SignalState {
 enum Flow {
     /// Go on (pc already set).
     Next,
-    /// The task waits (pc already set to where it resumes).
-    Wait(Wait),
+    /// The task waits (pc already set to where it resumes). Boxed: a step's result stays
+    /// two words.
+    Wait(Box<Wait>),
     /// The step may have changed other tasks (sockets, signals, monitor commands).
     Shared,
 }
@@ -446,14 +447,21 @@ pub const MAX_STRING: usize = 255;
 /// Most bytes one `TCP_RECV` or `TCP_SEND` moves.
 pub const MAX_TRANSFER: usize = 4096;
 
-type R<T> = Result<T, RuntimeError>;
+/// A runtime error, boxed: results stay two words (returned in registers) on the hot path.
+type R<T> = Result<T, Box<RuntimeError>>;
 
+#[inline]
 fn check(v: f32, what: &str) -> R<f32> {
     if v.is_finite() {
         Ok(v)
     } else {
-        Err(RuntimeError::Overflow(what.to_owned()))
+        Err(overflow(what))
     }
+}
+
+#[cold]
+fn overflow(what: &str) -> Box<RuntimeError> {
+    Box::new(RuntimeError::Overflow(what.to_owned()))
 }
 
 fn truthy(v: f32) -> bool {
@@ -479,9 +487,9 @@ fn to_i32(v: f32) -> i32 {
 
 fn secs(v: f32, what: &str) -> R<Duration> {
     if !(v.is_finite() && v >= 0.0) {
-        return Err(RuntimeError::IllegalValue(format!(
+        return Err(Box::new(RuntimeError::IllegalValue(format!(
             "{what} {v} (expected seconds ≥ 0)"
-        )));
+        ))));
     }
     Ok(Duration::from_secs_f64(f64::from(v).min(1.0e7)))
 }
@@ -913,6 +921,47 @@ impl Interpreter {
         best
     }
 
+    /// The next event in one pass over the tasks: its time, its task, whether it is that
+    /// task's interrupt, and the horizon — what [`Self::next_event_from`] gives with that task's
+    /// own steps skipped (where a run of its steps must stop).
+    fn next_event_and_horizon(&self) -> Option<(Duration, usize, bool, Option<Duration>)> {
+        let n = self.tasks.len().min(6);
+        let ints = if self.tasks.iter().any(|t| !t.interrupts.is_empty()) {
+            self.interrupt_times()
+        } else {
+            [None; 6]
+        };
+        fn earlier(a: Option<Duration>, b: Option<Duration>) -> Option<Duration> {
+            match (a, b) {
+                (Some(x), Some(y)) => Some(x.min(y)),
+                (x, y) => x.or(y),
+            }
+        }
+        // Each task's earliest event; the earliest of all (ties: the lower task) and the
+        // earliest among the other tasks.
+        let mut best: Option<(Duration, usize)> = None;
+        let mut others: Option<Duration> = None;
+        for (k, &int) in ints.iter().enumerate().take(n) {
+            // An idle task has no step and no armed interrupt (`interrupt_times`).
+            if self.tasks[k].run == Run::Idle {
+                continue;
+            }
+            let Some(c) = earlier(int, self.task_wake(k)) else {
+                continue;
+            };
+            match best {
+                Some((b, _)) if c >= b => others = earlier(others, Some(c)),
+                _ => {
+                    others = earlier(others, best.map(|(b, _)| b));
+                    best = Some((c, k));
+                }
+            }
+        }
+        let (at, i) = best?;
+        let interrupt = ints[i].is_some_and(|it| it <= at);
+        Some((at, i, interrupt, earlier(others, ints[i])))
+    }
+
     /// Runs every task up to `until` (statements, timeouts, waits, interrupts), calling
     /// [`System::advance_to`] before each step. Events at exactly `until` run.
     pub fn run_until(&mut self, sys: &mut dyn System, until: Duration) {
@@ -926,8 +975,10 @@ impl Interpreter {
                 t.kick = true;
             }
         }
+        // The code never changes once loaded: one handle for the whole run.
+        let code = Arc::clone(&self.code);
         let mut guard: u64 = 0;
-        while let Some((t, i)) = self.next_event_from(None) {
+        while let Some((t, i, interrupt, horizon)) = self.next_event_and_horizon() {
             if t > until {
                 break;
             }
@@ -939,11 +990,13 @@ impl Interpreter {
                 self.now = t;
                 sys.advance_to(t);
             }
-            if self.interrupt_time(i).is_some_and(|it| it <= self.now) {
+            // The system cannot change the interpreter's signals: the interrupt due at `t` is
+            // still due now.
+            if interrupt {
                 self.fire_interrupt(i, sys);
                 continue;
             }
-            self.wake(i, sys, until);
+            self.wake(i, sys, until, horizon, &code);
         }
         if until > self.now {
             self.now = until;
@@ -951,15 +1004,28 @@ impl Interpreter {
         }
     }
 
-    /// Task `i` is due: poll its wait, then run its steps until another event is due.
-    fn wake(&mut self, i: usize, sys: &mut dyn System, until: Duration) {
+    /// Task `i` is due: poll its wait, then run its steps until another event is due
+    /// (`horizon`: the earliest event other than this task's steps, as found before the poll).
+    fn wake(
+        &mut self,
+        i: usize,
+        sys: &mut dyn System,
+        until: Duration,
+        horizon: Option<Duration>,
+        code: &Arc<Code>,
+    ) {
+        let epoch = self.int_epoch;
         if !self.poll(i, sys) {
             return;
         }
-        let mut horizon = self
-            .next_event_from(Some(i))
-            .map_or(until, |(t, _)| t.min(until));
-        let code = Arc::clone(&self.code);
+        // The poll changes only this task (its steps are not in the horizon) — unless it
+        // changed a signal or an interrupt.
+        let mut horizon = if self.int_epoch == epoch {
+            horizon.map_or(until, |t| t.min(until))
+        } else {
+            self.next_event_from(Some(i))
+                .map_or(until, |(t, _)| t.min(until))
+        };
         let poll = self.cfg.poll_period;
         // The system is brought to a step's time only when the step touches it, or once per
         // poll period (pure computation does not need the arm's state).
@@ -990,7 +1056,7 @@ impl Interpreter {
                 synced = at;
                 first = false;
             }
-            match self.step(i, sys, &code, sync) {
+            match self.step(i, sys, code, sync) {
                 Ok(Flow::Next) => {}
                 Ok(Flow::Shared) => {
                     for (k, t) in self.tasks.iter_mut().enumerate() {
@@ -1003,7 +1069,7 @@ impl Interpreter {
                         .map_or(until, |(t, _)| t.min(until));
                 }
                 Ok(Flow::Wait(w)) => {
-                    self.set_wait(i, w);
+                    self.set_wait(i, *w);
                     return;
                 }
                 Err(e) => {
@@ -1237,7 +1303,7 @@ impl Interpreter {
         }
     }
 
-    fn fail(&mut self, i: usize, e: RuntimeError, sys: &mut dyn System) {
+    fn fail(&mut self, i: usize, e: Box<RuntimeError>, sys: &mut dyn System) {
         sys.advance_to(self.now);
         let id = self.tasks[i].id;
         let where_ = self.tasks[i].frames.last().map(|f| {
@@ -1308,7 +1374,7 @@ impl Interpreter {
         args: &[(ArgVal, Option<ByRefTarget>)],
     ) -> R<()> {
         if self.tasks[i].frames.len() >= self.cfg.max_call_depth {
-            return Err(RuntimeError::CallDepth(self.cfg.max_call_depth));
+            return Err(Box::new(RuntimeError::CallDepth(self.cfg.max_call_depth)));
         }
         let mut store = self.new_locals(i, prog);
         let code = self.code.clone();
@@ -1334,12 +1400,12 @@ impl Interpreter {
                     store.trans[s].set(&[], *v);
                 }
                 _ => {
-                    return Err(RuntimeError::IllegalValue(format!(
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
                         "argument {} of {} has the wrong type for parameter {}",
                         k + 1,
                         p.name,
                         var_display(param.ty, false, &p.local_names[param.ty as usize][s])
-                    )))
+                    ))))
                 }
             }
             if param.by_ref {
@@ -1500,14 +1566,14 @@ impl Interpreter {
     fn indices(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<[i32; 3]> {
         let mut out = [0i32; 3];
         for (k, e) in l.idx.iter().enumerate().take(3) {
-            let v = self.eval_r(i, e, sys)?;
+            let v = self.operand_r(i, e, sys)?;
             let n = v.trunc();
             if !(0.0..=MAX_INDEX as f32).contains(&n) {
-                return Err(RuntimeError::IndexRange(format!(
+                return Err(Box::new(RuntimeError::IndexRange(format!(
                     "{} in {}",
                     v,
                     self.lref_name(i, l, Ty::Real)
-                )));
+                ))));
             }
             out[k] = n as i32;
         }
@@ -1529,23 +1595,64 @@ impl Interpreter {
         var_display(ty, l.var.global, &name)
     }
 
-    fn undefined(&self, i: usize, l: &LRef, ty: Ty, idx: &[i32]) -> RuntimeError {
+    fn undefined(&self, i: usize, l: &LRef, ty: Ty, idx: &[i32]) -> Box<RuntimeError> {
         let mut s = self.lref_name(i, l, ty);
         if !idx.is_empty() {
             let v: Vec<String> = idx.iter().map(|x| x.to_string()).collect();
             s.push_str(&format!("[{}]", v.join(",")));
         }
-        RuntimeError::Undefined(s)
+        Box::new(RuntimeError::Undefined(s))
     }
 
     fn count_element(&mut self, created: bool) -> R<()> {
         if created {
             self.elements += 1;
             if self.elements > MAX_ELEMENTS {
-                return Err(RuntimeError::MemoryFull(MAX_ELEMENTS));
+                return Err(Box::new(RuntimeError::MemoryFull(MAX_ELEMENTS)));
             }
         }
         Ok(())
+    }
+
+    /// A real scalar's value; `None` when it was never assigned.
+    #[inline]
+    fn scalar_r(&self, i: usize, var: VarRef) -> Option<f32> {
+        let store = if var.global {
+            &self.globals
+        } else {
+            match self.tasks[i].frames.last() {
+                Some(f) => &f.locals,
+                None => &self.globals,
+            }
+        };
+        store.reals.get(var.slot as usize).and_then(|v| v.scalar)
+    }
+
+    /// A real operand: a constant or a scalar read in place (the common leaves of an
+    /// expression and of array indices), anything else through the evaluator.
+    #[inline(always)]
+    fn operand_r(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<f32> {
+        match e {
+            RExpr::Const(v) => Ok(*v),
+            RExpr::Var(l) if l.idx.is_empty() => match self.scalar_r(i, l.var) {
+                Some(v) => Ok(v),
+                None => Err(self.undefined(i, l, Ty::Real, &[])),
+            },
+            _ => self.eval_r(i, e, sys),
+        }
+    }
+
+    /// A real variable or element (a scalar read in place).
+    #[inline(always)]
+    fn operand_r_var(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<f32> {
+        if l.idx.is_empty() {
+            match self.scalar_r(i, l.var) {
+                Some(v) => Ok(v),
+                None => Err(self.undefined(i, l, Ty::Real, &[])),
+            }
+        } else {
+            self.read_r(i, l, sys)
+        }
     }
 
     fn read_r(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<f32> {
@@ -1628,7 +1735,7 @@ impl Interpreter {
 
     fn write_s_at(&mut self, i: usize, var: VarRef, idx: &[i32], v: Bytes) -> R<()> {
         if v.len() > MAX_STRING {
-            return Err(RuntimeError::StringTooLong(v.len()));
+            return Err(Box::new(RuntimeError::StringTooLong(v.len())));
         }
         let created = match self.store(i, var.global).strs.get_mut(var.slot as usize) {
             Some(x) => x.set(idx, v),
@@ -1640,7 +1747,7 @@ impl Interpreter {
     fn write_s(&mut self, i: usize, l: &LRef, v: Bytes, sys: &mut dyn System) -> R<()> {
         if l.idx.is_empty() {
             if v.len() > MAX_STRING {
-                return Err(RuntimeError::StringTooLong(v.len()));
+                return Err(Box::new(RuntimeError::StringTooLong(v.len())));
             }
             if let Some(x) = self
                 .store(i, l.var.global)
@@ -1708,14 +1815,13 @@ impl Interpreter {
         self.store(i, false)
             .reals
             .get(s)
-            .and_then(|v| v.get(&[]))
-            .copied()
+            .and_then(|v| v.scalar)
             .unwrap_or(0.0)
     }
 
     fn set_hidden_r(&mut self, i: usize, slot: u32, v: f32) {
         if let Some(x) = self.store(i, false).reals.get_mut(slot as usize) {
-            x.set(&[], v);
+            x.scalar = Some(v);
         }
     }
 
@@ -1746,34 +1852,34 @@ impl Interpreter {
     fn eval_r(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<f32> {
         Ok(match e {
             RExpr::Const(v) => *v,
-            RExpr::Var(l) => self.read_r(i, l, sys)?,
+            RExpr::Var(l) => self.operand_r_var(i, l, sys)?,
             RExpr::Neg(a) => -self.eval_r(i, a, sys)?,
             RExpr::Not(a) => as_bool(!truthy(self.eval_r(i, a, sys)?)),
             RExpr::Com(a) => !to_i32(self.eval_r(i, a, sys)?) as f32,
             RExpr::Bin(op, a, b) => {
-                let x = self.eval_r(i, a, sys)?;
+                let x = self.operand_r(i, a, sys)?;
                 // AND/OR evaluate both sides (AS has no short circuit).
-                let y = self.eval_r(i, b, sys)?;
+                let y = self.operand_r(i, b, sys)?;
                 match op {
                     BinOp::Add => check(x + y, "+")?,
                     BinOp::Sub => check(x - y, "-")?,
                     BinOp::Mul => check(x * y, "*")?,
                     BinOp::Div => {
                         if y == 0.0 {
-                            return Err(RuntimeError::DivisionByZero);
+                            return Err(Box::new(RuntimeError::DivisionByZero));
                         }
                         check(x / y, "/")?
                     }
                     BinOp::Mod => {
                         if y == 0.0 {
-                            return Err(RuntimeError::DivisionByZero);
+                            return Err(Box::new(RuntimeError::DivisionByZero));
                         }
                         check(x % y, "MOD")?
                     }
                     BinOp::Pow => {
                         let r = x.powf(y);
                         if r.is_nan() {
-                            return Err(RuntimeError::IllegalValue(format!("{x} ^ {y}")));
+                            return Err(Box::new(RuntimeError::IllegalValue(format!("{x} ^ {y}"))));
                         }
                         check(r, "^")?
                     }
@@ -1806,6 +1912,25 @@ impl Interpreter {
             }
             RExpr::Func(f, args) => self.eval_func(i, *f, args, sys)?,
             RExpr::Val(s, radix) => {
+                // VAL of a string scalar (the server's tokens) reads it in place.
+                if let (SExpr::Var(l), None) = (&**s, radix) {
+                    if l.idx.is_empty() {
+                        let store = if l.var.global {
+                            &self.globals
+                        } else {
+                            match self.tasks[i].frames.last() {
+                                Some(f) => &f.locals,
+                                None => &self.globals,
+                            }
+                        };
+                        return match store.strs.get(l.var.slot as usize) {
+                            Some(Var {
+                                scalar: Some(b), ..
+                            }) => val(b, 0.0),
+                            _ => Err(self.undefined(i, l, Ty::Str, &[])),
+                        };
+                    }
+                }
                 let s = self.eval_s(i, s, sys)?;
                 let radix = match radix {
                     Some(r) => self.eval_r(i, r, sys)?,
@@ -1841,9 +1966,9 @@ impl Interpreter {
                 };
                 let n = self.eval_r(i, n, sys)?.trunc();
                 if !(1.0..=6.0).contains(&n) {
-                    return Err(RuntimeError::IllegalValue(format!(
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
                         "DEXT element {n} (1 to 6)"
-                    )));
+                    ))));
                 }
                 v[n as usize - 1]
             }
@@ -1874,7 +1999,7 @@ impl Interpreter {
             RFunc::Abs => x.abs(),
             RFunc::Sqrt => {
                 if x < 0.0 {
-                    return Err(RuntimeError::IllegalValue(format!("SQRT({x})")));
+                    return Err(Box::new(RuntimeError::IllegalValue(format!("SQRT({x})"))));
                 }
                 x.sqrt()
             }
@@ -1890,7 +2015,9 @@ impl Interpreter {
                 for s in &v[..n] {
                     let s = signal_number(*s);
                     if s == 0 || !Self::signal_number_ok(s, false) {
-                        return Err(RuntimeError::IllegalValue(format!("signal number {s}")));
+                        return Err(Box::new(RuntimeError::IllegalValue(format!(
+                            "signal number {s}"
+                        ))));
                     }
                     all &= self.signal(s.abs()) == (s > 0);
                 }
@@ -1918,7 +2045,9 @@ impl Interpreter {
             RFunc::Timer => {
                 let n = x.trunc();
                 if !(0.0..=10.0).contains(&n) {
-                    return Err(RuntimeError::IllegalValue(format!("TIMER({x}) (0 to 10)")));
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
+                        "TIMER({x}) (0 to 10)"
+                    ))));
                 }
                 let since = if n == 0.0 {
                     Some(0)
@@ -1945,7 +2074,7 @@ impl Interpreter {
                 let x = self.eval_s(i, a, sys)?;
                 let y = self.eval_s(i, b, sys)?;
                 if x.len() + y.len() > MAX_STRING {
-                    return Err(RuntimeError::StringTooLong(x.len() + y.len()));
+                    return Err(Box::new(RuntimeError::StringTooLong(x.len() + y.len())));
                 }
                 let mut v = Vec::with_capacity(x.len() + y.len());
                 v.extend_from_slice(&x);
@@ -1960,10 +2089,10 @@ impl Interpreter {
                     None => None,
                 };
                 if start < 1.0 || n.is_some_and(|n| n < 0.0) {
-                    return Err(RuntimeError::IllegalValue(format!(
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
                         "$MID start {start} (from 1), count {}",
                         n.unwrap_or(0.0)
-                    )));
+                    ))));
                 }
                 let a = (start as usize - 1).min(s.len());
                 let b = match n {
@@ -1976,7 +2105,7 @@ impl Interpreter {
                 let s = self.eval_s(i, s, sys)?;
                 let n = self.eval_r(i, n, sys)?.trunc();
                 if n < 0.0 {
-                    return Err(RuntimeError::IllegalValue(format!("count {n}")));
+                    return Err(Box::new(RuntimeError::IllegalValue(format!("count {n}"))));
                 }
                 let n = (n as usize).min(s.len());
                 if matches!(e, SExpr::Left(..)) {
@@ -1988,29 +2117,45 @@ impl Interpreter {
             SExpr::Chr(n) => {
                 let n = self.eval_r(i, n, sys)?.trunc();
                 if !(0.0..=255.0).contains(&n) {
-                    return Err(RuntimeError::IllegalValue(format!("$CHR({n}) (0 to 255)")));
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
+                        "$CHR({n}) (0 to 255)"
+                    ))));
                 }
                 Bytes::from(&[n as u8][..])
             }
             SExpr::Encode(items) => {
                 let (bytes, _) = self.encode(i, items, sys)?;
                 if bytes.len() > MAX_STRING {
-                    return Err(RuntimeError::StringTooLong(bytes.len()));
+                    return Err(Box::new(RuntimeError::StringTooLong(bytes.len())));
                 }
                 bytes.into()
             }
             SExpr::Decode(var, delims, mode) => {
                 let s = self.read_s(i, var, sys)?;
-                let d = self.eval_s(i, delims, sys)?;
+                // Constant delimiters (the usual case) are used in place.
+                let evaluated;
+                let d: &[u8] = match &**delims {
+                    SExpr::Const(b) => b,
+                    other => {
+                        evaluated = self.eval_s(i, other, sys)?;
+                        &evaluated
+                    }
+                };
                 let mode = self.eval_r(i, mode, sys)?;
-                let is_delim = |c: u8| d.iter().any(|x| x.eq_ignore_ascii_case(&c));
+                let one = match d {
+                    [x] => Some(x.to_ascii_lowercase()),
+                    _ => None,
+                };
+                let is_delim = |c: u8| match one {
+                    Some(x) => c.to_ascii_lowercase() == x,
+                    None => d.iter().any(|x| x.eq_ignore_ascii_case(&c)),
+                };
                 let cut = if mode <= 0.0 {
                     s.iter().position(|&c| is_delim(c)).unwrap_or(s.len())
                 } else {
                     s.iter().position(|&c| !is_delim(c)).unwrap_or(s.len())
                 };
-                let head: Bytes = s.slice(0, cut);
-                let rest: Bytes = s.slice(cut, s.len());
+                let (head, rest) = s.split_off_head(cut);
                 self.write_s(i, var, rest, sys)?;
                 head
             }
@@ -2060,9 +2205,9 @@ impl Interpreter {
             TExpr::Here => match sys.pose() {
                 Some(p) => p.map(|x| x as f32),
                 None => {
-                    return Err(RuntimeError::IllegalValue(
+                    return Err(Box::new(RuntimeError::IllegalValue(
                         "HERE: this controller has no kinematics".into(),
-                    ))
+                    )))
                 }
             },
             TExpr::Compose(a, b) => {
@@ -2122,7 +2267,9 @@ impl Interpreter {
                 }
             }
             if out.len() + bytes.len() > 64 * 1024 {
-                return Err(RuntimeError::StringTooLong(out.len() + bytes.len()));
+                return Err(Box::new(RuntimeError::StringTooLong(
+                    out.len() + bytes.len(),
+                )));
             }
         }
         bytes.extend_from_slice(out.as_bytes());
@@ -2138,7 +2285,7 @@ impl Interpreter {
                 return Ok(Flow::Next);
             }
             if self.mc_hold || !sys.panel().run {
-                return Ok(Flow::Wait(Wait::Held));
+                return Ok(Flow::Wait(Box::new(Wait::Held)));
             }
         }
         let Some(frame) = self.tasks[i].frames.last() else {
@@ -2156,7 +2303,6 @@ impl Interpreter {
         };
         let now = self.now;
         let cost = self.cfg.cost.statement;
-        self.tasks[i].steps += 1;
         if let Some(trace) = &mut self.trace {
             if !matches!(op, Op::Jump(_)) {
                 let line = p.lines.get(pc).copied().unwrap_or(0);
@@ -2173,9 +2319,13 @@ impl Interpreter {
             }
         }
         // By default the next step is the following op.
-        self.set_pc(i, pc + 1);
-        let depth = self.tasks[i].frames.len();
-        let r = self.exec(i, sys, code, prog, pc, now, cost);
+        let t = &mut self.tasks[i];
+        t.steps += 1;
+        let depth = t.frames.len();
+        if let Some(f) = t.frames.last_mut() {
+            f.pc = pc + 1;
+        }
+        let r = self.exec(i, sys, code, op, pc, now, cost);
         if r.is_err() && self.tasks[i].frames.len() == depth {
             // Errors name the step that failed.
             self.set_pc(i, pc);
@@ -2190,14 +2340,11 @@ impl Interpreter {
         i: usize,
         sys: &mut dyn System,
         code: &Code,
-        prog: usize,
+        op: &Op,
         pc: usize,
         now: Duration,
         mut cost: Duration,
     ) -> R<Flow> {
-        let Some(op) = code.programs.get(prog).and_then(|p| p.ops.get(pc)) else {
-            return Ok(Flow::Next);
-        };
         let robot = i == 0;
         let flow = match op {
             Op::Nop => Flow::Next,
@@ -2253,7 +2400,7 @@ impl Interpreter {
                     None => 1.0,
                 };
                 if step == 0.0 {
-                    return Err(RuntimeError::IllegalValue("FOR … STEP 0".into()));
+                    return Err(Box::new(RuntimeError::IllegalValue("FOR … STEP 0".into())));
                 }
                 self.write_r(i, var, from, sys)?;
                 self.set_hidden_r(i, *limit, to);
@@ -2357,28 +2504,28 @@ impl Interpreter {
             }
             Op::Twait(e) => {
                 let d = secs(self.eval_r(i, e, sys)?, "TWAIT")?;
-                Flow::Wait(Wait::Until(now + d))
+                Flow::Wait(Box::new(Wait::Until(now + d)))
             }
             Op::Wait(e) => {
                 if truthy(self.eval_r(i, e, sys)?) {
                     Flow::Next
                 } else {
                     self.set_pc(i, pc);
-                    Flow::Wait(Wait::Cond)
+                    Flow::Wait(Box::new(Wait::Cond))
                 }
             }
             Op::Halt | Op::Stop => {
                 self.end_program(i, sys, false);
                 Flow::Next
             }
-            Op::Pause => Flow::Wait(Wait::Paused),
+            Op::Pause => Flow::Wait(Box::new(Wait::Paused)),
             Op::Signal(v) => {
                 for e in v.iter() {
                     let s = signal_number(self.eval_r(i, e, sys)?);
                     if s == 0 || !Self::signal_number_ok(s, true) {
-                        return Err(RuntimeError::IllegalValue(format!(
+                        return Err(Box::new(RuntimeError::IllegalValue(format!(
                             "SIGNAL {s} (outputs 1–999, internal 2001–2960)"
-                        )));
+                        ))));
                     }
                     self.write_signal(s.abs(), s > 0);
                 }
@@ -2391,13 +2538,15 @@ impl Interpreter {
                 call,
             } => {
                 if *immediate && !robot {
-                    return Err(RuntimeError::WrongTask(
+                    return Err(Box::new(RuntimeError::WrongTask(
                         "ONI is allowed only in robot programs".into(),
-                    ));
+                    )));
                 }
                 let s = signal_number(self.eval_r(i, signal, sys)?);
                 if s == 0 || !Self::signal_number_ok(s, false) {
-                    return Err(RuntimeError::IllegalValue(format!("signal number {s}")));
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
+                        "signal number {s}"
+                    ))));
                 }
                 let depth = self.tasks[i].frames.len();
                 let t = &mut self.tasks[i];
@@ -2427,9 +2576,9 @@ impl Interpreter {
                 cycles,
             } => {
                 if robot {
-                    return Err(RuntimeError::WrongTask(
+                    return Err(Box::new(RuntimeError::WrongTask(
                         "EXECUTE/MC is allowed only in PC programs".into(),
-                    ));
+                    )));
                 }
                 let args = self.eval_args(i, args, sys)?;
                 let cycles = match cycles {
@@ -2484,9 +2633,9 @@ impl Interpreter {
                 Flow::Shared
             }
             Op::McAbort | Op::McHold | Op::McContinue | Op::McSpeed(_) | Op::McEreset if robot => {
-                return Err(RuntimeError::WrongTask(
+                return Err(Box::new(RuntimeError::WrongTask(
                     "MC is allowed only in PC programs".into(),
-                ));
+                )));
             }
             Op::McAbort => {
                 if self.tasks[0].run == Run::Running {
@@ -2533,7 +2682,9 @@ impl Interpreter {
                 let n = self.eval_r(i, n, sys)?.trunc();
                 let v = self.eval_r(i, v, sys)?;
                 if !(1.0..=10.0).contains(&n) {
-                    return Err(RuntimeError::IllegalValue(format!("TIMER {n} (1 to 10)")));
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
+                        "TIMER {n} (1 to 10)"
+                    ))));
                 }
                 let offset = (f64::from(v).clamp(-1.0e9, 1.0e9) * 1e9) as i128;
                 self.timers[n as usize] = Some(now.as_nanos() as i128 - offset);
@@ -2550,9 +2701,9 @@ impl Interpreter {
                     let mut at = idx;
                     at[0] = idx[0] + k as i32;
                     if at[0] > MAX_INDEX {
-                        return Err(RuntimeError::IndexRange(format!(
+                        return Err(Box::new(RuntimeError::IndexRange(format!(
                             "DECOMPOSE beyond index {MAX_INDEX}"
-                        )));
+                        ))));
                     }
                     self.write_r_at(i, target.var, &at[..dims], *x)?;
                 }
@@ -2565,9 +2716,9 @@ impl Interpreter {
             }
             Op::HereT(l) => {
                 let Some(p) = sys.pose() else {
-                    return Err(RuntimeError::IllegalValue(
+                    return Err(Box::new(RuntimeError::IllegalValue(
                         "HERE: this controller has no kinematics".into(),
-                    ));
+                    )));
                 };
                 self.write_loc_var(i, l, Ty::Trans, p.map(|x| x as f32), sys)?;
                 Flow::Next
@@ -2594,7 +2745,7 @@ impl Interpreter {
                 self.require_robot(robot, "DELAY")?;
                 let d = self.eval_r(i, e, sys)?;
                 if !(d.is_finite() && d >= 0.0) {
-                    return Err(RuntimeError::IllegalValue(format!("DELAY {d}")));
+                    return Err(Box::new(RuntimeError::IllegalValue(format!("DELAY {d}"))));
                 }
                 let here = Target::Joints(sys.joints());
                 self.motion(i, MotionKind::Delay, here, f64::from(d), sys)?
@@ -2606,7 +2757,7 @@ impl Interpreter {
             Op::Break => {
                 self.require_robot(robot, "BREAK")?;
                 if sys.motion_in_progress() {
-                    Flow::Wait(Wait::MotionDone)
+                    Flow::Wait(Box::new(Wait::MotionDone))
                 } else {
                     Flow::Next
                 }
@@ -2618,7 +2769,7 @@ impl Interpreter {
                     SpeedUnit::Percent => Speed::Percent(v.clamp(0.01, 100.0)),
                     other => {
                         if !(v.is_finite() && v > 0.0) {
-                            return Err(RuntimeError::IllegalValue(format!("SPEED {v}")));
+                            return Err(Box::new(RuntimeError::IllegalValue(format!("SPEED {v}"))));
                         }
                         match other {
                             SpeedUnit::MmPerS => Speed::MmPerS(v),
@@ -2639,7 +2790,9 @@ impl Interpreter {
             Op::Accuracy(e, fine, always) => {
                 let v = f64::from(self.eval_r(i, e, sys)?);
                 if !(v.is_finite() && v >= 0.0) {
-                    return Err(RuntimeError::IllegalValue(format!("ACCURACY {v}")));
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
+                        "ACCURACY {v}"
+                    ))));
                 }
                 let m = &mut self.tasks[i].motion;
                 if *always {
@@ -2694,7 +2847,7 @@ impl Interpreter {
                         self.finish_accept(i, r, sys)?;
                         Flow::Shared
                     }
-                    SockPoll::Pending => Flow::Wait(Wait::Accept { port, deadline }),
+                    SockPoll::Pending => Flow::Wait(Box::new(Wait::Accept { port, deadline })),
                 }
             }
             Op::TcpConnect {
@@ -2718,7 +2871,9 @@ impl Interpreter {
                         None => return Err(self.undefined(i, ip, Ty::Real, &at[..n.max(1)])),
                     };
                     if !(0.0..=255.0).contains(&v) {
-                        return Err(RuntimeError::IllegalValue(format!("IP address byte {v}")));
+                        return Err(Box::new(RuntimeError::IllegalValue(format!(
+                            "IP address byte {v}"
+                        ))));
                     }
                     *b = v as u8;
                 }
@@ -2728,11 +2883,11 @@ impl Interpreter {
                         self.finish_ret(i, r.unwrap_or_else(|e| e) as f32, sys)?;
                         Flow::Shared
                     }
-                    SockPoll::Pending => Flow::Wait(Wait::Connect {
+                    SockPoll::Pending => Flow::Wait(Box::new(Wait::Connect {
                         ip: addr,
                         port,
                         deadline,
-                    }),
+                    })),
                 }
             }
             Op::TcpRecv {
@@ -2744,9 +2899,9 @@ impl Interpreter {
                     Some(m) => {
                         let m = self.eval_r(i, m, sys)?.trunc();
                         if !(1.0..=255.0).contains(&m) {
-                            return Err(RuntimeError::IllegalValue(format!(
+                            return Err(Box::new(RuntimeError::IllegalValue(format!(
                                 "TCP_RECV element size {m} (1 to 255)"
-                            )));
+                            ))));
                         }
                         m as usize
                     }
@@ -2758,11 +2913,11 @@ impl Interpreter {
                         self.finish_recv(i, r, max, sys)?;
                         Flow::Shared
                     }
-                    SockPoll::Pending => Flow::Wait(Wait::Recv {
+                    SockPoll::Pending => Flow::Wait(Box::new(Wait::Recv {
                         sock,
                         max,
                         deadline,
-                    }),
+                    })),
                 }
             }
             Op::TcpSend {
@@ -2776,9 +2931,9 @@ impl Interpreter {
                 let deadline = now + self.timeout(i, timeout.as_ref(), sys)?;
                 let count = self.eval_r(i, n, sys)?.trunc();
                 if !(0.0..=MAX_INDEX as f32).contains(&count) {
-                    return Err(RuntimeError::IllegalValue(format!(
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
                         "TCP_SEND element count {count}"
-                    )));
+                    ))));
                 }
                 let dims = buf.idx.len().clamp(1, 3);
                 let base = self.indices(i, buf, sys)?;
@@ -2810,11 +2965,11 @@ impl Interpreter {
                         self.finish_ret(i, r.map_or_else(|e| e as f32, |()| 0.0), sys)?;
                         Flow::Shared
                     }
-                    SockPoll::Pending => Flow::Wait(Wait::Send {
+                    SockPoll::Pending => Flow::Wait(Box::new(Wait::Send {
                         sock,
                         data,
                         deadline,
-                    }),
+                    })),
                 }
             }
             Op::TcpClose(ret, sock) => {
@@ -2833,9 +2988,9 @@ impl Interpreter {
         if robot {
             Ok(())
         } else {
-            Err(RuntimeError::WrongTask(format!(
+            Err(Box::new(RuntimeError::WrongTask(format!(
                 "{what} is allowed only in robot programs"
-            )))
+            ))))
         }
     }
 
@@ -2848,9 +3003,9 @@ impl Interpreter {
     fn port(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<u16> {
         let p = self.eval_r(i, e, sys)?.trunc();
         if !(8192.0..=65535.0).contains(&p) {
-            return Err(RuntimeError::IllegalValue(format!(
+            return Err(Box::new(RuntimeError::IllegalValue(format!(
                 "port {p} (8192 to 65535)"
-            )));
+            ))));
         }
         Ok(p as u16)
     }
@@ -2861,9 +3016,9 @@ impl Interpreter {
             None => 1.0,
         };
         if !(0.0..=60.0).contains(&v) {
-            return Err(RuntimeError::IllegalValue(format!(
+            return Err(Box::new(RuntimeError::IllegalValue(format!(
                 "timeout {v} s (0 to 60)"
-            )));
+            ))));
         }
         Ok(Duration::from_secs_f64(f64::from(v)))
     }
@@ -3052,8 +3207,8 @@ impl Interpreter {
         };
         match sys.issue_motion(&req) {
             Ok(Issued::Started) => Ok(Flow::Next),
-            Ok(Issued::Planned) => Ok(Flow::Wait(Wait::MotionPlanned)),
-            Err(code) => Err(RuntimeError::System(code)),
+            Ok(Issued::Planned) => Ok(Flow::Wait(Box::new(Wait::MotionPlanned))),
+            Err(code) => Err(Box::new(RuntimeError::System(code))),
         }
     }
 }
@@ -3102,9 +3257,9 @@ fn val(s: &[u8], radix: f32) -> R<f32> {
             1 => (2, t),
             2 => (16, t),
             other => {
-                return Err(RuntimeError::IllegalValue(format!(
+                return Err(Box::new(RuntimeError::IllegalValue(format!(
                     "VAL radix code {other} (0, 1 or 2)"
-                )))
+                ))))
             }
         }
     };

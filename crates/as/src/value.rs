@@ -29,6 +29,19 @@ impl Bytes {
     }
 }
 
+impl Bytes {
+    /// The bytes before `cut` and from `cut` on (clamped), the second reusing this handle.
+    pub(crate) fn split_off_head(self, cut: usize) -> (Bytes, Bytes) {
+        let head = self.slice(0, cut);
+        let cut = cut.min(self.len()) as u32;
+        let rest = Bytes {
+            start: self.start + cut,
+            ..self
+        };
+        (head, rest)
+    }
+}
+
 impl std::ops::Deref for Bytes {
     type Target = [u8];
     fn deref(&self) -> &[u8] {

@@ -261,6 +261,16 @@ pub(crate) struct Ros2Args {
     /// With --embedded: serve the emulator's pendant API (switches, E-stop, faults) here.
     #[arg(long, value_name = "HOST:PORT")]
     pub(crate) pendant: Option<String>,
+    /// The node's settings.
+    #[command(flatten)]
+    pub(crate) node: Ros2NodeArgs,
+}
+
+/// The ROS 2 node's settings, for `ros2` and `hub --ros2`.
+#[cfg(feature = "ros2")]
+#[derive(Debug, Args)]
+#[command(next_help_heading = "ROS 2 node")]
+pub(crate) struct Ros2NodeArgs {
     /// A ROS 2 parameter file (YAML: `fs020n: {ros__parameters: {joint_names: [...], ...}}`).
     #[arg(long, value_name = "FILE")]
     pub(crate) params_file: Option<PathBuf>,
@@ -422,6 +432,14 @@ pub(crate) struct HubArgs {
     /// stopped with command 2).
     #[arg(long, default_value_t = 1.0, value_name = "S")]
     pub silence: f64,
+    /// Also run the ROS 2 node on the hub's session (docs/ROS2.md): it holds control while it
+    /// acts, and its goals pass the fence. Needs the `ros2` feature.
+    #[arg(long)]
+    pub ros2: bool,
+    /// The ROS 2 node's settings (with --ros2).
+    #[cfg(feature = "ros2")]
+    #[command(flatten)]
+    pub ros2_node: Ros2NodeArgs,
 }
 
 /// `on` or `off` (listed in the help).

@@ -41,10 +41,52 @@ fn config(args: &HubArgs, ctx: &Ctx, model: &RobotModel) -> CliResult<HubConfig>
     Ok(config)
 }
 
+/// The hub as the ROS 2 node's robot: the node acts only while it holds the hub's control, and
+/// its paths and speeds pass the fence.
+#[cfg(feature = "ros2")]
+struct HubSource(Hub);
+
+#[cfg(feature = "ros2")]
+impl fs020n_ros2::RobotSource for HubSource {
+    fn robot(&self) -> Option<std::sync::Arc<fs020n_client::Robot>> {
+        self.0.robot()
+    }
+
+    fn permit(&self, action: fs020n_ros2::Action<'_>) -> Result<fs020n_ros2::Permit, String> {
+        use fs020n_ros2::Action;
+        match action {
+            Action::SetSpeed(percent) => self
+                .0
+                .check_speed(percent)
+                .map_err(|v| format!("refused by the hub's fence: {v}"))?,
+            Action::Trajectory(path) => self
+                .0
+                .check_path(path)
+                .map_err(|v| format!("refused by the hub's fence: {v}"))?,
+            _ => {}
+        }
+        let claim = self.0.claim_control("ROS 2 node")?;
+        Ok(fs020n_ros2::Permit::holding(claim))
+    }
+}
+
 /// `hub`.
 pub(crate) fn hub(args: &HubArgs, ctx: &Ctx, as_json: bool) -> CliResult {
     let model = ctx.model.clone();
     let config = config(args, ctx, &model)?;
+    #[cfg(not(feature = "ros2"))]
+    if args.ros2 {
+        return Err(CliError::input(
+            "--ros2: this fs020n was built without the ROS 2 node; build it with \
+             `cargo install fs020n --features ros2` (or `cargo build --features ros2`)",
+        ));
+    }
+    #[cfg(feature = "ros2")]
+    let node_config = if args.ros2 {
+        Some(crate::ros2::node_config(&args.ros2_node)?)
+    } else {
+        None
+    };
     let http = resolve(&args.http, "--http")?;
     let listen = match &args.listen {
         Some(l) => Some(resolve(l, "--listen")?),
@@ -94,6 +136,22 @@ pub(crate) fn hub(args: &HubArgs, ctx: &Ctx, as_json: bool) -> CliResult {
         let foxglove_addr = bridge.as_ref().map(|b| b.local_addr());
         #[cfg(not(feature = "foxglove"))]
         let foxglove_addr: Option<SocketAddr> = None;
+        #[cfg(feature = "ros2")]
+        let (node_stop, mut node, node_line) = {
+            let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+            let line = node_config
+                .as_ref()
+                .map(|c| (c.fully_qualified_name(), c.action_name(), c.dds.domain_id));
+            let task = node_config.map(|c| {
+                let source = std::sync::Arc::new(HubSource(hub.clone()));
+                tokio::spawn(fs020n_ros2::run(c, model.clone(), source, async move {
+                    let _ = rx.await;
+                }))
+            });
+            (tx, task, line)
+        };
+        #[cfg(not(feature = "ros2"))]
+        let node_line: Option<(String, String, u16)> = None;
         let page_url = format!("http://{}/", page.local_addr());
         if as_json {
             println!(
@@ -105,6 +163,9 @@ pub(crate) fn hub(args: &HubArgs, ctx: &Ctx, as_json: bool) -> CliResult {
                     "foxglove": foxglove_addr.map(|a| format!("ws://{a}")),
                     "fence": args.fence.as_ref().map(|p| p.display().to_string()),
                     "record": ctx.record.as_ref().map(|r| r.path.display().to_string()),
+                    "ros2": node_line.as_ref().map(|(node, action, domain)| json!({
+                        "node": node, "action": action, "domain_id": domain,
+                    })),
                 })
             );
         } else {
@@ -125,10 +186,49 @@ pub(crate) fn hub(args: &HubArgs, ctx: &Ctx, as_json: bool) -> CliResult {
             if let Some(r) = &ctx.record {
                 println!("  recording   {}", r.path.display());
             }
+            if let Some((node, action, domain)) = &node_line {
+                println!("  ROS 2       node {node} (domain {domain}), action {action}");
+            }
             println!("Ctrl-C or SIGTERM ends the session (255: the controller stops the robot)");
         }
-        let signal = signals.recv().await;
-        tracing::info!("{signal}: ending the session with the controller");
+        #[cfg(feature = "ros2")]
+        let node_failed = async {
+            match node.as_mut() {
+                Some(task) => match task.await {
+                    Ok(Ok(())) => None,
+                    Ok(Err(e)) => Some(crate::ros2::ros2_error(e)),
+                    Err(e) => Some(CliError::failure(format!("the ROS 2 node failed: {e}"))),
+                },
+                None => std::future::pending().await,
+            }
+        };
+        #[cfg(not(feature = "ros2"))]
+        let node_failed = std::future::pending::<Option<CliError>>();
+        let mut outcome = Ok(());
+        tokio::select! {
+            signal = signals.recv() => {
+                tracing::info!("{signal}: ending the session with the controller");
+            }
+            failure = node_failed => {
+                tracing::error!("the ROS 2 node ended: ending the session with the controller");
+                if let Some(e) = failure {
+                    outcome = Err(e);
+                }
+            }
+        }
+        #[cfg(feature = "ros2")]
+        {
+            // The node cancels a goal it is executing (the robot brakes) before it ends.
+            let _ = node_stop.send(());
+            if let Some(task) = node.filter(|t| !t.is_finished()) {
+                if tokio::time::timeout(Duration::from_secs(3), task)
+                    .await
+                    .is_err()
+                {
+                    tracing::warn!("the ROS 2 node did not end within 3 s");
+                }
+            }
+        }
         if let Some(f) = face {
             f.stop();
         }
@@ -143,6 +243,6 @@ pub(crate) fn hub(args: &HubArgs, ctx: &Ctx, as_json: bool) -> CliResult {
         {
             tracing::info!("closing the session: {e}");
         }
-        Ok(())
+        outcome
     })
 }

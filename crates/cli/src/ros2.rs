@@ -8,13 +8,13 @@ use fs020n_ros2::{DdsConfig, NodeConfig, Ros2Error, ServiceMapping};
 use fs020n_sim::{run_robot, SimOptions};
 use serde_json::json;
 
-use crate::args::Ros2Args;
+use crate::args::{Ros2Args, Ros2NodeArgs};
 use crate::error::{CliError, CliResult, Exit};
 use crate::session::{client_error, close_quietly, runtime, Ctx, Interrupt};
 
 /// The node's settings from the defaults, the ROS 2 environment, the parameter file and the
 /// flags (in that order).
-pub(crate) fn node_config(args: &Ros2Args) -> CliResult<NodeConfig> {
+pub(crate) fn node_config(args: &Ros2NodeArgs) -> CliResult<NodeConfig> {
     let input = |e: Ros2Error| CliError::input(e.to_string());
     let mut config = NodeConfig {
         dds: DdsConfig::from_env().map_err(input)?,
@@ -51,7 +51,7 @@ pub(crate) fn node_config(args: &Ros2Args) -> CliResult<NodeConfig> {
     Ok(config)
 }
 
-fn ros2_error(e: Ros2Error) -> CliError {
+pub(crate) fn ros2_error(e: Ros2Error) -> CliError {
     match e {
         Ros2Error::Config(_) | Ros2Error::ParamsFile { .. } => CliError::input(e.to_string()),
         Ros2Error::Robot(c) => client_error(c),
@@ -78,7 +78,7 @@ pub(crate) fn moveit_controllers_yaml(config: &NodeConfig) -> String {
 
 /// `ros2`.
 pub(crate) fn ros2(ctx: &Ctx, args: &Ros2Args) -> CliResult {
-    let config = node_config(args)?;
+    let config = node_config(&args.node)?;
     if let Some(what) = &args.print {
         let text = match what.as_str() {
             "urdf" => fs020n_ros2::urdf::generate(&ctx.model, &config.joint_names),

@@ -1,52 +1,16 @@
 //! `--record`, `record FILE.mcap`, `plot`, `replay` and `demo --plot` through the binary,
 //! against `fs020n sim` in a child process (loopback) or the embedded emulator.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
-use std::io::{BufRead, BufReader};
 use std::path::Path;
-use std::process::{Child, Command as StdCommand, Stdio};
+use std::process::{Command as StdCommand, Stdio};
 use std::time::{Duration, Instant};
 
 use assert_cmd::Command;
 use serde_json::Value;
 
-/// An emulator child process, killed on drop.
-struct Sim {
-    child: Child,
-    addr: String,
-}
-
-impl Sim {
-    fn start() -> Sim {
-        let mut child = StdCommand::new(env!("CARGO_BIN_EXE_fs020n"))
-            .args(["--json", "sim", "--listen", "127.0.0.1:0"])
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("spawn fs020n sim");
-        let mut line = String::new();
-        BufReader::new(child.stdout.take().expect("stdout"))
-            .read_line(&mut line)
-            .expect("first line");
-        let v: Value = serde_json::from_str(&line).expect("JSON line with the address");
-        Sim {
-            child,
-            addr: v["listen"].as_str().expect("listen").to_owned(),
-        }
-    }
-
-    fn cmd(&self) -> Command {
-        let mut c = fs020n();
-        c.args(["--robot", &self.addr]);
-        c
-    }
-}
-
-impl Drop for Sim {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
+mod common;
+use common::Sim;
 
 fn fs020n() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_fs020n"));
@@ -85,7 +49,7 @@ fn png_size(path: &Path) -> (u32, u32, usize) {
 
 #[test]
 fn a_recorded_move_plots_and_replays() {
-    let sim = Sim::start();
+    let sim = Sim::start(&[]);
     let dir = tempfile::tempdir().unwrap();
     let rec = dir.path().join("move.mcap");
     let rec_s = rec.to_str().unwrap();
@@ -128,7 +92,7 @@ fn a_recorded_move_plots_and_replays() {
 
 #[test]
 fn replay_finds_an_injected_divergence() {
-    let sim = Sim::start();
+    let sim = Sim::start(&[]);
     let dir = tempfile::tempdir().unwrap();
     let rec = dir.path().join("idle.jsonl");
     let rec_s = rec.to_str().unwrap();
@@ -179,7 +143,7 @@ fn replay_finds_an_injected_divergence() {
 #[cfg(unix)]
 #[test]
 fn a_killed_recorder_leaves_a_file_that_opens() {
-    let sim = Sim::start();
+    let sim = Sim::start(&[]);
     let dir = tempfile::tempdir().unwrap();
     let rec = dir.path().join("killed.mcap");
     let mut child = StdCommand::new(env!("CARGO_BIN_EXE_fs020n"))
@@ -288,7 +252,7 @@ fn recording_options_are_checked_before_connecting() {
 
 #[test]
 fn the_status_csv_of_record_plots_without_round_trips() {
-    let sim = Sim::start();
+    let sim = Sim::start(&[]);
     let dir = tempfile::tempdir().unwrap();
     let rec = dir.path().join("status.csv");
     ok(&sim

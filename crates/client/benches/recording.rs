@@ -3,6 +3,7 @@
 //! MCAP. The file is written by the recording's own thread; the session task only queues.
 //!
 //! After the criterion group a summary prints polls per second and the MCAP bytes per exchange.
+#![allow(clippy::expect_used)] // bench code: a failed expectation is a failed run
 
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpListener};

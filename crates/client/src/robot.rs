@@ -55,6 +55,11 @@ pub struct Robot {
 /// program seen running within this time of either is not trusted as running.
 pub const STOP_SETTLE: Duration = Duration::from_millis(200);
 
+/// How often [`Robot::start`] sends command 1 again while the program does not run and
+/// nothing blocks it: the controller refuses a start (P1009) while the previous program is
+/// still finishing — its last motion, or the brake after a stop.
+const START_RETRY: Duration = Duration::from_millis(100);
+
 impl std::fmt::Debug for Robot {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Robot")
@@ -159,6 +164,10 @@ impl Robot {
     /// then is refused (P1009) — as when the previous session ended while its program ran.
     /// `start` waits out the rest of [`STOP_SETTLE`], polls again, and sends the 1 only to a
     /// program that has ended.
+    ///
+    /// A 1 still refused because the previous program is finishing (its last motion, or a
+    /// brake after a stop that outlasts [`STOP_SETTLE`]) is sent again every 100 ms until the
+    /// program runs or the timeout.
     pub async fn start(&self) -> Result<(), ClientError> {
         self.not_streaming()?;
         let started = Instant::now();
@@ -198,15 +207,37 @@ impl Robot {
         }
         let deadline = started + self.common.config.start_timeout;
         let mut rx = self.link.status.clone();
+        let mut sent_at = ex.sent_at;
+        let mut retry_at = Instant::now() + START_RETRY;
         loop {
             {
                 let s = rx.borrow_and_update();
-                if s.received_at > ex.sent_at && s.status.task_running {
+                if s.received_at > sent_at && s.status.task_running {
                     return Ok(());
                 }
             }
             tokio::select! {
                 r = rx.changed() => if r.is_err() { return Err(self.link.shared.death()) },
+                // A 1 that reached `MC EXECUTE` while the old program was still finishing
+                // (TASK(1) = 3: its last motion, or the brake after a stop) was refused
+                // (P1009): send it again while nothing else blocks the start.
+                _ = tokio::time::sleep_until(retry_at) => {
+                    retry_at += START_RETRY;
+                    let last = self.poll().await?;
+                    if last.task_running {
+                        return Ok(());
+                    }
+                    if blockers(&last, false).is_empty() {
+                        let ex = self
+                            .link
+                            .command(&Request::new(Command::StartProgram))
+                            .await?;
+                        if ex.frame.status.task_running {
+                            return Ok(());
+                        }
+                        sent_at = ex.sent_at;
+                    }
+                }
                 _ = tokio::time::sleep_until(deadline) => {
                     let last = self.poll().await?;
                     if last.task_running {
@@ -259,15 +290,18 @@ impl Robot {
     /// Ends the session: 255 (the controller stops the robot and ends the program), then waits
     /// for the server to close the connection. Later calls fail with [`ClientError::Closed`]
     /// until [`reconnect`](Self::reconnect). Closing a session that is already gone is not an
-    /// error.
+    /// error. With a recording, everything recorded so far is in the file when `close` returns.
     pub async fn close(&self) -> Result<(), ClientError> {
-        if self.link.shared.is_dead() {
-            return Ok(());
-        }
-        match self.link.close().await {
-            Ok(_) | Err(ClientError::Closed) => Ok(()),
-            Err(e) => Err(e),
-        }
+        let closed = if self.link.shared.is_dead() {
+            Ok(())
+        } else {
+            match self.link.close().await {
+                Ok(_) | Err(ClientError::Closed) => Ok(()),
+                Err(e) => Err(e),
+            }
+        };
+        let flushed = self.flush_recording().await;
+        closed.and(flushed)
     }
 
     /// Starts a joint move (command 6) to `target`, after checking it (finite, inside the

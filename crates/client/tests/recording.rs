@@ -2,6 +2,7 @@
 //! stalled disk (a FIFO nobody reads) that must not delay any request.
 // Without the `mcap` feature only the CSV tests run.
 #![cfg_attr(not(feature = "mcap"), allow(unused_imports, dead_code))]
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 mod common;
 

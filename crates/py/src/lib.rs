@@ -115,7 +115,8 @@ pub(crate) async fn close(robot: &fs020n_client::Robot) -> Result<(), fs020n_cli
     let mut ended = robot.subscribe();
     robot.close().await?;
     while ended.changed().await.is_ok() {}
-    Ok(())
+    // The session's end is recorded as the session task ends: on disk before `close` returns.
+    robot.flush_recording().await
 }
 
 /// Reads six numbers (a list, tuple, numpy array or any iterable of numbers).

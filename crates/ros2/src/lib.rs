@@ -35,7 +35,7 @@ pub mod urdf;
 
 pub use config::{DdsConfig, ExecutionConfig, NodeConfig, Params, ServiceMapping};
 pub use error::Ros2Error;
-pub use node::{run, RobotSource};
+pub use node::{run, Action, Permit, RobotSource};
 
 #[cfg(test)]
 mod tests {

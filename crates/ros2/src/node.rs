@@ -40,6 +40,48 @@ pub trait RobotSource: Send + Sync + 'static {
     /// The session to use now; `None` while there is none (the node then publishes no joint
     /// states, reports the link in `/diagnostics` and refuses goals and services).
     fn robot(&self) -> Option<Arc<Robot>>;
+
+    /// Asks to act on the robot before the node does: a source that shares the session (the
+    /// hub) refuses while another user holds control, or when a safety fence forbids the
+    /// action. `Err` carries the reason, given to the ROS 2 caller; `Ok` carries a permit the
+    /// node holds until the action is over (a goal: until its end). Stops and cancels are never
+    /// asked: they always go. The default allows everything.
+    fn permit(&self, action: Action<'_>) -> Result<Permit, String> {
+        let _ = action;
+        Ok(Permit::default())
+    }
+}
+
+/// What the node is about to do, for [`RobotSource::permit`].
+#[derive(Debug, Clone, Copy)]
+#[non_exhaustive]
+pub enum Action<'a> {
+    /// Start the motion program (command 1): the `~/start` service, or a goal with
+    /// `auto_start`.
+    Start,
+    /// Set the monitor speed, percent (command 3): `~/set_speed` or the configured speed.
+    SetSpeed(f64),
+    /// Follow a trajectory (a `FollowJointTrajectory` goal): its points in the robot's joint
+    /// order, degrees, from the current position.
+    Trajectory(&'a [fs020n_kin::JointsDeg]),
+}
+
+/// Held while an action runs; dropping it tells the source the action is over (the hub then
+/// releases control).
+#[derive(Default)]
+pub struct Permit(Option<Box<dyn Send + Sync>>);
+
+impl Permit {
+    /// A permit that keeps `guard` alive until the action is over.
+    pub fn holding(guard: impl Send + Sync + 'static) -> Permit {
+        Permit(Some(Box::new(guard)))
+    }
+}
+
+impl std::fmt::Debug for Permit {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_tuple("Permit").field(&self.0.is_some()).finish()
+    }
 }
 
 impl RobotSource for Arc<Robot> {
@@ -302,12 +344,19 @@ pub async fn run(
 
     // The speed this node runs at.
     if let (Some(percent), Ok(robot)) = (shared.config.speed_percent, shared.robot()) {
-        match robot.set_speed(percent).await {
-            Ok(_) => lock(&shared.state).speed_percent = Some(percent),
-            Err(e) => shared.log(
+        let permitted = shared.source.permit(Action::SetSpeed(percent));
+        match permitted {
+            Err(reason) => shared.log(
                 LogLevel::Warn,
-                &format!("could not set the speed to {percent} %: {e}"),
+                &format!("the speed was not set to {percent} %: {reason}"),
             ),
+            Ok(_permit) => match robot.set_speed(percent).await {
+                Ok(_) => lock(&shared.state).speed_percent = Some(percent),
+                Err(e) => shared.log(
+                    LogLevel::Warn,
+                    &format!("could not set the speed to {percent} %: {e}"),
+                ),
+            },
         }
     }
     shared.log(
@@ -447,24 +496,31 @@ async fn trigger_loop(
             },
             Ok(robot) => {
                 let r = match which {
-                    Trigger::Start => robot
-                        .start()
-                        .await
-                        .map(|()| "the motion program is running (command 1)".to_owned()),
+                    Trigger::Start => match shared.source.permit(Action::Start) {
+                        Err(reason) => Ok(Err(reason)),
+                        Ok(_permit) => robot
+                            .start()
+                            .await
+                            .map(|()| Ok("the motion program is running (command 1)".to_owned())),
+                    },
                     Trigger::Stop => robot.stop_program().await.map(|_| {
-                        "the robot stopped and the motion program ended (command 2); ~/start \
+                        Ok("the robot stopped and the motion program ended (command 2); ~/start \
                          runs it again"
-                            .to_owned()
+                            .to_owned())
                     }),
                     Trigger::Cancel => robot.cancel().await.map(|_| {
-                        "the current motion was cancelled: the robot braked to a stop and the motion program ended (commands 5 and 2); ~/start runs it again"
-                            .to_owned()
+                        Ok("the current motion was cancelled: the robot braked to a stop and the motion program ended (commands 5 and 2); ~/start runs it again"
+                            .to_owned())
                     }),
                 };
                 match r {
-                    Ok(message) => TriggerResponse {
+                    Ok(Ok(message)) => TriggerResponse {
                         success: true,
                         message,
+                    },
+                    Ok(Err(refusal)) => TriggerResponse {
+                        success: false,
+                        message: refusal,
                     },
                     Err(e) => TriggerResponse {
                         success: false,
@@ -504,17 +560,23 @@ async fn speed_loop(
                 success: false,
                 message,
             },
-            Ok(robot) => match robot.set_speed(req.percent).await {
-                Ok(_) => {
-                    lock(&shared.state).speed_percent = Some(req.percent);
-                    SetSpeedResponse {
-                        success: true,
-                        message: format!("monitor speed set to {} % (command 3)", req.percent),
-                    }
-                }
-                Err(e) => SetSpeedResponse {
+            Ok(robot) => match shared.source.permit(Action::SetSpeed(req.percent)) {
+                Err(message) => SetSpeedResponse {
                     success: false,
-                    message: e.to_string(),
+                    message,
+                },
+                Ok(_permit) => match robot.set_speed(req.percent).await {
+                    Ok(_) => {
+                        lock(&shared.state).speed_percent = Some(req.percent);
+                        SetSpeedResponse {
+                            success: true,
+                            message: format!("monitor speed set to {} % (command 3)", req.percent),
+                        }
+                    }
+                    Err(e) => SetSpeedResponse {
+                        success: false,
+                        message: e.to_string(),
+                    },
                 },
             },
         };
@@ -528,12 +590,16 @@ async fn speed_loop(
 async fn admit(
     shared: &Shared,
     goal: &FollowJointTrajectoryGoal,
-) -> Result<(Arc<Robot>, crate::goal::Plan), GoalRefusal> {
+) -> Result<(Arc<Robot>, crate::goal::Plan, Permit), GoalRefusal> {
     let refuse = |m: String| GoalRefusal::new(error_code::INVALID_GOAL, m);
     let robot = shared.robot().map_err(refuse)?;
     let status = robot.poll().await.map_err(|e| refuse(e.to_string()))?;
     let list = blockers(&status, true);
     if list == [Blocker::ProgramNotRunning] && shared.config.execution.auto_start {
+        let _permit = shared
+            .source
+            .permit(Action::Start)
+            .map_err(|r| refuse(format!("the motion program was not started: {r}")))?;
         robot
             .start()
             .await
@@ -561,7 +627,28 @@ async fn admit(
         &status.joints,
         Time::now(),
     )?;
-    Ok((robot, p))
+    // The path as the robot will follow it: the points and the spline between them every
+    // 10 ms (a source with a fence checks each of them, and the straight pieces between).
+    let path = planned_path(&p.trajectory);
+    let permit = shared
+        .source
+        .permit(Action::Trajectory(&path))
+        .map_err(refuse)?;
+    Ok((robot, p, permit))
+}
+
+/// The positions of `trajectory` at its points and every 10 ms between them, in time order.
+fn planned_path(trajectory: &fs020n_client::Trajectory) -> Vec<fs020n_kin::JointsDeg> {
+    const STEP_S: f64 = 0.01;
+    let (start, end) = (trajectory.start_s(), trajectory.end_s());
+    let n = ((end - start) / STEP_S).ceil().clamp(0.0, 1e6) as usize;
+    let mut path: Vec<_> = (0..=n)
+        .map(|k| (start + k as f64 * STEP_S).min(end))
+        .chain(trajectory.points().iter().map(|p| p.time_s))
+        .map(|t| (t, trajectory.sample(t).position))
+        .collect();
+    path.sort_by(|a, b| a.0.total_cmp(&b.0));
+    path.into_iter().map(|(_, q)| q).collect()
 }
 
 type Executing<'a> = Pin<Box<dyn Future<Output = Outcome> + Send + 'a>>;
@@ -605,7 +692,7 @@ async fn action_loop(shared: &Shared, server: &ActionServer) -> Result<(), Ros2E
                             tracing::warn!("goal rejection not sent: {e:?}");
                         }
                     }
-                    Ok((robot, p)) => {
+                    Ok((robot, p, permit)) => {
                         let accepted = match server.accept_goal(handle).await {
                             Ok(a) => a,
                             Err(e) => {
@@ -633,7 +720,10 @@ async fn action_loop(shared: &Shared, server: &ActionServer) -> Result<(), Ros2E
                         let exec = &shared.config.execution;
                         let names = &shared.config.joint_names;
                         executing = Some(Box::pin(async move {
-                            execute(&robot, &p, exec, names, feedback_period, cancel_rx, feedback_tx).await
+                            let outcome = execute(&robot, &p, exec, names, feedback_period, cancel_rx, feedback_tx).await;
+                            // Control is given back when the goal is over.
+                            drop(permit);
+                            outcome
                         }));
                     }
                 }

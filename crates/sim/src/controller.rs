@@ -220,6 +220,8 @@ struct ProgramRun {
     run_flag: bool,
     /// The loop has ended; the task waits for the last motion (TASK(1) = 3).
     finishing: bool,
+    /// The `ONI 2007` has fired (it fires once): the program has ended and the arm brakes.
+    interrupted: bool,
 }
 
 /// The emulated FS020N controller running the protocol-1040 AS server program.
@@ -712,11 +714,13 @@ impl Controller {
         let t = self.tick_time;
         self.check_receive_timeout();
         // `ONI 2007`: once the signal has been stable for the edge time, the motion stops at
-        // once and the program ends.
+        // once and the program ends; the brake is its last motion (TASK(1) = 3 until the arm
+        // stands, below).
         if let Some(since) = self.signal_2007_since {
-            if self.program.is_some() && t >= since + self.timing.signal_edge {
+            let armed = self.program.as_ref().is_some_and(|r| !r.interrupted);
+            if armed && t >= since + self.timing.signal_edge {
                 tracing::info!("signal 2007: motion program ros_move interrupted");
-                self.stop_program_now();
+                self.interrupt_program();
             }
         }
         if self.panel.run {
@@ -750,11 +754,12 @@ impl Controller {
                 self.program_pass(t);
             }
         }
-        // TASK(1) = 3 ends when the last motion has.
+        self.robot.tick(&self.model, self.timing.tick.as_secs_f64());
+        // TASK(1) = 3 ends when the last motion has: in the tick the arm comes to rest (as
+        // the interpreter's finishing task sees it on its poll at this instant).
         if self.program.as_ref().is_some_and(|r| r.finishing) && self.robot.is_still() {
             self.end_program();
         }
-        self.robot.tick(&self.model, self.timing.tick.as_secs_f64());
     }
 
     /// The end of a pass whose motion instruction was accepted at `t` (or that issued none):
@@ -973,6 +978,7 @@ impl Controller {
             args,
             run_flag: true,
             finishing: false,
+            interrupted: false,
         });
     }
 
@@ -984,8 +990,21 @@ impl Controller {
         }
     }
 
-    /// The program ends at once and the robot brakes (the `ONI` fired, or the controller
-    /// stopped it: TEACH, an error).
+    /// `ONI 2007 GOTO stopped` fired: the motion stops at once (a planned one is dropped) and
+    /// the program runs to its end. The brake is still its motion, so the task is finishing
+    /// (TASK(1) = 3) until the arm stands: a command 1 meanwhile passes the server's own test
+    /// and reaches `MC EXECUTE`, which refuses it (P1009) — as the AS text behaves.
+    fn interrupt_program(&mut self) {
+        self.robot.brake(&self.model);
+        if let Some(run) = &mut self.program {
+            run.interrupted = true;
+            run.finishing = true;
+            run.blocked = None;
+        }
+    }
+
+    /// The program ends at once and the robot brakes (the controller stopped it: TEACH, the
+    /// teach lock, an error).
     fn stop_program_now(&mut self) {
         self.end_program();
         self.robot.brake(&self.model);

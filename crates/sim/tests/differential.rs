@@ -471,6 +471,67 @@ fn brake_and_stop(d: &mut Driver) {
     d.poll();
 }
 
+/// §4 a 1 while the arm brakes after the `ONI 2007` stop (command 2, 255 and a new session,
+/// the receive timeout): the program has ended but its last motion — the brake — still runs
+/// (TASK(1) = 3), so the server's own test passes and `MC EXECUTE` refuses it (P1009); a 1
+/// once the arm stands starts the program.
+fn start_while_the_stop_brakes(d: &mut Driver) {
+    d.at(0.05);
+    d.s.connect();
+    d.at(0.1);
+    d.req("1040 3 1 50");
+    d.req("1040 1 0");
+    d.at(0.2);
+    d.req("1040 6 9 0 0 0 90 0 -90 0 -90 0");
+    // Command 2 while the arm moves fast: the ONI fires 50 ms later and the arm brakes.
+    d.at(0.6);
+    d.req("1040 2 0");
+    d.at(0.7);
+    d.req("1040 1 0");
+    for k in 0..8 {
+        d.at(0.75 + 0.05 * f64::from(k));
+        d.poll();
+    }
+    d.at(1.3);
+    d.req("1040 1 0");
+    d.at(1.35);
+    d.poll();
+    // 255 while the arm moves; a new session sends a 1 during the brake.
+    d.req("1040 6 9 0 0 0 -60 0 -90 0 -90 0");
+    d.at(1.7);
+    d.req("1040 255 0");
+    d.at(1.76);
+    d.s.connect();
+    d.at(1.8);
+    d.req("1040 1 0");
+    for k in 0..8 {
+        d.at(1.85 + 0.05 * f64::from(k));
+        d.poll();
+    }
+    d.at(2.4);
+    d.req("1040 1 0");
+    d.at(2.45);
+    d.poll();
+    // The receive timeout while the arm moves: a slow monitor speed keeps a long joint move
+    // going past the 5 s; a new session's 1 arrives during the brake.
+    d.req("1040 3 1 15");
+    d.req("1040 6 9 0 0 0 -150 0 -90 0 -90 0");
+    d.at(7.5);
+    d.s.close();
+    d.at(7.51);
+    d.s.connect();
+    d.at(7.52);
+    d.req("1040 1 0");
+    for k in 0..4 {
+        d.at(7.55 + 0.05 * f64::from(k));
+        d.poll();
+    }
+    d.at(8.0);
+    d.req("1040 1 0");
+    d.at(8.05);
+    d.poll();
+}
+
 /// The streamed trajectory at server time `t`: position, velocity, acceleration of joint `i`.
 fn trajectory(i: usize, t: f64) -> (f64, f64, f64) {
     let w = 0.8;
@@ -578,6 +639,10 @@ const SCENARIOS: &[(&str, Scenario)] = &[
     ("undefined argument E0102 (§2)", undefined_argument),
     ("speed and ABS.SPEED (§2.1)", speed_and_abs_speed),
     ("brake and stop (§2.1, §4)", brake_and_stop),
+    (
+        "a 1 while the stop brakes (§4)",
+        start_while_the_stop_brakes,
+    ),
     ("sessions and timeouts (§2.3)", sessions_and_timeouts),
     ("errors and HOLD (§4)", errors_and_hold),
 ];
@@ -667,4 +732,49 @@ fn default_costs_answer_later_but_the_same() {
         assert!(d.joints_still_max_deg < 0.5, "{name}: {d:?}");
         assert!(d.joints_max_deg < 3.0, "{name}: {d:?}");
     }
+}
+
+/// The scenario above does what it says on both servers: each 1 sent while the arm brakes is
+/// refused (field 7 stays 0 until the next 1, the native server counts a refused start), each
+/// 1 once the arm stands starts the program.
+#[test]
+fn a_1_while_the_stop_brakes_is_refused_by_both() {
+    for mut d in [
+        Driver {
+            s: native(),
+            replies: Vec::new(),
+        },
+        Driver {
+            s: program(matched_costs()),
+            replies: Vec::new(),
+        },
+    ] {
+        start_while_the_stop_brakes(&mut d);
+        let running: Vec<(String, bool)> = d
+            .replies
+            .iter()
+            .map(|r| {
+                let f7 = r.text.split_whitespace().nth(6).unwrap_or("?");
+                (r.label.clone(), f7 == "-1")
+            })
+            .collect();
+        let after_starts: Vec<bool> = running
+            .windows(2)
+            .filter(|w| w[0].0 == "1040 1 0")
+            .map(|w| w[1].1)
+            .collect();
+        // The first 1 starts; then, per stop path, a 1 during the brake (refused) and a 1
+        // after it (started).
+        assert_eq!(
+            after_starts,
+            [true, false, true, false, true, false, true],
+            "{running:?}"
+        );
+    }
+    let mut n = Driver {
+        s: native(),
+        replies: Vec::new(),
+    };
+    start_while_the_stop_brakes(&mut n);
+    assert_eq!(n.s.controller().counters().starts_refused, 3);
 }

@@ -642,9 +642,12 @@ fn speed_is_a_product_before_command_3_and_a_minimum_after() {
     raw(&mut c, id, "1040 2 0");
     raw(&mut c, id, "1040 3 1 50");
     assert!(c.abs_speed());
-    // the stop by signal 2007 takes its 50 ms edge
+    // the stop by signal 2007 takes its 50 ms edge; the program has ended but the arm brakes
+    // (TASK(1) = 3) until it stands
     c.advance_by(ms(60));
-    assert_eq!(c.task(), TaskState::NotRunning);
+    assert_eq!(c.task(), TaskState::Finishing);
+    until(&mut c, ms(2000), |c| c.task() == TaskState::NotRunning);
+    assert!(c.robot().is_still());
     raw(&mut c, id, "1040 1 0");
     let p2 = [1.0, 10.0, -3.0, 0.0, -80.0, 0.0];
     stream_to(&mut c, id, p2);
@@ -936,8 +939,9 @@ fn locals_start_undefined_after_a_restart_unless_configured_to_survive() {
         jmove(&mut c, id, [1.0, 0.0, -90.0, 0.0, -90.0, 0.0]);
         c.advance_by(ms(20));
         raw(&mut c, id, "1040 2 0");
-        c.advance_by(ms(100));
-        assert_eq!(c.task(), TaskState::NotRunning);
+        // the ONI after 50 ms, then the brake (TASK(1) = 3 until the arm stands)
+        c.advance_by(ms(60));
+        until(&mut c, ms(2000), |c| c.task() == TaskState::NotRunning);
         raw(&mut c, id, "1040 1 0");
         raw(&mut c, id, "1040 6 6 0 0 0 2 0 -90");
         c.advance_by(ms(10));

@@ -56,11 +56,13 @@ async fn silence_closes_the_session_and_stops_the_robot() {
         SessionEnd::ReceiveTimeout
     );
     assert!(!snap.session.open && snap.session.listening);
-    // signal 2007 is raised; the program's ONI fires once it has been stable for 50 ms
+    // signal 2007 is raised; the program's ONI fires once it has been stable for 50 ms: the
+    // program ends, the arm brakes (TASK(1) = 3 until it stands)
     assert!(emu.with(|c| c.stop_signal()));
     sleep(fs020n_sim::SIGNAL_EDGE + Duration::from_millis(2)).await;
-    assert_eq!(emu.snapshot().task, TaskState::NotRunning);
+    assert_eq!(emu.snapshot().task, TaskState::Finishing);
     sleep(Duration::from_secs(1)).await;
+    assert_eq!(emu.snapshot().task, TaskState::NotRunning);
     let stop = emu.with(|c| c.joints());
     sleep(Duration::from_secs(1)).await;
     assert_eq!(emu.with(|c| c.joints()), stop);

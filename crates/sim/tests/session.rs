@@ -234,11 +234,14 @@ fn command_255_replies_then_ends_the_session_and_the_program() {
     let s = Status::decode(std::str::from_utf8(&h.reply).unwrap()).unwrap();
     assert!(s.task_running, "the reply is built before the session ends");
     assert_eq!(c.last_session_end(), Some((id, SessionEnd::EndCommand)));
-    // then `SIGNAL 2007`: the program ends once the signal has been stable for 50 ms
+    // then `SIGNAL 2007`: the program ends once the signal has been stable for 50 ms; the arm
+    // brakes, and until it stands the brake is the program's last motion (TASK(1) = 3)
     assert_eq!(c.task(), TaskState::Running);
     c.advance_by(SIGNAL_EDGE);
-    assert_eq!(c.task(), TaskState::NotRunning);
-    until(&mut c, ms(2000), is_still);
+    assert_eq!(c.task(), TaskState::Finishing);
+    assert_eq!(c.motion_phase(), fs020n_sim::MotionPhase::Braking);
+    until(&mut c, ms(2000), |c| c.task() == TaskState::NotRunning);
+    assert!(is_still(&c));
     assert!(
         c.joints()[0] < 59.0,
         "stopped where it was, not at the target"
@@ -259,9 +262,14 @@ fn command_2_stops_after_the_signal_edge_and_the_session_stays() {
     assert!(c.joints()[0] > q[0], "still moving during the edge");
     assert!(c.task() != TaskState::NotRunning);
     c.advance_by(ms(2));
-    assert_eq!(c.task(), TaskState::NotRunning, "the ONI fired");
+    assert_eq!(
+        c.task(),
+        TaskState::Finishing,
+        "the ONI fired: the program ended, its last motion (the brake) runs"
+    );
     assert_eq!(c.motion_phase(), fs020n_sim::MotionPhase::Braking);
-    until(&mut c, ms(2000), is_still);
+    until(&mut c, ms(2000), |c| c.task() == TaskState::NotRunning);
+    assert!(is_still(&c));
     let stop = c.joints();
     assert!(stop[0] < 59.0);
     // 6 alone does nothing now: command 1 is needed
@@ -289,9 +297,14 @@ fn a_1_sent_right_after_a_2_is_lost() {
     assert!(s.task_running);
     assert_eq!(c.counters().starts_ignored, ignored + 1);
     c.advance_by(SIGNAL_EDGE);
-    assert_eq!(c.task(), TaskState::NotRunning);
+    assert_eq!(
+        c.task(),
+        TaskState::Finishing,
+        "the ONI fired, the arm brakes"
+    );
     assert!(!raw(&mut c, id, "0 0 0").task_running);
-    // after the edge, a 1 starts it again
+    // once the arm stands (TASK(1) = 0), a 1 starts it again
+    until(&mut c, ms(2000), |c| c.task() == TaskState::NotRunning);
     assert!(raw(&mut c, id, "1040 1 0").task_running);
     assert!(
         !c.stop_signal(),
@@ -318,8 +331,18 @@ fn command_1_during_task_state_3_reaches_mc_execute_which_is_refused() {
     let s = raw(&mut c, id, "1040 1 0");
     assert!(!s.task_running, "field 7 is TASK(1) == 1: 0 in state 3");
     assert_eq!(c.counters().starts_refused, 1);
+    // the ONI stops the arm; TASK(1) stays 3 while it brakes, so a 1 is still refused
     c.advance_by(SIGNAL_EDGE);
-    assert_eq!(c.task(), TaskState::NotRunning);
+    assert_eq!(c.motion_phase(), fs020n_sim::MotionPhase::Braking);
+    assert_eq!(c.task(), TaskState::Finishing);
+    assert!(!raw(&mut c, id, "1040 1 0").task_running);
+    assert_eq!(c.counters().starts_refused, 2);
+    until(&mut c, ms(2000), |c| c.task() == TaskState::NotRunning);
+    assert!(is_still(&c));
+    assert!(
+        raw(&mut c, id, "1040 1 0").task_running,
+        "a 1 now starts it"
+    );
 }
 
 #[test]

@@ -312,17 +312,33 @@
     return parts.join("; ") || "empty";
   }
 
-  // The AS interpreter's tasks and terminal, when the emulator runs AS programs:
-  // snapshot.interpreter = {tasks: [{...}], terminal: ["line", ...] or "text"}.
+  // The AS program's tasks and terminal, when the emulator runs one (fs020n sim --as-program):
+  // snapshot.program = {name, served_port, tasks: [{task, state, program, line, text, waiting,
+  // last_error, steps}], terminal: [{at, task, text}]}.
+  function taskName(t) {
+    if (typeof t === "string") return t;
+    if (t && typeof t === "object") {
+      const k = Object.keys(t)[0];
+      return k === "Pc" ? "pc" + t[k] : String(k).toLowerCase();
+    }
+    return String(t);
+  }
   function updateInterpreter(raw) {
-    const it = raw && raw.interpreter;
+    const it = raw && raw.program;
     $("as-panel").hidden = !it;
     if (!it) return;
+    setText($("as-program"), it.name + (it.served_port != null ? " (serving port " + it.served_port + ")" : ""));
     const tasks = Array.isArray(it.tasks) ? it.tasks : [];
-    const rows = tasks.map((t) => "<tr>" + Object.keys(t).map((k) => "<td><span class=\"small\">" + esc(k) + "</span> " + esc(typeof t[k] === "object" ? JSON.stringify(t[k]) : t[k]) + "</td>").join("") + "</tr>").join("");
+    const cell = (v) => "<td>" + esc(v == null ? "" : String(v)) + "</td>";
+    const rows = tasks.map((t) =>
+      "<tr data-task=\"" + esc(t.task) + "\" data-state=\"" + esc(t.state) + "\">" +
+      cell(t.task) + cell(t.state) + cell(t.program) + cell(t.line) + cell(t.text) +
+      cell(t.waiting || t.last_error || "") + "</tr>").join("");
     const tb = $("as-tasks").querySelector("tbody");
     if (tb.dataset.html !== rows) { tb.innerHTML = rows; tb.dataset.html = rows; }
-    const term = Array.isArray(it.terminal) ? it.terminal.join("\n") : String(it.terminal || "");
+    const lines = Array.isArray(it.terminal) ? it.terminal : [];
+    const term = lines.map((l) =>
+      (typeof l === "string") ? l : (Number(l.at).toFixed(3) + "  " + taskName(l.task) + "  " + l.text)).join("\n");
     setText($("as-terminal"), term);
   }
 

@@ -311,6 +311,38 @@ impl Fence {
         Ok(())
     }
 
+    /// Checks a path (joint positions in time order, degrees): every position within the
+    /// fence's ranges and workspace box, and the straight joint-space pieces between them
+    /// (from `current` to the first position too, when given) inside the box, sampled at least
+    /// every degree of the largest joint travel.
+    pub fn check_path(
+        &self,
+        current: Option<&JointsDeg>,
+        path: &[JointsDeg],
+    ) -> Result<(), FenceViolation> {
+        let mut previous = current.filter(|q| q.is_finite()).copied();
+        for (k, q) in path.iter().enumerate() {
+            self.in_ranges(q)?;
+            self.in_box(q, || format!("path point {k}"))?;
+            if let (Some(from), Some(_)) = (previous, &self.spec.workspace) {
+                let travel = (0..JOINT_COUNT)
+                    .map(|i| (q[i] - from[i]).abs())
+                    .fold(0.0, f64::max);
+                let n = (travel.ceil() as usize).clamp(1, 2000);
+                for step in 1..n {
+                    let s = step as f64 / n as f64;
+                    let mut p = [0.0; JOINT_COUNT];
+                    for (i, v) in p.iter_mut().enumerate() {
+                        *v = from[i] + s * (q[i] - from[i]);
+                    }
+                    self.in_box(&JointsDeg(p), || format!("on the way to path point {k}"))?;
+                }
+            }
+            previous = Some(*q);
+        }
+        Ok(())
+    }
+
     fn check_sample(&self, sample: &StreamSample) -> Result<(), FenceViolation> {
         check_stream_sample(&self.model, sample).map_err(FenceViolation::Sample)?;
         if self.spec.workspace.is_none() {
@@ -368,6 +400,33 @@ max_mm = [1500,  800, 1800]
             .check(&Command::SetSpeed { percent: f64::NAN }, &home())
             .is_err());
         assert_eq!(f.model().joints[0].max_speed_deg_s, 190.0 * 0.3);
+    }
+
+    #[test]
+    fn a_path_is_checked_point_by_point_and_between_points() {
+        let f = fence();
+        let a = JointsDeg::new([0.0, 10.0, -80.0, 0.0, -90.0, 0.0]);
+        let b = JointsDeg::new([20.0, 10.0, -80.0, 0.0, -90.0, 0.0]);
+        assert_eq!(f.check_path(Some(&home()), &[a, b]), Ok(()));
+        // A point out of the fence's JT1 range, in the middle of the path.
+        let out = JointsDeg::new([95.0, 10.0, -80.0, 0.0, -90.0, 0.0]);
+        assert!(matches!(
+            f.check_path(Some(&home()), &[a, out, b]),
+            Err(FenceViolation::JointRange { joint: 1, .. })
+        ));
+        // A point below the box floor.
+        let low = JointsDeg::new([0.0, 80.0, -150.0, 0.0, -90.0, 0.0]);
+        assert!(f.flange_mm(&low)[2] < 250.0);
+        let e = f.check_path(None, &[a, low]).unwrap_err();
+        assert!(matches!(&e, FenceViolation::Workspace { .. }), "{e}");
+        // From the current position (not itself checked: the arm is there) to the first
+        // point: the piece is checked, and it starts below the floor.
+        let e = f.check_path(Some(&low), &[a]).unwrap_err();
+        assert!(
+            matches!(&e, FenceViolation::Workspace { at, .. } if at == "on the way to path point 0"),
+            "{e}"
+        );
+        assert_eq!(f.check_path(Some(&low), &[]), Ok(()));
     }
 
     #[test]

@@ -288,7 +288,7 @@ pub(crate) struct LinkState {
 }
 
 pub(crate) struct Inner {
-    pub(crate) robot: RwLock<Robot>,
+    pub(crate) robot: RwLock<Arc<Robot>>,
     pub(crate) model: RobotModel,
     pub(crate) config: HubConfig,
     describe: String,
@@ -356,7 +356,7 @@ impl Hub {
         });
         let hub = Hub {
             inner: Arc::new(Inner {
-                robot: RwLock::new(robot),
+                robot: RwLock::new(Arc::new(robot)),
                 model: config.client.model.clone(),
                 config,
                 describe,
@@ -398,6 +398,109 @@ impl Hub {
     /// The client holding control of the protocol face, if any.
     pub fn controller(&self) -> Option<u64> {
         lock(&self.inner.book).controller
+    }
+
+    /// The session with the controller, for an in-process user (the ROS 2 node); `None` while
+    /// the hub reconnects. Hold it only while using it: a reconnection waits until every such
+    /// handle is dropped. Acting through it bypasses the hub's rules: ask
+    /// [`Hub::claim_control`] and check with [`Hub::check_path`] / [`Hub::check_speed`] first.
+    pub fn robot(&self) -> Option<Arc<Robot>> {
+        if !self.is_connected() {
+            return None;
+        }
+        self.inner.robot.try_read().ok().map(|r| Arc::clone(&r))
+    }
+
+    /// Takes control for an in-process user named `who` (e.g. `"ROS 2 node"`), shown among the
+    /// clients while it holds it. Refused (with the reason) while another client holds
+    /// control; the claim is released when the returned value is dropped. While it is held, the
+    /// face's clients may only watch, exactly as when another face client holds control.
+    pub fn claim_control(&self, who: &str) -> Result<ControlClaim, String> {
+        let id = {
+            let mut book = lock(&self.inner.book);
+            if let Some(holder) = book.controller {
+                let name = book.clients.get(&holder).map_or_else(
+                    || format!("client {holder}"),
+                    |c| format!("client {holder} ({})", c.peer),
+                );
+                return Err(format!(
+                    "{name} holds control of the hub; try again when it has released it (or stop it from the hub's page)"
+                ));
+            }
+            let id = self.inner.next_client.fetch_add(1, Ordering::SeqCst);
+            book.clients.insert(
+                id,
+                ClientEntry {
+                    peer: who.to_owned(),
+                    requests: 0,
+                    refused: 0,
+                    since: Instant::now(),
+                },
+            );
+            book.controller = Some(id);
+            id
+        };
+        self.log(
+            Some(id),
+            "control",
+            None,
+            None,
+            format!("{who} (client {id}) takes control"),
+        );
+        Ok(ControlClaim {
+            hub: self.clone(),
+            id,
+            who: who.to_owned(),
+        })
+    }
+
+    /// Checks a path the robot is about to follow (joint positions in time order, degrees,
+    /// starting near the current position) against the fence: every position and the straight
+    /// joint-space pieces from the current joints through them. `Ok` without a fence.
+    pub fn check_path(&self, path: &[JointsDeg]) -> Result<(), FenceViolation> {
+        let Some(fence) = &self.inner.config.fence else {
+            return Ok(());
+        };
+        let current = self
+            .inner
+            .robot
+            .try_read()
+            .ok()
+            .map(|r| r.status().status.joints);
+        let r = fence.check_path(current.as_ref(), path);
+        if let Err(v) = &r {
+            lock(&self.inner.book).counters.refused_fence += 1;
+            self.log(
+                None,
+                "refused",
+                None,
+                Some(Refusal::Fence),
+                format!("a path was refused by the fence: {v}"),
+            );
+        }
+        r
+    }
+
+    /// Checks a monitor speed (percent) against the fence's speed cap. `Ok` without a fence.
+    pub fn check_speed(&self, percent: f64) -> Result<(), FenceViolation> {
+        let Some(fence) = &self.inner.config.fence else {
+            return Ok(());
+        };
+        let r = fence.check(
+            &fs020n_proto::Command::SetSpeed { percent },
+            &JointsDeg([0.0; 6]),
+        );
+        if let Err(v) = &r {
+            lock(&self.inner.book).counters.refused_fence += 1;
+            self.log(
+                None,
+                "refused",
+                None,
+                Some(Refusal::Fence),
+                format!("a speed was refused by the fence: {v}"),
+            );
+        }
+        r
     }
 
     /// Counters since the hub started.
@@ -603,6 +706,41 @@ impl Hub {
     }
 }
 
+/// Control of the hub held by an in-process user ([`Hub::claim_control`]); dropping it releases
+/// control.
+#[derive(Debug)]
+pub struct ControlClaim {
+    hub: Hub,
+    id: u64,
+    who: String,
+}
+
+impl ControlClaim {
+    /// The client number the claim is shown with.
+    pub fn id(&self) -> u64 {
+        self.id
+    }
+}
+
+impl Drop for ControlClaim {
+    fn drop(&mut self) {
+        {
+            let mut book = lock(&self.hub.inner.book);
+            if book.controller == Some(self.id) {
+                book.controller = None;
+            }
+            book.clients.remove(&self.id);
+        }
+        self.hub.log(
+            Some(self.id),
+            "control",
+            None,
+            None,
+            format!("{} (client {}) releases control", self.who, self.id),
+        );
+    }
+}
+
 /// Watches the session with the controller; when it is lost, tells the face clients (their
 /// connections close, as the controller's would), releases control and reconnects. A new
 /// session starts with the program stopped: nothing is resumed.
@@ -651,7 +789,22 @@ async fn supervise(inner: std::sync::Weak<Inner>) {
             if hub.inner.closing.load(Ordering::SeqCst) {
                 return;
             }
-            let r = hub.inner.robot.write().await.reconnect().await;
+            let r = {
+                let mut guard = hub.inner.robot.write().await;
+                // An in-process user (the ROS 2 node) may still hold the old session for a
+                // moment: try again at the next interval.
+                match Arc::get_mut(&mut guard) {
+                    Some(robot) => robot.reconnect().await,
+                    None => {
+                        lock(&hub.inner.book).link_error = Some(
+                            "reconnecting: waiting for the hub's in-process users to let go of \
+                             the old session"
+                                .into(),
+                        );
+                        continue;
+                    }
+                }
+            };
             match r {
                 Ok(()) => break,
                 Err(e) => {
