@@ -39,7 +39,15 @@ fn with_robot<T>(
     ctx: &Ctx,
     body: impl AsyncFnOnce(&Robot, &Interrupt) -> CliResult<T>,
 ) -> CliResult<T> {
-    let rt = runtime()?;
+    with_robot_on(runtime()?, ctx, body)
+}
+
+/// [`with_robot`] on a given runtime.
+fn with_robot_on<T>(
+    rt: tokio::runtime::Runtime,
+    ctx: &Ctx,
+    body: impl AsyncFnOnce(&Robot, &Interrupt) -> CliResult<T>,
+) -> CliResult<T> {
     rt.block_on(async {
         let stop = Interrupt::install();
         let addr = ctx.addr_or_default();
@@ -517,44 +525,50 @@ pub(crate) fn play(ctx: &Ctx, args: &PlayArgs) -> CliResult {
             false => e,
         }
     })?;
-    with_robot(ctx, async |robot: &Robot, stop: &Interrupt| {
-        let first = trajectory.first();
-        let here = robot.poll().await.map_err(client_error)?.joints;
-        let away = here.max_abs_diff(&first) > options.start_tolerance_deg;
-        if away && !args.approach {
-            return Err(CliError::input(format!(
-                "the robot is at {here} but the trajectory starts at {first}; nothing was sent"
-            ))
-            .with_remedy(format!(
+    // One thread: the stream's pacing, its round trips and the keep-alive task share it, so a
+    // sample wakes no other thread (docs/PERFORMANCE.md, "Client").
+    with_robot_on(
+        runtime_one_thread()?,
+        ctx,
+        async |robot: &Robot, stop: &Interrupt| {
+            let first = trajectory.first();
+            let here = robot.poll().await.map_err(client_error)?.joints;
+            let away = here.max_abs_diff(&first) > options.start_tolerance_deg;
+            if away && !args.approach {
+                return Err(CliError::input(format!(
+                    "the robot is at {here} but the trajectory starts at {first}; nothing was sent"
+                ))
+                .with_remedy(format!(
                 "move there first (fs020n move …), or add --approach to do it with a joint move \
                  at --speed ({speed} %)"
             )));
-        }
-        robot.preflight().await.map_err(client_error)?;
-        robot.set_speed(speed).await.map_err(client_error)?;
-        robot.start().await.map_err(client_error)?;
-        if away {
-            let h = robot.move_joints(first).await.map_err(client_error)?;
-            let timeout = h.planned_duration() * 2 + Duration::from_secs(5);
-            let completion = Completion {
-                timeout: Some(timeout),
-                hold_timeout: hold,
-                ..Completion::default()
-            };
-            tokio::select! {
-                r = h.wait(completion) => {
-                    r.map_err(client_error)?;
-                }
-                () = stop.wait() => {
-                    let _ = h.cancel().await;
-                    return Err(interrupted());
+            }
+            robot.preflight().await.map_err(client_error)?;
+            robot.set_speed(speed).await.map_err(client_error)?;
+            robot.start().await.map_err(client_error)?;
+            if away {
+                let h = robot.move_joints(first).await.map_err(client_error)?;
+                let timeout = h.planned_duration() * 2 + Duration::from_secs(5);
+                let completion = Completion {
+                    timeout: Some(timeout),
+                    hold_timeout: hold,
+                    ..Completion::default()
+                };
+                tokio::select! {
+                    r = h.wait(completion) => {
+                        r.map_err(client_error)?;
+                    }
+                    () = stop.wait() => {
+                        let _ = h.cancel().await;
+                        return Err(interrupted());
+                    }
                 }
             }
-        }
-        let report = stream(ctx, robot, stop, trajectory, options, true).await?;
-        print_stream_report(&report, ctx.json);
-        Ok(())
-    })
+            let report = stream(ctx, robot, stop, trajectory, options, true).await?;
+            print_stream_report(&report, ctx.json);
+            Ok(())
+        },
+    )
 }
 
 /// Lowest `play --rate`, Hz (the client allows at most 500 ms between samples).

@@ -80,6 +80,9 @@ const MEMORY_S: f64 = 0.2;
 const MIN_SPEED_DEG_S: f64 = 1.0;
 /// Observations before the online lead moves.
 const WARMUP: u32 = 10;
+/// Least trajectory time between two observations, seconds: faster streams (250 Hz) add
+/// nothing the forgetting would keep, and each observation costs ~320 trajectory samples.
+const MIN_OBSERVATION_INTERVAL_S: f64 = 0.0075;
 
 /// Estimates the lag online and keeps the lead.
 #[derive(Debug, Clone)]
@@ -135,8 +138,17 @@ impl LagEstimator {
         if !moving || !actual.is_finite() {
             return;
         }
-        let cost = |t: f64| {
-            let q = trajectory.sample(t).position;
+        if self
+            .last_tau
+            .is_some_and(|last| (tau - last).abs() < MIN_OBSERVATION_INTERVAL_S)
+        {
+            return;
+        }
+        // The grid's times increase: each sample starts its segment search where the previous
+        // one ended (two walks, one per cost).
+        let (mut hint_p, mut hint_a) = (0usize, 0usize);
+        let cost = |t: f64, hint: &mut usize| {
+            let q = trajectory.position_near(t, hint);
             (0..JOINT_COUNT)
                 .map(|j| (q[j] - actual[j]).powi(2))
                 .sum::<f64>()
@@ -152,8 +164,8 @@ impl LagEstimator {
             .enumerate()
         {
             let shift = GRID_MIN_S + k as f64 * GRID_STEP_S;
-            *p = *p * forget + cost(tau + lead_then_s - shift);
-            *a += cost(tau - shift);
+            *p = *p * forget + cost(tau + lead_then_s - shift, &mut hint_p);
+            *a += cost(tau - shift, &mut hint_a);
         }
         self.observations += 1;
         if let LagCompensation::Online { max } = self.mode {
@@ -223,6 +235,24 @@ mod tests {
             est.observe(&traj, tau, &actual, lead);
         }
         assert!((est.lead_s() - pipeline).abs() < 0.004, "{}", est.lead_s());
+    }
+
+    #[test]
+    fn replies_closer_than_the_observation_interval_are_skipped() {
+        let traj = ramp();
+        let mut fast = LagEstimator::new(LagCompensation::default());
+        let mut slow = LagEstimator::new(LagCompensation::default());
+        for k in 0..600 {
+            // 250 Hz replies; the slow estimator gets every other one (125 Hz).
+            let tau = 0.5 + k as f64 * 0.004;
+            let actual = traj.sample(tau - 0.1).position;
+            fast.observe(&traj, tau, &actual, 0.0);
+            if k % 2 == 0 {
+                slow.observe(&traj, tau, &actual, 0.0);
+            }
+        }
+        assert_eq!(fast.observations, slow.observations);
+        assert!((fast.apparent_lag_s().unwrap() - 0.1).abs() < 0.003);
     }
 
     #[test]

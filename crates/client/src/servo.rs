@@ -68,7 +68,7 @@ use tokio::time::Instant;
 use crate::check::check_target;
 use crate::error::{Activity, Cancellation, ClientError, LinkError};
 use crate::safety::{blockers, check_stream_sample, MAX_LOOKAHEAD_PASSES};
-use crate::session::{lock, Kind, Link, MotionTag, SessionShared};
+use crate::session::{lock, Link, MotionTag, SessionShared};
 use crate::trajectory::{OptionError, TrajectoryError};
 
 /// Shortest accepted [`ServoOptions::watchdog`].
@@ -740,7 +740,7 @@ impl Servo {
                 epoch: self.epoch,
                 id: tag.id,
             };
-            let ex = match self.link.exchange(text, Kind::Motion, Some(tag)).await {
+            let ex = match self.link.exchange_own_motion(text, tag).await {
                 Ok(ex) => ex,
                 Err(ClientError::Cancelled(_)) => return Ok(ServoOutcome::Cancelled),
                 Err(ClientError::Blocked(b)) => {

@@ -1,21 +1,26 @@
-//! The session task: the single owner of the connection.
+//! The session: one connection, strictly one exchange on the wire at a time.
 //!
-//! Every request goes through one task that writes it in one `write`, waits for the complete
-//! reply (strict lock-step, deadline per request), publishes the status, feeds the clock
-//! estimator, the statistics and the recording, and sends keep-alive polls (`0 0 0`) whenever
-//! no request was made for a keep-alive period. The first failure of the link kills the
-//! session: the cause is stored, every waiter gets it, and the task ends (dropping the
-//! connection). Nothing is ever retried or resumed.
+//! A request is made by its caller's task: it takes the connection (a FIFO async mutex), writes
+//! the request in one `write`, waits for the complete reply (strict lock-step, deadline per
+//! request), publishes the status and feeds the clock estimator, the statistics and the
+//! recording. A request whose caller's future is dropped mid-exchange is completed by a spawned
+//! task. The session's keeper task sends keep-alive polls (`0 0 0`) whenever no request was
+//! made for a keep-alive period, serves the stops queued by `Drop` impls, and watches the idle
+//! connection. The first failure of the link kills the session: the cause is stored, every
+//! waiter gets it, and the connection is dropped. Nothing is ever retried or resumed.
 
 use std::borrow::Cow;
+use std::future::Future;
+use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
+use std::task::Poll;
 use std::time::Duration;
 
 use fs020n_proto::{Command, ReplyDecoder, ReplyFrame, Request, Status, PROTOCOL_VERSION};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
-use tokio::sync::{mpsc, oneshot, watch};
-use tokio::time::{sleep_until, timeout, timeout_at, Instant};
+use tokio::sync::{mpsc, watch, Notify, OwnedMutexGuard};
+use tokio::time::{sleep_until, timeout_at, Instant};
 
 use crate::clock::ServerClock;
 use crate::config::ClientConfig;
@@ -106,13 +111,6 @@ impl Exchange {
     }
 }
 
-struct Op {
-    text: Cow<'static, str>,
-    kind: Kind,
-    motion: Option<MotionTag>,
-    reply: oneshot::Sender<Result<Exchange, ClientError>>,
-}
-
 /// State that outlives sessions: configuration, statistics, recording.
 #[derive(Debug)]
 pub(crate) struct Common {
@@ -177,6 +175,12 @@ pub(crate) struct SessionShared {
     speed_bits: AtomicU64,
     /// When command 2 was last sent on this session.
     pub(crate) last_stop: Mutex<Option<Instant>>,
+    /// The connection: whoever holds it makes the one exchange on the wire.
+    io: Arc<tokio::sync::Mutex<Io>>,
+    /// When the last reply arrived.
+    last_exchange: Mutex<Instant>,
+    /// A caller waits for the connection the keeper task holds while the link is idle.
+    wanted: Notify,
 }
 
 impl SessionShared {
@@ -221,6 +225,14 @@ impl SessionShared {
 }
 
 /// A handle on a session: cheap to clone.
+///
+/// A request is made by its caller: it takes the connection (an async mutex, FIFO, so requests
+/// from cloned handles are served in order and strictly one at a time), writes the request,
+/// reads the reply and publishes it — no hand-off to another task. If the caller's future is
+/// dropped while its request is on the wire, a spawned task completes the exchange (the reply
+/// is read and published), so the connection stays in lock-step. The session's keeper task
+/// sends the keep-alive polls, the stops queued without waiting, and watches the idle
+/// connection (a close or bytes nobody asked for end the session).
 #[derive(Debug, Clone)]
 pub(crate) struct Link {
     tx: mpsc::Sender<Op>,
@@ -229,24 +241,42 @@ pub(crate) struct Link {
 }
 
 impl Link {
-    /// One round trip through the session task.
+    /// One round trip, made by the caller. A motion goes out only once its caller polls again:
+    /// a caller that stops waiting at once (a zero timeout, a `select!` that another branch
+    /// wins) sends nothing — nobody would learn that it was sent, nor watch or cancel it.
     pub(crate) async fn exchange(
         &self,
         text: impl Into<Cow<'static, str>>,
         kind: Kind,
         motion: Option<MotionTag>,
     ) -> Result<Exchange, ClientError> {
-        let (reply, rx) = oneshot::channel();
-        self.tx
-            .send(Op {
-                text: text.into(),
-                kind,
-                motion,
-                reply,
-            })
+        self.exchange_with(text.into(), kind, motion, motion.is_some())
             .await
-            .map_err(|_| self.shared.death())?;
-        rx.await.map_err(|_| self.shared.death())?
+    }
+
+    /// [`exchange`](Self::exchange) for the client's own motion loops (stream, servo), which
+    /// own the handle their caller watches: the motion goes out on the first poll.
+    pub(crate) async fn exchange_own_motion(
+        &self,
+        text: impl Into<Cow<'static, str>>,
+        tag: MotionTag,
+    ) -> Result<Exchange, ClientError> {
+        self.exchange_with(text.into(), Kind::Motion, Some(tag), false)
+            .await
+    }
+
+    async fn exchange_with(
+        &self,
+        text: Cow<'static, str>,
+        kind: Kind,
+        motion: Option<MotionTag>,
+        second_poll: bool,
+    ) -> Result<Exchange, ClientError> {
+        if self.shared.is_dead() {
+            return Err(self.shared.death());
+        }
+        let io = self.shared.lock_io().await;
+        exchange_locked(&self.shared, io, text, kind, motion, second_poll).await
     }
 
     /// Stops the arm for sure: command 5 (`BRAKE`: the current motion stops at once), then
@@ -280,7 +310,7 @@ impl Link {
     }
 
     /// [`halt`](Self::halt) without waiting for the replies (for `Drop`, where nothing can
-    /// await): queues commands 5 and 2 (in this order: the queue is FIFO).
+    /// await): queues commands 5 and 2 (in this order: the queue is FIFO) for the keeper task.
     pub(crate) fn halt_detached(&self) {
         self.shared.bump_epoch();
         *lock(&self.shared.last_stop) = Some(Instant::now());
@@ -288,18 +318,16 @@ impl Link {
             let Ok(text) = Request::new(command).encode() else {
                 return;
             };
-            let (reply, _) = oneshot::channel();
             let op = Op {
                 text: text.into(),
                 kind: Kind::Command,
-                motion: None,
-                reply,
             };
             if let Err(e) = self.tx.try_send(op) {
                 tracing::warn!(error = %e, "could not queue the stop of a dropped motion handle");
                 return;
             }
         }
+        // The keeper may be watching the idle connection: it serves the queue at once.
     }
 
     pub(crate) async fn close(&self) -> Result<Exchange, ClientError> {
@@ -314,11 +342,24 @@ impl Link {
 /// peer that omits it).
 const OPEN_REPLY_QUIET: Duration = Duration::from_millis(20);
 
-/// The connection with its decoder.
+/// The connection with its decoder and the request in flight.
 struct Conn {
     stream: BoxedStream,
     decoder: ReplyDecoder,
     buf: Vec<u8>,
+    /// The request on the wire, kept here so that a dropped caller's exchange can be resumed.
+    flight: Option<Flight>,
+}
+
+/// A request being written or awaiting its reply.
+struct Flight {
+    text: Cow<'static, str>,
+    written: usize,
+    sent_at: Instant,
+    write_deadline: Instant,
+    write_timeout: Duration,
+    deadline: Instant,
+    reply_timeout: Duration,
 }
 
 impl Conn {
@@ -327,6 +368,7 @@ impl Conn {
             stream,
             decoder: ReplyDecoder::new(),
             buf: vec![0; 1024],
+            flight: None,
         }
     }
 
@@ -342,29 +384,68 @@ impl Conn {
     /// Writes `text` in one write and reads its complete reply before `reply_timeout`.
     async fn exchange(
         &mut self,
-        text: &str,
+        text: Cow<'static, str>,
         write_timeout: Duration,
         reply_timeout: Duration,
     ) -> Result<Exchange, LinkError> {
+        self.begin(text, write_timeout, reply_timeout)?;
+        self.drive().await
+    }
+
+    /// Puts `text` in flight (nothing is written yet).
+    fn begin(
+        &mut self,
+        text: Cow<'static, str>,
+        write_timeout: Duration,
+        reply_timeout: Duration,
+    ) -> Result<(), LinkError> {
         if let Some(e) = self.unsolicited() {
             return Err(e);
         }
         let sent_at = Instant::now();
-        let deadline = sent_at + reply_timeout;
-        let write = async {
-            self.stream.write_all(text.as_bytes()).await?;
-            self.stream.flush().await
+        self.flight = Some(Flight {
+            text,
+            written: 0,
+            sent_at,
+            write_deadline: sent_at + write_timeout,
+            write_timeout,
+            deadline: sent_at + reply_timeout,
+            reply_timeout,
+        });
+        Ok(())
+    }
+
+    /// Writes what remains of the request in flight and reads its reply. Cancel-safe: if this
+    /// future is dropped, calling it again goes on where it stopped.
+    async fn drive(&mut self) -> Result<Exchange, LinkError> {
+        let Some(f) = self.flight.as_mut() else {
+            return Err(LinkError::SessionEnded);
         };
-        match timeout(write_timeout, write).await {
+        while f.written < f.text.len() {
+            let rest = &f.text.as_bytes()[f.written..];
+            match timeout_at(f.write_deadline, self.stream.write(rest)).await {
+                Err(_) => {
+                    return Err(LinkError::WriteTimeout {
+                        request: f.text.clone().into_owned(),
+                        deadline: f.write_timeout,
+                    })
+                }
+                Ok(Err(e)) => return Err(LinkError::io(&e)),
+                Ok(Ok(0)) => return Err(LinkError::Closed),
+                Ok(Ok(n)) => f.written += n,
+            }
+        }
+        match timeout_at(f.write_deadline, self.stream.flush()).await {
             Err(_) => {
                 return Err(LinkError::WriteTimeout {
-                    request: text.to_owned(),
-                    deadline: write_timeout,
+                    request: f.text.clone().into_owned(),
+                    deadline: f.write_timeout,
                 })
             }
             Ok(Err(e)) => return Err(LinkError::io(&e)),
             Ok(Ok(())) => {}
         }
+        let (sent_at, deadline) = (f.sent_at, f.deadline);
         let mut quiet = false;
         loop {
             let next = if std::mem::take(&mut quiet) {
@@ -376,6 +457,7 @@ impl Conn {
                 Err(e) => return Err(LinkError::Undecodable(e)),
                 Ok(Some(frame)) => {
                     let received_at = Instant::now();
+                    self.flight = None;
                     if let Some(e) = self.unsolicited() {
                         return Err(e);
                     }
@@ -410,10 +492,11 @@ impl Conn {
                     continue;
                 }
                 Err(_) => {
-                    return Err(LinkError::ReplyTimeout {
-                        request: text.to_owned(),
-                        deadline: reply_timeout,
-                    })
+                    let (request, deadline) = match &self.flight {
+                        Some(f) => (f.text.clone().into_owned(), f.reply_timeout),
+                        None => (String::new(), Duration::ZERO),
+                    };
+                    return Err(LinkError::ReplyTimeout { request, deadline });
                 }
                 Ok(Err(e)) => return Err(LinkError::io(&e)),
                 Ok(Ok(0)) => return Err(LinkError::Closed),
@@ -441,7 +524,7 @@ impl Conn {
 }
 
 /// Connects (retrying across listen gaps until the connect timeout), checks the peer with a
-/// first status poll and starts the session task.
+/// first status poll and starts the session.
 pub(crate) async fn establish(
     connector: &dyn Connector,
     common: &Arc<Common>,
@@ -473,7 +556,10 @@ pub(crate) async fn establish(
                         .saturating_duration_since(Instant::now())
                         .max(Duration::from_millis(1)),
                 );
-                match conn.exchange(POLL, cfg.write_timeout, reply_timeout).await {
+                match conn
+                    .exchange(POLL.into(), cfg.write_timeout, reply_timeout)
+                    .await
+                {
                     Ok(ex) => return Ok(spawn(conn, ex, common.clone(), connector.describe())),
                     // Something answered, but not as a controller: retrying cannot help.
                     Err(
@@ -532,6 +618,13 @@ fn spawn(conn: Conn, first: Exchange, common: Arc<Common>, target: String) -> Li
         streaming: AtomicBool::new(false),
         speed_bits: AtomicU64::new(f64::NAN.to_bits()),
         last_stop: Mutex::new(None),
+        io: Arc::new(tokio::sync::Mutex::new(Io {
+            conn: Some(conn),
+            status_tx: Some(status_tx),
+            seq: 0,
+        })),
+        last_exchange: Mutex::new(first.received_at),
+        wanted: Notify::new(),
     });
     {
         let late = first.rtt() > common.config.late_reply_after;
@@ -559,15 +652,7 @@ fn spawn(conn: Conn, first: Exchange, common: Arc<Common>, target: String) -> Li
     );
     tracing::info!(session = id, %target, "connected");
     let (tx, rx) = mpsc::channel(32);
-    let task = Task {
-        conn,
-        rx,
-        status_tx,
-        shared: shared.clone(),
-        last_exchange: first.received_at,
-        seq: 0,
-    };
-    tokio::spawn(task.run());
+    tokio::spawn(keeper(shared.clone(), rx));
     Link {
         tx,
         status: status_rx,
@@ -575,117 +660,60 @@ fn spawn(conn: Conn, first: Exchange, common: Arc<Common>, target: String) -> Li
     }
 }
 
-struct Task {
-    conn: Conn,
-    rx: mpsc::Receiver<Op>,
-    status_tx: watch::Sender<StatusSnapshot>,
-    shared: Arc<SessionShared>,
-    last_exchange: Instant,
+/// What the connection mutex guards.
+pub(crate) struct Io {
+    /// `None` once the session has ended (the connection is closed).
+    conn: Option<Conn>,
+    /// `None` once the session has ended (subscribers see the end).
+    status_tx: Option<watch::Sender<StatusSnapshot>>,
     seq: u64,
 }
 
-enum Event {
-    Read(std::io::Result<usize>),
-    Op(Option<Op>),
-    KeepAlive,
+impl std::fmt::Debug for Io {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Io")
+            .field("open", &self.conn.is_some())
+            .field("seq", &self.seq)
+            .finish()
+    }
 }
 
-impl Task {
-    async fn run(mut self) {
-        let cfg = self.shared.common.config.clone();
-        let keepalive = sleep_until(self.last_exchange + cfg.keepalive_period);
-        tokio::pin!(keepalive);
-        let end = loop {
-            let event = tokio::select! {
-                biased;
-                r = self.conn.stream.read(&mut self.conn.buf) => Event::Read(r),
-                op = self.rx.recv() => Event::Op(op),
-                _ = &mut keepalive => Event::KeepAlive,
-            };
-            match event {
-                Event::Read(Ok(n)) => {
-                    if let Err(e) = self.conn.idle_bytes(n) {
-                        break ClientError::LinkLost(e);
-                    }
-                }
-                Event::Read(Err(e)) => break ClientError::LinkLost(LinkError::io(&e)),
-                Event::KeepAlive => {
-                    // The timer is re-armed only when it fires (cheaper than on every request):
-                    // poll only if nothing was exchanged for a whole period.
-                    let due = self.last_exchange + cfg.keepalive_period;
-                    if Instant::now() < due {
-                        keepalive.as_mut().reset(due);
-                        continue;
-                    }
-                    if let Err(e) = self.round_trip(POLL, Kind::KeepAlive, &cfg).await {
-                        break e;
-                    }
-                    keepalive
-                        .as_mut()
-                        .reset(self.last_exchange + cfg.keepalive_period);
-                }
-                Event::Op(None) => {
-                    // Every handle is gone: end the session politely.
-                    let text = "1040 255 0";
-                    let _ = self.round_trip(text, Kind::Close, &cfg).await;
-                    break ClientError::Closed;
-                }
-                Event::Op(Some(op)) => {
-                    if let Some(stop) = self.handle(op, &cfg).await {
-                        break stop;
-                    }
-                }
+/// A request queued for the keeper task (a stop that nobody awaits).
+struct Op {
+    text: Cow<'static, str>,
+    kind: Kind,
+}
+
+impl SessionShared {
+    /// Takes the connection; if the keeper task holds it while watching the idle connection,
+    /// asks it to let go (after queueing, so the mutex's FIFO order hands it to this caller).
+    async fn lock_io(&self) -> OwnedMutexGuard<Io> {
+        let acquire = self.io.clone().lock_owned();
+        tokio::pin!(acquire);
+        let first = std::future::poll_fn(|cx| Poll::Ready(acquire.as_mut().poll(cx))).await;
+        match first {
+            Poll::Ready(io) => io,
+            Poll::Pending => {
+                self.wanted.notify_one();
+                acquire.await
             }
-        };
-        self.finish(end);
+        }
     }
 
-    /// Handles one request; `Some(cause)` ends the session.
-    async fn handle(&mut self, op: Op, cfg: &ClientConfig) -> Option<ClientError> {
-        if let Some(tag) = op.motion {
-            // Nobody waits for this motion any more (its future was dropped, e.g. by a
-            // timeout): nobody would learn that it was sent, nor watch or cancel it.
-            if op.reply.is_closed() {
-                self.shared.common.refused();
-                tracing::debug!(request = %op.text, "motion not sent: its caller is gone");
-                return None;
-            }
-            if let Err(e) = self.check_motion(tag) {
-                self.shared.common.refused();
-                let _ = op.reply.send(Err(e));
-                return None;
-            }
-        }
-        match self.round_trip(&op.text, op.kind, cfg).await {
-            Ok(ex) => {
-                if let Some(tag) = op.motion {
-                    self.shared.last_motion.store(tag.id, Ordering::Relaxed);
-                }
-                if op.kind == Kind::Close {
-                    let waited = self.await_close(cfg.close_timeout).await;
-                    let _ = op.reply.send(Ok(ex));
-                    if let Err(e) = waited {
-                        tracing::warn!(error = %e, "the controller did not close the connection after 255");
-                    }
-                    return Some(ClientError::Closed);
-                }
-                let _ = op.reply.send(Ok(ex));
-                None
-            }
-            Err(e) => {
-                let _ = op.reply.send(Err(e.clone()));
-                Some(e)
-            }
-        }
+    fn last_exchange(&self) -> Instant {
+        *lock(&self.last_exchange)
     }
 
     /// A motion is sent only if no cancel/stop came after it was validated and the latest
     /// status allows motion.
-    fn check_motion(&self, tag: MotionTag) -> Result<(), ClientError> {
-        if tag.epoch != self.shared.current_epoch() {
+    fn check_motion(&self, io: &Io, tag: MotionTag) -> Result<(), ClientError> {
+        if tag.epoch != self.current_epoch() {
             return Err(Cancellation::NotSent.into());
         }
-        let b = blockers(&self.status_tx.borrow().status, true);
+        let Some(status_tx) = &io.status_tx else {
+            return Err(self.death());
+        };
+        let b = blockers(&status_tx.borrow().status, true);
         if b.is_empty() {
             Ok(())
         } else {
@@ -693,85 +721,260 @@ impl Task {
         }
     }
 
-    async fn round_trip(
-        &mut self,
-        text: &str,
-        kind: Kind,
-        cfg: &ClientConfig,
-    ) -> Result<Exchange, ClientError> {
-        let common = &self.shared.common;
-        let id = self.shared.id;
-        if common.recorder.is_some() {
-            common.record(Instant::now(), id, Dir::Tx, kind.as_str(), None, text);
+    /// Statistics, clock, recording, log and status of a completed round trip.
+    fn completed(&self, io: &mut Io, text: &str, kind: Kind, ex: &Exchange) {
+        let common = &self.common;
+        let cfg = &common.config;
+        let id = self.id;
+        let rtt = ex.rtt();
+        common.record(
+            ex.received_at,
+            id,
+            Dir::Rx,
+            kind.as_str(),
+            Some(rtt),
+            &ex.frame.text,
+        );
+        {
+            let mut st = lock(&common.stats);
+            st.stats.requests += 1;
+            if kind == Kind::KeepAlive {
+                st.stats.keepalive_polls += 1;
+            }
+            st.record_rtt(rtt, rtt > cfg.late_reply_after);
         }
-        let r = self
-            .conn
-            .exchange(text, cfg.write_timeout, cfg.reply_timeout)
-            .await;
+        if let Some(t) = ex.frame.status.timer.seconds() {
+            lock(&self.clock).add(ex.sent_at, ex.received_at, t);
+        }
+        if kind == Kind::KeepAlive {
+            tracing::trace!(
+                session = id,
+                kind = kind.as_str(),
+                request = ?text,
+                reply = ?ex.frame.text,
+                rtt_us = u64::try_from(rtt.as_micros()).unwrap_or(u64::MAX),
+                "exchange"
+            );
+        } else {
+            tracing::debug!(
+                session = id,
+                kind = kind.as_str(),
+                request = ?text,
+                reply = ?ex.frame.text,
+                rtt_us = u64::try_from(rtt.as_micros()).unwrap_or(u64::MAX),
+                "exchange"
+            );
+        }
+        io.seq += 1;
+        if let Some(status_tx) = &io.status_tx {
+            status_tx.send_replace(StatusSnapshot {
+                status: ex.frame.status.clone(),
+                received_at: ex.received_at,
+                rtt,
+                seq: io.seq,
+            });
+        }
+        *lock(&self.last_exchange) = ex.received_at;
+    }
+
+    /// Ends the session: the cause is stored for every caller, the connection closed, the
+    /// status subscribers see the end.
+    fn end(&self, io: &mut Io, end: ClientError) {
+        if io.conn.is_none() {
+            return;
+        }
+        let common = &self.common;
+        if end != ClientError::Closed {
+            lock(&common.stats).stats.links_lost += 1;
+            // The cause is returned to every caller; this is only a trace for the logs.
+            tracing::info!(session = self.id, error = %end, "link lost");
+        } else {
+            tracing::info!(session = self.id, "session closed");
+        }
+        common.record(
+            Instant::now(),
+            self.id,
+            Dir::Event,
+            "end",
+            None,
+            &end.to_string(),
+        );
+        // Record the cause before anyone sees the connection gone.
+        self.set_dead(end);
+        io.conn = None;
+        io.status_tx = None;
+        // The keeper may be watching the connection: let it see the end.
+        self.wanted.notify_one();
+    }
+}
+
+/// Carries a request's exchange; if dropped before the reply is in (the caller's future was
+/// dropped), a spawned task completes it so the connection stays in lock-step.
+struct InFlight {
+    shared: Arc<SessionShared>,
+    io: Option<OwnedMutexGuard<Io>>,
+    text: Cow<'static, str>,
+    kind: Kind,
+    motion: Option<MotionTag>,
+    /// This is already the spawned completion: if it is dropped too (the runtime shuts down),
+    /// the session ends.
+    fallback: bool,
+}
+
+impl InFlight {
+    /// Completes the exchange (in the caller's task or the fallback).
+    async fn run(&mut self) -> Result<Exchange, ClientError> {
+        let Some(io) = self.io.as_mut() else {
+            return Err(self.shared.death());
+        };
+        let Some(conn) = io.conn.as_mut() else {
+            return Err(self.shared.death());
+        };
+        let r = conn.drive().await;
+        // From here on nothing awaits: the exchange is complete whether or not the caller
+        // is still there.
+        self.settle(r)
+    }
+
+    fn settle(&mut self, r: Result<Exchange, LinkError>) -> Result<Exchange, ClientError> {
+        let Some(io) = self.io.as_mut() else {
+            return Err(self.shared.death());
+        };
         match r {
             Ok(ex) => {
-                let rtt = ex.rtt();
-                common.record(
-                    ex.received_at,
-                    id,
-                    Dir::Rx,
-                    kind.as_str(),
-                    Some(rtt),
-                    &ex.frame.text,
-                );
-                {
-                    let mut st = lock(&common.stats);
-                    st.stats.requests += 1;
-                    if kind == Kind::KeepAlive {
-                        st.stats.keepalive_polls += 1;
-                    }
-                    st.record_rtt(rtt, rtt > cfg.late_reply_after);
+                self.shared.completed(io, &self.text, self.kind, &ex);
+                if let Some(tag) = self.motion {
+                    self.shared.last_motion.store(tag.id, Ordering::Relaxed);
                 }
-                if let Some(t) = ex.frame.status.timer.seconds() {
-                    lock(&self.shared.clock).add(ex.sent_at, ex.received_at, t);
-                }
-                if kind == Kind::KeepAlive {
-                    tracing::trace!(
-                        session = id,
-                        kind = kind.as_str(),
-                        request = ?text,
-                        reply = ?ex.frame.text,
-                        rtt_us = u64::try_from(rtt.as_micros()).unwrap_or(u64::MAX),
-                        "exchange"
-                    );
-                } else {
-                    tracing::debug!(
-                        session = id,
-                        kind = kind.as_str(),
-                        request = ?text,
-                        reply = ?ex.frame.text,
-                        rtt_us = u64::try_from(rtt.as_micros()).unwrap_or(u64::MAX),
-                        "exchange"
-                    );
-                }
-                self.seq += 1;
-                self.status_tx.send_replace(StatusSnapshot {
-                    status: ex.frame.status.clone(),
-                    received_at: ex.received_at,
-                    rtt,
-                    seq: self.seq,
-                });
-                self.last_exchange = ex.received_at;
                 Ok(ex)
             }
             Err(e) => {
-                tracing::debug!(session = id, kind = kind.as_str(), request = ?text, error = %e, "exchange failed");
-                lock(&common.stats).stats.requests += 1;
-                Err(ClientError::LinkLost(e))
+                tracing::debug!(session = self.shared.id, kind = self.kind.as_str(), request = ?self.text, error = %e, "exchange failed");
+                lock(&self.shared.common.stats).stats.requests += 1;
+                let e = ClientError::LinkLost(e);
+                self.shared.end(io, e.clone());
+                Err(e)
             }
         }
     }
+}
 
+impl Drop for InFlight {
+    fn drop(&mut self) {
+        let Some(io) = self.io.take() else { return };
+        if io.conn.as_ref().is_none_or(|c| c.flight.is_none()) {
+            return;
+        }
+        let mut rest = InFlight {
+            shared: self.shared.clone(),
+            io: Some(io),
+            text: self.text.clone(),
+            kind: self.kind,
+            motion: self.motion,
+            fallback: true,
+        };
+        match tokio::runtime::Handle::try_current() {
+            Ok(rt) if !self.fallback => {
+                rt.spawn(async move {
+                    // Completed (or the session ended): dropping `rest` releases the connection.
+                    let _ = rest.run().await;
+                });
+            }
+            // No runtime to finish it on: the connection cannot stay in lock-step.
+            _ => {
+                if let Some(io) = rest.io.as_mut() {
+                    rest.shared
+                        .end(io, ClientError::LinkLost(LinkError::SessionEnded));
+                }
+            }
+        }
+    }
+}
+
+/// Counts a motion as refused before sending if its caller's future is dropped while this lives.
+struct CallerGone<'a>(&'a Common);
+
+impl Drop for CallerGone<'_> {
+    fn drop(&mut self) {
+        self.0.refused();
+        tracing::debug!("motion not sent: its caller is gone");
+    }
+}
+
+/// One exchange on the connection held by `io`.
+async fn exchange_locked(
+    shared: &Arc<SessionShared>,
+    mut io: OwnedMutexGuard<Io>,
+    text: Cow<'static, str>,
+    kind: Kind,
+    motion: Option<MotionTag>,
+    second_poll: bool,
+) -> Result<Exchange, ClientError> {
+    if io.conn.is_none() {
+        return Err(shared.death());
+    }
+    if let Some(tag) = motion {
+        if second_poll {
+            let gone = CallerGone(&shared.common);
+            tokio::task::yield_now().await;
+            std::mem::forget(gone);
+        }
+        if let Err(e) = shared.check_motion(&io, tag) {
+            shared.common.refused();
+            return Err(e);
+        }
+    }
+    let common = &shared.common;
+    let cfg = &common.config;
+    if common.recorder.is_some() {
+        common.record(
+            Instant::now(),
+            shared.id,
+            Dir::Tx,
+            kind.as_str(),
+            None,
+            &text,
+        );
+    }
+    let Some(conn) = io.conn.as_mut() else {
+        return Err(shared.death());
+    };
+    if let Err(e) = conn.begin(text.clone(), cfg.write_timeout, cfg.reply_timeout) {
+        let e = ClientError::LinkLost(e);
+        shared.end(&mut io, e.clone());
+        return Err(e);
+    }
+    let mut flight = InFlight {
+        shared: shared.clone(),
+        io: Some(io),
+        text,
+        kind,
+        motion,
+        fallback: false,
+    };
+    let r = flight.run().await;
+    let Some(mut io) = flight.io.take() else {
+        return Err(shared.death());
+    };
+    let ex = r?;
+    if kind == Kind::Close {
+        let limit = cfg.close_timeout;
+        if let Some(conn) = io.conn.as_mut() {
+            if let Err(e) = conn.await_close(limit).await {
+                tracing::warn!(error = %e, "the controller did not close the connection after 255");
+            }
+        }
+        shared.end(&mut io, ClientError::Closed);
+    }
+    Ok(ex)
+}
+
+impl Conn {
     /// After 255: waits for the server to close the connection.
     async fn await_close(&mut self, limit: Duration) -> Result<(), LinkError> {
         let deadline = Instant::now() + limit;
         loop {
-            match timeout_at(deadline, self.conn.stream.read(&mut self.conn.buf)).await {
+            match timeout_at(deadline, self.stream.read(&mut self.buf)).await {
                 Err(_) => {
                     return Err(LinkError::ReplyTimeout {
                         request: "end of stream after 255".into(),
@@ -784,31 +987,155 @@ impl Task {
             }
         }
     }
+}
 
-    fn finish(mut self, end: ClientError) {
-        let common = self.shared.common.clone();
-        let now = Instant::now();
-        if end != ClientError::Closed {
-            lock(&common.stats).stats.links_lost += 1;
-            // The cause is returned to every caller; this is only a trace for the logs.
-            tracing::info!(session = self.shared.id, error = %end, "link lost");
-        } else {
-            tracing::info!(session = self.shared.id, "session closed");
+/// The session's keeper task: keep-alive polls, queued stops, the polite close when every
+/// handle is gone, and — once nothing was exchanged for half a keep-alive period — watching
+/// the idle connection for its close or for bytes nobody asked for.
+async fn keeper(shared: Arc<SessionShared>, mut rx: mpsc::Receiver<Op>) {
+    let period = shared.common.config.keepalive_period;
+    let idle_after = period / 2;
+    loop {
+        if shared.is_dead() {
+            break;
         }
+        let idle_at = shared.last_exchange() + idle_after;
+        tokio::select! {
+            biased;
+            op = rx.recv() => {
+                let mut io = shared.lock_io().await;
+                if serve(&shared, &mut io, op).await.is_break() {
+                    break;
+                }
+                continue;
+            }
+            () = sleep_until(idle_at) => {}
+        }
+        let mut io = shared.io.clone().lock_owned().await;
+        if io.conn.is_none() {
+            break;
+        }
+        if Instant::now() < shared.last_exchange() + idle_after {
+            continue;
+        }
+        // Idle: hold the connection and watch it until a caller wants it.
+        loop {
+            let due = shared.last_exchange() + period;
+            let Some(conn) = io.conn.as_mut() else {
+                return;
+            };
+            let event = tokio::select! {
+                biased;
+                r = conn.stream.read(&mut conn.buf) => Event::Read(r),
+                () = shared.wanted.notified() => Event::Wanted,
+                op = rx.recv() => Event::Op(op),
+                () = sleep_until(due) => Event::KeepAlive,
+            };
+            let step = match event {
+                Event::Read(r) => {
+                    let r = r
+                        .map_err(|e| LinkError::io(&e))
+                        .and_then(|n| conn.idle_bytes(n));
+                    match r {
+                        Ok(()) => ControlFlow::Continue(()),
+                        Err(e) => {
+                            shared.end(&mut io, ClientError::LinkLost(e));
+                            ControlFlow::Break(())
+                        }
+                    }
+                }
+                Event::Wanted => break,
+                Event::Op(op) => serve(&shared, &mut io, op).await,
+                Event::KeepAlive => {
+                    if Instant::now() < shared.last_exchange() + period {
+                        ControlFlow::Continue(())
+                    } else {
+                        let r = exchange_in(&shared, &mut io, POLL.into(), Kind::KeepAlive).await;
+                        if r.is_err() {
+                            ControlFlow::Break(())
+                        } else {
+                            ControlFlow::Continue(())
+                        }
+                    }
+                }
+            };
+            if step.is_break() {
+                return;
+            }
+        }
+        drop(io);
+    }
+    // The session ended elsewhere: fail what is still queued.
+    rx.close();
+    while rx.try_recv().is_ok() {}
+}
+
+enum Event {
+    Read(std::io::Result<usize>),
+    Wanted,
+    Op(Option<Op>),
+    KeepAlive,
+}
+
+/// Serves one queued request (`None`: every handle is gone, end the session politely).
+async fn serve(
+    shared: &Arc<SessionShared>,
+    io: &mut OwnedMutexGuard<Io>,
+    op: Option<Op>,
+) -> ControlFlow<()> {
+    if io.conn.is_none() {
+        return ControlFlow::Break(());
+    }
+    match op {
+        None => {
+            let _ = exchange_in(shared, io, "1040 255 0".into(), Kind::Close).await;
+            shared.end(io, ClientError::Closed);
+            ControlFlow::Break(())
+        }
+        Some(op) => match exchange_in(shared, io, op.text, op.kind).await {
+            Ok(_) => ControlFlow::Continue(()),
+            Err(_) => ControlFlow::Break(()),
+        },
+    }
+}
+
+/// An exchange of the keeper task on the connection it holds (not cancelled: the keeper is
+/// never dropped mid-exchange except with the runtime).
+async fn exchange_in(
+    shared: &Arc<SessionShared>,
+    io: &mut OwnedMutexGuard<Io>,
+    text: Cow<'static, str>,
+    kind: Kind,
+) -> Result<Exchange, ClientError> {
+    let common = &shared.common;
+    let cfg = &common.config;
+    if common.recorder.is_some() {
         common.record(
-            now,
-            self.shared.id,
-            Dir::Event,
-            "end",
+            Instant::now(),
+            shared.id,
+            Dir::Tx,
+            kind.as_str(),
             None,
-            &end.to_string(),
+            &text,
         );
-        // Record the cause before the queued requests see their channels close.
-        self.shared.set_dead(end.clone());
-        self.rx.close();
-        while let Ok(op) = self.rx.try_recv() {
-            let _ = op.reply.send(Err(end.clone()));
+    }
+    let Some(conn) = io.conn.as_mut() else {
+        return Err(shared.death());
+    };
+    let r = conn
+        .exchange(text.clone(), cfg.write_timeout, cfg.reply_timeout)
+        .await;
+    match r {
+        Ok(ex) => {
+            shared.completed(io, &text, kind, &ex);
+            Ok(ex)
         }
-        // Dropping `self` drops the connection and the status sender: subscribers see the end.
+        Err(e) => {
+            tracing::debug!(session = shared.id, kind = kind.as_str(), request = ?text, error = %e, "exchange failed");
+            lock(&common.stats).stats.requests += 1;
+            let e = ClientError::LinkLost(e);
+            shared.end(io, e.clone());
+            Err(e)
+        }
     }
 }

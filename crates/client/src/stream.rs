@@ -17,7 +17,7 @@ use crate::error::{Activity, ClientError, LinkError};
 use crate::lag::{LagCompensation, LagEstimator};
 use crate::motion::{only_held, LONGEST_WAIT};
 use crate::safety::{blockers, check_stream_sample, MAX_LOOKAHEAD_PASSES};
-use crate::session::{lock, Exchange, Kind, Link, MotionTag, SessionShared};
+use crate::session::{lock, Exchange, Link, MotionTag, SessionShared};
 use crate::trajectory::{OptionError, Trajectory, TrajectoryError, TrajectorySample};
 
 /// How samples are sent.
@@ -629,6 +629,7 @@ impl Streamer {
         let mut last_sent: Option<Instant> = None;
         let mut prev_pos = self.trajectory.first();
         let mut rtt_est = self.link.latest().rtt;
+        let mut next_due: Option<Instant> = None;
         loop {
             if self.cancelled() {
                 return Ok(End::Cancelled);
@@ -639,6 +640,7 @@ impl Streamer {
                     Some(held) => {
                         local_start += held;
                         last_sent = None;
+                        next_due = None;
                         continue;
                     }
                 }
@@ -707,7 +709,7 @@ impl Streamer {
                 epoch: self.epoch,
                 id: tag.id,
             };
-            let ex = match self.link.exchange(text, Kind::Motion, Some(tag)).await {
+            let ex = match self.link.exchange_own_motion(text, tag).await {
                 Ok(ex) => ex,
                 Err(ClientError::Cancelled(_)) => return Ok(End::Cancelled),
                 // HOLD arrived with a keep-alive before this sample left: it was not sent.
@@ -767,9 +769,14 @@ impl Streamer {
                 // Held: the next turn of the loop waits for RUN.
                 continue;
             }
-            let next = ex.sent_at + period;
+            // Samples on a fixed schedule, one period apart: a timer that fires late (the
+            // runtime's timers have 1 ms resolution) does not delay the ones after it, so the
+            // rate is the one asked for. Behind schedule, the next sample goes out at once.
+            let due = next_due.map_or(ex.sent_at, |d| d) + period;
+            let due = due.max(Instant::now());
+            next_due = Some(due);
             tokio::select! {
-                _ = tokio::time::sleep_until(next) => {}
+                _ = tokio::time::sleep_until(due) => {}
                 _ = epoch_rx.changed() => {}
             }
         }

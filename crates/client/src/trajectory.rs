@@ -339,6 +339,53 @@ impl Trajectory {
         s
     }
 
+    /// The position of [`sample`](Self::sample) at `t` alone, looking for the segment from
+    /// `hint` (the segment of the previous call): a caller sampling at nearby or increasing
+    /// times walks a step or two instead of searching the whole trajectory.
+    pub(crate) fn position_near(&self, t: f64, hint: &mut usize) -> JointsDeg {
+        let n = self.points.len();
+        if n == 1 || t.is_nan() || t <= self.start_s() {
+            return self.first();
+        }
+        if t >= self.end_s() {
+            return self.last();
+        }
+        // Segment i: points[i].time_s <= t < points[i + 1].time_s.
+        // A few steps from the hint, else a binary search. (start < t < end here, so both
+        // walks stop inside the trajectory.)
+        let mut i = (*hint).min(n - 2);
+        let mut steps = 0;
+        while self.points[i].time_s > t && steps < 8 {
+            i -= 1;
+            steps += 1;
+        }
+        while self.points[i + 1].time_s <= t && steps < 8 {
+            i += 1;
+            steps += 1;
+        }
+        if !(self.points[i].time_s <= t && t < self.points[i + 1].time_s) {
+            i = self.points.partition_point(|p| p.time_s <= t) - 1;
+        }
+        *hint = i;
+        let (a, b) = (&self.points[i], &self.points[i + 1]);
+        let (va, vb) = (self.velocities[i], self.velocities[i + 1]);
+        let h = b.time_s - a.time_s;
+        let s = (t - a.time_s) / h;
+        let (s2, s3) = (s * s, s * s * s);
+        let (h00, h10, h01, h11) = (
+            2.0 * s3 - 3.0 * s2 + 1.0,
+            s3 - 2.0 * s2 + s,
+            -2.0 * s3 + 3.0 * s2,
+            s3 - s2,
+        );
+        let mut p = [0.0; JOINT_COUNT];
+        for (j, p) in p.iter_mut().enumerate() {
+            let (p0, p1, m0, m1) = (a.position[j], b.position[j], va[j] * h, vb[j] * h);
+            *p = h00 * p0 + h10 * m0 + h01 * p1 + h11 * m1;
+        }
+        JointsDeg(p)
+    }
+
     /// The sample and whether its acceleration was given (interpolated from the points) rather
     /// than the spline's.
     fn sample_with_origin(&self, t: f64) -> (TrajectorySample, bool) {
@@ -537,6 +584,29 @@ mod tests {
         .unwrap()
     }
 
+    #[test]
+    fn position_near_is_the_sample_position_whatever_the_hint() {
+        let points: Vec<TrajectoryPoint> = (0..40)
+            .map(|k| {
+                let t = f64::from(k) * 0.004 + if k > 20 { 0.01 } else { 0.0 };
+                TrajectoryPoint::new(
+                    t,
+                    JointsDeg::new([(t * 7.0).sin() * 20.0, t, -90.0, 0.0, -90.0, 0.0]),
+                )
+            })
+            .collect();
+        let tr = Trajectory::new(points).unwrap();
+        let mut hint = 0;
+        for (k, t) in (-10..200)
+            .chain((-10..200).rev())
+            .map(|k| (k, f64::from(k) * 0.0009))
+        {
+            let want = tr.sample(t).position;
+            assert_eq!(tr.position_near(t, &mut hint), want, "t {t} (step {k})");
+            let mut far = 37;
+            assert_eq!(tr.position_near(t, &mut far), want, "t {t}, hint far away");
+        }
+    }
     #[test]
     fn structure_is_checked() {
         assert_eq!(Trajectory::new(vec![]), Err(TrajectoryError::Empty));

@@ -1079,3 +1079,87 @@ async fn start_right_after_a_session_ended_with_the_program_running() {
         assert!(second.poll().await.unwrap().task_running);
     }
 }
+
+/// A request whose caller's future is dropped while it is on the wire is completed anyway: its
+/// reply is read and published, and the next request gets its own reply (lock-step holds).
+#[tokio::test(start_paused = true)]
+async fn a_request_dropped_on_the_wire_completes_and_the_link_stays_in_step() {
+    let emu = emulator();
+    let robot = connect(&emu).await;
+    let seq = robot.status().seq;
+    let effective_before = effective(&emu);
+    emu.with(|c| {
+        c.inject(Fault::DelayReplies {
+            count: 1,
+            delay_ms: 300,
+        })
+    });
+    let speed = robot.set_speed(37.0);
+    assert!(
+        tokio::time::timeout(Duration::from_millis(50), speed)
+            .await
+            .is_err(),
+        "dropped while its reply is delayed"
+    );
+    // The next request waits for the dropped one's reply, then gets its own.
+    let status = robot.poll().await.unwrap();
+    assert_eq!(status.joints, home());
+    assert_eq!(effective(&emu), effective_before + 1, "the 3 was sent once");
+    assert_eq!(emu.with(|c| c.monitor_speed()), 37.0);
+    assert!(robot.status().seq >= seq + 2, "both replies were published");
+    assert!(robot.is_connected());
+}
+
+/// Requests from many tasks at once go out one at a time, each with its own reply.
+#[tokio::test(start_paused = true)]
+async fn concurrent_requests_stay_in_lock_step() {
+    let emu = emulator();
+    let robot = std::sync::Arc::new(connect(&emu).await);
+    let before = robot.stats().requests;
+    let mut tasks = tokio::task::JoinSet::new();
+    for k in 0..16 {
+        let r = robot.clone();
+        tasks.spawn(async move {
+            if k % 2 == 0 {
+                r.poll().await.map(|_| ())
+            } else {
+                r.set_speed(f64::from(10 + k)).await.map(|_| ())
+            }
+        });
+    }
+    while let Some(r) = tasks.join_next().await {
+        r.unwrap().unwrap();
+    }
+    assert!(robot.stats().requests >= before + 16);
+    assert!(robot.is_connected());
+    assert!(robot.poll().await.is_ok());
+}
+
+/// Samples go out on a fixed schedule: the runtime's timers fire on whole milliseconds, and a
+/// period of 4.5 ms must still give 222 samples a second, not 200 (each late timer delaying
+/// the ones after it).
+#[tokio::test(start_paused = true)]
+async fn a_stream_keeps_its_rate_when_timers_fire_late() {
+    let emu = emulator();
+    let robot = ready(&emu, 100.0).await;
+    let period = Duration::from_micros(4500);
+    let opts = StreamOptions {
+        period,
+        max_gap: StreamOptions::default().max_gap.max(period * 2),
+        ..StreamOptions::default()
+    };
+    let report = robot
+        .stream(jt1_ramp(0.0, 10.0, 2.0), opts)
+        .await
+        .unwrap()
+        .wait()
+        .await
+        .unwrap();
+    assert_eq!(report.outcome, StreamOutcome::Completed);
+    let expected = 2.0 / period.as_secs_f64();
+    let sent = report.samples_sent as f64;
+    assert!(
+        sent >= expected * 0.97 && sent <= expected * 1.03 + 2.0,
+        "{sent} samples, {expected:.0} expected"
+    );
+}

@@ -129,7 +129,9 @@ impl ReplyDecoder {
         match decoded {
             Ok(status) => {
                 // Only reply bytes (ASCII) were accepted, so the text is exact.
-                let text = String::from_utf8_lossy(&self.buf[..end]).into_owned();
+                let text = std::str::from_utf8(&self.buf[..end])
+                    .map(str::to_owned)
+                    .unwrap_or_default();
                 self.buf.drain(..end);
                 Ok(Some(ReplyFrame { status, text }))
             }

@@ -385,6 +385,11 @@ pub(crate) fn parse_field(token: &str) -> Option<f64> {
     if b.is_empty() || numeric_prefix_len(b) != b.len() {
         return None;
     }
+    // The reply's numbers are short decimals: read them without the general parser (the same
+    // double, see `short_decimal`).
+    if let Some(v) = short_decimal(b) {
+        return Some(v);
+    }
     token.parse::<f64>().ok().filter(|v| v.is_finite())
 }
 
@@ -510,6 +515,20 @@ mod tests {
         ) {
             for t in [text, mix, format!("{v}"), format!("{v:.3}"), format!("{i}"), format!("{:.6}", v / 1e300)] {
                 proptest::prop_assert_eq!(as_val(&t).to_bits(), reference_val(&t).to_bits(), "{:?}", t);
+            }
+        }
+
+        /// Reply fields read through the short-decimal path are the standard parser's doubles,
+        /// bit for bit (signed zeros included); what it cannot read goes to that parser.
+        #[test]
+        fn reply_fields_read_as_the_standard_parser_reads(
+            text in "[+-]?[0-9]{0,18}\\.?[0-9]{0,18}([eE][+-]?[0-9]{1,3})?",
+            v in proptest::prelude::any::<f64>().prop_filter("finite", |v| v.is_finite()),
+        ) {
+            for t in [text, format!("{v}"), format!("{v:.3}"), format!("{:.3}", v / 1e300)] {
+                let whole = !t.is_empty() && numeric_prefix_len(t.as_bytes()) == t.len();
+                let reference = t.parse::<f64>().ok().filter(|x| whole && x.is_finite());
+                proptest::prop_assert_eq!(parse_field(&t).map(f64::to_bits), reference.map(f64::to_bits), "{:?}", t);
             }
         }
 

@@ -3,9 +3,11 @@
  * Connects to 127.0.0.1:PORT (TCP_NODELAY), then N times: one write of the status poll
  * "0 0 0" (what fs020n-client sends), read until the reply is complete (14 blank-separated
  * fields, the last followed by a blank). Prints {"count": N, "rate_hz": R} and exits.
+ * With PERIOD_US, one round trip every PERIOD_US microseconds on a fixed schedule
+ * (clock_nanosleep): the reference for the client's CPU while streaming.
  * No error recovery beyond retrying the connect across the emulator's listen gaps.
  *
- *   cc -O2 -o rt_client rt_client.c && ./rt_client 10050 20000
+ *   cc -O2 -o rt_client rt_client.c && ./rt_client 10050 20000 [PERIOD_US]
  */
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -46,12 +48,13 @@ static int round_trip(int fd) {
 }
 
 int main(int argc, char **argv) {
-    if (argc != 3) {
-        fprintf(stderr, "usage: %s PORT COUNT\n", argv[0]);
+    if (argc != 3 && argc != 4) {
+        fprintf(stderr, "usage: %s PORT COUNT [PERIOD_US]\n", argv[0]);
         return 2;
     }
     int port = atoi(argv[1]);
     long count = atol(argv[2]);
+    long period_ns = argc == 4 ? atol(argv[3]) * 1000 : 0;
     struct sockaddr_in addr = {.sin_family = AF_INET, .sin_port = htons((unsigned short)port)};
     inet_pton(AF_INET, "127.0.0.1", &addr.sin_addr);
     int fd = -1;
@@ -70,10 +73,20 @@ int main(int argc, char **argv) {
         return 1;
     }
     double start = now_s();
+    struct timespec next;
+    clock_gettime(CLOCK_MONOTONIC, &next);
     for (long k = 0; k < count; k++) {
         if (round_trip(fd) != 0) {
             fprintf(stderr, "link lost after %ld round trips\n", k);
             return 1;
+        }
+        if (period_ns > 0) {
+            next.tv_nsec += period_ns;
+            while (next.tv_nsec >= 1000000000L) {
+                next.tv_nsec -= 1000000000L;
+                next.tv_sec++;
+            }
+            clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, NULL);
         }
     }
     double elapsed = now_s() - start;
