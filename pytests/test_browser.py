@@ -165,19 +165,25 @@ def test_the_page_shows_the_as_programs_tasks_and_terminal(driver):
         assert "server1040.as" in driver.find_element(By.ID, "as-program").text
 
         def row(task):
-            return driver.find_element(By.CSS_SELECTOR, f'#as-tasks tr[data-task="{task}"]')
+            """(state, text) of a task's row, read in one script: the page replaces the rows
+            when they change, so an element found earlier may be gone."""
+            return driver.execute_script(
+                "const r = document.querySelector('#as-tasks tr[data-task=\"' + arguments[0] + '\"]');"
+                " return r ? [r.dataset.state, r.textContent] : [null, ''];",
+                task,
+            )
 
-        wait_until(lambda: "TCP_ACCEPT" in row("pc1").text, what="PC task 1 waiting in TCP_ACCEPT")
-        assert row("pc1").get_attribute("data-state") == "running"
-        assert "autostart.pc" in row("pc1").text
-        assert row("robot").get_attribute("data-state") == "idle"
+        wait_until(lambda: "TCP_ACCEPT" in row("pc1")[1], what="PC task 1 waiting in TCP_ACCEPT")
+        state, text = row("pc1")
+        assert state == "running" and "autostart.pc" in text, (state, text)
+        assert row("robot")[0] == "idle"
         wait_until(lambda: "autostart.pc started in PC task 1" in driver.find_element(By.ID, "as-terminal").text,
                    what="the terminal line")
         # A client starts the motion program: the robot task runs it.
         raw = Raw(s.info["listen"])
         raw.request("1040 1 0")
-        wait_until(lambda: row("robot").get_attribute("data-state") == "running", what="the robot task running")
-        assert "ros_move" in row("robot").text.lower()
+        wait_until(lambda: row("robot")[0] == "running", what="the robot task running")
+        assert "ros_move" in row("robot")[1].lower()
         raw.close()
     finally:
         s.stop()
