@@ -779,6 +779,38 @@ impl SessionShared {
 
     /// Ends the session: the cause is stored for every caller, the connection closed, the
     /// status subscribers see the end.
+    /// Records a request about to be written (when recording).
+    fn record_request(&self, kind: Kind, text: &str) {
+        if self.common.recorder.is_some() {
+            self.common
+                .record(Instant::now(), self.id, Dir::Tx, kind.as_str(), None, text);
+        }
+    }
+
+    /// The outcome of an exchange on the connection held by `io`: a reply is published and
+    /// counted; a link error ends the session.
+    fn settle(
+        &self,
+        io: &mut Io,
+        text: &str,
+        kind: Kind,
+        r: Result<Exchange, LinkError>,
+    ) -> Result<Exchange, ClientError> {
+        match r {
+            Ok(ex) => {
+                self.completed(io, text, kind, &ex);
+                Ok(ex)
+            }
+            Err(e) => {
+                tracing::debug!(session = self.id, kind = kind.as_str(), request = ?text, error = %e, "exchange failed");
+                lock(&self.common.stats).stats.requests += 1;
+                let e = ClientError::LinkLost(e);
+                self.end(io, e.clone());
+                Err(e)
+            }
+        }
+    }
+
     fn end(&self, io: &mut Io, end: ClientError) {
         if io.conn.is_none() {
             return;
@@ -840,22 +872,11 @@ impl InFlight {
         let Some(io) = self.io.as_mut() else {
             return Err(self.shared.death());
         };
-        match r {
-            Ok(ex) => {
-                self.shared.completed(io, &self.text, self.kind, &ex);
-                if let Some(tag) = self.motion {
-                    self.shared.last_motion.store(tag.id, Ordering::Relaxed);
-                }
-                Ok(ex)
-            }
-            Err(e) => {
-                tracing::debug!(session = self.shared.id, kind = self.kind.as_str(), request = ?self.text, error = %e, "exchange failed");
-                lock(&self.shared.common.stats).stats.requests += 1;
-                let e = ClientError::LinkLost(e);
-                self.shared.end(io, e.clone());
-                Err(e)
-            }
+        let ex = self.shared.settle(io, &self.text, self.kind, r)?;
+        if let Some(tag) = self.motion {
+            self.shared.last_motion.store(tag.id, Ordering::Relaxed);
         }
+        Ok(ex)
     }
 }
 
@@ -924,18 +945,8 @@ async fn exchange_locked(
             return Err(e);
         }
     }
-    let common = &shared.common;
-    let cfg = &common.config;
-    if common.recorder.is_some() {
-        common.record(
-            Instant::now(),
-            shared.id,
-            Dir::Tx,
-            kind.as_str(),
-            None,
-            &text,
-        );
-    }
+    let cfg = &shared.common.config;
+    shared.record_request(kind, &text);
     let Some(conn) = io.conn.as_mut() else {
         return Err(shared.death());
     };
@@ -1107,35 +1118,13 @@ async fn exchange_in(
     text: Cow<'static, str>,
     kind: Kind,
 ) -> Result<Exchange, ClientError> {
-    let common = &shared.common;
-    let cfg = &common.config;
-    if common.recorder.is_some() {
-        common.record(
-            Instant::now(),
-            shared.id,
-            Dir::Tx,
-            kind.as_str(),
-            None,
-            &text,
-        );
-    }
+    let cfg = &shared.common.config;
+    shared.record_request(kind, &text);
     let Some(conn) = io.conn.as_mut() else {
         return Err(shared.death());
     };
     let r = conn
         .exchange(text.clone(), cfg.write_timeout, cfg.reply_timeout)
         .await;
-    match r {
-        Ok(ex) => {
-            shared.completed(io, &text, kind, &ex);
-            Ok(ex)
-        }
-        Err(e) => {
-            tracing::debug!(session = shared.id, kind = kind.as_str(), request = ?text, error = %e, "exchange failed");
-            lock(&common.stats).stats.requests += 1;
-            let e = ClientError::LinkLost(e);
-            shared.end(io, e.clone());
-            Err(e)
-        }
-    }
+    shared.settle(io, &text, kind, r)
 }
