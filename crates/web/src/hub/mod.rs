@@ -467,18 +467,7 @@ impl Hub {
             .try_read()
             .ok()
             .map(|r| r.status().status.joints);
-        let r = fence.check_path(current.as_ref(), path);
-        if let Err(v) = &r {
-            lock(&self.inner.book).counters.refused_fence += 1;
-            self.log(
-                None,
-                "refused",
-                None,
-                Some(Refusal::Fence),
-                format!("a path was refused by the fence: {v}"),
-            );
-        }
-        r
+        self.fence_verdict("a path", fence.check_path(current.as_ref(), path))
     }
 
     /// Checks a monitor speed (percent) against the fence's speed cap. `Ok` without a fence.
@@ -490,6 +479,15 @@ impl Hub {
             &fs020n_proto::Command::SetSpeed { percent },
             &JointsDeg([0.0; 6]),
         );
+        self.fence_verdict("a speed", r)
+    }
+
+    /// Counts and logs a fence refusal of an in-process user's `what` (a path, a speed).
+    fn fence_verdict(
+        &self,
+        what: &str,
+        r: Result<(), FenceViolation>,
+    ) -> Result<(), FenceViolation> {
         if let Err(v) = &r {
             lock(&self.inner.book).counters.refused_fence += 1;
             self.log(
@@ -497,7 +495,7 @@ impl Hub {
                 "refused",
                 None,
                 Some(Refusal::Fence),
-                format!("a speed was refused by the fence: {v}"),
+                format!("{what} was refused by the fence: {v}"),
             );
         }
         r
