@@ -1,0 +1,121 @@
+//! A trace of the emulator's behaviour under a long command-7 stream, to check that a change
+//! meant to be a pure optimization computes the same motion: every reply's bytes, and at every
+//! 2 ms tick the controller time, the pass and motion counters, the motions in progress, the
+//! phase and the joints (as exact bit patterns and as decimals).
+//!
+//! ```text
+//! cargo run --release -p fs020n-sim --example stream_trace -- [SECONDS] > trace.txt
+//! ```
+//!
+//! The stream is the `stream_speed` trajectory at monitor 100 %, interrupted by the other
+//! commands and panel operations that change the motion: command 6 (a joint move), 5 (cancel:
+//! BRAKE with a motion planned by look-ahead), 2 and 1 (stop and restart the program), 3 (the
+//! monitor speed down to 10 % and back), HOLD and RUN. Two builds compute the same motion when
+//! their traces are the same except for the last bits of the joints (compare the reply lines
+//! and the tick lines' counters exactly, the joints within a tolerance).
+
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::time::Duration;
+
+use fs020n_proto::{Command, JointsDeg, Request, StreamSample};
+use fs020n_sim::{Controller, ControllerConfig};
+
+fn sample(t: f64, t0_s: f64) -> StreamSample {
+    let w = 0.8;
+    let amp = [30.0, 10.0, 10.0, 20.0, 15.0, 40.0];
+    let base = [0.0, 10.0, -80.0, 0.0, -80.0, 0.0];
+    let mut p = [0.0; 6];
+    let mut v = [0.0; 6];
+    let mut a = [0.0; 6];
+    for j in 0..6 {
+        let ph = w * t + j as f64;
+        p[j] = base[j] + amp[j] * ph.sin() - amp[j] * (j as f64).sin();
+        v[j] = amp[j] * w * ph.cos();
+        a[j] = -amp[j] * w * w * ph.sin();
+    }
+    StreamSample {
+        t0_s,
+        lookahead_passes: 1.0,
+        position: JointsDeg::new(p),
+        velocity: JointsDeg::new(v),
+        acceleration: JointsDeg::new(a),
+    }
+}
+
+fn main() {
+    let seconds: u32 = std::env::args()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(60);
+    let mut c = Controller::new(ControllerConfig {
+        joints: JointsDeg::new([0.0, 10.0, -80.0, 0.0, -80.0, 0.0]),
+        ..ControllerConfig::default()
+    });
+    let id = c.try_accept().expect("the controller listens at time zero");
+    let mut out = String::new();
+    let send = |c: &mut Controller, out: &mut String, bytes: &[u8]| {
+        let h = c
+            .handle_request(id, bytes)
+            .expect("the session stays open");
+        let _ = writeln!(
+            out,
+            "reply {:.6} {}",
+            c.now().as_secs_f64(),
+            String::from_utf8_lossy(&h.reply).replace('\n', "|")
+        );
+    };
+    send(&mut c, &mut out, b"1040 1 0");
+    send(&mut c, &mut out, b"1040 3 1 100");
+    let mut t = 0.0;
+    let steps = seconds * 100;
+    for k in 0..steps {
+        // Every 10 simulated seconds, a different interruption.
+        let phase = k % 1000;
+        let round = (k / 1000) % 5;
+        let request = match (round, phase) {
+            (1, 300) => Some("1040 5 0".to_owned()),
+            (2, 300) => Some("1040 2 0".to_owned()),
+            (2, 400) => Some("1040 1 0".to_owned()),
+            (3, 200) => Some("1040 3 1 10".to_owned()),
+            (3, 600) => Some("1040 3 1 100".to_owned()),
+            (4, 300) => Some("1040 6 9 0 0 0 5 12 -75 10 -70 20".to_owned()),
+            _ => None,
+        };
+        if round == 1 && phase == 500 {
+            c.set_run(false);
+        }
+        if round == 1 && phase == 700 {
+            c.set_run(true);
+        }
+        let request = request.unwrap_or_else(|| {
+            let s = sample(t, c.timer1_s());
+            Request::new(Command::StreamedMove(s))
+                .encode()
+                .expect("a finite sample encodes")
+        });
+        send(&mut c, &mut out, request.as_bytes());
+        for _ in 0..5 {
+            c.advance_by(Duration::from_millis(2));
+            let n = c.counters();
+            let q = c.joints();
+            let bits: Vec<String> = q.iter().map(|v| format!("{:016x}", v.to_bits())).collect();
+            let dec: Vec<String> = q.iter().map(|v| format!("{v:.12}")).collect();
+            let _ = writeln!(
+                out,
+                "tick {:.6} passes {} motions {} active {} planned {} {:?} err {} joints {} bits {}",
+                c.now().as_secs_f64(),
+                n.passes,
+                n.motions,
+                c.robot().active_count(),
+                c.robot().has_planned(),
+                c.motion_phase(),
+                c.error(),
+                dec.join(" "),
+                bits.join(" ")
+            );
+        }
+        t += 0.01;
+    }
+    let _ = std::io::stdout().write_all(out.as_bytes());
+}
