@@ -231,7 +231,32 @@ impl RobotModel {
     /// The flange position in the base frame, metres: exactly `forward(q).position_m()`,
     /// without building the orientation (cheaper when only distances matter).
     pub fn flange_position_m(&self, q: &JointsRad) -> Vector3<f64> {
-        frames(&self.geometry, q).flange
+        // The flange axis is the third column of R06 = R03·Rz(q4)·Ry(−q5)·Rz(q6); Rz(q6)
+        // keeps it, so it is R04·(sin(−q5), 0, cos(−q5)) with R04's first and third columns:
+        // the same products and sums as `frames` (the terms dropped are exact zeros), without
+        // JT6 and the rest of the orientation.
+        let g = &self.geometry;
+        let (s1, c1) = q[0].sin_cos();
+        let (s2, c2) = q[1].sin_cos();
+        let (s23, c23) = (q[1] - q[2]).sin_cos();
+        let (s4, c4) = q[3].sin_cos();
+        let (s5, c5) = (-q[4]).sin_cos();
+        let shoulder = Vector3::new(
+            g.shoulder_offset_m * c1,
+            g.shoulder_offset_m * s1,
+            g.base_height_m,
+        );
+        let elbow = shoulder + g.upper_arm_m * Vector3::new(c1 * s2, s1 * s2, c2);
+        let wrist = elbow + g.forearm_m * Vector3::new(c1 * s23, s1 * s23, c23);
+        // R03's columns: (c1·c23, s1·c23, −s23), (−s1, c1, 0), (c1·s23, s1·s23, c23).
+        let r04_x = Vector3::new(
+            c1 * c23 * c4 + -s1 * s4,
+            s1 * c23 * c4 + c1 * s4,
+            -s23 * c4,
+        );
+        let r04_z = Vector3::new(c1 * s23, s1 * s23, c23);
+        let axis = r04_x * s5 + r04_z * c5;
+        wrist + g.flange_m * axis
     }
 
     /// Forward kinematics of a tool point: `forward(q) * tool`, where `tool` is the tool frame
@@ -260,6 +285,21 @@ impl RobotModel {
         pose: &Pose,
         seed: &JointsRad,
     ) -> Result<IkSolutions, IkError> {
+        let mut out = IkSolutions::new();
+        self.for_each_branch(pose, seed, |v| push_product(&mut out, v))?;
+        Ok(out)
+    }
+
+    /// The kinematic branches of `pose` (shoulder front/back, elbow up/down, wrist flip, in
+    /// the order of [`RobotModel::inverse_all_seeded`]), each with the in-range 360° variants
+    /// of its joints, handed to `each`. Fails as `inverse_all_seeded` does when no branch has
+    /// an in-range variant.
+    fn for_each_branch(
+        &self,
+        pose: &Pose,
+        seed: &JointsRad,
+        mut each: impl FnMut(&Variants),
+    ) -> Result<(), IkError> {
         if !pose.is_finite() || !seed.is_finite() {
             return Err(IkError::NonFinite);
         }
@@ -283,7 +323,7 @@ impl RobotModel {
         let s = wc.z - d1;
         let (inner, outer) = ((a2 - d4).abs(), a2 + d4);
 
-        let mut out = IkSolutions::new();
+        let mut found = false;
         let mut excess = f64::INFINITY;
         let mut kinematic = 0usize;
         let mut first_violation: Option<LimitError> = None;
@@ -341,7 +381,10 @@ impl RobotModel {
                     kinematic += 1;
                     let base = [q1, q2, q3, w[0], w[1], w[2]];
                     match self.variants(&base) {
-                        Ok(v) => push_product(&mut out, &v),
+                        Ok(v) => {
+                            found = true;
+                            each(&v);
+                        }
                         Err(e) => {
                             first_violation.get_or_insert(e);
                         }
@@ -350,8 +393,8 @@ impl RobotModel {
             }
         }
 
-        if !out.is_empty() {
-            Ok(out)
+        if found {
+            Ok(())
         } else if let Some(first) = first_violation {
             Err(IkError::OutsideLimits {
                 solutions: kinematic,
@@ -365,21 +408,47 @@ impl RobotModel {
     /// The in-range solution nearest to `seed` (smallest sum of squared joint differences,
     /// radians). Undetermined joints at a singularity are taken from the seed (see
     /// `docs/KINEMATICS.md`).
+    ///
+    /// Of the solutions in the order of [`RobotModel::inverse_all_seeded`], the first with the
+    /// smallest distance. The distance is a sum over the joints, so within a branch the nearest
+    /// solution takes each joint's nearest 360° variant: the branch's variants are not
+    /// enumerated (a seed exactly halfway between two variants of a joint, 180° from both, is
+    /// a tie either way).
     pub fn inverse_nearest(&self, pose: &Pose, seed: &JointsRad) -> Result<JointsRad, IkError> {
-        let all = self.inverse_all_seeded(pose, seed)?;
-        let mut best = all[0];
+        let mut best = JointsRad::ZERO;
         let mut best_d = f64::INFINITY;
-        for q in &all {
+        let mut first = true;
+        self.for_each_branch(pose, seed, |v| {
+            let mut q = JointsRad::ZERO;
+            for i in 0..JOINT_COUNT {
+                let values = &v.values[i][..v.counts[i]];
+                let mut x = values[0];
+                let mut dx = (x - seed[i]) * (x - seed[i]);
+                for &y in &values[1..] {
+                    let dy = (y - seed[i]) * (y - seed[i]);
+                    if dy < dx {
+                        (x, dx) = (y, dy);
+                    }
+                }
+                q[i] = x;
+            }
             let d: f64 = q
                 .iter()
                 .zip(seed.iter())
                 .map(|(a, b)| (a - b) * (a - b))
                 .sum();
+            if first {
+                // The first solution, kept when no distance is smaller than infinity.
+                for i in 0..JOINT_COUNT {
+                    best[i] = v.values[i][0];
+                }
+                first = false;
+            }
             if d < best_d {
                 best_d = d;
-                best = *q;
+                best = q;
             }
-        }
+        })?;
         Ok(best)
     }
 
@@ -557,6 +626,59 @@ mod tests {
             let q = JointsDeg::new(q).to_rad();
             assert_eq!(m.flange_position_m(&q), m.forward(&q).position_m());
         }
+    }
+
+    /// `inverse_nearest` picks exactly the solution a scan of all solutions picks (the first
+    /// with the smallest sum of squared differences), over many poses and seeds, near and far.
+    #[test]
+    fn inverse_nearest_is_the_nearest_of_all_solutions() {
+        let m = RobotModel::fs020n();
+        // A small deterministic generator (no dependency).
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let mut uniform = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut checked = 0;
+        for _ in 0..3000 {
+            let mut q = JointsDeg::ZERO;
+            let mut seed = JointsDeg::ZERO;
+            for (i, spec) in m.joints.iter().enumerate() {
+                q[i] = spec.min_deg + (spec.max_deg - spec.min_deg) * uniform();
+                // Seeds near the configuration (the planner's case) and anywhere.
+                seed[i] = if checked % 2 == 0 {
+                    q[i] + 4.0 * (uniform() - 0.5)
+                } else {
+                    -400.0 + 800.0 * uniform()
+                };
+            }
+            let (pose, seed) = (m.forward(&q.to_rad()), seed.to_rad());
+            let all = m.inverse_all_seeded(&pose, &seed);
+            let nearest = m.inverse_nearest(&pose, &seed);
+            match (all, nearest) {
+                (Ok(all), Ok(nearest)) => {
+                    let mut best = all[0];
+                    let mut best_d = f64::INFINITY;
+                    for s in &all {
+                        let d: f64 = s
+                            .iter()
+                            .zip(seed.iter())
+                            .map(|(a, b)| (a - b) * (a - b))
+                            .sum();
+                        if d < best_d {
+                            (best, best_d) = (*s, d);
+                        }
+                    }
+                    assert_eq!(nearest, best, "pose {pose:?} seed {seed:?}");
+                    checked += 1;
+                }
+                (Err(a), Err(b)) => assert_eq!(a, b),
+                (a, b) => panic!("{a:?} vs {b:?}"),
+            }
+        }
+        assert!(checked > 2500, "{checked}");
     }
 
     #[test]

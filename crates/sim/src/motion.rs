@@ -419,6 +419,37 @@ pub struct Robot {
     /// The flange pose at `target`, computed once per target (the blending test compares the
     /// tool with it every tick while a motion waits).
     target_pose: Cell<Option<(JointsDeg, Pose)>>,
+    /// The last blending test that failed, to skip tests whose outcome is known.
+    blend_ref: Cell<Option<BlendRef>>,
+}
+
+/// The last blending test that found the tool outside the ACCURACY sphere
+/// ([`Robot::ready_for_next`]).
+#[derive(Debug, Clone, Copy)]
+struct BlendRef {
+    /// The joints then.
+    joints: JointsDeg,
+    /// The target then, and the ACCURACY.
+    target: JointsDeg,
+    accuracy_mm: f64,
+    /// How far the tool was outside the sphere, metres, less a margin for rounding.
+    slack_m: f64,
+}
+
+/// Margin on the distance to the ACCURACY sphere for the rounding of the forward kinematics
+/// (≈ 1e-15 m) and of the bound: a nanometre.
+const BLEND_MARGIN_M: f64 = 1e-9;
+
+/// For each joint, a bound on the distance from its axis to the flange in any configuration,
+/// metres: the lengths of the links after it. Turning joint `j` by `δ` radians moves the flange
+/// by at most `R_j·|δ|`, so a joint change `Δq` moves it by at most `Σ R_j |Δq_j|`.
+fn reach_bounds_m(model: &RobotModel) -> [f64; JOINT_COUNT] {
+    let g = &model.geometry;
+    let wrist = g.flange_m.abs();
+    let forearm = g.forearm_m.abs() + wrist;
+    let upper = g.upper_arm_m.abs() + forearm;
+    let base = g.shoulder_offset_m.abs() + upper;
+    [base, upper, forearm, wrist, wrist, 0.0]
 }
 
 /// Time for HOLD to bring the motion to a pause (and for RUN to resume it), seconds.
@@ -439,6 +470,7 @@ impl Robot {
             hold_scale: 1.0,
             held: false,
             target_pose: Cell::new(None),
+            blend_ref: Cell::new(None),
         }
     }
 
@@ -504,9 +536,34 @@ impl Robot {
         if self.active.is_empty() {
             return true;
         }
+        // Since the last exact test said "not yet", the tool has moved at most
+        // Σ R_j |Δq_j| (see `reach_bounds_m`): while that is less than the distance it had
+        // left to the ACCURACY sphere, it is still outside, and the test's outcome is known
+        // without the forward kinematics.
+        if let Some(r) = self.blend_ref.get() {
+            if r.accuracy_mm.to_bits() == accuracy_mm.to_bits() && same_bits(&r.target, &self.target)
+            {
+                let reach = reach_bounds_m(model);
+                let mut moved = 0.0;
+                for j in 0..JOINT_COUNT {
+                    moved += reach[j] * (self.joints[j] - r.joints[j]).abs();
+                }
+                if moved * std::f64::consts::PI / 180.0 < r.slack_m {
+                    return false;
+                }
+            }
+        }
         let here = model.flange_position_m(&self.joints.to_rad());
         let there = self.target_pose(model).position_m();
-        (here - there).norm() * 1000.0 <= accuracy_mm
+        let distance_m = (here - there).norm();
+        let ready = distance_m * 1000.0 <= accuracy_mm;
+        self.blend_ref.set((!ready).then_some(BlendRef {
+            joints: self.joints,
+            target: self.target,
+            accuracy_mm,
+            slack_m: (distance_m - accuracy_mm / 1000.0) * (1.0 - 1e-9) - BLEND_MARGIN_M,
+        }));
+        ready
     }
 
     /// The flange pose at [`target`](Self::target) (`model.forward(target)`), cached.
