@@ -286,18 +286,20 @@ impl RobotModel {
         seed: &JointsRad,
     ) -> Result<IkSolutions, IkError> {
         let mut out = IkSolutions::new();
-        self.for_each_branch(pose, seed, |v| push_product(&mut out, v))?;
+        self.for_each_branch(pose, seed, |_| false, |v| push_product(&mut out, v))?;
         Ok(out)
     }
 
     /// The kinematic branches of `pose` (shoulder front/back, elbow up/down, wrist flip, in
     /// the order of [`RobotModel::inverse_all_seeded`]), each with the in-range 360° variants
     /// of its joints, handed to `each`. Fails as `inverse_all_seeded` does when no branch has
-    /// an in-range variant.
+    /// an in-range variant. Once one has, `skip` is asked with the first joints of a branch
+    /// (JT1, then JT1–JT3) whether the rest of it can be left out.
     fn for_each_branch(
         &self,
         pose: &Pose,
         seed: &JointsRad,
+        skip: impl Fn(&[f64]) -> bool,
         mut each: impl FnMut(&Variants),
     ) -> Result<(), IkError> {
         if !pose.is_finite() || !seed.is_finite() {
@@ -329,6 +331,9 @@ impl RobotModel {
         let mut first_violation: Option<LimitError> = None;
 
         for (q1, r_plane) in [(q1_front, rho - a1), (wrap(q1_front + PI), -rho - a1)] {
+            if found && skip(&[q1]) {
+                continue;
+            }
             let dist = r_plane.hypot(s);
             let cos3 = (dist * dist - a2 * a2 - d4 * d4) / (2.0 * a2 * d4);
             if !(-1.0 - REACH_EPS..=1.0 + REACH_EPS).contains(&cos3) {
@@ -352,6 +357,9 @@ impl RobotModel {
                 let q3 = sign * a3;
                 let (s3, c3) = q3.sin_cos();
                 let q2 = wrap(r_plane.atan2(s) - (-d4 * s3).atan2(a2 + d4 * c3));
+                if found && skip(&[q1, q2, q3]) {
+                    continue;
+                }
                 let r03 = rz(q1) * ry(q2 - q3);
                 let m = r03.transpose() * r;
                 let sb = m[(0, 2)].hypot(m[(1, 2)]);
@@ -415,10 +423,22 @@ impl RobotModel {
     /// enumerated (a seed exactly halfway between two variants of a joint, 180° from both, is
     /// a tie either way).
     pub fn inverse_nearest(&self, pose: &Pose, seed: &JointsRad) -> Result<JointsRad, IkError> {
-        let mut best = JointsRad::ZERO;
-        let mut best_d = f64::INFINITY;
+        let best = std::cell::Cell::new(JointsRad::ZERO);
+        let best_d = std::cell::Cell::new(f64::INFINITY);
         let mut first = true;
-        self.for_each_branch(pose, seed, |v| {
+        // A branch whose first joints alone are as far as the best solution so far cannot
+        // give a nearer one: the distance's partial sums only grow.
+        let skip = |q: &[f64]| {
+            let mut partial = -0.0;
+            for (i, &x) in q.iter().enumerate() {
+                match self.nearest_variant(i, x, seed[i]) {
+                    Some((_, d)) => partial += d,
+                    None => return true,
+                }
+            }
+            partial >= best_d.get()
+        };
+        self.for_each_branch(pose, seed, skip, |v| {
             let mut q = JointsRad::ZERO;
             for i in 0..JOINT_COUNT {
                 let values = &v.values[i][..v.counts[i]];
@@ -439,17 +459,19 @@ impl RobotModel {
                 .sum();
             if first {
                 // The first solution, kept when no distance is smaller than infinity.
+                let mut q0 = JointsRad::ZERO;
                 for i in 0..JOINT_COUNT {
-                    best[i] = v.values[i][0];
+                    q0[i] = v.values[i][0];
                 }
+                best.set(q0);
                 first = false;
             }
-            if d < best_d {
-                best_d = d;
-                best = q;
+            if d < best_d.get() {
+                best_d.set(d);
+                best.set(q);
             }
         })?;
-        Ok(best)
+        Ok(best.get())
     }
 
     /// All solutions placing the tool frame `tool` (relative to the flange) at `target`.
@@ -467,24 +489,48 @@ impl RobotModel {
         self.inverse_nearest(&(*target * tool.inverse()), seed)
     }
 
+    /// The in-range k·360° variants of joint `i` at `q` radians (at most 4), and how many.
+    fn joint_variants(&self, i: usize, q: f64) -> ([f64; 4], usize) {
+        let spec = &self.joints[i];
+        let (lo, hi) = (spec.min_deg.to_radians(), spec.max_deg.to_radians());
+        let k_min = ((lo - LIMIT_TOL_RAD - q) / TAU).ceil() as i64;
+        let k_max = ((hi + LIMIT_TOL_RAD - q) / TAU).floor() as i64;
+        let mut values = [0.0; 4];
+        let mut count = 0;
+        for k in k_min..=k_max {
+            if count == 4 {
+                break;
+            }
+            values[count] = (q + k as f64 * TAU).clamp(lo, hi);
+            count += 1;
+        }
+        (values, count)
+    }
+
+    /// The smallest `(x − seed)²` over the in-range variants `x` of joint `i` at `q`, and the
+    /// first variant that has it (`None`: no variant in range).
+    fn nearest_variant(&self, i: usize, q: f64, seed: f64) -> Option<(f64, f64)> {
+        let (values, count) = self.joint_variants(i, q);
+        let values = &values[..count];
+        let mut x = *values.first()?;
+        let mut dx = (x - seed) * (x - seed);
+        for &y in &values[1..] {
+            let dy = (y - seed) * (y - seed);
+            if dy < dx {
+                (x, dx) = (y, dy);
+            }
+        }
+        Some((x, dx))
+    }
+
     fn variants(&self, base: &[f64; JOINT_COUNT]) -> Result<Variants, LimitError> {
         let mut v = Variants {
             values: [[0.0; 4]; JOINT_COUNT],
             counts: [0; JOINT_COUNT],
         };
         for (i, spec) in self.joints.iter().enumerate() {
-            let (lo, hi) = (spec.min_deg.to_radians(), spec.max_deg.to_radians());
             let q = base[i];
-            let k_min = ((lo - LIMIT_TOL_RAD - q) / TAU).ceil() as i64;
-            let k_max = ((hi + LIMIT_TOL_RAD - q) / TAU).floor() as i64;
-            for k in k_min..=k_max {
-                if v.counts[i] == 4 {
-                    break;
-                }
-                let x = (q + k as f64 * TAU).clamp(lo, hi);
-                v.values[i][v.counts[i]] = x;
-                v.counts[i] += 1;
-            }
+            (v.values[i], v.counts[i]) = self.joint_variants(i, q);
             if v.counts[i] == 0 {
                 return Err(LimitError {
                     joint: i + 1,

@@ -198,16 +198,22 @@ impl LinearPath {
         }
         // The piece [params[k], params[k+1]] holding s: the last k with params[k] <= s (or 0),
         // at most last − 1 — the same piece as the binary search of `position_at`.
-        let params = &self.params;
-        let mut k = tr.piece.min(last - 1);
-        while k + 1 < last && params[k + 1] <= s {
-            k += 1;
-        }
-        while k > 0 && params[k] > s {
-            k -= 1;
-        }
-        tr.piece = k;
-        let x = (s - params[k]).max(0.0);
+        let k = if tr.piece_from <= s && s < tr.piece_to {
+            tr.piece
+        } else {
+            let params = &self.params;
+            let mut k = tr.piece.min(last - 1);
+            while k + 1 < last && params[k + 1] <= s {
+                k += 1;
+            }
+            while k > 0 && params[k] > s {
+                k -= 1;
+            }
+            tr.piece = k;
+            (tr.piece_from, tr.piece_to) = (params[k], params[k + 1]);
+            k
+        };
+        let x = (s - tr.piece_from).max(0.0);
         let (rise, slope) = (&self.rise[k], &self.slope[k]);
         for j in 0..JOINT_COUNT {
             q[j] += rise[j] + slope[j] * x;
@@ -278,7 +284,10 @@ const TRACKER_TOLERANCE: f64 = 1e-9;
 /// [`TRACKER_RESEED`] evaluations, and whenever a step is irregular.
 #[derive(Debug, Clone, Copy, Default)]
 struct Tracker {
+    /// The piece of the previous evaluation, and its parameter range (empty: none yet).
     piece: usize,
+    piece_from: f64,
+    piece_to: f64,
     /// An exact `sin_cos` has been computed (`seed`, `sin`, `cos` are valid).
     seeded: bool,
     /// The step `h` is known (`sin_h`, `cos_h` valid).
@@ -296,6 +305,25 @@ struct Tracker {
 impl Tracker {
     /// `sin(angle)`, within 1e-13 (see [`Tracker`]).
     fn sin(&mut self, angle: f64) -> f64 {
+        if self.stepping && self.n < TRACKER_RESEED {
+            let e = angle - (self.seed + f64::from(self.n + 1) * self.h);
+            if e.abs() <= TRACKER_TOLERANCE {
+                let (s, c) = (
+                    self.sin * self.cos_h + self.cos * self.sin_h,
+                    self.cos * self.cos_h - self.sin * self.sin_h,
+                );
+                self.sin = s;
+                self.cos = c;
+                self.n += 1;
+                return s + c * e;
+            }
+        }
+        self.sin_slow(angle)
+    }
+
+    /// [`Tracker::sin`] when the fast path does not apply: learn the step, or compute exactly.
+    #[inline(never)]
+    fn sin_slow(&mut self, angle: f64) -> f64 {
         if self.seeded && self.n < TRACKER_RESEED {
             if !self.stepping {
                 let h = angle - self.seed;

@@ -16,45 +16,51 @@ pub(crate) struct Streamer {
     /// Encode requests with the client library's exact encoder (float formatting) instead of
     /// the bench's integer-based one; the emulator's own cost is the same either way.
     client_encoder: bool,
-    request: String,
+    request: Vec<u8>,
 }
 
 /// The same bytes as the client encoder (3 decimals, trailing zeros trimmed), written digit by
 /// digit so that the benchmark measures the emulator, not the client's float formatting.
-fn fast_encode(s: &StreamSample, out: &mut String) {
+fn fast_encode(s: &StreamSample, out: &mut Vec<u8>) {
     out.clear();
-    out.push_str("1040 7 21");
+    out.extend_from_slice(b"1040 7 21");
     let mut num = |v: f64| {
         let m = (v * 1000.0).round() as i64;
-        out.push(' ');
-        if m < 0 {
-            out.push('-');
+        // Built right to left in a buffer: " -123.456" at most 1 + 1 + 20 + 4 bytes.
+        let mut buf = [0u8; 32];
+        let mut i = buf.len();
+        let m_abs = m.unsigned_abs();
+        let (mut int, frac) = (m_abs / 1000, m_abs % 1000);
+        if frac != 0 {
+            // The fraction's digits without trailing zeros.
+            let (mut f, mut width) = (frac, 3);
+            while f % 10 == 0 {
+                f /= 10;
+                width -= 1;
+            }
+            for _ in 0..width {
+                i -= 1;
+                buf[i] = b'0' + (f % 10) as u8;
+                f /= 10;
+            }
+            i -= 1;
+            buf[i] = b'.';
         }
-        let m = m.unsigned_abs();
-        let (int, mut frac) = (m / 1000, m % 1000);
-        let mut digits = [0u8; 20];
-        let mut n = 0;
-        let mut rest = int;
         loop {
-            digits[n] = b'0' + (rest % 10) as u8;
-            n += 1;
-            rest /= 10;
-            if rest == 0 {
+            i -= 1;
+            buf[i] = b'0' + (int % 10) as u8;
+            int /= 10;
+            if int == 0 {
                 break;
             }
         }
-        for &d in digits[..n].iter().rev() {
-            out.push(char::from(d));
+        if m < 0 {
+            i -= 1;
+            buf[i] = b'-';
         }
-        if frac != 0 {
-            out.push('.');
-            let mut scale = 100;
-            while frac != 0 {
-                out.push(char::from(b'0' + (frac / scale) as u8));
-                frac %= scale;
-                scale /= 10;
-            }
-        }
+        i -= 1;
+        buf[i] = b' ';
+        out.extend_from_slice(&buf[i..]);
     };
     num(s.t0_s);
     num(s.lookahead_passes);
@@ -85,7 +91,7 @@ impl Streamer {
             id,
             t: 0.0,
             client_encoder,
-            request: String::with_capacity(256),
+            request: Vec::with_capacity(256),
         }
     }
 
@@ -113,13 +119,16 @@ impl Streamer {
                 acceleration: JointsDeg::new(a),
             };
             if self.client_encoder {
-                self.request = Request::new(Command::StreamedMove(s)).encode().unwrap();
+                self.request = Request::new(Command::StreamedMove(s))
+                    .encode()
+                    .unwrap()
+                    .into_bytes();
             } else {
                 fast_encode(&s, &mut self.request);
             }
             black_box(
                 self.c
-                    .handle_request(self.id, self.request.as_bytes())
+                    .handle_request(self.id, &self.request)
                     .unwrap(),
             );
             self.c.advance_by(Duration::from_millis(10));
