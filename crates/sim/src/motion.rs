@@ -103,11 +103,12 @@ impl LinearPath {
         let mut samples = Vec::with_capacity(n + 1);
         params.push(0.0);
         samples.push(from);
+        let mut stack = Vec::new();
         for k in 1..=n {
             let s1 = k as f64 / n as f64;
             let q1 = solve(s1, samples.last()?)?;
             // Refine the piece (s0, s1] by halving until no joint steps more than the limit.
-            let mut stack = vec![(s1, q1, 0u32)];
+            stack.push((s1, q1, 0u32));
             while let Some((sb, qb, depth)) = stack.pop() {
                 let sa = *params.last()?;
                 let qa = *samples.last()?;
@@ -186,9 +187,23 @@ impl LinearPath {
     /// [`Tracker`]) and each piece's rate is precomputed. The result differs from
     /// `position_at`'s by rounding only (≪ 1e-9°).
     fn add_displacement(&self, t: f64, tr: &mut Tracker, q: &mut JointsDeg) {
-        let last = self.samples.len() - 1;
         let u = (t / self.duration_s).clamp(0.0, 1.0);
         let s = u - tr.sin(2.0 * std::f64::consts::PI * u) / (2.0 * std::f64::consts::PI);
+        if tr.piece_from <= s && s < tr.piece_to {
+            // Still in the previous evaluation's piece.
+            let x = s - tr.piece_from;
+            for j in 0..JOINT_COUNT {
+                q[j] += tr.rise[j] + tr.slope[j] * x;
+            }
+        } else {
+            self.add_displacement_new_piece(s, tr, q);
+        }
+    }
+
+    /// [`LinearPath::add_displacement`] at path parameter `s` outside the tracker's piece.
+    #[inline(never)]
+    fn add_displacement_new_piece(&self, s: f64, tr: &mut Tracker, q: &mut JointsDeg) {
+        let last = self.samples.len() - 1;
         if s >= 1.0 || last == 0 {
             let d = &self.rise[last];
             for j in 0..JOINT_COUNT {
@@ -198,25 +213,20 @@ impl LinearPath {
         }
         // The piece [params[k], params[k+1]] holding s: the last k with params[k] <= s (or 0),
         // at most last − 1 — the same piece as the binary search of `position_at`.
-        let k = if tr.piece_from <= s && s < tr.piece_to {
-            tr.piece
-        } else {
-            let params = &self.params;
-            let mut k = tr.piece.min(last - 1);
-            while k + 1 < last && params[k + 1] <= s {
-                k += 1;
-            }
-            while k > 0 && params[k] > s {
-                k -= 1;
-            }
-            tr.piece = k;
-            (tr.piece_from, tr.piece_to) = (params[k], params[k + 1]);
-            k
-        };
+        let params = &self.params;
+        let mut k = tr.piece.min(last - 1);
+        while k + 1 < last && params[k + 1] <= s {
+            k += 1;
+        }
+        while k > 0 && params[k] > s {
+            k -= 1;
+        }
+        tr.piece = k;
+        (tr.piece_from, tr.piece_to) = (params[k], params[k + 1]);
+        (tr.rise, tr.slope) = (self.rise[k], self.slope[k]);
         let x = (s - tr.piece_from).max(0.0);
-        let (rise, slope) = (&self.rise[k], &self.slope[k]);
         for j in 0..JOINT_COUNT {
-            q[j] += rise[j] + slope[j] * x;
+            q[j] += tr.rise[j] + tr.slope[j] * x;
         }
     }
 
@@ -288,6 +298,9 @@ struct Tracker {
     piece: usize,
     piece_from: f64,
     piece_to: f64,
+    /// The piece's displacement at its start and rate (copies of the path's).
+    rise: JointsDeg,
+    slope: JointsDeg,
     /// An exact `sin_cos` has been computed (`seed`, `sin`, `cos` are valid).
     seeded: bool,
     /// The step `h` is known (`sin_h`, `cos_h` valid).
