@@ -103,13 +103,17 @@ impl LinearPath {
         let mut samples = Vec::with_capacity(n + 1);
         params.push(0.0);
         samples.push(from);
-        let mut stack = Vec::new();
+        // The pieces waiting to be refined: one per halving level at most, and the top.
+        let mut stack = [(0.0, JointsDeg::ZERO, 0u32); MAX_HALVINGS as usize + 2];
         for k in 1..=n {
             let s1 = k as f64 / n as f64;
             let q1 = solve(s1, samples.last()?)?;
             // Refine the piece (s0, s1] by halving until no joint steps more than the limit.
-            stack.push((s1, q1, 0u32));
-            while let Some((sb, qb, depth)) = stack.pop() {
+            stack[0] = (s1, q1, 0u32);
+            let mut pending = 1;
+            while pending > 0 {
+                pending -= 1;
+                let (sb, qb, depth) = stack[pending];
                 let sa = *params.last()?;
                 let qa = *samples.last()?;
                 let step = qb.max_abs_diff(&qa);
@@ -125,8 +129,9 @@ impl LinearPath {
                 } else {
                     let sm = 0.5 * (sa + sb);
                     let qm = solve(sm, &qa)?;
-                    stack.push((sb, qb, depth + 1));
-                    stack.push((sm, qm, depth + 1));
+                    stack[pending] = (sb, qb, depth + 1);
+                    stack[pending + 1] = (sm, qm, depth + 1);
+                    pending += 2;
                 }
             }
         }
