@@ -249,11 +249,7 @@ impl RobotModel {
         let elbow = shoulder + g.upper_arm_m * Vector3::new(c1 * s2, s1 * s2, c2);
         let wrist = elbow + g.forearm_m * Vector3::new(c1 * s23, s1 * s23, c23);
         // R03's columns: (c1·c23, s1·c23, −s23), (−s1, c1, 0), (c1·s23, s1·s23, c23).
-        let r04_x = Vector3::new(
-            c1 * c23 * c4 + -s1 * s4,
-            s1 * c23 * c4 + c1 * s4,
-            -s23 * c4,
-        );
+        let r04_x = Vector3::new(c1 * c23 * c4 + -s1 * s4, s1 * c23 * c4 + c1 * s4, -s23 * c4);
         let r04_z = Vector3::new(c1 * s23, s1 * s23, c23);
         let axis = r04_x * s5 + r04_z * c5;
         wrist + g.flange_m * axis

@@ -43,7 +43,7 @@ fn sample(t: f64, t0_s: f64) -> StreamSample {
     }
 }
 
-fn main() {
+fn main() -> Result<(), Box<dyn std::error::Error>> {
     let seconds: u32 = std::env::args()
         .nth(1)
         .and_then(|s| s.parse().ok())
@@ -52,21 +52,20 @@ fn main() {
         joints: JointsDeg::new([0.0, 10.0, -80.0, 0.0, -80.0, 0.0]),
         ..ControllerConfig::default()
     });
-    let id = c.try_accept().expect("the controller listens at time zero");
+    let id = c.try_accept()?;
     let mut out = String::new();
     let send = |c: &mut Controller, out: &mut String, bytes: &[u8]| {
-        let h = c
-            .handle_request(id, bytes)
-            .expect("the session stays open");
+        let h = c.handle_request(id, bytes)?;
         let _ = writeln!(
             out,
             "reply {:.6} {}",
             c.now().as_secs_f64(),
             String::from_utf8_lossy(&h.reply).replace('\n', "|")
         );
+        Ok::<(), fs020n_sim::SessionGone>(())
     };
-    send(&mut c, &mut out, b"1040 1 0");
-    send(&mut c, &mut out, b"1040 3 1 100");
+    send(&mut c, &mut out, b"1040 1 0")?;
+    send(&mut c, &mut out, b"1040 3 1 100")?;
     let mut t = 0.0;
     let steps = seconds * 100;
     for k in 0..steps {
@@ -88,13 +87,11 @@ fn main() {
         if round == 1 && phase == 700 {
             c.set_run(true);
         }
-        let request = request.unwrap_or_else(|| {
-            let s = sample(t, c.timer1_s());
-            Request::new(Command::StreamedMove(s))
-                .encode()
-                .expect("a finite sample encodes")
-        });
-        send(&mut c, &mut out, request.as_bytes());
+        let request = match request {
+            Some(r) => r,
+            None => Request::new(Command::StreamedMove(sample(t, c.timer1_s()))).encode()?,
+        };
+        send(&mut c, &mut out, request.as_bytes())?;
         for _ in 0..5 {
             c.advance_by(Duration::from_millis(2));
             let n = c.counters();
@@ -117,5 +114,6 @@ fn main() {
         }
         t += 0.01;
     }
-    let _ = std::io::stdout().write_all(out.as_bytes());
+    std::io::stdout().write_all(out.as_bytes())?;
+    Ok(())
 }

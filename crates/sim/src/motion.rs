@@ -275,8 +275,6 @@ impl Shape {
             Shape::Linear(l) => l.duration_s(),
         }
     }
-
-
 }
 
 /// Evaluations between two exact `sin_cos` of a [`Tracker`]: the rotation's rounding errors
@@ -587,12 +585,12 @@ impl Robot {
         // left to the ACCURACY sphere, it is still outside, and the test's outcome is known
         // without the forward kinematics.
         if let Some(r) = self.blend_ref.get() {
-            if r.accuracy_mm.to_bits() == accuracy_mm.to_bits() && same_bits(&r.target, &self.target)
+            if r.accuracy_mm.to_bits() == accuracy_mm.to_bits()
+                && same_bits(&r.target, &self.target)
             {
-                let reach = reach_bounds_m(model);
                 let mut moved = 0.0;
-                for j in 0..JOINT_COUNT {
-                    moved += reach[j] * (self.joints[j] - r.joints[j]).abs();
+                for (j, reach) in reach_bounds_m(model).iter().enumerate() {
+                    moved += reach * (self.joints[j] - r.joints[j]).abs();
                 }
                 if moved * std::f64::consts::PI / 180.0 < r.slack_m {
                     return false;
@@ -804,7 +802,10 @@ mod tests {
             (JointsDeg::new([1.0, 10.5, -80.2, 0.5, -79.0, 1.0]), 0.1),
             (JointsDeg::new([30.0, 20.0, -60.0, 20.0, -50.0, 40.0]), 0.1),
             (JointsDeg::new([30.0, 20.0, -60.0, 20.0, -50.0, 40.0]), 1.0),
-            (JointsDeg::new([-20.0, 0.0, -90.0, -10.0, -70.0, -30.0]), 0.02),
+            (
+                JointsDeg::new([-20.0, 0.0, -90.0, -10.0, -70.0, -30.0]),
+                0.02,
+            ),
         ];
         for (to, duration) in cases {
             let path = LinearPath::plan(&model, from, to, duration, 0.002).expect("a line");

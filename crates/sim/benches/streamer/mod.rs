@@ -126,11 +126,7 @@ impl Streamer {
             } else {
                 fast_encode(&s, &mut self.request);
             }
-            black_box(
-                self.c
-                    .handle_request(self.id, &self.request)
-                    .unwrap(),
-            );
+            black_box(self.c.handle_request(self.id, &self.request).unwrap());
             self.c.advance_by(Duration::from_millis(10));
             self.t += 0.01;
         }
