@@ -191,17 +191,10 @@ impl LinearPath {
     /// while the segment runs), the cycloid's sine is advanced from the previous tick's (see
     /// [`Tracker`]) and each piece's rate is precomputed. The result differs from
     /// `position_at`'s by rounding only (≪ 1e-9°).
+    #[cfg(test)]
     fn add_displacement(&self, t: f64, tr: &mut Tracker, q: &mut JointsDeg) {
-        let u = (t / self.duration_s).clamp(0.0, 1.0);
-        let s = u - tr.sin(2.0 * std::f64::consts::PI * u) / (2.0 * std::f64::consts::PI);
-        if tr.piece_from <= s && s < tr.piece_to {
-            // Still in the previous evaluation's piece.
-            let x = s - tr.piece_from;
-            for j in 0..JOINT_COUNT {
-                q[j] += tr.rise[j] + tr.slope[j] * x;
-            }
-        } else {
-            self.add_displacement_new_piece(s, tr, q);
+        if !tr.add_in_piece(t, self.duration_s, q) {
+            self.add_displacement_new_piece(tr.last_s, tr, q);
         }
     }
 
@@ -304,6 +297,8 @@ struct Tracker {
     /// The piece's displacement at its start and rate (copies of the path's).
     rise: JointsDeg,
     slope: JointsDeg,
+    /// The path parameter of the last evaluation that left the piece.
+    last_s: f64,
     /// An exact `sin_cos` has been computed (`seed`, `sin`, `cos` are valid).
     seeded: bool,
     /// The step `h` is known (`sin_h`, `cos_h` valid).
@@ -319,6 +314,26 @@ struct Tracker {
 }
 
 impl Tracker {
+    /// The common case of [`LinearPath::add_displacement`] for a path of `duration_s`: when the
+    /// path parameter at `t` is still in the previous evaluation's piece, adds the
+    /// displacement to `q` and returns `true`; otherwise returns `false` with the parameter in
+    /// `last_s` (the caller goes on with `add_displacement_new_piece`).
+    #[inline(always)]
+    fn add_in_piece(&mut self, t: f64, duration_s: f64, q: &mut JointsDeg) -> bool {
+        let u = (t / duration_s).clamp(0.0, 1.0);
+        let s = u - self.sin(2.0 * std::f64::consts::PI * u) / (2.0 * std::f64::consts::PI);
+        if self.piece_from <= s && s < self.piece_to {
+            let x = s - self.piece_from;
+            for j in 0..JOINT_COUNT {
+                q[j] += self.rise[j] + self.slope[j] * x;
+            }
+            true
+        } else {
+            self.last_s = s;
+            false
+        }
+    }
+
     /// `sin(angle)`, within 1e-13 (see [`Tracker`]).
     fn sin(&mut self, angle: f64) -> f64 {
         if self.stepping && self.n < TRACKER_RESEED {
@@ -741,9 +756,12 @@ impl Robot {
             let mut q = self.anchor;
             for a in &mut self.active {
                 let t = clock - a.started;
+                if a.from_start && a.tracker.add_in_piece(t, a.duration_s, &mut q) {
+                    continue;
+                }
                 match &a.motion.shape {
                     Shape::Linear(l) if a.from_start => {
-                        l.add_displacement(t, &mut a.tracker, &mut q);
+                        l.add_displacement_new_piece(a.tracker.last_s, &mut a.tracker, &mut q);
                     }
                     shape => {
                         let p = match shape {
