@@ -190,7 +190,9 @@ impl LinearPath {
     /// previous tick: the piece is found from the previous one (the path parameter only grows
     /// while the segment runs), the cycloid's sine is advanced from the previous tick's (see
     /// [`Tracker`]) and each piece's rate is precomputed. The result differs from
-    /// `position_at`'s by rounding only (≪ 1e-9°).
+    /// `position_at`'s by rounding only (≪ 1e-9°). The robot's tick does the same in two
+    /// parts (`Tracker::add_in_piece`, then `add_displacement_new_piece`), reading only the
+    /// segment's own state in the common case.
     #[cfg(test)]
     fn add_displacement(&self, t: f64, tr: &mut Tracker, q: &mut JointsDeg) {
         if !tr.add_in_piece(t, self.duration_s, q) {
@@ -198,7 +200,9 @@ impl LinearPath {
         }
     }
 
-    /// [`LinearPath::add_displacement`] at path parameter `s` outside the tracker's piece.
+    /// The tick's evaluation of a segment (`add_displacement`) at path parameter `s` outside the
+    /// tracker's piece: finds the piece, keeps its rise and rate in the tracker, adds the
+    /// displacement to `q`.
     #[inline(never)]
     fn add_displacement_new_piece(&self, s: f64, tr: &mut Tracker, q: &mut JointsDeg) {
         let last = self.samples.len() - 1;
@@ -314,10 +318,10 @@ struct Tracker {
 }
 
 impl Tracker {
-    /// The common case of [`LinearPath::add_displacement`] for a path of `duration_s`: when the
-    /// path parameter at `t` is still in the previous evaluation's piece, adds the
-    /// displacement to `q` and returns `true`; otherwise returns `false` with the parameter in
-    /// `last_s` (the caller goes on with `add_displacement_new_piece`).
+    /// The common case of the tick's evaluation of a linear segment (`add_displacement`) of
+    /// `duration_s`: when the path parameter at `t` is still in the previous evaluation's
+    /// piece, adds the displacement to `q` and returns `true`; otherwise returns `false` with
+    /// the parameter in `last_s` (the caller goes on with `add_displacement_new_piece`).
     #[inline(always)]
     fn add_in_piece(&mut self, t: f64, duration_s: f64, q: &mut JointsDeg) -> bool {
         let u = (t / duration_s).clamp(0.0, 1.0);
