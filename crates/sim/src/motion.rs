@@ -27,11 +27,6 @@ pub struct LinearPath {
     params: Vec<f64>,
     /// Joint configurations at `params`, first = start, last = target.
     samples: Vec<JointsDeg>,
-    /// `samples[k] − samples[0]`: the displacement at the start of piece `k`.
-    rise: Vec<JointsDeg>,
-    /// The joints' rate along piece `k` (`params[k]` to `params[k + 1]`), degrees per unit of
-    /// path parameter.
-    slope: Vec<JointsDeg>,
     duration_s: f64,
     /// The flange pose at the target (computed for planning; the robot reuses it as its
     /// target's pose when the motion starts).
@@ -149,27 +144,9 @@ impl LinearPath {
                 needed = needed.max(2.0 * d / (ds * speed));
             }
         }
-        let rise = samples
-            .iter()
-            .map(|q| q.zip_with(&samples[0], |a, b| a - b))
-            .collect();
-        let slope = samples
-            .windows(2)
-            .zip(params.windows(2))
-            .map(|(w, p)| {
-                let ds = p[1] - p[0];
-                if ds > 0.0 {
-                    w[1].zip_with(&w[0], |b, a| (b - a) / ds)
-                } else {
-                    JointsDeg::ZERO
-                }
-            })
-            .collect();
         Some(LinearPath {
             params,
             samples,
-            rise,
-            slope,
             duration_s: needed,
             end_pose: p1,
         })
@@ -189,7 +166,7 @@ impl LinearPath {
     /// `position_at` computes them, minus the start) to `q`, with the evaluation state of the
     /// previous tick: the piece is found from the previous one (the path parameter only grows
     /// while the segment runs), the cycloid's sine is advanced from the previous tick's (see
-    /// [`Tracker`]) and each piece's rate is precomputed. The result differs from
+    /// [`Tracker`]) and each piece's rate is computed once, when it is entered. The result differs from
     /// `position_at`'s by rounding only (≪ 1e-9°). The robot's tick does the same in two
     /// parts (`Tracker::add_in_piece`, then `add_displacement_new_piece`), reading only the
     /// segment's own state in the common case.
@@ -207,7 +184,7 @@ impl LinearPath {
     fn add_displacement_new_piece(&self, s: f64, tr: &mut Tracker, q: &mut JointsDeg) {
         let last = self.samples.len() - 1;
         if s >= 1.0 || last == 0 {
-            let d = &self.rise[last];
+            let d = self.rise(last);
             for j in 0..JOINT_COUNT {
                 q[j] += d[j];
             }
@@ -225,11 +202,23 @@ impl LinearPath {
         }
         tr.piece = k;
         (tr.piece_from, tr.piece_to) = (params[k], params[k + 1]);
-        (tr.rise, tr.slope) = (self.rise[k], self.slope[k]);
+        tr.rise = self.rise(k);
+        // The joints' rate along the piece, degrees per unit of path parameter.
+        let ds = params[k + 1] - params[k];
+        tr.slope = if ds > 0.0 {
+            self.samples[k + 1].zip_with(&self.samples[k], |b, a| (b - a) / ds)
+        } else {
+            JointsDeg::ZERO
+        };
         let x = (s - tr.piece_from).max(0.0);
         for j in 0..JOINT_COUNT {
             q[j] += tr.rise[j] + tr.slope[j] * x;
         }
+    }
+
+    /// `samples[k] − samples[0]`: the displacement at the start of piece `k`.
+    fn rise(&self, k: usize) -> JointsDeg {
+        self.samples[k].zip_with(&self.samples[0], |a, b| a - b)
     }
 
     fn position_at(&self, t: f64) -> JointsDeg {
@@ -298,7 +287,7 @@ struct Tracker {
     piece: usize,
     piece_from: f64,
     piece_to: f64,
-    /// The piece's displacement at its start and rate (copies of the path's).
+    /// The piece's displacement at its start and its rate (computed when the piece is entered).
     rise: JointsDeg,
     slope: JointsDeg,
     /// The path parameter of the last evaluation that left the piece.
@@ -340,6 +329,12 @@ impl Tracker {
 
     /// `sin(angle)`, within 1e-13 (see [`Tracker`]).
     fn sin(&mut self, angle: f64) -> f64 {
+        self.sin_cos(angle).0
+    }
+
+    /// `sin(angle)` and `cos(angle)`, within 1e-13 (see [`Tracker`]).
+    #[inline(always)]
+    fn sin_cos(&mut self, angle: f64) -> (f64, f64) {
         if self.stepping && self.n < TRACKER_RESEED {
             let e = angle - (self.seed + f64::from(self.n + 1) * self.h);
             if e.abs() <= TRACKER_TOLERANCE {
@@ -350,15 +345,16 @@ impl Tracker {
                 self.sin = s;
                 self.cos = c;
                 self.n += 1;
-                return s + c * e;
+                return (s + c * e, c - s * e);
             }
         }
-        self.sin_slow(angle)
+        self.sin_cos_slow(angle)
     }
 
-    /// [`Tracker::sin`] when the fast path does not apply: learn the step, or compute exactly.
+    /// [`Tracker::sin_cos`] when the fast path does not apply: learn the step, or compute
+    /// exactly.
     #[inline(never)]
-    fn sin_slow(&mut self, angle: f64) -> f64 {
+    fn sin_cos_slow(&mut self, angle: f64) -> (f64, f64) {
         if self.seeded && self.n < TRACKER_RESEED {
             if !self.stepping {
                 let h = angle - self.seed;
@@ -378,7 +374,7 @@ impl Tracker {
                     self.sin = s;
                     self.cos = c;
                     self.n += 1;
-                    return s + c * e;
+                    return (s + c * e, c - s * e);
                 }
                 // An irregular step: learn the step again.
                 self.stepping = false;
@@ -388,7 +384,7 @@ impl Tracker {
         self.seed = angle;
         self.seeded = true;
         self.n = 0;
-        self.sin
+        (self.sin, self.cos)
     }
 }
 
@@ -411,7 +407,7 @@ struct Active {
     /// The shape's duration, seconds.
     duration_s: f64,
     /// A linear shape starts at `motion.from` (as planned): its displacement is evaluated
-    /// from precomputed pieces.
+    /// piece by piece (see [`Tracker`]).
     from_start: bool,
     tracker: Tracker,
     /// Evaluated in the robot's [`Cycloids`] sum (a one-piece line of its duration), with
@@ -432,9 +428,11 @@ const CYCLOIDS_REBASE_S: f64 = 100.0;
 /// Such a line moves by `Δ·s(u)`, `s(u) = u − sin(2πu)/2π`, `u = (t − t_i)/T`. With
 /// `τ = t − E` (an epoch) and `φ_i = ω (t_i − E)`, `ω = 2π/T`, the sum over the lines is
 /// `c0 + a·τ − (sin ωτ · cs − cos ωτ · sn)/2π` with `a = ΣΔ_i/T`, `c0 = −ΣΔ_i (t_i − E)/T`,
-/// `cs = ΣΔ_i cos φ_i`, `sn = ΣΔ_i sin φ_i`: one `sin_cos` per tick however many lines
-/// overlap. The coefficients are recomputed from the members whenever one joins or leaves
-/// (no drift); they equal the lines' separate evaluation up to rounding.
+/// `cs = ΣΔ_i cos φ_i`, `sn = ΣΔ_i sin φ_i`: one `sin_cos` of the tick (advanced from the
+/// previous tick's by a [`Tracker`]) however many lines overlap. A line's terms are added when
+/// it starts and subtracted when it ends; every [`CYCLOIDS_RECOMPUTE`] of these and at a new
+/// epoch the coefficients are recomputed from the members (no drift). The sum equals the
+/// lines' separate evaluation up to rounding.
 #[derive(Debug, Clone)]
 struct Cycloids {
     duration_s: f64,
@@ -450,6 +448,8 @@ struct Cycloids {
     a: JointsDeg,
     cs: JointsDeg,
     sn: JointsDeg,
+    /// `sin ωτ`, `cos ωτ` from tick to tick.
+    tracker: Tracker,
 }
 
 impl Cycloids {
@@ -465,6 +465,7 @@ impl Cycloids {
             a: JointsDeg::ZERO,
             cs: JointsDeg::ZERO,
             sn: JointsDeg::ZERO,
+            tracker: Tracker::default(),
         }
     }
 
@@ -508,9 +509,9 @@ impl Cycloids {
     }
 
     /// Adds the members' displacement at motion-clock time `clock` to `q`.
-    fn add(&self, clock: f64, q: &mut JointsDeg) {
+    fn add(&mut self, clock: f64, q: &mut JointsDeg) {
         let tau = clock - self.epoch;
-        let (s, c) = (self.omega * tau).sin_cos();
+        let (s, c) = self.tracker.sin_cos(self.omega * tau);
         for j in 0..JOINT_COUNT {
             q[j] += self.c0[j] + self.a[j] * tau
                 - (s * self.cs[j] - c * self.sn[j]) / (2.0 * std::f64::consts::PI);
