@@ -15,8 +15,8 @@ use serde::Serialize;
 
 use crate::ast::{BinOp, DataValue, FormatCode, Module, SpeedUnit};
 use crate::compile::{
-    compile, var_display, CArg, CExpr, Code, Item, JExpr, LRef, Loc, Op, RExpr, RFunc, SExpr,
-    SwitchRef, TExpr, Ty, VarRef,
+    compile, var_display, CArg, CExpr, CProgram, Code, Item, JExpr, LRef, Loc, Op, RExpr, RFunc,
+    SExpr, SwitchRef, TExpr, Ty, VarRef,
 };
 use crate::error::{error_message, LoadError, ParseError, RuntimeError};
 use crate::keywords::SYSTEM_SWITCHES;
@@ -437,6 +437,9 @@ pub struct Interpreter {
     int_epoch: u64,
     /// `interrupt_time` per task, valid for `int_epoch`.
     int_cache: std::cell::Cell<(u64, [Option<Ns>; 6])>,
+    /// `cfg.cost.statement` and `cfg.poll_period` in [`Ns`] (the config never changes).
+    stmt_ns: Ns,
+    poll_ns: Ns,
     terminal: VecDeque<TerminalLine>,
     trace: Option<Vec<TraceLine>>,
 }
@@ -535,6 +538,7 @@ impl Interpreter {
             cfg.poll_period = Duration::from_millis(2);
         }
         cfg.max_call_depth = cfg.max_call_depth.clamp(1, 1000);
+        let (stmt_ns, poll_ns) = (ns(cfg.cost.statement), ns(cfg.poll_period));
         Ok(Interpreter {
             code: Arc::new(code),
             cfg,
@@ -549,6 +553,8 @@ impl Interpreter {
             mc_hold: false,
             int_epoch: 1,
             int_cache: std::cell::Cell::new((0, [None; 6])),
+            stmt_ns,
+            poll_ns,
             terminal: VecDeque::new(),
             trace: None,
         })
@@ -832,13 +838,17 @@ impl Interpreter {
     // ------------------------------------------------------------------ scheduler
 
     fn next_tick(&self, after: Ns) -> Ns {
-        let p = self.cfg.poll_period.as_nanos().max(1);
-        let n = u128::from(after) / p + 1;
-        (n * p).min(u64::MAX as u128) as u64
+        let p = self.poll_ns.max(1);
+        (after / p + 1).saturating_mul(p)
     }
 
     fn task_wake(&self, i: usize) -> Option<Ns> {
-        let t = &self.tasks[i];
+        self.wake_time(i, &self.tasks[i])
+    }
+
+    /// [`Self::task_wake`] of task `i`, given.
+    #[inline]
+    fn wake_time(&self, i: usize, t: &Task) -> Option<Ns> {
         if t.run == Run::Ending {
             return Some(t.poll_at);
         }
@@ -941,42 +951,45 @@ impl Interpreter {
     /// task's interrupt, and the horizon — what [`Self::next_event_from`] gives with that task's
     /// own steps skipped (where a run of its steps must stop).
     fn next_event_and_horizon(&self) -> Option<(Ns, usize, bool, Option<Ns>)> {
-        let n = self.tasks.len().min(6);
-        // Idle tasks are skipped below: the cached times serve as they are.
-        let ints = if self.tasks.iter().any(|t| !t.interrupts.is_empty()) {
-            self.interrupt_times_cached()
-        } else {
-            [None; 6]
-        };
         fn earlier(a: Option<Ns>, b: Option<Ns>) -> Option<Ns> {
             match (a, b) {
                 (Some(x), Some(y)) => Some(x.min(y)),
                 (x, y) => x.or(y),
             }
         }
+        // The interrupt times are looked up only for tasks with armed interrupts (a task
+        // without any has none); idle tasks are skipped (no step, no armed interrupt).
+        let mut ints: Option<[Option<Ns>; 6]> = None;
+        let mut int_of = |k: usize, t: &Task| -> Option<Ns> {
+            if t.interrupts.is_empty() {
+                None
+            } else {
+                ints.get_or_insert_with(|| self.interrupt_times_cached())[k]
+            }
+        };
         // Each task's earliest event; the earliest of all (ties: the lower task) and the
         // earliest among the other tasks.
-        let mut best: Option<(Ns, usize)> = None;
+        let mut best: Option<(Ns, usize, Option<Ns>)> = None;
         let mut others: Option<Ns> = None;
-        for (k, &int) in ints.iter().enumerate().take(n) {
-            // An idle task has no step and no armed interrupt (`interrupt_times`).
-            if self.tasks[k].run == Run::Idle {
+        for (k, t) in self.tasks.iter().enumerate().take(6) {
+            if t.run == Run::Idle {
                 continue;
             }
-            let Some(c) = earlier(int, self.task_wake(k)) else {
+            let int = int_of(k, t);
+            let Some(c) = earlier(int, self.wake_time(k, t)) else {
                 continue;
             };
             match best {
-                Some((b, _)) if c >= b => others = earlier(others, Some(c)),
+                Some((b, _, _)) if c >= b => others = earlier(others, Some(c)),
                 _ => {
-                    others = earlier(others, best.map(|(b, _)| b));
-                    best = Some((c, k));
+                    others = earlier(others, best.map(|(b, _, _)| b));
+                    best = Some((c, k, int));
                 }
             }
         }
-        let (at, i) = best?;
-        let interrupt = ints[i].is_some_and(|it| it <= at);
-        Some((at, i, interrupt, earlier(others, ints[i])))
+        let (at, i, int) = best?;
+        let interrupt = int.is_some_and(|it| it <= at);
+        Some((at, i, interrupt, earlier(others, int)))
     }
 
     /// Runs every task up to `until` (statements, timeouts, waits, interrupts), calling
@@ -1044,37 +1057,38 @@ impl Interpreter {
             self.next_event_from(Some(i))
                 .map_or(until, |(t, _)| t.min(until))
         };
-        let poll = ns(self.cfg.poll_period);
+        let poll = self.poll_ns;
         // The system is brought to a step's time only when the step touches it, or once per
         // poll period (pure computation does not need the arm's state).
         let mut synced = self.now;
         let mut first = true;
         let mut epoch = self.int_epoch;
         loop {
+            let now = self.now;
             let t = &self.tasks[i];
-            if t.run != Run::Running || t.wait.is_some() {
+            // (A pending ON is delivered at the next wake: the poll above took any earlier
+            // one.)
+            if t.run != Run::Running || t.wait.is_some() || t.pending_on.is_some() {
                 return;
             }
-            let at = t.ready_at.max(self.now);
-            if at > self.now {
+            let at = t.ready_at.max(now);
+            if at > now {
                 // Another task (or the same instant of a lower task) goes first.
                 if at >= horizon || at > until {
                     return;
                 }
                 self.now = at;
             }
-            let touches = t
-                .frames
-                .last()
-                .and_then(|f| code.programs.get(f.prog)?.touches.get(f.pc).copied())
-                .unwrap_or(true);
+            let (prog, pc) = t.frames.last().map_or((usize::MAX, 0), |f| (f.prog, f.pc));
+            let p = code.programs.get(prog);
+            let touches = p.and_then(|p| p.touches.get(pc).copied()).unwrap_or(true);
             let sync = first || touches || at >= synced.saturating_add(poll);
             if sync {
                 sys.advance_to(Duration::from_nanos(at));
                 synced = at;
                 first = false;
             }
-            match self.step(i, sys, code, sync) {
+            match self.step(i, sys, code, sync, p, pc) {
                 Ok(Flow::Next) => {}
                 Ok(Flow::Shared) => {
                     for (k, t) in self.tasks.iter_mut().enumerate() {
@@ -1104,9 +1118,6 @@ impl Interpreter {
                 horizon = self
                     .next_event_from(Some(i))
                     .map_or(until, |(t, _)| t.min(until));
-            }
-            if self.tasks[i].pending_on.is_some() {
-                return;
             }
         }
     }
@@ -2298,8 +2309,17 @@ impl Interpreter {
 
     // ------------------------------------------------------------------ statements
 
-    /// Runs one step of task `i` at `self.now`.
-    fn step(&mut self, i: usize, sys: &mut dyn System, code: &Arc<Code>, sync: bool) -> R<Flow> {
+    /// Runs one step of task `i` at `self.now`: the op at `pc` of program `p`, the task's
+    /// current frame (`None`: no frame or no such program).
+    fn step(
+        &mut self,
+        i: usize,
+        sys: &mut dyn System,
+        code: &Code,
+        sync: bool,
+        p: Option<&CProgram>,
+        pc: usize,
+    ) -> R<Flow> {
         if i == 0 && sync {
             if !self.robot_allowed(sys) {
                 return Ok(Flow::Next);
@@ -2308,12 +2328,7 @@ impl Interpreter {
                 return Ok(Flow::Wait(Box::new(Wait::Held)));
             }
         }
-        let Some(frame) = self.tasks[i].frames.last() else {
-            self.abort(TaskId::from_index(i));
-            return Ok(Flow::Next);
-        };
-        let (prog, pc) = (frame.prog, frame.pc);
-        let Some(p) = code.programs.get(prog) else {
+        let Some(p) = p else {
             self.abort(TaskId::from_index(i));
             return Ok(Flow::Next);
         };
@@ -2322,21 +2337,8 @@ impl Interpreter {
             return Ok(Flow::Next);
         };
         let now = self.now;
-        let cost = ns(self.cfg.cost.statement);
-        if let Some(trace) = &mut self.trace {
-            if !matches!(op, Op::Jump(_)) {
-                let line = p.lines.get(pc).copied().unwrap_or(0);
-                trace.push(TraceLine {
-                    at: Duration::from_nanos(now),
-                    task: self.tasks[i].id,
-                    program: p.name.clone(),
-                    line,
-                    text: code.line_text(prog, line).to_owned(),
-                });
-                if trace.len() > 1_000_000 {
-                    trace.drain(..trace.len() / 2);
-                }
-            }
+        if self.trace.is_some() && !matches!(op, Op::Jump(_)) {
+            self.trace_step(i, code, p, pc, now);
         }
         // By default the next step is the following op.
         let t = &mut self.tasks[i];
@@ -2345,12 +2347,34 @@ impl Interpreter {
         if let Some(f) = t.frames.last_mut() {
             f.pc = pc + 1;
         }
-        let r = self.exec(i, sys, code, op, pc, now, cost);
+        let r = self.exec(i, sys, code, op, pc, now, self.stmt_ns);
         if r.is_err() && self.tasks[i].frames.len() == depth {
             // Errors name the step that failed.
             self.set_pc(i, pc);
         }
         r
+    }
+
+    #[cold]
+    fn trace_step(&mut self, i: usize, code: &Code, p: &CProgram, pc: usize, now: Ns) {
+        let id = self.tasks[i].id;
+        let Some(trace) = &mut self.trace else { return };
+        let line = p.lines.get(pc).copied().unwrap_or(0);
+        let prog = code
+            .programs
+            .iter()
+            .position(|q| std::ptr::eq(q, p))
+            .unwrap_or(usize::MAX);
+        trace.push(TraceLine {
+            at: Duration::from_nanos(now),
+            task: id,
+            program: p.name.clone(),
+            line,
+            text: code.line_text(prog, line).to_owned(),
+        });
+        if trace.len() > 1_000_000 {
+            trace.drain(..trace.len() / 2);
+        }
     }
 
     // The step's context (program, pc, time, cost) travels as arguments: the hot path.
