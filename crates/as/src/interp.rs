@@ -467,6 +467,55 @@ fn overflow(what: &str) -> Box<RuntimeError> {
     Box::new(RuntimeError::Overflow(what.to_owned()))
 }
 
+/// A binary operation on reals (AS reals: 32-bit; a result that is not finite is an overflow).
+#[inline]
+fn bin_r(op: BinOp, x: f32, y: f32) -> R<f32> {
+    Ok(match op {
+        BinOp::Add => check(x + y, "+")?,
+        BinOp::Sub => check(x - y, "-")?,
+        BinOp::Mul => check(x * y, "*")?,
+        BinOp::Div => {
+            if y == 0.0 {
+                return Err(division_by_zero());
+            }
+            check(x / y, "/")?
+        }
+        BinOp::Mod => {
+            if y == 0.0 {
+                return Err(division_by_zero());
+            }
+            check(x % y, "MOD")?
+        }
+        BinOp::Pow => pow_r(x, y)?,
+        BinOp::Eq => as_bool(x == y),
+        BinOp::Ne => as_bool(x != y),
+        BinOp::Lt => as_bool(x < y),
+        BinOp::Gt => as_bool(x > y),
+        BinOp::Le => as_bool(x <= y),
+        BinOp::Ge => as_bool(x >= y),
+        BinOp::And => as_bool(truthy(x) && truthy(y)),
+        BinOp::Or => as_bool(truthy(x) || truthy(y)),
+        BinOp::Xor => as_bool(truthy(x) != truthy(y)),
+        BinOp::Band => (to_i32(x) & to_i32(y)) as f32,
+        BinOp::Bor => (to_i32(x) | to_i32(y)) as f32,
+        BinOp::Bxor => (to_i32(x) ^ to_i32(y)) as f32,
+    })
+}
+
+#[cold]
+fn division_by_zero() -> Box<RuntimeError> {
+    Box::new(RuntimeError::DivisionByZero)
+}
+
+#[inline(never)]
+fn pow_r(x: f32, y: f32) -> R<f32> {
+    let r = x.powf(y);
+    if r.is_nan() {
+        return Err(Box::new(RuntimeError::IllegalValue(format!("{x} ^ {y}"))));
+    }
+    check(r, "^")
+}
+
 fn truthy(v: f32) -> bool {
     v != 0.0
 }
@@ -1880,54 +1929,29 @@ impl Interpreter {
 
     // ------------------------------------------------------------------ expressions
 
+    /// A real expression: constants, variables and arithmetic here (a small function), the
+    /// rest in [`Self::eval_r_other`].
     fn eval_r(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<f32> {
-        Ok(match e {
-            RExpr::Const(v) => *v,
-            RExpr::Var(l) => self.operand_r_var(i, l, sys)?,
-            RExpr::Neg(a) => -self.eval_r(i, a, sys)?,
-            RExpr::Not(a) => as_bool(!truthy(self.eval_r(i, a, sys)?)),
-            RExpr::Com(a) => !to_i32(self.eval_r(i, a, sys)?) as f32,
+        match e {
+            RExpr::Const(v) => Ok(*v),
+            RExpr::Var(l) => self.operand_r_var(i, l, sys),
             RExpr::Bin(op, a, b) => {
                 let x = self.operand_r(i, a, sys)?;
                 // AND/OR evaluate both sides (AS has no short circuit).
                 let y = self.operand_r(i, b, sys)?;
-                match op {
-                    BinOp::Add => check(x + y, "+")?,
-                    BinOp::Sub => check(x - y, "-")?,
-                    BinOp::Mul => check(x * y, "*")?,
-                    BinOp::Div => {
-                        if y == 0.0 {
-                            return Err(Box::new(RuntimeError::DivisionByZero));
-                        }
-                        check(x / y, "/")?
-                    }
-                    BinOp::Mod => {
-                        if y == 0.0 {
-                            return Err(Box::new(RuntimeError::DivisionByZero));
-                        }
-                        check(x % y, "MOD")?
-                    }
-                    BinOp::Pow => {
-                        let r = x.powf(y);
-                        if r.is_nan() {
-                            return Err(Box::new(RuntimeError::IllegalValue(format!("{x} ^ {y}"))));
-                        }
-                        check(r, "^")?
-                    }
-                    BinOp::Eq => as_bool(x == y),
-                    BinOp::Ne => as_bool(x != y),
-                    BinOp::Lt => as_bool(x < y),
-                    BinOp::Gt => as_bool(x > y),
-                    BinOp::Le => as_bool(x <= y),
-                    BinOp::Ge => as_bool(x >= y),
-                    BinOp::And => as_bool(truthy(x) && truthy(y)),
-                    BinOp::Or => as_bool(truthy(x) || truthy(y)),
-                    BinOp::Xor => as_bool(truthy(x) != truthy(y)),
-                    BinOp::Band => (to_i32(x) & to_i32(y)) as f32,
-                    BinOp::Bor => (to_i32(x) | to_i32(y)) as f32,
-                    BinOp::Bxor => (to_i32(x) ^ to_i32(y)) as f32,
-                }
+                bin_r(*op, x, y)
             }
+            _ => self.eval_r_other(i, e, sys),
+        }
+    }
+
+    #[inline(never)]
+    fn eval_r_other(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<f32> {
+        Ok(match e {
+            RExpr::Const(_) | RExpr::Var(_) | RExpr::Bin(..) => self.eval_r(i, e, sys)?,
+            RExpr::Neg(a) => -self.eval_r(i, a, sys)?,
+            RExpr::Not(a) => as_bool(!truthy(self.eval_r(i, a, sys)?)),
+            RExpr::Com(a) => !to_i32(self.eval_r(i, a, sys)?) as f32,
             RExpr::StrCmp(op, a, b) => {
                 let x = self.eval_s(i, a, sys)?;
                 let y = self.eval_s(i, b, sys)?;
@@ -2378,7 +2402,10 @@ impl Interpreter {
     }
 
     // The step's context (program, pc, time, cost) travels as arguments: the hot path.
+    /// One step's op: the ops of pure computation here (a small function), the others in
+    /// [`Self::exec_other`].
     #[allow(clippy::too_many_arguments)]
+    #[inline]
     fn exec(
         &mut self,
         i: usize,
@@ -2387,46 +2414,29 @@ impl Interpreter {
         op: &Op,
         pc: usize,
         now: Ns,
-        mut cost: Ns,
+        cost: Ns,
     ) -> R<Flow> {
-        let robot = i == 0;
-        let flow = match op {
-            Op::Nop => Flow::Next,
+        match op {
             Op::AssignR(l, e) => {
                 let v = self.eval_r(i, e, sys)?;
                 self.write_r(i, l, v, sys)?;
-                Flow::Next
             }
             Op::AssignS(l, e) => {
                 let v = self.eval_s(i, e, sys)?;
                 self.write_s(i, l, v, sys)?;
-                Flow::Next
-            }
-            Op::AssignJ(l, e) => {
-                let v = self.eval_j(i, e, sys)?;
-                self.write_loc_var(i, l, Ty::Joint, v, sys)?;
-                Flow::Next
-            }
-            Op::AssignT(l, e) => {
-                let v = self.eval_t(i, e, sys)?;
-                self.write_loc_var(i, l, Ty::Trans, v, sys)?;
-                Flow::Next
             }
             Op::Jump(t) => {
                 self.set_pc(i, *t);
-                Flow::Next
             }
             Op::JumpIfNot(c, t) => {
                 if !truthy(self.eval_r(i, c, sys)?) {
                     self.set_pc(i, *t);
                 }
-                Flow::Next
             }
             Op::JumpIf(c, t) => {
                 if truthy(self.eval_r(i, c, sys)?) {
                     self.set_pc(i, *t);
                 }
-                Flow::Next
             }
             Op::ForInit {
                 var,
@@ -2452,7 +2462,6 @@ impl Interpreter {
                 if (step > 0.0 && from > to) || (step < 0.0 && from < to) {
                     self.set_pc(i, *exit);
                 }
-                Flow::Next
             }
             Op::ForNext {
                 var,
@@ -2467,6 +2476,45 @@ impl Interpreter {
                 if (step > 0.0 && v <= to) || (step < 0.0 && v >= to) {
                     self.set_pc(i, *body);
                 }
+            }
+            _ => return self.exec_other(i, sys, code, op, pc, now, cost),
+        }
+        let t = &mut self.tasks[i];
+        t.ready_at = now.saturating_add(cost);
+        Ok(Flow::Next)
+    }
+
+    /// The ops [`Self::exec`] leaves to this function.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn exec_other(
+        &mut self,
+        i: usize,
+        sys: &mut dyn System,
+        code: &Code,
+        op: &Op,
+        pc: usize,
+        now: Ns,
+        mut cost: Ns,
+    ) -> R<Flow> {
+        let robot = i == 0;
+        let flow = match op {
+            Op::Nop => Flow::Next,
+            Op::AssignR(..)
+            | Op::AssignS(..)
+            | Op::Jump(_)
+            | Op::JumpIfNot(..)
+            | Op::JumpIf(..)
+            | Op::ForInit { .. }
+            | Op::ForNext { .. } => return self.exec(i, sys, code, op, pc, now, cost),
+            Op::AssignJ(l, e) => {
+                let v = self.eval_j(i, e, sys)?;
+                self.write_loc_var(i, l, Ty::Joint, v, sys)?;
+                Flow::Next
+            }
+            Op::AssignT(l, e) => {
+                let v = self.eval_t(i, e, sys)?;
+                self.write_loc_var(i, l, Ty::Trans, v, sys)?;
                 Flow::Next
             }
             Op::CaseSelR(e, slot) => {
