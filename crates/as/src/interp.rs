@@ -1132,6 +1132,56 @@ impl Interpreter {
             let p = code.programs.get(prog);
             let touches = p.and_then(|p| p.touches.get(pc).copied()).unwrap_or(true);
             let sync = first || touches || at >= synced.saturating_add(poll);
+            if !sync && self.trace.is_none() {
+                if let Some(p) = p {
+                    // A run of pure computation between two syncs: the ops run here, with the
+                    // pc, the time and the step count in locals (written back when the run
+                    // ends), without the checks of a step that meets the system. Each op
+                    // sees what a step would give it (its time in `self.now`).
+                    let (mut pc, mut at, mut steps) = (pc, at, 0u64);
+                    let mut ready = at;
+                    let cost = self.stmt_ns;
+                    let poll_end = synced.saturating_add(poll);
+                    let failed = loop {
+                        let Some(r) = p.ops.get(pc).and_then(|op| self.exec_hot(i, sys, op, pc))
+                        else {
+                            // Not pure computation: a step below runs it.
+                            break None;
+                        };
+                        steps += 1;
+                        match r {
+                            Ok(next) => pc = next,
+                            Err(e) => break Some(e),
+                        }
+                        ready = at.saturating_add(cost);
+                        if ready >= horizon
+                            || ready > until
+                            || ready >= poll_end
+                            || p.touches.get(pc).copied().unwrap_or(true)
+                        {
+                            break None;
+                        }
+                        self.now = ready;
+                        at = ready;
+                    };
+                    if steps > 0 {
+                        let t = &mut self.tasks[i];
+                        t.steps += steps;
+                        if let Some(f) = t.frames.last_mut() {
+                            f.pc = pc;
+                        }
+                        // A failed step leaves the time where the previous one put it.
+                        if failed.is_none() || steps > 1 {
+                            t.ready_at = ready;
+                        }
+                        if let Some(e) = failed {
+                            self.fail(i, e, sys);
+                            return;
+                        }
+                        continue;
+                    }
+                }
+            }
             if sync {
                 sys.advance_to(Duration::from_nanos(at));
                 synced = at;
@@ -1786,6 +1836,39 @@ impl Interpreter {
         self.count_element(created)
     }
 
+    /// `dst = $DECODE(src, d, mode)` for string scalars, constant delimiters and mode: what
+    /// [`Self::eval_s`] and [`Self::write_s`] do (the rest is written to `src` first, then
+    /// the token to `dst`; the same errors), without copies of the string's handle.
+    fn decode_scalar(&mut self, i: usize, dst: &LRef, src: &LRef, d: &[u8], mode: f32) -> R<()> {
+        let store = self.store(i, src.var.global);
+        let Some(var) = store.strs.get_mut(src.var.slot as usize) else {
+            return Err(self.undefined(i, src, Ty::Str, &[]));
+        };
+        let Some(s) = &var.scalar else {
+            return Err(self.undefined(i, src, Ty::Str, &[]));
+        };
+        let cut = decode_cut(s, d, mode).min(s.len());
+        if s.len() - cut > MAX_STRING {
+            return Err(Box::new(RuntimeError::StringTooLong(s.len() - cut)));
+        }
+        let Some(s) = var.scalar.take() else {
+            return Err(self.undefined(i, src, Ty::Str, &[]));
+        };
+        let (head, rest) = s.split_off_head(cut);
+        var.scalar = Some(rest);
+        if head.len() > MAX_STRING {
+            return Err(Box::new(RuntimeError::StringTooLong(head.len())));
+        }
+        if let Some(x) = self
+            .store(i, dst.var.global)
+            .strs
+            .get_mut(dst.var.slot as usize)
+        {
+            x.scalar = Some(head);
+        }
+        Ok(())
+    }
+
     fn read_s(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<Bytes> {
         if l.idx.is_empty() {
             let slot = l.var.slot as usize;
@@ -2197,19 +2280,7 @@ impl Interpreter {
                     }
                 };
                 let mode = self.eval_r(i, mode, sys)?;
-                let one = match d {
-                    [x] => Some(x.to_ascii_lowercase()),
-                    _ => None,
-                };
-                let is_delim = |c: u8| match one {
-                    Some(x) => c.to_ascii_lowercase() == x,
-                    None => d.iter().any(|x| x.eq_ignore_ascii_case(&c)),
-                };
-                let cut = if mode <= 0.0 {
-                    s.iter().position(|&c| is_delim(c)).unwrap_or(s.len())
-                } else {
-                    s.iter().position(|&c| !is_delim(c)).unwrap_or(s.len())
-                };
+                let cut = decode_cut(&s, d, mode);
                 let (head, rest) = s.split_off_head(cut);
                 self.write_s(i, var, rest, sys)?;
                 head
@@ -2402,8 +2473,7 @@ impl Interpreter {
     }
 
     // The step's context (program, pc, time, cost) travels as arguments: the hot path.
-    /// One step's op: the ops of pure computation here (a small function), the others in
-    /// [`Self::exec_other`].
+    /// One step's op (the task's pc already points after it).
     #[allow(clippy::too_many_arguments)]
     #[inline]
     fn exec(
@@ -2416,72 +2486,115 @@ impl Interpreter {
         now: Ns,
         cost: Ns,
     ) -> R<Flow> {
-        match op {
-            Op::AssignR(l, e) => {
-                let v = self.eval_r(i, e, sys)?;
-                self.write_r(i, l, v, sys)?;
-            }
-            Op::AssignS(l, e) => {
-                let v = self.eval_s(i, e, sys)?;
-                self.write_s(i, l, v, sys)?;
-            }
-            Op::Jump(t) => {
-                self.set_pc(i, *t);
-            }
-            Op::JumpIfNot(c, t) => {
-                if !truthy(self.eval_r(i, c, sys)?) {
-                    self.set_pc(i, *t);
+        match self.exec_hot(i, sys, op, pc) {
+            Some(next) => {
+                let next = next?;
+                let t = &mut self.tasks[i];
+                if let Some(f) = t.frames.last_mut() {
+                    f.pc = next;
                 }
+                t.ready_at = now.saturating_add(cost);
+                Ok(Flow::Next)
             }
-            Op::JumpIf(c, t) => {
-                if truthy(self.eval_r(i, c, sys)?) {
-                    self.set_pc(i, *t);
-                }
-            }
-            Op::ForInit {
-                var,
-                from,
-                to,
-                step,
-                limit,
-                step_slot,
-                exit,
-            } => {
-                let from = self.eval_r(i, from, sys)?;
-                let to = self.eval_r(i, to, sys)?;
-                let step = match step {
-                    Some(s) => self.eval_r(i, s, sys)?,
-                    None => 1.0,
-                };
-                if step == 0.0 {
-                    return Err(Box::new(RuntimeError::IllegalValue("FOR … STEP 0".into())));
-                }
-                self.write_r(i, var, from, sys)?;
-                self.set_hidden_r(i, *limit, to);
-                self.set_hidden_r(i, *step_slot, step);
-                if (step > 0.0 && from > to) || (step < 0.0 && from < to) {
-                    self.set_pc(i, *exit);
-                }
-            }
-            Op::ForNext {
-                var,
-                limit,
-                step_slot,
-                body,
-            } => {
-                let step = self.hidden_r(i, *step_slot);
-                let to = self.hidden_r(i, *limit);
-                let v = check(self.read_r(i, var, sys)? + step, "FOR")?;
-                self.write_r(i, var, v, sys)?;
-                if (step > 0.0 && v <= to) || (step < 0.0 && v >= to) {
-                    self.set_pc(i, *body);
-                }
-            }
-            _ => return self.exec_other(i, sys, code, op, pc, now, cost),
+            None => self.exec_other(i, sys, code, op, pc, now, cost),
         }
-        let t = &mut self.tasks[i];
-        t.ready_at = now.saturating_add(cost);
-        Ok(Flow::Next)
+    }
+
+    /// The ops of pure computation (assignments, jumps, FOR), which change nothing but
+    /// variables: the pc of the next step, `None` for any other op. The caller sets the pc
+    /// and the task's time.
+    #[inline(always)]
+    fn exec_hot(&mut self, i: usize, sys: &mut dyn System, op: &Op, pc: usize) -> Option<R<usize>> {
+        let r = (|| -> R<usize> {
+            Ok(match op {
+                Op::AssignR(l, e) => {
+                    let v = self.eval_r(i, e, sys)?;
+                    self.write_r(i, l, v, sys)?;
+                    pc + 1
+                }
+                Op::AssignS(l, e) => {
+                    match e {
+                        // `.$tok = $DECODE(.$data, " ", 0)`: the server's tokenizer, in place.
+                        SExpr::Decode(var, delims, mode)
+                            if l.idx.is_empty() && var.idx.is_empty() =>
+                        {
+                            if let (SExpr::Const(d), RExpr::Const(m)) = (&**delims, &**mode) {
+                                self.decode_scalar(i, l, var, d, *m)?;
+                                return Ok(pc + 1);
+                            }
+                        }
+                        _ => {}
+                    }
+                    let v = self.eval_s(i, e, sys)?;
+                    self.write_s(i, l, v, sys)?;
+                    pc + 1
+                }
+                Op::Jump(t) => *t,
+                Op::JumpIfNot(c, t) => {
+                    if truthy(self.eval_r(i, c, sys)?) {
+                        pc + 1
+                    } else {
+                        *t
+                    }
+                }
+                Op::JumpIf(c, t) => {
+                    if truthy(self.eval_r(i, c, sys)?) {
+                        *t
+                    } else {
+                        pc + 1
+                    }
+                }
+                Op::ForInit {
+                    var,
+                    from,
+                    to,
+                    step,
+                    limit,
+                    step_slot,
+                    exit,
+                } => {
+                    let from = self.eval_r(i, from, sys)?;
+                    let to = self.eval_r(i, to, sys)?;
+                    let step = match step {
+                        Some(s) => self.eval_r(i, s, sys)?,
+                        None => 1.0,
+                    };
+                    if step == 0.0 {
+                        return Err(Box::new(RuntimeError::IllegalValue("FOR … STEP 0".into())));
+                    }
+                    self.write_r(i, var, from, sys)?;
+                    self.set_hidden_r(i, *limit, to);
+                    self.set_hidden_r(i, *step_slot, step);
+                    if (step > 0.0 && from > to) || (step < 0.0 && from < to) {
+                        *exit
+                    } else {
+                        pc + 1
+                    }
+                }
+                Op::ForNext {
+                    var,
+                    limit,
+                    step_slot,
+                    body,
+                } => {
+                    let step = self.hidden_r(i, *step_slot);
+                    let to = self.hidden_r(i, *limit);
+                    let v = check(self.read_r(i, var, sys)? + step, "FOR")?;
+                    self.write_r(i, var, v, sys)?;
+                    if (step > 0.0 && v <= to) || (step < 0.0 && v >= to) {
+                        *body
+                    } else {
+                        pc + 1
+                    }
+                }
+                // Not one of these ops (no jump target or next pc is `usize::MAX`).
+                _ => usize::MAX,
+            })
+        })();
+        match r {
+            Ok(usize::MAX) => None,
+            r => Some(r),
+        }
     }
 
     /// The ops [`Self::exec`] leaves to this function.
@@ -3364,6 +3477,25 @@ fn val(s: &[u8], radix: f32) -> R<f32> {
         .find(|c: char| !c.is_digit(radix))
         .unwrap_or(digits.len());
     Ok(u64::from_str_radix(&digits[..end.min(16)], radix).map_or(0.0, |v| v as f32))
+}
+
+/// `$DECODE`: where the token ends (mode ≤ 0: at the first delimiter; else at the first byte
+/// that is not one). Delimiters match regardless of ASCII case.
+#[inline]
+fn decode_cut(s: &[u8], d: &[u8], mode: f32) -> usize {
+    let one = match d {
+        [x] => Some(x.to_ascii_lowercase()),
+        _ => None,
+    };
+    let is_delim = |c: u8| match one {
+        Some(x) => c.to_ascii_lowercase() == x,
+        None => d.iter().any(|x| x.eq_ignore_ascii_case(&c)),
+    };
+    if mode <= 0.0 {
+        s.iter().position(|&c| is_delim(c)).unwrap_or(s.len())
+    } else {
+        s.iter().position(|&c| !is_delim(c)).unwrap_or(s.len())
+    }
 }
 
 /// `INSTR`: 1-based position of `sub` in `s` at or after `start`, 0 when absent.
