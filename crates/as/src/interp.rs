@@ -450,6 +450,9 @@ pub const MAX_STRING: usize = 255;
 /// Most bytes one `TCP_RECV` or `TCP_SEND` moves.
 pub const MAX_TRANSFER: usize = 4096;
 
+/// [`Interpreter::exec_hot`]'s answer for an op that is not pure computation (never a pc).
+const NOT_PURE: usize = usize::MAX;
+
 /// A runtime error, boxed: results stay two words (returned in registers) on the hot path.
 type R<T> = Result<T, Box<RuntimeError>>;
 
@@ -1143,16 +1146,17 @@ impl Interpreter {
                     let cost = self.stmt_ns;
                     let poll_end = synced.saturating_add(poll);
                     let failed = loop {
-                        let Some(r) = p.ops.get(pc).and_then(|op| self.exec_hot(i, sys, op, pc))
-                        else {
+                        let Some(op) = p.ops.get(pc) else { break None };
+                        match self.exec_hot(i, sys, op, pc) {
                             // Not pure computation: a step below runs it.
-                            break None;
-                        };
-                        steps += 1;
-                        match r {
+                            Ok(NOT_PURE) => break None,
                             Ok(next) => pc = next,
-                            Err(e) => break Some(e),
+                            Err(e) => {
+                                steps += 1;
+                                break Some(e);
+                            }
                         }
+                        steps += 1;
                         ready = at.saturating_add(cost);
                         if ready >= horizon
                             || ready > until
@@ -1696,7 +1700,15 @@ impl Interpreter {
     fn indices(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<[i32; 3]> {
         let mut out = [0i32; 3];
         for (k, e) in l.idx.iter().enumerate().take(3) {
-            let v = self.operand_r(i, e, sys)?;
+            // `.i+1`, the common computed index, is added here (as `eval_r` adds).
+            let v = match e {
+                RExpr::Bin(BinOp::Add, a, b) => {
+                    let x = self.operand_r(i, a, sys)?;
+                    let y = self.operand_r(i, b, sys)?;
+                    check(x + y, "+")?
+                }
+                _ => self.operand_r(i, e, sys)?,
+            };
             // `0 <= trunc(v) <= MAX_INDEX` without a call of `truncf` (NaN fails both).
             if !(v > -1.0 && v < (MAX_INDEX + 1) as f32) {
                 return Err(Box::new(RuntimeError::IndexRange(format!(
@@ -2486,9 +2498,9 @@ impl Interpreter {
         now: Ns,
         cost: Ns,
     ) -> R<Flow> {
-        match self.exec_hot(i, sys, op, pc) {
-            Some(next) => {
-                let next = next?;
+        match self.exec_hot(i, sys, op, pc)? {
+            NOT_PURE => self.exec_other(i, sys, code, op, pc, now, cost),
+            next => {
                 let t = &mut self.tasks[i];
                 if let Some(f) = t.frames.last_mut() {
                     f.pc = next;
@@ -2496,105 +2508,95 @@ impl Interpreter {
                 t.ready_at = now.saturating_add(cost);
                 Ok(Flow::Next)
             }
-            None => self.exec_other(i, sys, code, op, pc, now, cost),
         }
     }
 
     /// The ops of pure computation (assignments, jumps, FOR), which change nothing but
-    /// variables: the pc of the next step, `None` for any other op. The caller sets the pc
-    /// and the task's time.
-    #[inline(always)]
-    fn exec_hot(&mut self, i: usize, sys: &mut dyn System, op: &Op, pc: usize) -> Option<R<usize>> {
-        let r = (|| -> R<usize> {
-            Ok(match op {
-                Op::AssignR(l, e) => {
-                    let v = self.eval_r(i, e, sys)?;
-                    self.write_r(i, l, v, sys)?;
-                    pc + 1
-                }
-                Op::AssignS(l, e) => {
-                    match e {
-                        // `.$tok = $DECODE(.$data, " ", 0)`: the server's tokenizer, in place.
-                        SExpr::Decode(var, delims, mode)
-                            if l.idx.is_empty() && var.idx.is_empty() =>
-                        {
-                            if let (SExpr::Const(d), RExpr::Const(m)) = (&**delims, &**mode) {
-                                self.decode_scalar(i, l, var, d, *m)?;
-                                return Ok(pc + 1);
-                            }
+    /// variables: the pc of the next step, [`NOT_PURE`] (nothing done) for any other op. The
+    /// caller sets the pc and the task's time.
+    #[inline]
+    fn exec_hot(&mut self, i: usize, sys: &mut dyn System, op: &Op, pc: usize) -> R<usize> {
+        Ok(match op {
+            Op::AssignR(l, e) => {
+                let v = self.eval_r(i, e, sys)?;
+                self.write_r(i, l, v, sys)?;
+                pc + 1
+            }
+            Op::AssignS(l, e) => {
+                match e {
+                    // `.$tok = $DECODE(.$data, " ", 0)`: the server's tokenizer, in place.
+                    SExpr::Decode(var, delims, mode) if l.idx.is_empty() && var.idx.is_empty() => {
+                        if let (SExpr::Const(d), RExpr::Const(m)) = (&**delims, &**mode) {
+                            self.decode_scalar(i, l, var, d, *m)?;
+                            return Ok(pc + 1);
                         }
-                        _ => {}
                     }
-                    let v = self.eval_s(i, e, sys)?;
-                    self.write_s(i, l, v, sys)?;
+                    _ => {}
+                }
+                let v = self.eval_s(i, e, sys)?;
+                self.write_s(i, l, v, sys)?;
+                pc + 1
+            }
+            Op::Jump(t) => *t,
+            Op::JumpIfNot(c, t) => {
+                if truthy(self.eval_r(i, c, sys)?) {
+                    pc + 1
+                } else {
+                    *t
+                }
+            }
+            Op::JumpIf(c, t) => {
+                if truthy(self.eval_r(i, c, sys)?) {
+                    *t
+                } else {
                     pc + 1
                 }
-                Op::Jump(t) => *t,
-                Op::JumpIfNot(c, t) => {
-                    if truthy(self.eval_r(i, c, sys)?) {
-                        pc + 1
-                    } else {
-                        *t
-                    }
+            }
+            Op::ForInit {
+                var,
+                from,
+                to,
+                step,
+                limit,
+                step_slot,
+                exit,
+            } => {
+                let from = self.eval_r(i, from, sys)?;
+                let to = self.eval_r(i, to, sys)?;
+                let step = match step {
+                    Some(s) => self.eval_r(i, s, sys)?,
+                    None => 1.0,
+                };
+                if step == 0.0 {
+                    return Err(Box::new(RuntimeError::IllegalValue("FOR … STEP 0".into())));
                 }
-                Op::JumpIf(c, t) => {
-                    if truthy(self.eval_r(i, c, sys)?) {
-                        *t
-                    } else {
-                        pc + 1
-                    }
+                self.write_r(i, var, from, sys)?;
+                self.set_hidden_r(i, *limit, to);
+                self.set_hidden_r(i, *step_slot, step);
+                if (step > 0.0 && from > to) || (step < 0.0 && from < to) {
+                    *exit
+                } else {
+                    pc + 1
                 }
-                Op::ForInit {
-                    var,
-                    from,
-                    to,
-                    step,
-                    limit,
-                    step_slot,
-                    exit,
-                } => {
-                    let from = self.eval_r(i, from, sys)?;
-                    let to = self.eval_r(i, to, sys)?;
-                    let step = match step {
-                        Some(s) => self.eval_r(i, s, sys)?,
-                        None => 1.0,
-                    };
-                    if step == 0.0 {
-                        return Err(Box::new(RuntimeError::IllegalValue("FOR … STEP 0".into())));
-                    }
-                    self.write_r(i, var, from, sys)?;
-                    self.set_hidden_r(i, *limit, to);
-                    self.set_hidden_r(i, *step_slot, step);
-                    if (step > 0.0 && from > to) || (step < 0.0 && from < to) {
-                        *exit
-                    } else {
-                        pc + 1
-                    }
+            }
+            Op::ForNext {
+                var,
+                limit,
+                step_slot,
+                body,
+            } => {
+                let step = self.hidden_r(i, *step_slot);
+                let to = self.hidden_r(i, *limit);
+                let v = check(self.read_r(i, var, sys)? + step, "FOR")?;
+                self.write_r(i, var, v, sys)?;
+                if (step > 0.0 && v <= to) || (step < 0.0 && v >= to) {
+                    *body
+                } else {
+                    pc + 1
                 }
-                Op::ForNext {
-                    var,
-                    limit,
-                    step_slot,
-                    body,
-                } => {
-                    let step = self.hidden_r(i, *step_slot);
-                    let to = self.hidden_r(i, *limit);
-                    let v = check(self.read_r(i, var, sys)? + step, "FOR")?;
-                    self.write_r(i, var, v, sys)?;
-                    if (step > 0.0 && v <= to) || (step < 0.0 && v >= to) {
-                        *body
-                    } else {
-                        pc + 1
-                    }
-                }
-                // Not one of these ops (no jump target or next pc is `usize::MAX`).
-                _ => usize::MAX,
-            })
-        })();
-        match r {
-            Ok(usize::MAX) => None,
-            r => Some(r),
-        }
+            }
+            _ => NOT_PURE,
+        })
     }
 
     /// The ops [`Self::exec`] leaves to this function.
@@ -3483,6 +3485,16 @@ fn val(s: &[u8], radix: f32) -> R<f32> {
 /// that is not one). Delimiters match regardless of ASCII case.
 #[inline]
 fn decode_cut(s: &[u8], d: &[u8], mode: f32) -> usize {
+    if let [x] = d {
+        if !x.is_ascii_alphabetic() {
+            // No case to ignore (the server's blank).
+            return if mode <= 0.0 {
+                s.iter().position(|c| c == x).unwrap_or(s.len())
+            } else {
+                s.iter().position(|c| c != x).unwrap_or(s.len())
+            };
+        }
+    }
     let one = match d {
         [x] => Some(x.to_ascii_lowercase()),
         _ => None,
