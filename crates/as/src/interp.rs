@@ -3232,16 +3232,21 @@ impl Interpreter {
 
     /// Writes a socket instruction's result to its `ret` variable and goes on.
     fn finish_ret(&mut self, i: usize, v: f32, sys: &mut dyn System) -> R<()> {
-        let ret = match self.current_op(i) {
+        let code = Arc::clone(&self.code);
+        let op = self.tasks[i]
+            .frames
+            .last()
+            .and_then(|f| code.programs.get(f.prog)?.ops.get(f.pc));
+        let ret = match op {
             Some(
                 Op::TcpConnect { ret, .. }
                 | Op::TcpSend { ret, .. }
                 | Op::TcpAccept { ret, .. }
                 | Op::TcpRecv { ret, .. },
-            ) => ret.clone(),
+            ) => ret,
             _ => return Ok(()),
         };
-        self.write_r(i, &ret, v, sys)?;
+        self.write_r(i, ret, v, sys)?;
         self.advance_pc(i);
         Ok(())
     }
@@ -3279,14 +3284,20 @@ impl Interpreter {
         max: usize,
         sys: &mut dyn System,
     ) -> R<()> {
-        let (buf, count) = match self.current_op(i) {
-            Some(Op::TcpRecv { buf, count, .. }) => (buf.clone(), count.clone()),
+        // A handle on the code (not a copy of the op's variables) while the variables change.
+        let code = Arc::clone(&self.code);
+        let op = self.tasks[i]
+            .frames
+            .last()
+            .and_then(|f| code.programs.get(f.prog)?.ops.get(f.pc));
+        let (buf, count) = match op {
+            Some(Op::TcpRecv { buf, count, .. }) => (buf, count),
             _ => return Ok(()),
         };
         match r {
             Ok(bytes) => {
                 let dims = buf.idx.len().clamp(1, 3);
-                let base = self.indices(i, &buf, sys)?;
+                let base = self.indices(i, buf, sys)?;
                 let mut n = 0;
                 for (k, chunk) in bytes.chunks(max.max(1)).take(MAX_TRANSFER).enumerate() {
                     let mut at = base;
@@ -3297,11 +3308,11 @@ impl Interpreter {
                     self.write_s_at(i, buf.var, &at[..dims], Bytes::from(chunk))?;
                     n += 1;
                 }
-                self.write_r(i, &count, n as f32, sys)?;
+                self.write_r(i, count, n as f32, sys)?;
                 self.finish_ret(i, 0.0, sys)
             }
             Err(e) => {
-                self.write_r(i, &count, 0.0, sys)?;
+                self.write_r(i, count, 0.0, sys)?;
                 self.finish_ret(i, e as f32, sys)
             }
         }
