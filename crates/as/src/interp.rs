@@ -1985,6 +1985,24 @@ impl Interpreter {
         self.count_element(created)
     }
 
+    /// `VAL` of a string scalar, read in place.
+    fn val_scalar(&self, i: usize, l: &LRef) -> R<f32> {
+        let store = if l.var.global {
+            &self.globals
+        } else {
+            match self.tasks[i].frames.last() {
+                Some(f) => &f.locals,
+                None => &self.globals,
+            }
+        };
+        match store.strs.get(l.var.slot as usize) {
+            Some(Var {
+                scalar: Some(b), ..
+            }) => val(b, 0.0),
+            _ => Err(self.undefined(i, l, Ty::Str, &[])),
+        }
+    }
+
     fn hidden_r(&mut self, i: usize, slot: u32) -> f32 {
         let s = slot as usize;
         self.store(i, false)
@@ -2036,6 +2054,10 @@ impl Interpreter {
                 let y = self.operand_r(i, b, sys)?;
                 bin_r(*op, x, y)
             }
+            RExpr::Val(s, None) => match &**s {
+                SExpr::Var(l) if l.idx.is_empty() => self.val_scalar(i, l),
+                _ => self.eval_r_other(i, e, sys),
+            },
             _ => self.eval_r_other(i, e, sys),
         }
     }
@@ -2065,20 +2087,7 @@ impl Interpreter {
                 // VAL of a string scalar (the server's tokens) reads it in place.
                 if let (SExpr::Var(l), None) = (&**s, radix) {
                     if l.idx.is_empty() {
-                        let store = if l.var.global {
-                            &self.globals
-                        } else {
-                            match self.tasks[i].frames.last() {
-                                Some(f) => &f.locals,
-                                None => &self.globals,
-                            }
-                        };
-                        return match store.strs.get(l.var.slot as usize) {
-                            Some(Var {
-                                scalar: Some(b), ..
-                            }) => val(b, 0.0),
-                            _ => Err(self.undefined(i, l, Ty::Str, &[])),
-                        };
+                        return self.val_scalar(i, l);
                     }
                 }
                 let s = self.eval_s(i, s, sys)?;
@@ -2575,6 +2584,31 @@ impl Interpreter {
                 self.set_hidden_r(i, *step_slot, step);
                 if (step > 0.0 && from > to) || (step < 0.0 && from < to) {
                     *exit
+                } else {
+                    pc + 1
+                }
+            }
+            Op::ForNext {
+                var,
+                limit,
+                step_slot,
+                body,
+            } if var.idx.is_empty() && !var.var.global => {
+                // A local scalar counter: the counter, limit and step in one lookup of the
+                // frame's reals.
+                let reals = &mut self.store(i, false).reals;
+                let scalar = |k: u32| reals.get(k as usize).and_then(|v| v.scalar);
+                let step = scalar(*step_slot).unwrap_or(0.0);
+                let to = scalar(*limit).unwrap_or(0.0);
+                let Some(cur) = scalar(var.var.slot) else {
+                    return Err(self.undefined(i, var, Ty::Real, &[]));
+                };
+                let v = check(cur + step, "FOR")?;
+                if let Some(x) = reals.get_mut(var.var.slot as usize) {
+                    x.scalar = Some(v);
+                }
+                if (step > 0.0 && v <= to) || (step < 0.0 && v >= to) {
+                    *body
                 } else {
                     pc + 1
                 }
@@ -3462,13 +3496,24 @@ fn xyzoat(v: &[f32; 6]) -> Xyzoat {
 /// AS `VAL`: decimal through fs020n-proto's `as_val` (the protocol server's own reading),
 /// `^H`/`^B` prefixes, and radix codes 1 (binary) and 2 (hexadecimal).
 fn val(s: &[u8], radix: f32) -> R<f32> {
+    // Leading blanks are cut on the bytes (ASCII: the same as on the text).
+    let start = s
+        .iter()
+        .position(|&c| c != b' ' && c != b'\t')
+        .unwrap_or(s.len());
+    let s = &s[start..];
     // Valid UTF-8 (the usual case) is read in place; `from_utf8_lossy` gives the same text
     // but walks it chunk by chunk.
     let text = match std::str::from_utf8(s) {
         Ok(t) => std::borrow::Cow::Borrowed(t),
         Err(_) => String::from_utf8_lossy(s),
     };
-    let t = text.trim_start_matches([' ', '\t']);
+    // A decimal number (no `^H`/`^B` prefix, radix code 0: `trunc(radix)` is 0, NaN
+    // included): straight to the protocol's reading.
+    if s.first() != Some(&b'^') && !(radix <= -1.0 || radix >= 1.0) {
+        return Ok(as_val(&text) as f32);
+    }
+    let t = &*text;
     let (radix, digits) = if let Some(rest) = t.strip_prefix("^H").or_else(|| t.strip_prefix("^h"))
     {
         (16, rest)
