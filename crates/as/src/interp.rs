@@ -1699,27 +1699,48 @@ impl Interpreter {
 
     fn indices(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<[i32; 3]> {
         let mut out = [0i32; 3];
-        for (k, e) in l.idx.iter().enumerate().take(3) {
-            // `.i+1`, the common computed index, is added here (as `eval_r` adds).
-            let v = match e {
-                RExpr::Bin(BinOp::Add, a, b) => {
-                    let x = self.operand_r(i, a, sys)?;
-                    let y = self.operand_r(i, b, sys)?;
-                    check(x + y, "+")?
-                }
-                _ => self.operand_r(i, e, sys)?,
-            };
-            // `0 <= trunc(v) <= MAX_INDEX` without a call of `truncf` (NaN fails both).
-            if !(v > -1.0 && v < (MAX_INDEX + 1) as f32) {
-                return Err(Box::new(RuntimeError::IndexRange(format!(
-                    "{} in {}",
-                    v,
-                    self.lref_name(i, l, Ty::Real)
-                ))));
+        match &*l.idx {
+            [] => {}
+            [a] => out[0] = self.index(i, l, a, sys)?,
+            [a, b] => {
+                out[0] = self.index(i, l, a, sys)?;
+                out[1] = self.index(i, l, b, sys)?;
             }
-            out[k] = v as i32;
+            [a, b, c, ..] => {
+                out[0] = self.index(i, l, a, sys)?;
+                out[1] = self.index(i, l, b, sys)?;
+                out[2] = self.index(i, l, c, sys)?;
+            }
         }
         Ok(out)
+    }
+
+    /// One array index of `l`: 0 to [`MAX_INDEX`] after truncation.
+    #[inline(always)]
+    fn index(&mut self, i: usize, l: &LRef, e: &RExpr, sys: &mut dyn System) -> R<i32> {
+        // `.i+1`, the common computed index, is added here (as `eval_r` adds).
+        let v = match e {
+            RExpr::Bin(BinOp::Add, a, b) => {
+                let x = self.operand_r(i, a, sys)?;
+                let y = self.operand_r(i, b, sys)?;
+                check(x + y, "+")?
+            }
+            _ => self.operand_r(i, e, sys)?,
+        };
+        // `0 <= trunc(v) <= MAX_INDEX` without a call of `truncf` (NaN fails both).
+        if !(v > -1.0 && v < (MAX_INDEX + 1) as f32) {
+            return Err(self.index_range(i, l, v));
+        }
+        Ok(v as i32)
+    }
+
+    #[cold]
+    fn index_range(&self, i: usize, l: &LRef, v: f32) -> Box<RuntimeError> {
+        Box::new(RuntimeError::IndexRange(format!(
+            "{} in {}",
+            v,
+            self.lref_name(i, l, Ty::Real)
+        )))
     }
 
     fn lref_name(&self, i: usize, l: &LRef, ty: Ty) -> String {
@@ -2523,7 +2544,7 @@ impl Interpreter {
     /// The ops of pure computation (assignments, jumps, FOR), which change nothing but
     /// variables: the pc of the next step, [`NOT_PURE`] (nothing done) for any other op. The
     /// caller sets the pc and the task's time.
-    #[inline]
+    #[inline(always)]
     fn exec_hot(&mut self, i: usize, sys: &mut dyn System, op: &Op, pc: usize) -> R<usize> {
         Ok(match op {
             Op::AssignR(l, e) => {
