@@ -436,7 +436,10 @@ pub struct Interpreter {
     /// Bumped whenever a signal or an armed interrupt changes.
     int_epoch: u64,
     /// `interrupt_time` per task, valid for `int_epoch`.
-    int_cache: std::cell::Cell<(u64, [Option<Ns>; 6])>,
+    int_cache_epoch: std::cell::Cell<u64>,
+    int_cache: [std::cell::Cell<Option<Ns>>; 6],
+    /// Bit `k` set while task `k` is not idle (the scheduler's pass visits only these).
+    active: u8,
     /// `cfg.cost.statement` and `cfg.poll_period` in [`Ns`] (the config never changes).
     stmt_ns: Ns,
     poll_ns: Ns,
@@ -604,7 +607,9 @@ impl Interpreter {
             switches: SYSTEM_SWITCHES.iter().map(|(_, v)| *v).collect(),
             mc_hold: false,
             int_epoch: 1,
-            int_cache: std::cell::Cell::new((0, [None; 6])),
+            int_cache_epoch: std::cell::Cell::new(0),
+            int_cache: Default::default(),
+            active: 0,
             stmt_ns,
             poll_ns,
             terminal: VecDeque::new(),
@@ -680,8 +685,8 @@ impl Interpreter {
     pub fn abort(&mut self, task: TaskId) {
         let i = task.index();
         self.release_frames(i, 0);
+        self.set_run(i, Run::Idle);
         let t = &mut self.tasks[i];
-        t.run = Run::Idle;
         t.wait = None;
         t.interrupts.clear();
         t.pending_on = None;
@@ -952,25 +957,52 @@ impl Interpreter {
     /// [`Self::interrupt_times`] without idle tasks set to `None` (the same for every task
     /// that is not idle).
     fn interrupt_times_cached(&self) -> [Option<Ns>; 6] {
-        let (epoch, mut times) = self.int_cache.get();
-        if epoch != self.int_epoch {
-            let debounce = ns(self.cfg.signal_debounce);
-            for (k, t) in self.tasks.iter().enumerate().take(6) {
-                times[k] = t
-                    .interrupts
-                    .iter()
-                    .filter_map(|int| {
-                        let n = int.signal.abs();
-                        let want = int.signal > 0;
-                        let s = self.signals.get(&n)?;
-                        (s.on == want && s.changed > int.armed_at)
-                            .then(|| s.changed.saturating_add(debounce))
-                    })
-                    .min();
-            }
-            self.int_cache.set((self.int_epoch, times));
+        self.refresh_int_cache();
+        std::array::from_fn(|k| self.int_cache[k].get())
+    }
+
+    /// Task `k`'s entry of [`Self::interrupt_times_cached`].
+    #[inline]
+    fn interrupt_time_cached(&self, k: usize) -> Option<Ns> {
+        self.refresh_int_cache();
+        self.int_cache.get(k).and_then(std::cell::Cell::get)
+    }
+
+    /// Recomputes the cached interrupt times when a signal or an armed interrupt changed.
+    #[inline]
+    fn refresh_int_cache(&self) {
+        if self.int_cache_epoch.get() == self.int_epoch {
+            return;
         }
-        times
+        let debounce = ns(self.cfg.signal_debounce);
+        for (k, t) in self.tasks.iter().enumerate().take(6) {
+            let time = t
+                .interrupts
+                .iter()
+                .filter_map(|int| {
+                    let n = int.signal.abs();
+                    let want = int.signal > 0;
+                    let s = self.signals.get(&n)?;
+                    (s.on == want && s.changed > int.armed_at)
+                        .then(|| s.changed.saturating_add(debounce))
+                })
+                .min();
+            self.int_cache[k].set(time);
+        }
+        self.int_cache_epoch.set(self.int_epoch);
+    }
+
+    /// Sets task `k`'s run state (and its bit in [`Self::active`]).
+    fn set_run(&mut self, k: usize, run: Run) {
+        if let Some(t) = self.tasks.get_mut(k) {
+            t.run = run;
+            let bit = 1u8 << (k & 7);
+            if run == Run::Idle {
+                self.active &= !bit;
+            } else {
+                self.active |= bit;
+            }
+        }
     }
 
     fn interrupt_time(&self, i: usize) -> Option<Ns> {
@@ -1009,25 +1041,20 @@ impl Interpreter {
                 (x, y) => x.or(y),
             }
         }
-        // The interrupt times are looked up only for tasks with armed interrupts (a task
-        // without any has none); idle tasks are skipped (no step, no armed interrupt).
-        let mut ints: Option<[Option<Ns>; 6]> = None;
-        let mut int_of = |k: usize, t: &Task| -> Option<Ns> {
-            if t.interrupts.is_empty() {
-                None
-            } else {
-                ints.get_or_insert_with(|| self.interrupt_times_cached())[k]
-            }
-        };
-        // Each task's earliest event; the earliest of all (ties: the lower task) and the
-        // earliest among the other tasks.
+        // Only tasks that are not idle (an idle task has no step and no armed interrupt);
+        // interrupt times only for tasks with armed interrupts (a task without any has none).
         let mut best: Option<(Ns, usize, Option<Ns>)> = None;
         let mut others: Option<Ns> = None;
-        for (k, t) in self.tasks.iter().enumerate().take(6) {
-            if t.run == Run::Idle {
-                continue;
-            }
-            let int = int_of(k, t);
+        let mut mask = self.active;
+        while mask != 0 {
+            let k = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            let Some(t) = self.tasks.get(k) else { break };
+            let int = if t.interrupts.is_empty() {
+                None
+            } else {
+                self.interrupt_time_cached(k)
+            };
             let Some(c) = earlier(int, self.wake_time(k, t)) else {
                 continue;
             };
@@ -1398,7 +1425,7 @@ impl Interpreter {
             // branches now — also while it was finishing (TASK(1) = 3).
             sys.cut_motion();
             self.tasks[i].wait = None;
-            self.tasks[i].run = Run::Running;
+            self.set_run(i, Run::Running);
             self.branch(i, int, sys);
         } else if self.tasks[i].run == Run::Ending {
             // ON while finishing: the program branches after the last motion is done…
@@ -1572,13 +1599,13 @@ impl Interpreter {
     ) -> bool {
         let now = self.now;
         self.release_frames(i, 0);
+        self.set_run(i, Run::Running);
         {
             let t = &mut self.tasks[i];
             t.wait = None;
             t.kick = false;
             t.interrupts.clear();
             t.pending_on = None;
-            t.run = Run::Running;
             t.ready_at = now;
             t.cycles_left = if cycles == 0 { 1 } else { cycles };
             t.motion = MotionParams::default();
@@ -1589,7 +1616,7 @@ impl Interpreter {
         match self.push_frame(i, prog, args) {
             Ok(()) => true,
             Err(_) => {
-                self.tasks[i].run = Run::Idle;
+                self.set_run(i, Run::Idle);
                 false
             }
         }
@@ -1673,8 +1700,8 @@ impl Interpreter {
         if i == 0 && sys.motion_in_progress() {
             self.release_frames(i, 1);
             let at = self.next_tick(self.now);
+            self.set_run(0, Run::Ending);
             let t = &mut self.tasks[0];
-            t.run = Run::Ending;
             t.wait = None;
             t.pending_on = None;
             t.poll_at = at;
@@ -2215,7 +2242,7 @@ impl Interpreter {
                             && self.tasks[0].run == Run::Ending
                             && !sys.motion_in_progress()
                         {
-                            self.tasks[0].run = Run::Idle;
+                            self.set_run(0, Run::Idle);
                         }
                         self.task_state(id, sys).number()
                     }
