@@ -440,6 +440,9 @@ pub struct Interpreter {
     int_cache: [std::cell::Cell<Option<Ns>>; 6],
     /// Bit `k` set while task `k` is not idle (the scheduler's pass visits only these).
     active: u8,
+    /// The time the interpreter last brought the system to in this [`Self::run_until`]
+    /// (`None` at its start: the system may have changed outside).
+    sys_at: Option<Ns>,
     /// `cfg.cost.statement` and `cfg.poll_period` in [`Ns`] (the config never changes).
     stmt_ns: Ns,
     poll_ns: Ns,
@@ -610,6 +613,7 @@ impl Interpreter {
             int_cache_epoch: std::cell::Cell::new(0),
             int_cache: Default::default(),
             active: 0,
+            sys_at: None,
             stmt_ns,
             poll_ns,
             terminal: VecDeque::new(),
@@ -1085,6 +1089,7 @@ impl Interpreter {
                 t.kick = true;
             }
         }
+        self.sys_at = None;
         // The code never changes once loaded: one handle for the whole run.
         let code = Arc::clone(&self.code);
         let mut guard: u64 = 0;
@@ -1098,7 +1103,7 @@ impl Interpreter {
             }
             if t > self.now {
                 self.now = t;
-                sys.advance_to(Duration::from_nanos(t));
+                self.advance_sys(sys, t);
             }
             // The system cannot change the interpreter's signals: the interrupt due at `t` is
             // still due now.
@@ -1110,7 +1115,16 @@ impl Interpreter {
         }
         if until > self.now {
             self.now = until;
-            sys.advance_to(Duration::from_nanos(until));
+            self.advance_sys(sys, until);
+        }
+    }
+
+    /// Brings the system to `t` (once: a second call for the same time does nothing).
+    #[inline]
+    fn advance_sys(&mut self, sys: &mut dyn System, t: Ns) {
+        if self.sys_at != Some(t) {
+            sys.advance_to(Duration::from_nanos(t));
+            self.sys_at = Some(t);
         }
     }
 
@@ -1125,7 +1139,19 @@ impl Interpreter {
         code: &Arc<Code>,
     ) {
         let epoch = self.int_epoch;
-        if !self.poll(i, sys) {
+        // The robot task's poll without a wait checks the panel and the error (at `self.now`,
+        // with the system there) and changes nothing in the system: its first step at that
+        // time need not check them again.
+        let t = &self.tasks[i];
+        let plain = t.run == Run::Running && t.wait.is_none() && t.pending_on.is_none();
+        let checked_at = (i == 0 && plain && self.sys_at == Some(self.now)).then_some(self.now);
+        if plain {
+            // The poll of a task without a wait or a pending ON, in place.
+            if i == 0 && !self.robot_allowed(sys) {
+                return;
+            }
+            self.tasks[i].kick = false;
+        } else if !self.poll(i, sys) {
             return;
         }
         // The poll changes only this task (its steps are not in the horizon) — unless it
@@ -1213,12 +1239,13 @@ impl Interpreter {
                     }
                 }
             }
+            let checked = first && checked_at == Some(at);
             if sync {
-                sys.advance_to(Duration::from_nanos(at));
+                self.advance_sys(sys, at);
                 synced = at;
                 first = false;
             }
-            match self.step(i, sys, code, sync, p, pc) {
+            match self.step(i, sys, code, sync, checked, p, pc) {
                 Ok(Flow::Next) => {}
                 Ok(Flow::Shared) => {
                     for (k, t) in self.tasks.iter_mut().enumerate() {
@@ -1275,6 +1302,7 @@ impl Interpreter {
     }
 
     /// Polls task `i`'s wait; `true` when it may run steps now.
+    #[inline(never)]
     fn poll(&mut self, i: usize, sys: &mut dyn System) -> bool {
         if self.tasks[i].run == Run::Ending {
             // TASK(1) = 3 until the last motion is done.
@@ -1465,7 +1493,7 @@ impl Interpreter {
     }
 
     fn fail(&mut self, i: usize, e: Box<RuntimeError>, sys: &mut dyn System) {
-        sys.advance_to(Duration::from_nanos(self.now));
+        self.advance_sys(sys, self.now);
         let id = self.tasks[i].id;
         let where_ = self.tasks[i].frames.last().map(|f| {
             let p = &self.code.programs[f.prog];
@@ -1919,11 +1947,13 @@ impl Interpreter {
         if head.len() > MAX_STRING {
             return Err(Box::new(RuntimeError::StringTooLong(head.len())));
         }
-        if let Some(x) = self
-            .store(i, dst.var.global)
-            .strs
-            .get_mut(dst.var.slot as usize)
-        {
+        // The token's variable, in the same scope (the usual case) without a second lookup.
+        let strs = if dst.var.global == src.var.global {
+            &mut store.strs
+        } else {
+            &mut self.store(i, dst.var.global).strs
+        };
+        if let Some(x) = strs.get_mut(dst.var.slot as usize) {
             x.scalar = Some(head);
         }
         Ok(())
@@ -2475,17 +2505,20 @@ impl Interpreter {
 
     /// Runs one step of task `i` at `self.now`: the op at `pc` of program `p`, the task's
     /// current frame (`None`: no frame or no such program).
+    #[allow(clippy::too_many_arguments)]
     fn step(
         &mut self,
         i: usize,
         sys: &mut dyn System,
         code: &Code,
         sync: bool,
+        checked: bool,
         p: Option<&CProgram>,
         pc: usize,
     ) -> R<Flow> {
         if i == 0 && sync {
-            if !self.robot_allowed(sys) {
+            // (`checked`: the poll just did this at this time.)
+            if !checked && !self.robot_allowed(sys) {
                 return Ok(Flow::Next);
             }
             if self.mc_hold || !sys.panel().run {
