@@ -476,6 +476,32 @@ fn overflow(what: &str) -> Box<RuntimeError> {
     Box::new(RuntimeError::Overflow(what.to_owned()))
 }
 
+/// A constant or a defined real scalar (of `globals` or `locals`), `None` for anything else.
+#[inline(always)]
+fn simple_leaf(globals: &Store, locals: &Store, e: &RExpr) -> Option<f32> {
+    match e {
+        RExpr::Const(c) => Some(*c),
+        RExpr::Var(v) if v.idx.is_empty() => {
+            let store = if v.var.global { globals } else { locals };
+            store.reals.get(v.var.slot as usize)?.scalar
+        }
+        _ => None,
+    }
+}
+
+/// An index that is a [`simple_leaf`] or the sum of two, finite and in range, truncated.
+#[inline(always)]
+fn simple_index(globals: &Store, locals: &Store, e: &RExpr) -> Option<i32> {
+    let v = match e {
+        RExpr::Bin(BinOp::Add, a, b) => {
+            let v = simple_leaf(globals, locals, a)? + simple_leaf(globals, locals, b)?;
+            v.is_finite().then_some(v)?
+        }
+        _ => simple_leaf(globals, locals, e)?,
+    };
+    (v > -1.0 && v < (MAX_INDEX + 1) as f32).then_some(v as i32)
+}
+
 /// A binary operation on reals (AS reals: 32-bit; a result that is not finite is an overflow).
 #[inline]
 fn bin_r(op: BinOp, x: f32, y: f32) -> R<f32> {
@@ -1753,6 +1779,9 @@ impl Interpreter {
     }
 
     fn indices(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<[i32; 3]> {
+        if let Some(out) = self.simple_indices(i, l) {
+            return Ok(out);
+        }
         let mut out = [0i32; 3];
         match &*l.idx {
             [] => {}
@@ -1768,6 +1797,30 @@ impl Interpreter {
             }
         }
         Ok(out)
+    }
+
+    /// The indices of `l` when each is a constant, a defined real scalar or the sum of two
+    /// such (`.i+1`), finite and in range, read with one lookup of the task's locals; `None`
+    /// otherwise (then [`Self::indices`] evaluates them in full, with the same values or
+    /// its errors: these reads change nothing).
+    #[inline]
+    fn simple_indices(&self, i: usize, l: &LRef) -> Option<[i32; 3]> {
+        let globals = &self.globals;
+        let locals = match self.tasks.get(i)?.frames.last() {
+            Some(f) => &f.locals,
+            None => globals,
+        };
+        let (g, s) = (globals, locals);
+        Some(match &*l.idx {
+            [] => [0; 3],
+            [a] => [simple_index(g, s, a)?, 0, 0],
+            [a, b] => [simple_index(g, s, a)?, simple_index(g, s, b)?, 0],
+            [a, b, c, ..] => [
+                simple_index(g, s, a)?,
+                simple_index(g, s, b)?,
+                simple_index(g, s, c)?,
+            ],
+        })
     }
 
     /// One array index of `l`: 0 to [`MAX_INDEX`] after truncation.
