@@ -502,6 +502,21 @@ fn simple_index(globals: &Store, locals: &Store, e: &RExpr) -> Option<i32> {
     (v > -1.0 && v < (MAX_INDEX + 1) as f32).then_some(v as i32)
 }
 
+/// [`simple_index`] of each of up to three indices.
+#[inline(always)]
+fn simple_index_list(g: &Store, s: &Store, idx: &[RExpr]) -> Option<[i32; 3]> {
+    Some(match idx {
+        [] => [0; 3],
+        [a] => [simple_index(g, s, a)?, 0, 0],
+        [a, b] => [simple_index(g, s, a)?, simple_index(g, s, b)?, 0],
+        [a, b, c, ..] => [
+            simple_index(g, s, a)?,
+            simple_index(g, s, b)?,
+            simple_index(g, s, c)?,
+        ],
+    })
+}
+
 /// A binary operation on reals (AS reals: 32-bit; a result that is not finite is an overflow).
 #[inline]
 fn bin_r(op: BinOp, x: f32, y: f32) -> R<f32> {
@@ -1810,17 +1825,25 @@ impl Interpreter {
             Some(f) => &f.locals,
             None => globals,
         };
-        let (g, s) = (globals, locals);
-        Some(match &*l.idx {
-            [] => [0; 3],
-            [a] => [simple_index(g, s, a)?, 0, 0],
-            [a, b] => [simple_index(g, s, a)?, simple_index(g, s, b)?, 0],
-            [a, b, c, ..] => [
-                simple_index(g, s, a)?,
-                simple_index(g, s, b)?,
-                simple_index(g, s, c)?,
-            ],
-        })
+        simple_index_list(globals, locals, &l.idx)
+    }
+
+    /// A real array element whose indices are [`Self::simple_indices`], when it exists
+    /// (`None`: [`Self::read_r`] reads it in full, with its errors).
+    #[inline]
+    fn simple_element_r(&self, i: usize, l: &LRef) -> Option<f32> {
+        let globals = &self.globals;
+        let locals = match self.tasks.get(i)?.frames.last() {
+            Some(f) => &f.locals,
+            None => globals,
+        };
+        let idx = simple_index_list(globals, locals, &l.idx)?;
+        let store = if l.var.global { globals } else { locals };
+        store
+            .reals
+            .get(l.var.slot as usize)?
+            .get(&idx[..l.idx.len().min(3)])
+            .copied()
     }
 
     /// One array index of `l`: 0 to [`MAX_INDEX`] after truncation.
@@ -1938,6 +1961,9 @@ impl Interpreter {
                 Some(v) => Ok(v),
                 None => Err(self.undefined(i, l, Ty::Real, &[])),
             };
+        }
+        if let Some(v) = self.simple_element_r(i, l) {
+            return Ok(v);
         }
         let n = l.idx.len().min(3);
         let idx = self.indices(i, l, sys)?;
