@@ -2527,7 +2527,8 @@ impl Interpreter {
 
     /// Formats PRINT/$ENCODE items: the bytes (line feeds for `/C`) and whether `/S` was given.
     fn encode(&mut self, i: usize, items: &[Item], sys: &mut dyn System) -> R<(Vec<u8>, bool)> {
-        let mut out = String::new();
+        // Room for the usual items (a number takes up to a dozen characters): no regrowth.
+        let mut out = String::with_capacity(16 * items.len());
         let mut bytes = Vec::new();
         let mut current = FormatCode::D;
         let mut no_newline = false;
@@ -2575,6 +2576,10 @@ impl Interpreter {
                     out.len() + bytes.len(),
                 )));
             }
+        }
+        if bytes.is_empty() {
+            // Numbers and formats only: the text is the result.
+            return Ok((out.into_bytes(), no_newline));
         }
         bytes.extend_from_slice(out.as_bytes());
         Ok((bytes, no_newline))
