@@ -2014,9 +2014,10 @@ impl Interpreter {
         let Some(s) = &var.scalar else {
             return Err(self.undefined(i, src, Ty::Str, &[]));
         };
-        let cut = decode_cut(s, d, mode).min(s.len());
-        if s.len() - cut > MAX_STRING {
-            return Err(Box::new(RuntimeError::StringTooLong(s.len() - cut)));
+        let text: &[u8] = s;
+        let cut = decode_cut(text, d, mode).min(text.len());
+        if text.len() - cut > MAX_STRING {
+            return Err(Box::new(RuntimeError::StringTooLong(text.len() - cut)));
         }
         let Some(s) = var.scalar.take() else {
             return Err(self.undefined(i, src, Ty::Str, &[]));
