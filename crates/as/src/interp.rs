@@ -2200,6 +2200,20 @@ impl Interpreter {
 
     // ------------------------------------------------------------------ expressions
 
+    /// [`Self::eval_r`] with a binary operation on constants and scalars in place (the
+    /// usual statement: `.i == 1`, `.n = .n + 1`).
+    #[inline(always)]
+    fn eval_r_top(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<f32> {
+        match e {
+            RExpr::Bin(op, a, b) => {
+                let x = self.operand_r(i, a, sys)?;
+                let y = self.operand_r(i, b, sys)?;
+                bin_r(*op, x, y)
+            }
+            _ => self.operand_r(i, e, sys),
+        }
+    }
+
     /// A real expression: constants, variables and arithmetic here (a small function), the
     /// rest in [`Self::eval_r_other`].
     fn eval_r(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<f32> {
@@ -2693,7 +2707,7 @@ impl Interpreter {
     fn exec_hot(&mut self, i: usize, sys: &mut dyn System, op: &Op, pc: usize) -> R<usize> {
         Ok(match op {
             Op::AssignR(l, e) => {
-                let v = self.eval_r(i, e, sys)?;
+                let v = self.eval_r_top(i, e, sys)?;
                 self.write_r(i, l, v, sys)?;
                 pc + 1
             }
@@ -2714,14 +2728,14 @@ impl Interpreter {
             }
             Op::Jump(t) => *t,
             Op::JumpIfNot(c, t) => {
-                if truthy(self.eval_r(i, c, sys)?) {
+                if truthy(self.eval_r_top(i, c, sys)?) {
                     pc + 1
                 } else {
                     *t
                 }
             }
             Op::JumpIf(c, t) => {
-                if truthy(self.eval_r(i, c, sys)?) {
+                if truthy(self.eval_r_top(i, c, sys)?) {
                     *t
                 } else {
                     pc + 1
