@@ -1991,10 +1991,14 @@ impl Interpreter {
             return Ok(());
         }
         let n = l.idx.len().min(3);
-        let idx = self.indices(i, l, sys)?;
+        let idx = match self.simple_indices(i, l) {
+            Some(idx) => idx,
+            None => self.indices(i, l, sys)?,
+        };
         self.write_r_at(i, l.var, &idx[..n], v)
     }
 
+    #[inline]
     fn write_r_at(&mut self, i: usize, var: VarRef, idx: &[i32], v: f32) -> R<()> {
         let created = match self.store(i, var.global).reals.get_mut(var.slot as usize) {
             Some(x) => x.set(idx, v),
@@ -2210,6 +2214,10 @@ impl Interpreter {
                 let y = self.operand_r(i, b, sys)?;
                 bin_r(*op, x, y)
             }
+            RExpr::Var(l) if !l.idx.is_empty() => match self.simple_element_r(i, l) {
+                Some(v) => Ok(v),
+                None => self.eval_r(i, e, sys),
+            },
             _ => self.operand_r(i, e, sys),
         }
     }
