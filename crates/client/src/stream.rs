@@ -1,6 +1,7 @@
 //! Streaming a trajectory: command 7 samples stamped with the estimated server clock (default),
 //! or command 6 waypoints at a fixed rate.
 
+use std::future::Future;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::Duration;
@@ -630,6 +631,12 @@ impl Streamer {
         let mut prev_pos = self.trajectory.first();
         let mut rtt_est = self.link.latest().rtt;
         let mut next_due: Option<Instant> = None;
+        // The timers of the next sample and of the one after it, used in turn (see below).
+        let mut timers = [
+            Box::pin(tokio::time::sleep(Duration::ZERO)),
+            Box::pin(tokio::time::sleep(Duration::ZERO)),
+        ];
+        let mut next_timer = 0;
         loop {
             if self.cancelled() {
                 return Ok(End::Cancelled);
@@ -709,6 +716,26 @@ impl Streamer {
                 epoch: self.epoch,
                 id: tag.id,
             };
+            // The timers are in the runtime's timer wheel before the runtime sleeps for this
+            // reply: the next sample's, and the one after it. A timer armed earlier than every
+            // other one makes tokio wake its own driver (an eventfd write and one more
+            // epoll_wait); on the fixed schedule each timer is armed one period after the
+            // other one's deadline, so that never happens.
+            let due = next_due.unwrap_or_else(Instant::now) + period;
+            let [a, b] = &mut timers;
+            let (this, after) = if next_timer == 0 { (a, b) } else { (b, a) };
+            if this.deadline() != due {
+                this.as_mut().reset(due);
+            }
+            if after.deadline() != due + period {
+                after.as_mut().reset(due + period);
+            }
+            std::future::poll_fn(|cx| {
+                let _ = this.as_mut().poll(cx);
+                let _ = after.as_mut().poll(cx);
+                std::task::Poll::Ready(())
+            })
+            .await;
             let ex = match self.link.exchange_own_motion(text, tag).await {
                 Ok(ex) => ex,
                 Err(ClientError::Cancelled(_)) => return Ok(End::Cancelled),
@@ -772,13 +799,14 @@ impl Streamer {
             // Samples on a fixed schedule, one period apart: a timer that fires late (the
             // runtime's timers have 1 ms resolution) does not delay the ones after it, so the
             // rate is the one asked for. Behind schedule, the next sample goes out at once.
-            let due = next_due.map_or(ex.sent_at, |d| d) + period;
             let due = due.max(Instant::now());
             next_due = Some(due);
             tokio::select! {
-                _ = tokio::time::sleep_until(due) => {}
+                // Already elapsed when behind schedule.
+                _ = timers[next_timer].as_mut() => {}
                 _ = epoch_rx.changed() => {}
             }
+            next_timer = 1 - next_timer;
         }
     }
 

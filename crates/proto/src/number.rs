@@ -168,6 +168,26 @@ pub(crate) fn numeric_prefix_len(b: &[u8]) -> usize {
 /// assert!(format_request_number(f64::NAN, "x").is_err());
 /// ```
 pub fn format_request_number(value: f64, field: &'static str) -> Result<String, EncodeError> {
+    let mut out = String::with_capacity(12);
+    push_request_number(&mut out, value, field)?;
+    Ok(out)
+}
+
+/// Appends one request number, formatted as [`format_request_number`] does, to `out` (no
+/// allocation for the usual values: a request of 21 numbers is built in one buffer). On an
+/// error, `out` is unchanged.
+///
+/// ```
+/// use fs020n_proto::number::push_request_number;
+/// let mut s = String::from("1040 7 1 ");
+/// push_request_number(&mut s, -0.5, "x").unwrap();
+/// assert_eq!(s, "1040 7 1 -0.5");
+/// ```
+pub fn push_request_number(
+    out: &mut String,
+    value: f64,
+    field: &'static str,
+) -> Result<(), EncodeError> {
     if !value.is_finite() {
         return Err(EncodeError::NonFinite { field, value });
     }
@@ -179,20 +199,55 @@ pub fn format_request_number(value: f64, field: &'static str) -> Result<String, 
         });
     }
     let Some(m) = thousandths(value) else {
-        return Ok(trim_decimals(format!(
+        out.push_str(&trim_decimals(format!(
             "{value:.prec$}",
             prec = REQUEST_DECIMALS
         )));
+        return Ok(());
     };
+    // Sign, integer digits, then the decimals without trailing zeros ("-0" cannot occur: a
+    // negative `m` is at least one thousandth).
     let (int, frac) = (m.unsigned_abs() / 1000, m.unsigned_abs() % 1000);
-    let sign = if m < 0 { "-" } else { "" };
-    Ok(match frac {
-        0 if int == 0 => "0".to_owned(),
-        0 => format!("{sign}{int}"),
-        f if f % 100 == 0 => format!("{sign}{int}.{}", f / 100),
-        f if f % 10 == 0 => format!("{sign}{int}.{:02}", f / 10),
-        f => format!("{sign}{int}.{f:03}"),
-    })
+    // "-" and the 15 digits below REQUEST_NUMBER_LIMIT (10^15 thousandths at most) and ".ddd".
+    let mut text = [0u8; 24];
+    let mut digits = [0u8; 20];
+    let mut n = 0;
+    let mut rest = int;
+    loop {
+        digits[n] = b'0' + (rest % 10) as u8;
+        n += 1;
+        rest /= 10;
+        if rest == 0 {
+            break;
+        }
+    }
+    let mut len = 0;
+    if m < 0 {
+        text[0] = b'-';
+        len = 1;
+    }
+    for &d in digits[..n].iter().rev() {
+        text[len] = d;
+        len += 1;
+    }
+    let decimals: &[u8] = match frac {
+        0 => &[],
+        f if f % 100 == 0 => &[b'0' + (f / 100) as u8],
+        f if f % 10 == 0 => &[b'0' + (f / 100) as u8, b'0' + (f / 10 % 10) as u8],
+        f => &[
+            b'0' + (f / 100) as u8,
+            b'0' + (f / 10 % 10) as u8,
+            b'0' + (f % 10) as u8,
+        ],
+    };
+    if !decimals.is_empty() {
+        text[len] = b'.';
+        len += 1;
+        text[len..len + decimals.len()].copy_from_slice(decimals);
+        len += decimals.len();
+    }
+    out.push_str(ascii(&text[..len]));
+    Ok(())
 }
 
 /// Drops trailing zeros (and a trailing point) of a fixed-point number; `-0` becomes `0`.

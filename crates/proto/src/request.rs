@@ -3,9 +3,11 @@
 //! A request is `VERSION COMMAND COUNT_OF_ARGS ARG1 ... ARGn`, ASCII, single blanks, no leading
 //! blank, no terminator, at most [`MAX_REQUEST_BYTES`] bytes.
 
+use std::fmt::Write as _;
+
 use crate::error::EncodeError;
 use crate::joints::{JointsDeg, JOINT_COUNT};
-use crate::number::format_request_number;
+use crate::number::{format_request_number, push_request_number};
 use crate::session::{MAX_REQUEST_BYTES, PROTOCOL_VERSION};
 
 /// One command-7 sample: where the trajectory is at server time `t0_s`, and how it moves.
@@ -242,15 +244,14 @@ impl Request {
             }
         }
         let args = self.command.args();
-        let mut out = format!(
-            "{} {} {}",
-            self.version,
-            format_request_number(self.command.number(), "command number")?,
-            args.len()
-        );
+        let mut out = String::with_capacity(MAX_REQUEST_BYTES);
+        // Writing to a String cannot fail.
+        let _ = write!(out, "{} ", self.version);
+        push_request_number(&mut out, self.command.number(), "command number")?;
+        let _ = write!(out, " {}", args.len());
         for (name, value) in args {
             out.push(' ');
-            out.push_str(&format_request_number(value, name)?);
+            push_request_number(&mut out, value, name)?;
         }
         if out.len() > MAX_REQUEST_BYTES {
             return Err(EncodeError::TooLong {
