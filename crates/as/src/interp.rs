@@ -1229,7 +1229,15 @@ impl Interpreter {
             let p = code.programs.get(prog);
             let touches = p.and_then(|p| p.touches.get(pc).copied()).unwrap_or(true);
             let sync = first || touches || at >= synced.saturating_add(poll);
-            if !sync && self.trace.is_none() {
+            let checked = first && checked_at == Some(at);
+            if sync {
+                self.advance_sys(sys, at);
+                synced = at;
+                first = false;
+            }
+            // A PC task's step that meets the system needs nothing more than the system at
+            // its time; the robot task's checks the panel, the error and HOLD (in `step`).
+            if (!sync || i != 0) && self.trace.is_none() {
                 if let Some(p) = p {
                     // A run of pure computation between two syncs: the ops run here, with the
                     // pc, the time and the step count in locals (written back when the run
@@ -1279,12 +1287,6 @@ impl Interpreter {
                         continue;
                     }
                 }
-            }
-            let checked = first && checked_at == Some(at);
-            if sync {
-                self.advance_sys(sys, at);
-                synced = at;
-                first = false;
             }
             match self.step(i, sys, code, sync, checked, p, pc) {
                 Ok(Flow::Next) => {}
