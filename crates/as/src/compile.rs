@@ -48,7 +48,9 @@ pub(crate) struct LRef {
 }
 
 /// Real-valued expressions.
+// An explicit one-byte tag (no niche in a field): a `match` is one load and a jump.
 #[derive(Debug, Clone)]
+#[repr(u8)]
 pub(crate) enum RExpr {
     Const(f32),
     Var(LRef),
@@ -97,7 +99,9 @@ pub(crate) enum SwitchRef {
 }
 
 /// String-valued expressions.
+// An explicit one-byte tag (no niche in a field): a `match` is one load and a jump.
 #[derive(Debug, Clone)]
+#[repr(u8)]
 pub(crate) enum SExpr {
     Const(Bytes),
     Var(LRef),
@@ -171,7 +175,9 @@ pub(crate) struct CArg {
 }
 
 /// One instruction of the flat code.
+// An explicit one-byte tag (no niche in a field): a `match` is one load and a jump.
 #[derive(Debug, Clone)]
+#[repr(u8)]
 pub(crate) enum Op {
     Nop,
     AssignR(LRef, RExpr),

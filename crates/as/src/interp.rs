@@ -15,8 +15,8 @@ use serde::Serialize;
 
 use crate::ast::{BinOp, DataValue, FormatCode, Module, SpeedUnit};
 use crate::compile::{
-    compile, var_display, CArg, CExpr, Code, Item, JExpr, LRef, Loc, Op, RExpr, RFunc, SExpr,
-    SwitchRef, TExpr, Ty, VarRef,
+    compile, var_display, CArg, CExpr, CProgram, Code, Item, JExpr, LRef, Loc, Op, RExpr, RFunc,
+    SExpr, SwitchRef, TExpr, Ty, VarRef,
 };
 use crate::error::{error_message, LoadError, ParseError, RuntimeError};
 use crate::keywords::SYSTEM_SWITCHES;
@@ -436,7 +436,16 @@ pub struct Interpreter {
     /// Bumped whenever a signal or an armed interrupt changes.
     int_epoch: u64,
     /// `interrupt_time` per task, valid for `int_epoch`.
-    int_cache: std::cell::Cell<(u64, [Option<Ns>; 6])>,
+    int_cache_epoch: std::cell::Cell<u64>,
+    int_cache: [std::cell::Cell<Option<Ns>>; 6],
+    /// Bit `k` set while task `k` is not idle (the scheduler's pass visits only these).
+    active: u8,
+    /// The time the interpreter last brought the system to in this [`Self::run_until`]
+    /// (`None` at its start: the system may have changed outside).
+    sys_at: Option<Ns>,
+    /// `cfg.cost.statement` and `cfg.poll_period` in [`Ns`] (the config never changes).
+    stmt_ns: Ns,
+    poll_ns: Ns,
     terminal: VecDeque<TerminalLine>,
     trace: Option<Vec<TraceLine>>,
 }
@@ -446,6 +455,9 @@ pub const MAX_STRING: usize = 255;
 
 /// Most bytes one `TCP_RECV` or `TCP_SEND` moves.
 pub const MAX_TRANSFER: usize = 4096;
+
+/// [`Interpreter::exec_hot`]'s answer for an op that is not pure computation (never a pc).
+const NOT_PURE: usize = usize::MAX;
 
 /// A runtime error, boxed: results stay two words (returned in registers) on the hot path.
 type R<T> = Result<T, Box<RuntimeError>>;
@@ -462,6 +474,96 @@ fn check(v: f32, what: &str) -> R<f32> {
 #[cold]
 fn overflow(what: &str) -> Box<RuntimeError> {
     Box::new(RuntimeError::Overflow(what.to_owned()))
+}
+
+/// A constant or a defined real scalar (of `globals` or `locals`), `None` for anything else.
+#[inline(always)]
+fn simple_leaf(globals: &Store, locals: &Store, e: &RExpr) -> Option<f32> {
+    match e {
+        RExpr::Const(c) => Some(*c),
+        RExpr::Var(v) if v.idx.is_empty() => {
+            let store = if v.var.global { globals } else { locals };
+            store.reals.get(v.var.slot as usize)?.scalar
+        }
+        _ => None,
+    }
+}
+
+/// An index that is a [`simple_leaf`] or the sum of two, finite and in range, truncated.
+#[inline(always)]
+fn simple_index(globals: &Store, locals: &Store, e: &RExpr) -> Option<i32> {
+    let v = match e {
+        RExpr::Bin(BinOp::Add, a, b) => {
+            let v = simple_leaf(globals, locals, a)? + simple_leaf(globals, locals, b)?;
+            v.is_finite().then_some(v)?
+        }
+        _ => simple_leaf(globals, locals, e)?,
+    };
+    (v > -1.0 && v < (MAX_INDEX + 1) as f32).then_some(v as i32)
+}
+
+/// [`simple_index`] of each of up to three indices.
+#[inline(always)]
+fn simple_index_list(g: &Store, s: &Store, idx: &[RExpr]) -> Option<[i32; 3]> {
+    Some(match idx {
+        [] => [0; 3],
+        [a] => [simple_index(g, s, a)?, 0, 0],
+        [a, b] => [simple_index(g, s, a)?, simple_index(g, s, b)?, 0],
+        [a, b, c, ..] => [
+            simple_index(g, s, a)?,
+            simple_index(g, s, b)?,
+            simple_index(g, s, c)?,
+        ],
+    })
+}
+
+/// A binary operation on reals (AS reals: 32-bit; a result that is not finite is an overflow).
+#[inline]
+fn bin_r(op: BinOp, x: f32, y: f32) -> R<f32> {
+    Ok(match op {
+        BinOp::Add => check(x + y, "+")?,
+        BinOp::Sub => check(x - y, "-")?,
+        BinOp::Mul => check(x * y, "*")?,
+        BinOp::Div => {
+            if y == 0.0 {
+                return Err(division_by_zero());
+            }
+            check(x / y, "/")?
+        }
+        BinOp::Mod => {
+            if y == 0.0 {
+                return Err(division_by_zero());
+            }
+            check(x % y, "MOD")?
+        }
+        BinOp::Pow => pow_r(x, y)?,
+        BinOp::Eq => as_bool(x == y),
+        BinOp::Ne => as_bool(x != y),
+        BinOp::Lt => as_bool(x < y),
+        BinOp::Gt => as_bool(x > y),
+        BinOp::Le => as_bool(x <= y),
+        BinOp::Ge => as_bool(x >= y),
+        BinOp::And => as_bool(truthy(x) && truthy(y)),
+        BinOp::Or => as_bool(truthy(x) || truthy(y)),
+        BinOp::Xor => as_bool(truthy(x) != truthy(y)),
+        BinOp::Band => (to_i32(x) & to_i32(y)) as f32,
+        BinOp::Bor => (to_i32(x) | to_i32(y)) as f32,
+        BinOp::Bxor => (to_i32(x) ^ to_i32(y)) as f32,
+    })
+}
+
+#[cold]
+fn division_by_zero() -> Box<RuntimeError> {
+    Box::new(RuntimeError::DivisionByZero)
+}
+
+#[inline(never)]
+fn pow_r(x: f32, y: f32) -> R<f32> {
+    let r = x.powf(y);
+    if r.is_nan() {
+        return Err(Box::new(RuntimeError::IllegalValue(format!("{x} ^ {y}"))));
+    }
+    check(r, "^")
 }
 
 fn truthy(v: f32) -> bool {
@@ -535,6 +637,7 @@ impl Interpreter {
             cfg.poll_period = Duration::from_millis(2);
         }
         cfg.max_call_depth = cfg.max_call_depth.clamp(1, 1000);
+        let (stmt_ns, poll_ns) = (ns(cfg.cost.statement), ns(cfg.poll_period));
         Ok(Interpreter {
             code: Arc::new(code),
             cfg,
@@ -548,7 +651,12 @@ impl Interpreter {
             switches: SYSTEM_SWITCHES.iter().map(|(_, v)| *v).collect(),
             mc_hold: false,
             int_epoch: 1,
-            int_cache: std::cell::Cell::new((0, [None; 6])),
+            int_cache_epoch: std::cell::Cell::new(0),
+            int_cache: Default::default(),
+            active: 0,
+            sys_at: None,
+            stmt_ns,
+            poll_ns,
             terminal: VecDeque::new(),
             trace: None,
         })
@@ -622,8 +730,8 @@ impl Interpreter {
     pub fn abort(&mut self, task: TaskId) {
         let i = task.index();
         self.release_frames(i, 0);
+        self.set_run(i, Run::Idle);
         let t = &mut self.tasks[i];
-        t.run = Run::Idle;
         t.wait = None;
         t.interrupts.clear();
         t.pending_on = None;
@@ -832,13 +940,17 @@ impl Interpreter {
     // ------------------------------------------------------------------ scheduler
 
     fn next_tick(&self, after: Ns) -> Ns {
-        let p = self.cfg.poll_period.as_nanos().max(1);
-        let n = u128::from(after) / p + 1;
-        (n * p).min(u64::MAX as u128) as u64
+        let p = self.poll_ns.max(1);
+        (after / p + 1).saturating_mul(p)
     }
 
     fn task_wake(&self, i: usize) -> Option<Ns> {
-        let t = &self.tasks[i];
+        self.wake_time(i, &self.tasks[i])
+    }
+
+    /// [`Self::task_wake`] of task `i`, given.
+    #[inline]
+    fn wake_time(&self, i: usize, t: &Task) -> Option<Ns> {
         if t.run == Run::Ending {
             return Some(t.poll_at);
         }
@@ -890,25 +1002,52 @@ impl Interpreter {
     /// [`Self::interrupt_times`] without idle tasks set to `None` (the same for every task
     /// that is not idle).
     fn interrupt_times_cached(&self) -> [Option<Ns>; 6] {
-        let (epoch, mut times) = self.int_cache.get();
-        if epoch != self.int_epoch {
-            let debounce = ns(self.cfg.signal_debounce);
-            for (k, t) in self.tasks.iter().enumerate().take(6) {
-                times[k] = t
-                    .interrupts
-                    .iter()
-                    .filter_map(|int| {
-                        let n = int.signal.abs();
-                        let want = int.signal > 0;
-                        let s = self.signals.get(&n)?;
-                        (s.on == want && s.changed > int.armed_at)
-                            .then(|| s.changed.saturating_add(debounce))
-                    })
-                    .min();
-            }
-            self.int_cache.set((self.int_epoch, times));
+        self.refresh_int_cache();
+        std::array::from_fn(|k| self.int_cache[k].get())
+    }
+
+    /// Task `k`'s entry of [`Self::interrupt_times_cached`].
+    #[inline]
+    fn interrupt_time_cached(&self, k: usize) -> Option<Ns> {
+        self.refresh_int_cache();
+        self.int_cache.get(k).and_then(std::cell::Cell::get)
+    }
+
+    /// Recomputes the cached interrupt times when a signal or an armed interrupt changed.
+    #[inline]
+    fn refresh_int_cache(&self) {
+        if self.int_cache_epoch.get() == self.int_epoch {
+            return;
         }
-        times
+        let debounce = ns(self.cfg.signal_debounce);
+        for (k, t) in self.tasks.iter().enumerate().take(6) {
+            let time = t
+                .interrupts
+                .iter()
+                .filter_map(|int| {
+                    let n = int.signal.abs();
+                    let want = int.signal > 0;
+                    let s = self.signals.get(&n)?;
+                    (s.on == want && s.changed > int.armed_at)
+                        .then(|| s.changed.saturating_add(debounce))
+                })
+                .min();
+            self.int_cache[k].set(time);
+        }
+        self.int_cache_epoch.set(self.int_epoch);
+    }
+
+    /// Sets task `k`'s run state (and its bit in [`Self::active`]).
+    fn set_run(&mut self, k: usize, run: Run) {
+        if let Some(t) = self.tasks.get_mut(k) {
+            t.run = run;
+            let bit = 1u8 << (k & 7);
+            if run == Run::Idle {
+                self.active &= !bit;
+            } else {
+                self.active |= bit;
+            }
+        }
     }
 
     fn interrupt_time(&self, i: usize) -> Option<Ns> {
@@ -941,42 +1080,40 @@ impl Interpreter {
     /// task's interrupt, and the horizon — what [`Self::next_event_from`] gives with that task's
     /// own steps skipped (where a run of its steps must stop).
     fn next_event_and_horizon(&self) -> Option<(Ns, usize, bool, Option<Ns>)> {
-        let n = self.tasks.len().min(6);
-        // Idle tasks are skipped below: the cached times serve as they are.
-        let ints = if self.tasks.iter().any(|t| !t.interrupts.is_empty()) {
-            self.interrupt_times_cached()
-        } else {
-            [None; 6]
-        };
         fn earlier(a: Option<Ns>, b: Option<Ns>) -> Option<Ns> {
             match (a, b) {
                 (Some(x), Some(y)) => Some(x.min(y)),
                 (x, y) => x.or(y),
             }
         }
-        // Each task's earliest event; the earliest of all (ties: the lower task) and the
-        // earliest among the other tasks.
-        let mut best: Option<(Ns, usize)> = None;
+        // Only tasks that are not idle (an idle task has no step and no armed interrupt);
+        // interrupt times only for tasks with armed interrupts (a task without any has none).
+        let mut best: Option<(Ns, usize, Option<Ns>)> = None;
         let mut others: Option<Ns> = None;
-        for (k, &int) in ints.iter().enumerate().take(n) {
-            // An idle task has no step and no armed interrupt (`interrupt_times`).
-            if self.tasks[k].run == Run::Idle {
-                continue;
-            }
-            let Some(c) = earlier(int, self.task_wake(k)) else {
+        let mut mask = self.active;
+        while mask != 0 {
+            let k = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            let Some(t) = self.tasks.get(k) else { break };
+            let int = if t.interrupts.is_empty() {
+                None
+            } else {
+                self.interrupt_time_cached(k)
+            };
+            let Some(c) = earlier(int, self.wake_time(k, t)) else {
                 continue;
             };
             match best {
-                Some((b, _)) if c >= b => others = earlier(others, Some(c)),
+                Some((b, _, _)) if c >= b => others = earlier(others, Some(c)),
                 _ => {
-                    others = earlier(others, best.map(|(b, _)| b));
-                    best = Some((c, k));
+                    others = earlier(others, best.map(|(b, _, _)| b));
+                    best = Some((c, k, int));
                 }
             }
         }
-        let (at, i) = best?;
-        let interrupt = ints[i].is_some_and(|it| it <= at);
-        Some((at, i, interrupt, earlier(others, ints[i])))
+        let (at, i, int) = best?;
+        let interrupt = int.is_some_and(|it| it <= at);
+        Some((at, i, interrupt, earlier(others, int)))
     }
 
     /// Runs every task up to `until` (statements, timeouts, waits, interrupts), calling
@@ -993,6 +1130,7 @@ impl Interpreter {
                 t.kick = true;
             }
         }
+        self.sys_at = None;
         // The code never changes once loaded: one handle for the whole run.
         let code = Arc::clone(&self.code);
         let mut guard: u64 = 0;
@@ -1006,7 +1144,7 @@ impl Interpreter {
             }
             if t > self.now {
                 self.now = t;
-                sys.advance_to(Duration::from_nanos(t));
+                self.advance_sys(sys, t);
             }
             // The system cannot change the interpreter's signals: the interrupt due at `t` is
             // still due now.
@@ -1018,7 +1156,16 @@ impl Interpreter {
         }
         if until > self.now {
             self.now = until;
-            sys.advance_to(Duration::from_nanos(until));
+            self.advance_sys(sys, until);
+        }
+    }
+
+    /// Brings the system to `t` (once: a second call for the same time does nothing).
+    #[inline]
+    fn advance_sys(&mut self, sys: &mut dyn System, t: Ns) {
+        if self.sys_at != Some(t) {
+            sys.advance_to(Duration::from_nanos(t));
+            self.sys_at = Some(t);
         }
     }
 
@@ -1033,7 +1180,19 @@ impl Interpreter {
         code: &Arc<Code>,
     ) {
         let epoch = self.int_epoch;
-        if !self.poll(i, sys) {
+        // The robot task's poll without a wait checks the panel and the error (at `self.now`,
+        // with the system there) and changes nothing in the system: its first step at that
+        // time need not check them again.
+        let t = &self.tasks[i];
+        let plain = t.run == Run::Running && t.wait.is_none() && t.pending_on.is_none();
+        let checked_at = (i == 0 && plain && self.sys_at == Some(self.now)).then_some(self.now);
+        if plain {
+            // The poll of a task without a wait or a pending ON, in place.
+            if i == 0 && !self.robot_allowed(sys) {
+                return;
+            }
+            self.tasks[i].kick = false;
+        } else if !self.poll(i, sys) {
             return;
         }
         // The poll changes only this task (its steps are not in the horizon) — unless it
@@ -1044,37 +1203,92 @@ impl Interpreter {
             self.next_event_from(Some(i))
                 .map_or(until, |(t, _)| t.min(until))
         };
-        let poll = ns(self.cfg.poll_period);
+        let poll = self.poll_ns;
         // The system is brought to a step's time only when the step touches it, or once per
         // poll period (pure computation does not need the arm's state).
         let mut synced = self.now;
         let mut first = true;
         let mut epoch = self.int_epoch;
         loop {
+            let now = self.now;
             let t = &self.tasks[i];
-            if t.run != Run::Running || t.wait.is_some() {
+            // (A pending ON is delivered at the next wake: the poll above took any earlier
+            // one.)
+            if t.run != Run::Running || t.wait.is_some() || t.pending_on.is_some() {
                 return;
             }
-            let at = t.ready_at.max(self.now);
-            if at > self.now {
+            let at = t.ready_at.max(now);
+            if at > now {
                 // Another task (or the same instant of a lower task) goes first.
                 if at >= horizon || at > until {
                     return;
                 }
                 self.now = at;
             }
-            let touches = t
-                .frames
-                .last()
-                .and_then(|f| code.programs.get(f.prog)?.touches.get(f.pc).copied())
-                .unwrap_or(true);
+            let (prog, pc) = t.frames.last().map_or((usize::MAX, 0), |f| (f.prog, f.pc));
+            let p = code.programs.get(prog);
+            let touches = p.and_then(|p| p.touches.get(pc).copied()).unwrap_or(true);
             let sync = first || touches || at >= synced.saturating_add(poll);
+            let checked = first && checked_at == Some(at);
             if sync {
-                sys.advance_to(Duration::from_nanos(at));
+                self.advance_sys(sys, at);
                 synced = at;
                 first = false;
             }
-            match self.step(i, sys, code, sync) {
+            // A PC task's step that meets the system needs nothing more than the system at
+            // its time; the robot task's checks the panel, the error and HOLD (in `step`).
+            if (!sync || i != 0) && self.trace.is_none() {
+                if let Some(p) = p {
+                    // A run of pure computation between two syncs: the ops run here, with the
+                    // pc, the time and the step count in locals (written back when the run
+                    // ends), without the checks of a step that meets the system. Each op
+                    // sees what a step would give it (its time in `self.now`).
+                    let (mut pc, mut at, mut steps) = (pc, at, 0u64);
+                    let mut ready = at;
+                    let cost = self.stmt_ns;
+                    let poll_end = synced.saturating_add(poll);
+                    let failed = loop {
+                        let Some(op) = p.ops.get(pc) else { break None };
+                        match self.exec_hot(i, sys, op, pc) {
+                            // Not pure computation: a step below runs it.
+                            Ok(NOT_PURE) => break None,
+                            Ok(next) => pc = next,
+                            Err(e) => {
+                                steps += 1;
+                                break Some(e);
+                            }
+                        }
+                        steps += 1;
+                        ready = at.saturating_add(cost);
+                        if ready >= horizon
+                            || ready > until
+                            || ready >= poll_end
+                            || p.touches.get(pc).copied().unwrap_or(true)
+                        {
+                            break None;
+                        }
+                        self.now = ready;
+                        at = ready;
+                    };
+                    if steps > 0 {
+                        let t = &mut self.tasks[i];
+                        t.steps += steps;
+                        if let Some(f) = t.frames.last_mut() {
+                            f.pc = pc;
+                        }
+                        // A failed step leaves the time where the previous one put it.
+                        if failed.is_none() || steps > 1 {
+                            t.ready_at = ready;
+                        }
+                        if let Some(e) = failed {
+                            self.fail(i, e, sys);
+                            return;
+                        }
+                        continue;
+                    }
+                }
+            }
+            match self.step(i, sys, code, sync, checked, p, pc) {
                 Ok(Flow::Next) => {}
                 Ok(Flow::Shared) => {
                     for (k, t) in self.tasks.iter_mut().enumerate() {
@@ -1105,9 +1319,6 @@ impl Interpreter {
                     .next_event_from(Some(i))
                     .map_or(until, |(t, _)| t.min(until));
             }
-            if self.tasks[i].pending_on.is_some() {
-                return;
-            }
         }
     }
 
@@ -1134,6 +1345,7 @@ impl Interpreter {
     }
 
     /// Polls task `i`'s wait; `true` when it may run steps now.
+    #[inline(never)]
     fn poll(&mut self, i: usize, sys: &mut dyn System) -> bool {
         if self.tasks[i].run == Run::Ending {
             // TASK(1) = 3 until the last motion is done.
@@ -1284,7 +1496,7 @@ impl Interpreter {
             // branches now — also while it was finishing (TASK(1) = 3).
             sys.cut_motion();
             self.tasks[i].wait = None;
-            self.tasks[i].run = Run::Running;
+            self.set_run(i, Run::Running);
             self.branch(i, int, sys);
         } else if self.tasks[i].run == Run::Ending {
             // ON while finishing: the program branches after the last motion is done…
@@ -1324,7 +1536,7 @@ impl Interpreter {
     }
 
     fn fail(&mut self, i: usize, e: Box<RuntimeError>, sys: &mut dyn System) {
-        sys.advance_to(Duration::from_nanos(self.now));
+        self.advance_sys(sys, self.now);
         let id = self.tasks[i].id;
         let where_ = self.tasks[i].frames.last().map(|f| {
             let p = &self.code.programs[f.prog];
@@ -1458,13 +1670,13 @@ impl Interpreter {
     ) -> bool {
         let now = self.now;
         self.release_frames(i, 0);
+        self.set_run(i, Run::Running);
         {
             let t = &mut self.tasks[i];
             t.wait = None;
             t.kick = false;
             t.interrupts.clear();
             t.pending_on = None;
-            t.run = Run::Running;
             t.ready_at = now;
             t.cycles_left = if cycles == 0 { 1 } else { cycles };
             t.motion = MotionParams::default();
@@ -1475,7 +1687,7 @@ impl Interpreter {
         match self.push_frame(i, prog, args) {
             Ok(()) => true,
             Err(_) => {
-                self.tasks[i].run = Run::Idle;
+                self.set_run(i, Run::Idle);
                 false
             }
         }
@@ -1559,8 +1771,8 @@ impl Interpreter {
         if i == 0 && sys.motion_in_progress() {
             self.release_frames(i, 1);
             let at = self.next_tick(self.now);
+            self.set_run(0, Run::Ending);
             let t = &mut self.tasks[0];
-            t.run = Run::Ending;
             t.wait = None;
             t.pending_on = None;
             t.poll_at = at;
@@ -1584,20 +1796,84 @@ impl Interpreter {
     }
 
     fn indices(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<[i32; 3]> {
+        if let Some(out) = self.simple_indices(i, l) {
+            return Ok(out);
+        }
         let mut out = [0i32; 3];
-        for (k, e) in l.idx.iter().enumerate().take(3) {
-            let v = self.operand_r(i, e, sys)?;
-            // `0 <= trunc(v) <= MAX_INDEX` without a call of `truncf` (NaN fails both).
-            if !(v > -1.0 && v < (MAX_INDEX + 1) as f32) {
-                return Err(Box::new(RuntimeError::IndexRange(format!(
-                    "{} in {}",
-                    v,
-                    self.lref_name(i, l, Ty::Real)
-                ))));
+        match &*l.idx {
+            [] => {}
+            [a] => out[0] = self.index(i, l, a, sys)?,
+            [a, b] => {
+                out[0] = self.index(i, l, a, sys)?;
+                out[1] = self.index(i, l, b, sys)?;
             }
-            out[k] = v as i32;
+            [a, b, c, ..] => {
+                out[0] = self.index(i, l, a, sys)?;
+                out[1] = self.index(i, l, b, sys)?;
+                out[2] = self.index(i, l, c, sys)?;
+            }
         }
         Ok(out)
+    }
+
+    /// The indices of `l` when each is a constant, a defined real scalar or the sum of two
+    /// such (`.i+1`), finite and in range, read with one lookup of the task's locals; `None`
+    /// otherwise (then [`Self::indices`] evaluates them in full, with the same values or
+    /// its errors: these reads change nothing).
+    #[inline]
+    fn simple_indices(&self, i: usize, l: &LRef) -> Option<[i32; 3]> {
+        let globals = &self.globals;
+        let locals = match self.tasks.get(i)?.frames.last() {
+            Some(f) => &f.locals,
+            None => globals,
+        };
+        simple_index_list(globals, locals, &l.idx)
+    }
+
+    /// A real array element whose indices are [`Self::simple_indices`], when it exists
+    /// (`None`: [`Self::read_r`] reads it in full, with its errors).
+    #[inline]
+    fn simple_element_r(&self, i: usize, l: &LRef) -> Option<f32> {
+        let globals = &self.globals;
+        let locals = match self.tasks.get(i)?.frames.last() {
+            Some(f) => &f.locals,
+            None => globals,
+        };
+        let idx = simple_index_list(globals, locals, &l.idx)?;
+        let store = if l.var.global { globals } else { locals };
+        store
+            .reals
+            .get(l.var.slot as usize)?
+            .get(&idx[..l.idx.len().min(3)])
+            .copied()
+    }
+
+    /// One array index of `l`: 0 to [`MAX_INDEX`] after truncation.
+    #[inline(always)]
+    fn index(&mut self, i: usize, l: &LRef, e: &RExpr, sys: &mut dyn System) -> R<i32> {
+        // `.i+1`, the common computed index, is added here (as `eval_r` adds).
+        let v = match e {
+            RExpr::Bin(BinOp::Add, a, b) => {
+                let x = self.operand_r(i, a, sys)?;
+                let y = self.operand_r(i, b, sys)?;
+                check(x + y, "+")?
+            }
+            _ => self.operand_r(i, e, sys)?,
+        };
+        // `0 <= trunc(v) <= MAX_INDEX` without a call of `truncf` (NaN fails both).
+        if !(v > -1.0 && v < (MAX_INDEX + 1) as f32) {
+            return Err(self.index_range(i, l, v));
+        }
+        Ok(v as i32)
+    }
+
+    #[cold]
+    fn index_range(&self, i: usize, l: &LRef, v: f32) -> Box<RuntimeError> {
+        Box::new(RuntimeError::IndexRange(format!(
+            "{} in {}",
+            v,
+            self.lref_name(i, l, Ty::Real)
+        )))
     }
 
     fn lref_name(&self, i: usize, l: &LRef, ty: Ty) -> String {
@@ -1688,6 +1964,9 @@ impl Interpreter {
                 None => Err(self.undefined(i, l, Ty::Real, &[])),
             };
         }
+        if let Some(v) = self.simple_element_r(i, l) {
+            return Ok(v);
+        }
         let n = l.idx.len().min(3);
         let idx = self.indices(i, l, sys)?;
         let slot = l.var.slot as usize;
@@ -1714,16 +1993,56 @@ impl Interpreter {
             return Ok(());
         }
         let n = l.idx.len().min(3);
-        let idx = self.indices(i, l, sys)?;
+        let idx = match self.simple_indices(i, l) {
+            Some(idx) => idx,
+            None => self.indices(i, l, sys)?,
+        };
         self.write_r_at(i, l.var, &idx[..n], v)
     }
 
+    #[inline]
     fn write_r_at(&mut self, i: usize, var: VarRef, idx: &[i32], v: f32) -> R<()> {
         let created = match self.store(i, var.global).reals.get_mut(var.slot as usize) {
             Some(x) => x.set(idx, v),
             None => false,
         };
         self.count_element(created)
+    }
+
+    /// `dst = $DECODE(src, d, mode)` for string scalars, constant delimiters and mode: what
+    /// [`Self::eval_s`] and [`Self::write_s`] do (the rest is written to `src` first, then
+    /// the token to `dst`; the same errors), without copies of the string's handle.
+    fn decode_scalar(&mut self, i: usize, dst: &LRef, src: &LRef, d: &[u8], mode: f32) -> R<()> {
+        let store = self.store(i, src.var.global);
+        let Some(var) = store.strs.get_mut(src.var.slot as usize) else {
+            return Err(self.undefined(i, src, Ty::Str, &[]));
+        };
+        let Some(s) = &var.scalar else {
+            return Err(self.undefined(i, src, Ty::Str, &[]));
+        };
+        let text: &[u8] = s;
+        let cut = decode_cut(text, d, mode).min(text.len());
+        if text.len() - cut > MAX_STRING {
+            return Err(Box::new(RuntimeError::StringTooLong(text.len() - cut)));
+        }
+        let Some(s) = var.scalar.take() else {
+            return Err(self.undefined(i, src, Ty::Str, &[]));
+        };
+        let (head, rest) = s.split_off_head(cut);
+        var.scalar = Some(rest);
+        if head.len() > MAX_STRING {
+            return Err(Box::new(RuntimeError::StringTooLong(head.len())));
+        }
+        // The token's variable, in the same scope (the usual case) without a second lookup.
+        let strs = if dst.var.global == src.var.global {
+            &mut store.strs
+        } else {
+            &mut self.store(i, dst.var.global).strs
+        };
+        if let Some(x) = strs.get_mut(dst.var.slot as usize) {
+            x.scalar = Some(head);
+        }
+        Ok(())
     }
 
     fn read_s(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<Bytes> {
@@ -1830,6 +2149,24 @@ impl Interpreter {
         self.count_element(created)
     }
 
+    /// `VAL` of a string scalar, read in place.
+    fn val_scalar(&self, i: usize, l: &LRef) -> R<f32> {
+        let store = if l.var.global {
+            &self.globals
+        } else {
+            match self.tasks[i].frames.last() {
+                Some(f) => &f.locals,
+                None => &self.globals,
+            }
+        };
+        match store.strs.get(l.var.slot as usize) {
+            Some(Var {
+                scalar: Some(b), ..
+            }) => val(b, 0.0),
+            _ => Err(self.undefined(i, l, Ty::Str, &[])),
+        }
+    }
+
     fn hidden_r(&mut self, i: usize, slot: u32) -> f32 {
         let s = slot as usize;
         self.store(i, false)
@@ -1869,54 +2206,51 @@ impl Interpreter {
 
     // ------------------------------------------------------------------ expressions
 
+    /// [`Self::eval_r`] with a binary operation on constants and scalars in place (the
+    /// usual statement: `.i == 1`, `.n = .n + 1`).
+    #[inline(always)]
+    fn eval_r_top(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<f32> {
+        match e {
+            RExpr::Bin(op, a, b) => {
+                let x = self.operand_r(i, a, sys)?;
+                let y = self.operand_r(i, b, sys)?;
+                bin_r(*op, x, y)
+            }
+            RExpr::Var(l) if !l.idx.is_empty() => match self.simple_element_r(i, l) {
+                Some(v) => Ok(v),
+                None => self.eval_r(i, e, sys),
+            },
+            _ => self.operand_r(i, e, sys),
+        }
+    }
+
+    /// A real expression: constants, variables and arithmetic here (a small function), the
+    /// rest in [`Self::eval_r_other`].
     fn eval_r(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<f32> {
-        Ok(match e {
-            RExpr::Const(v) => *v,
-            RExpr::Var(l) => self.operand_r_var(i, l, sys)?,
-            RExpr::Neg(a) => -self.eval_r(i, a, sys)?,
-            RExpr::Not(a) => as_bool(!truthy(self.eval_r(i, a, sys)?)),
-            RExpr::Com(a) => !to_i32(self.eval_r(i, a, sys)?) as f32,
+        match e {
+            RExpr::Const(v) => Ok(*v),
+            RExpr::Var(l) => self.operand_r_var(i, l, sys),
             RExpr::Bin(op, a, b) => {
                 let x = self.operand_r(i, a, sys)?;
                 // AND/OR evaluate both sides (AS has no short circuit).
                 let y = self.operand_r(i, b, sys)?;
-                match op {
-                    BinOp::Add => check(x + y, "+")?,
-                    BinOp::Sub => check(x - y, "-")?,
-                    BinOp::Mul => check(x * y, "*")?,
-                    BinOp::Div => {
-                        if y == 0.0 {
-                            return Err(Box::new(RuntimeError::DivisionByZero));
-                        }
-                        check(x / y, "/")?
-                    }
-                    BinOp::Mod => {
-                        if y == 0.0 {
-                            return Err(Box::new(RuntimeError::DivisionByZero));
-                        }
-                        check(x % y, "MOD")?
-                    }
-                    BinOp::Pow => {
-                        let r = x.powf(y);
-                        if r.is_nan() {
-                            return Err(Box::new(RuntimeError::IllegalValue(format!("{x} ^ {y}"))));
-                        }
-                        check(r, "^")?
-                    }
-                    BinOp::Eq => as_bool(x == y),
-                    BinOp::Ne => as_bool(x != y),
-                    BinOp::Lt => as_bool(x < y),
-                    BinOp::Gt => as_bool(x > y),
-                    BinOp::Le => as_bool(x <= y),
-                    BinOp::Ge => as_bool(x >= y),
-                    BinOp::And => as_bool(truthy(x) && truthy(y)),
-                    BinOp::Or => as_bool(truthy(x) || truthy(y)),
-                    BinOp::Xor => as_bool(truthy(x) != truthy(y)),
-                    BinOp::Band => (to_i32(x) & to_i32(y)) as f32,
-                    BinOp::Bor => (to_i32(x) | to_i32(y)) as f32,
-                    BinOp::Bxor => (to_i32(x) ^ to_i32(y)) as f32,
-                }
+                bin_r(*op, x, y)
             }
+            RExpr::Val(s, None) => match &**s {
+                SExpr::Var(l) if l.idx.is_empty() => self.val_scalar(i, l),
+                _ => self.eval_r_other(i, e, sys),
+            },
+            _ => self.eval_r_other(i, e, sys),
+        }
+    }
+
+    #[inline(never)]
+    fn eval_r_other(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<f32> {
+        Ok(match e {
+            RExpr::Const(_) | RExpr::Var(_) | RExpr::Bin(..) => self.eval_r(i, e, sys)?,
+            RExpr::Neg(a) => -self.eval_r(i, a, sys)?,
+            RExpr::Not(a) => as_bool(!truthy(self.eval_r(i, a, sys)?)),
+            RExpr::Com(a) => !to_i32(self.eval_r(i, a, sys)?) as f32,
             RExpr::StrCmp(op, a, b) => {
                 let x = self.eval_s(i, a, sys)?;
                 let y = self.eval_s(i, b, sys)?;
@@ -1935,20 +2269,7 @@ impl Interpreter {
                 // VAL of a string scalar (the server's tokens) reads it in place.
                 if let (SExpr::Var(l), None) = (&**s, radix) {
                     if l.idx.is_empty() {
-                        let store = if l.var.global {
-                            &self.globals
-                        } else {
-                            match self.tasks[i].frames.last() {
-                                Some(f) => &f.locals,
-                                None => &self.globals,
-                            }
-                        };
-                        return match store.strs.get(l.var.slot as usize) {
-                            Some(Var {
-                                scalar: Some(b), ..
-                            }) => val(b, 0.0),
-                            _ => Err(self.undefined(i, l, Ty::Str, &[])),
-                        };
+                        return self.val_scalar(i, l);
                     }
                 }
                 let s = self.eval_s(i, s, sys)?;
@@ -2055,7 +2376,7 @@ impl Interpreter {
                             && self.tasks[0].run == Run::Ending
                             && !sys.motion_in_progress()
                         {
-                            self.tasks[0].run = Run::Idle;
+                            self.set_run(0, Run::Idle);
                         }
                         self.task_state(id, sys).number()
                     }
@@ -2162,19 +2483,7 @@ impl Interpreter {
                     }
                 };
                 let mode = self.eval_r(i, mode, sys)?;
-                let one = match d {
-                    [x] => Some(x.to_ascii_lowercase()),
-                    _ => None,
-                };
-                let is_delim = |c: u8| match one {
-                    Some(x) => c.to_ascii_lowercase() == x,
-                    None => d.iter().any(|x| x.eq_ignore_ascii_case(&c)),
-                };
-                let cut = if mode <= 0.0 {
-                    s.iter().position(|&c| is_delim(c)).unwrap_or(s.len())
-                } else {
-                    s.iter().position(|&c| !is_delim(c)).unwrap_or(s.len())
-                };
+                let cut = decode_cut(&s, d, mode);
                 let (head, rest) = s.split_off_head(cut);
                 self.write_s(i, var, rest, sys)?;
                 head
@@ -2243,7 +2552,8 @@ impl Interpreter {
 
     /// Formats PRINT/$ENCODE items: the bytes (line feeds for `/C`) and whether `/S` was given.
     fn encode(&mut self, i: usize, items: &[Item], sys: &mut dyn System) -> R<(Vec<u8>, bool)> {
-        let mut out = String::new();
+        // Room for the usual items (a number takes up to a dozen characters): no regrowth.
+        let mut out = String::with_capacity(16 * items.len());
         let mut bytes = Vec::new();
         let mut current = FormatCode::D;
         let mut no_newline = false;
@@ -2292,28 +2602,39 @@ impl Interpreter {
                 )));
             }
         }
+        if bytes.is_empty() {
+            // Numbers and formats only: the text is the result.
+            return Ok((out.into_bytes(), no_newline));
+        }
         bytes.extend_from_slice(out.as_bytes());
         Ok((bytes, no_newline))
     }
 
     // ------------------------------------------------------------------ statements
 
-    /// Runs one step of task `i` at `self.now`.
-    fn step(&mut self, i: usize, sys: &mut dyn System, code: &Arc<Code>, sync: bool) -> R<Flow> {
+    /// Runs one step of task `i` at `self.now`: the op at `pc` of program `p`, the task's
+    /// current frame (`None`: no frame or no such program).
+    #[allow(clippy::too_many_arguments)]
+    fn step(
+        &mut self,
+        i: usize,
+        sys: &mut dyn System,
+        code: &Code,
+        sync: bool,
+        checked: bool,
+        p: Option<&CProgram>,
+        pc: usize,
+    ) -> R<Flow> {
         if i == 0 && sync {
-            if !self.robot_allowed(sys) {
+            // (`checked`: the poll just did this at this time.)
+            if !checked && !self.robot_allowed(sys) {
                 return Ok(Flow::Next);
             }
             if self.mc_hold || !sys.panel().run {
                 return Ok(Flow::Wait(Box::new(Wait::Held)));
             }
         }
-        let Some(frame) = self.tasks[i].frames.last() else {
-            self.abort(TaskId::from_index(i));
-            return Ok(Flow::Next);
-        };
-        let (prog, pc) = (frame.prog, frame.pc);
-        let Some(p) = code.programs.get(prog) else {
+        let Some(p) = p else {
             self.abort(TaskId::from_index(i));
             return Ok(Flow::Next);
         };
@@ -2322,21 +2643,8 @@ impl Interpreter {
             return Ok(Flow::Next);
         };
         let now = self.now;
-        let cost = ns(self.cfg.cost.statement);
-        if let Some(trace) = &mut self.trace {
-            if !matches!(op, Op::Jump(_)) {
-                let line = p.lines.get(pc).copied().unwrap_or(0);
-                trace.push(TraceLine {
-                    at: Duration::from_nanos(now),
-                    task: self.tasks[i].id,
-                    program: p.name.clone(),
-                    line,
-                    text: code.line_text(prog, line).to_owned(),
-                });
-                if trace.len() > 1_000_000 {
-                    trace.drain(..trace.len() / 2);
-                }
-            }
+        if self.trace.is_some() && !matches!(op, Op::Jump(_)) {
+            self.trace_step(i, code, p, pc, now);
         }
         // By default the next step is the following op.
         let t = &mut self.tasks[i];
@@ -2345,7 +2653,7 @@ impl Interpreter {
         if let Some(f) = t.frames.last_mut() {
             f.pc = pc + 1;
         }
-        let r = self.exec(i, sys, code, op, pc, now, cost);
+        let r = self.exec(i, sys, code, op, pc, now, self.stmt_ns);
         if r.is_err() && self.tasks[i].frames.len() == depth {
             // Errors name the step that failed.
             self.set_pc(i, pc);
@@ -2353,8 +2661,32 @@ impl Interpreter {
         r
     }
 
+    #[cold]
+    fn trace_step(&mut self, i: usize, code: &Code, p: &CProgram, pc: usize, now: Ns) {
+        let id = self.tasks[i].id;
+        let Some(trace) = &mut self.trace else { return };
+        let line = p.lines.get(pc).copied().unwrap_or(0);
+        let prog = code
+            .programs
+            .iter()
+            .position(|q| std::ptr::eq(q, p))
+            .unwrap_or(usize::MAX);
+        trace.push(TraceLine {
+            at: Duration::from_nanos(now),
+            task: id,
+            program: p.name.clone(),
+            line,
+            text: code.line_text(prog, line).to_owned(),
+        });
+        if trace.len() > 1_000_000 {
+            trace.drain(..trace.len() / 2);
+        }
+    }
+
     // The step's context (program, pc, time, cost) travels as arguments: the hot path.
+    /// One step's op (the task's pc already points after it).
     #[allow(clippy::too_many_arguments)]
+    #[inline]
     fn exec(
         &mut self,
         i: usize,
@@ -2363,46 +2695,61 @@ impl Interpreter {
         op: &Op,
         pc: usize,
         now: Ns,
-        mut cost: Ns,
+        cost: Ns,
     ) -> R<Flow> {
-        let robot = i == 0;
-        let flow = match op {
-            Op::Nop => Flow::Next,
+        match self.exec_hot(i, sys, op, pc)? {
+            NOT_PURE => self.exec_other(i, sys, code, op, pc, now, cost),
+            next => {
+                let t = &mut self.tasks[i];
+                if let Some(f) = t.frames.last_mut() {
+                    f.pc = next;
+                }
+                t.ready_at = now.saturating_add(cost);
+                Ok(Flow::Next)
+            }
+        }
+    }
+
+    /// The ops of pure computation (assignments, jumps, FOR), which change nothing but
+    /// variables: the pc of the next step, [`NOT_PURE`] (nothing done) for any other op. The
+    /// caller sets the pc and the task's time.
+    #[inline(always)]
+    fn exec_hot(&mut self, i: usize, sys: &mut dyn System, op: &Op, pc: usize) -> R<usize> {
+        Ok(match op {
             Op::AssignR(l, e) => {
-                let v = self.eval_r(i, e, sys)?;
+                let v = self.eval_r_top(i, e, sys)?;
                 self.write_r(i, l, v, sys)?;
-                Flow::Next
+                pc + 1
             }
             Op::AssignS(l, e) => {
+                match e {
+                    // `.$tok = $DECODE(.$data, " ", 0)`: the server's tokenizer, in place.
+                    SExpr::Decode(var, delims, mode) if l.idx.is_empty() && var.idx.is_empty() => {
+                        if let (SExpr::Const(d), RExpr::Const(m)) = (&**delims, &**mode) {
+                            self.decode_scalar(i, l, var, d, *m)?;
+                            return Ok(pc + 1);
+                        }
+                    }
+                    _ => {}
+                }
                 let v = self.eval_s(i, e, sys)?;
                 self.write_s(i, l, v, sys)?;
-                Flow::Next
+                pc + 1
             }
-            Op::AssignJ(l, e) => {
-                let v = self.eval_j(i, e, sys)?;
-                self.write_loc_var(i, l, Ty::Joint, v, sys)?;
-                Flow::Next
-            }
-            Op::AssignT(l, e) => {
-                let v = self.eval_t(i, e, sys)?;
-                self.write_loc_var(i, l, Ty::Trans, v, sys)?;
-                Flow::Next
-            }
-            Op::Jump(t) => {
-                self.set_pc(i, *t);
-                Flow::Next
-            }
+            Op::Jump(t) => *t,
             Op::JumpIfNot(c, t) => {
-                if !truthy(self.eval_r(i, c, sys)?) {
-                    self.set_pc(i, *t);
+                if truthy(self.eval_r_top(i, c, sys)?) {
+                    pc + 1
+                } else {
+                    *t
                 }
-                Flow::Next
             }
             Op::JumpIf(c, t) => {
-                if truthy(self.eval_r(i, c, sys)?) {
-                    self.set_pc(i, *t);
+                if truthy(self.eval_r_top(i, c, sys)?) {
+                    *t
+                } else {
+                    pc + 1
                 }
-                Flow::Next
             }
             Op::ForInit {
                 var,
@@ -2426,9 +2773,35 @@ impl Interpreter {
                 self.set_hidden_r(i, *limit, to);
                 self.set_hidden_r(i, *step_slot, step);
                 if (step > 0.0 && from > to) || (step < 0.0 && from < to) {
-                    self.set_pc(i, *exit);
+                    *exit
+                } else {
+                    pc + 1
                 }
-                Flow::Next
+            }
+            Op::ForNext {
+                var,
+                limit,
+                step_slot,
+                body,
+            } if var.idx.is_empty() && !var.var.global => {
+                // A local scalar counter: the counter, limit and step in one lookup of the
+                // frame's reals.
+                let reals = &mut self.store(i, false).reals;
+                let scalar = |k: u32| reals.get(k as usize).and_then(|v| v.scalar);
+                let step = scalar(*step_slot).unwrap_or(0.0);
+                let to = scalar(*limit).unwrap_or(0.0);
+                let Some(cur) = scalar(var.var.slot) else {
+                    return Err(self.undefined(i, var, Ty::Real, &[]));
+                };
+                let v = check(cur + step, "FOR")?;
+                if let Some(x) = reals.get_mut(var.var.slot as usize) {
+                    x.scalar = Some(v);
+                }
+                if (step > 0.0 && v <= to) || (step < 0.0 && v >= to) {
+                    *body
+                } else {
+                    pc + 1
+                }
             }
             Op::ForNext {
                 var,
@@ -2441,8 +2814,46 @@ impl Interpreter {
                 let v = check(self.read_r(i, var, sys)? + step, "FOR")?;
                 self.write_r(i, var, v, sys)?;
                 if (step > 0.0 && v <= to) || (step < 0.0 && v >= to) {
-                    self.set_pc(i, *body);
+                    *body
+                } else {
+                    pc + 1
                 }
+            }
+            _ => NOT_PURE,
+        })
+    }
+
+    /// The ops [`Self::exec`] leaves to this function.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn exec_other(
+        &mut self,
+        i: usize,
+        sys: &mut dyn System,
+        code: &Code,
+        op: &Op,
+        pc: usize,
+        now: Ns,
+        mut cost: Ns,
+    ) -> R<Flow> {
+        let robot = i == 0;
+        let flow = match op {
+            Op::Nop => Flow::Next,
+            Op::AssignR(..)
+            | Op::AssignS(..)
+            | Op::Jump(_)
+            | Op::JumpIfNot(..)
+            | Op::JumpIf(..)
+            | Op::ForInit { .. }
+            | Op::ForNext { .. } => return self.exec(i, sys, code, op, pc, now, cost),
+            Op::AssignJ(l, e) => {
+                let v = self.eval_j(i, e, sys)?;
+                self.write_loc_var(i, l, Ty::Joint, v, sys)?;
+                Flow::Next
+            }
+            Op::AssignT(l, e) => {
+                let v = self.eval_t(i, e, sys)?;
+                self.write_loc_var(i, l, Ty::Trans, v, sys)?;
                 Flow::Next
             }
             Op::CaseSelR(e, slot) => {
@@ -3045,16 +3456,21 @@ impl Interpreter {
 
     /// Writes a socket instruction's result to its `ret` variable and goes on.
     fn finish_ret(&mut self, i: usize, v: f32, sys: &mut dyn System) -> R<()> {
-        let ret = match self.current_op(i) {
+        let code = Arc::clone(&self.code);
+        let op = self.tasks[i]
+            .frames
+            .last()
+            .and_then(|f| code.programs.get(f.prog)?.ops.get(f.pc));
+        let ret = match op {
             Some(
                 Op::TcpConnect { ret, .. }
                 | Op::TcpSend { ret, .. }
                 | Op::TcpAccept { ret, .. }
                 | Op::TcpRecv { ret, .. },
-            ) => ret.clone(),
+            ) => ret,
             _ => return Ok(()),
         };
-        self.write_r(i, &ret, v, sys)?;
+        self.write_r(i, ret, v, sys)?;
         self.advance_pc(i);
         Ok(())
     }
@@ -3092,14 +3508,20 @@ impl Interpreter {
         max: usize,
         sys: &mut dyn System,
     ) -> R<()> {
-        let (buf, count) = match self.current_op(i) {
-            Some(Op::TcpRecv { buf, count, .. }) => (buf.clone(), count.clone()),
+        // A handle on the code (not a copy of the op's variables) while the variables change.
+        let code = Arc::clone(&self.code);
+        let op = self.tasks[i]
+            .frames
+            .last()
+            .and_then(|f| code.programs.get(f.prog)?.ops.get(f.pc));
+        let (buf, count) = match op {
+            Some(Op::TcpRecv { buf, count, .. }) => (buf, count),
             _ => return Ok(()),
         };
         match r {
             Ok(bytes) => {
                 let dims = buf.idx.len().clamp(1, 3);
-                let base = self.indices(i, &buf, sys)?;
+                let base = self.indices(i, buf, sys)?;
                 let mut n = 0;
                 for (k, chunk) in bytes.chunks(max.max(1)).take(MAX_TRANSFER).enumerate() {
                     let mut at = base;
@@ -3110,11 +3532,11 @@ impl Interpreter {
                     self.write_s_at(i, buf.var, &at[..dims], Bytes::from(chunk))?;
                     n += 1;
                 }
-                self.write_r(i, &count, n as f32, sys)?;
+                self.write_r(i, count, n as f32, sys)?;
                 self.finish_ret(i, 0.0, sys)
             }
             Err(e) => {
-                self.write_r(i, &count, 0.0, sys)?;
+                self.write_r(i, count, 0.0, sys)?;
                 self.finish_ret(i, e as f32, sys)
             }
         }
@@ -3264,13 +3686,24 @@ fn xyzoat(v: &[f32; 6]) -> Xyzoat {
 /// AS `VAL`: decimal through fs020n-proto's `as_val` (the protocol server's own reading),
 /// `^H`/`^B` prefixes, and radix codes 1 (binary) and 2 (hexadecimal).
 fn val(s: &[u8], radix: f32) -> R<f32> {
+    // Leading blanks are cut on the bytes (ASCII: the same as on the text).
+    let start = s
+        .iter()
+        .position(|&c| c != b' ' && c != b'\t')
+        .unwrap_or(s.len());
+    let s = &s[start..];
     // Valid UTF-8 (the usual case) is read in place; `from_utf8_lossy` gives the same text
     // but walks it chunk by chunk.
     let text = match std::str::from_utf8(s) {
         Ok(t) => std::borrow::Cow::Borrowed(t),
         Err(_) => String::from_utf8_lossy(s),
     };
-    let t = text.trim_start_matches([' ', '\t']);
+    // A decimal number (no `^H`/`^B` prefix, radix code 0: `trunc(radix)` is 0, NaN
+    // included): straight to the protocol's reading.
+    if s.first() != Some(&b'^') && !(radix <= -1.0 || radix >= 1.0) {
+        return Ok(as_val(&text) as f32);
+    }
+    let t = &*text;
     let (radix, digits) = if let Some(rest) = t.strip_prefix("^H").or_else(|| t.strip_prefix("^h"))
     {
         (16, rest)
@@ -3292,6 +3725,35 @@ fn val(s: &[u8], radix: f32) -> R<f32> {
         .find(|c: char| !c.is_digit(radix))
         .unwrap_or(digits.len());
     Ok(u64::from_str_radix(&digits[..end.min(16)], radix).map_or(0.0, |v| v as f32))
+}
+
+/// `$DECODE`: where the token ends (mode ≤ 0: at the first delimiter; else at the first byte
+/// that is not one). Delimiters match regardless of ASCII case.
+#[inline]
+fn decode_cut(s: &[u8], d: &[u8], mode: f32) -> usize {
+    if let [x] = d {
+        if !x.is_ascii_alphabetic() {
+            // No case to ignore (the server's blank).
+            return if mode <= 0.0 {
+                s.iter().position(|c| c == x).unwrap_or(s.len())
+            } else {
+                s.iter().position(|c| c != x).unwrap_or(s.len())
+            };
+        }
+    }
+    let one = match d {
+        [x] => Some(x.to_ascii_lowercase()),
+        _ => None,
+    };
+    let is_delim = |c: u8| match one {
+        Some(x) => c.to_ascii_lowercase() == x,
+        None => d.iter().any(|x| x.eq_ignore_ascii_case(&c)),
+    };
+    if mode <= 0.0 {
+        s.iter().position(|&c| is_delim(c)).unwrap_or(s.len())
+    } else {
+        s.iter().position(|&c| !is_delim(c)).unwrap_or(s.len())
+    }
 }
 
 /// `INSTR`: 1-based position of `sub` in `s` at or after `start`, 0 when absent.

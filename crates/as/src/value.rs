@@ -16,6 +16,12 @@ pub(crate) struct Bytes {
 }
 
 impl Bytes {
+    /// The length in bytes (without slicing the buffer).
+    #[inline]
+    pub(crate) fn len(&self) -> usize {
+        (self.end - self.start) as usize
+    }
+
     /// The bytes `a..b` of this string (clamped).
     pub(crate) fn slice(&self, a: usize, b: usize) -> Bytes {
         let len = self.len();

@@ -4,6 +4,8 @@
 
 mod common;
 
+use std::time::Duration;
+
 use common::*;
 use fs020n_as::TaskId;
 use fs020n_proto::ErrorCode;
@@ -511,4 +513,34 @@ fn locals_start_undefined_in_each_call_unless_persistent() {
         "persistent locals keep their values between calls"
     );
     assert!(s.raised.is_empty());
+}
+
+#[test]
+fn an_error_inside_a_run_of_computation_names_its_line_steps_and_time() {
+    // 199 steps of pure computation (two FOR loops over arrays), then the 200th step, the
+    // 50th addition, reads x[50], which was never assigned.
+    let body = "  FOR .i = 1 TO 49\n    x[.i] = .i\n  END\n  .s = 0\n  FOR .i = 1 TO 60\n    \
+                .s = .s + x[.i]\n  END";
+    let (i, s) = run_pc(&format!("{body}\n  done = 1"), 0.1);
+    assert_eq!(s.raised, vec![ErrorCode(-30102)]);
+    let message = "(E0102) variable not defined: x[50] (autostart.pc line 7)";
+    let info = i.tasks(&s);
+    assert_eq!(info[1].last_error.as_deref(), Some(message));
+    assert_eq!(info[1].steps, 200, "the failed step counts");
+    assert_eq!(i.real("done"), None);
+    // Step k runs at (k − 1) × 20 µs: the error is reported at the 200th step's time.
+    let at = i
+        .terminal()
+        .find(|l| l.text == message)
+        .map(|l| l.at)
+        .expect("the error is on the terminal");
+    assert_eq!(at, Duration::from_micros(199 * 20));
+    // The same sum over defined elements: every step done, the loop's time exact.
+    let body = "  FOR .i = 1 TO 60\n    x[.i+1] = .i\n  END\n  .s = 0\n  FOR .i = 1 TO 60\n    \
+                .s = .s + x[.i+1] * 2\n  END\n  s = .s";
+    let (i, s) = run_pc(body, 0.1);
+    assert!(s.raised.is_empty(), "{:?}", printed(&s));
+    assert_eq!(i.real("s"), Some(3660.0));
+    // FOR, 60 × (assignment, NEXT), `.s = 0`, FOR, 60 × 2, `s = .s`, the END.
+    assert_eq!(i.tasks(&s)[1].steps, 1 + 120 + 1 + 1 + 120 + 1 + 1);
 }

@@ -715,7 +715,14 @@ impl System for Host<'_> {
             };
         }
         let n = s.inbox.len().min(max);
-        SockPoll::Ready(Ok(s.inbox.drain(..n).collect()))
+        // Copied slice by slice (the ring's two halves), not byte by byte.
+        let mut out = Vec::with_capacity(n);
+        let (a, b) = s.inbox.as_slices();
+        let from_a = a.len().min(n);
+        out.extend_from_slice(&a[..from_a]);
+        out.extend_from_slice(&b[..(n - from_a).min(b.len())]);
+        s.inbox.drain(..n);
+        SockPoll::Ready(Ok(out))
     }
 
     fn tcp_send(&mut self, sock: i32, data: &[u8]) -> SockPoll<()> {
