@@ -128,14 +128,13 @@ impl Streamer {
     }
 }
 
-/// CPU time of this thread (Linux `/proc/thread-self/stat`, 10 ms resolution), so that the
+/// CPU time of this thread (Linux `/proc/thread-self/schedstat`, nanoseconds), so that the
 /// figure is not skewed by other processes on a shared machine; `None` elsewhere.
 fn thread_cpu() -> Option<Duration> {
-    let stat = std::fs::read_to_string("/proc/thread-self/stat").ok()?;
-    let rest = stat.rsplit_once(')')?.1;
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let ticks: u64 = f.get(11)?.parse::<u64>().ok()? + f.get(12)?.parse::<u64>().ok()?;
-    Some(Duration::from_millis(ticks * 10))
+    let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    Some(Duration::from_nanos(
+        text.split_whitespace().next()?.parse().ok()?,
+    ))
 }
 
 fn stream(c: &mut Criterion) {
