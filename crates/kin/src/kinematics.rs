@@ -177,7 +177,20 @@ struct Frames {
     flange: Vector3<f64>,
 }
 
-fn frames(g: &Geometry, q: &JointsRad) -> Frames {
+/// The arm's first three joints: their sines and cosines, and the points they place.
+struct ArmPoints {
+    s1: f64,
+    c1: f64,
+    s23: f64,
+    c23: f64,
+    shoulder: Vector3<f64>,
+    elbow: Vector3<f64>,
+    wrist: Vector3<f64>,
+}
+
+/// The shoulder, elbow and wrist centre for the joints `q` (JT1–JT3 only), in the base frame.
+#[inline(always)]
+fn arm_points(g: &Geometry, q: &JointsRad) -> ArmPoints {
     let (s1, c1) = q[0].sin_cos();
     let (s2, c2) = q[1].sin_cos();
     let (s23, c23) = (q[1] - q[2]).sin_cos();
@@ -188,6 +201,27 @@ fn frames(g: &Geometry, q: &JointsRad) -> Frames {
     );
     let elbow = shoulder + g.upper_arm_m * Vector3::new(c1 * s2, s1 * s2, c2);
     let wrist = elbow + g.forearm_m * Vector3::new(c1 * s23, s1 * s23, c23);
+    ArmPoints {
+        s1,
+        c1,
+        s23,
+        c23,
+        shoulder,
+        elbow,
+        wrist,
+    }
+}
+
+fn frames(g: &Geometry, q: &JointsRad) -> Frames {
+    let ArmPoints {
+        s1,
+        c1,
+        s23,
+        c23,
+        shoulder,
+        elbow,
+        wrist,
+    } = arm_points(g, q);
     let r03 = Matrix3::new(
         c1 * c23,
         -s1,
@@ -236,18 +270,16 @@ impl RobotModel {
         // the same products and sums as `frames` (the terms dropped are exact zeros), without
         // JT6 and the rest of the orientation.
         let g = &self.geometry;
-        let (s1, c1) = q[0].sin_cos();
-        let (s2, c2) = q[1].sin_cos();
-        let (s23, c23) = (q[1] - q[2]).sin_cos();
+        let ArmPoints {
+            s1,
+            c1,
+            s23,
+            c23,
+            wrist,
+            ..
+        } = arm_points(g, q);
         let (s4, c4) = q[3].sin_cos();
         let (s5, c5) = (-q[4]).sin_cos();
-        let shoulder = Vector3::new(
-            g.shoulder_offset_m * c1,
-            g.shoulder_offset_m * s1,
-            g.base_height_m,
-        );
-        let elbow = shoulder + g.upper_arm_m * Vector3::new(c1 * s2, s1 * s2, c2);
-        let wrist = elbow + g.forearm_m * Vector3::new(c1 * s23, s1 * s23, c23);
         // R03's columns: (c1·c23, s1·c23, −s23), (−s1, c1, 0), (c1·s23, s1·s23, c23).
         let r04_x = Vector3::new(c1 * c23 * c4 + -s1 * s4, s1 * c23 * c4 + c1 * s4, -s23 * c4);
         let r04_z = Vector3::new(c1 * s23, s1 * s23, c23);

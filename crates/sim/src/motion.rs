@@ -338,17 +338,24 @@ impl Tracker {
         if self.stepping && self.n < TRACKER_RESEED {
             let e = angle - (self.seed + f64::from(self.n + 1) * self.h);
             if e.abs() <= TRACKER_TOLERANCE {
-                let (s, c) = (
-                    self.sin * self.cos_h + self.cos * self.sin_h,
-                    self.cos * self.cos_h - self.sin * self.sin_h,
-                );
-                self.sin = s;
-                self.cos = c;
-                self.n += 1;
-                return (s + c * e, c - s * e);
+                return self.step(e);
             }
         }
         self.sin_cos_slow(angle)
+    }
+
+    /// One step of the rotation: the next tick's sine and cosine, corrected to first order by
+    /// `e`, the actual angle's difference from the stepped one.
+    #[inline(always)]
+    fn step(&mut self, e: f64) -> (f64, f64) {
+        let (s, c) = (
+            self.sin * self.cos_h + self.cos * self.sin_h,
+            self.cos * self.cos_h - self.sin * self.sin_h,
+        );
+        self.sin = s;
+        self.cos = c;
+        self.n += 1;
+        (s + c * e, c - s * e)
     }
 
     /// [`Tracker::sin_cos`] when the fast path does not apply: learn the step, or compute
@@ -367,14 +374,7 @@ impl Tracker {
             if self.stepping {
                 let e = angle - (self.seed + f64::from(self.n + 1) * self.h);
                 if e.abs() <= TRACKER_TOLERANCE {
-                    let (s, c) = (
-                        self.sin * self.cos_h + self.cos * self.sin_h,
-                        self.cos * self.cos_h - self.sin * self.sin_h,
-                    );
-                    self.sin = s;
-                    self.cos = c;
-                    self.n += 1;
-                    return (s + c * e, c - s * e);
+                    return self.step(e);
                 }
                 // An irregular step: learn the step again.
                 self.stepping = false;
