@@ -18,30 +18,15 @@ use std::fmt::Write as _;
 use std::io::Write as _;
 use std::time::Duration;
 
-use fs020n_proto::{Command, JointsDeg, Request, StreamSample};
+use fs020n_proto::{Command, JointsDeg, Request};
 use fs020n_sim::{Controller, ControllerConfig};
 
-fn sample(t: f64, t0_s: f64) -> StreamSample {
-    let w = 0.8;
-    let amp = [30.0, 10.0, 10.0, 20.0, 15.0, 40.0];
-    let base = [0.0, 10.0, -80.0, 0.0, -80.0, 0.0];
-    let mut p = [0.0; 6];
-    let mut v = [0.0; 6];
-    let mut a = [0.0; 6];
-    for j in 0..6 {
-        let ph = w * t + j as f64;
-        p[j] = base[j] + amp[j] * ph.sin() - amp[j] * (j as f64).sin();
-        v[j] = amp[j] * w * ph.cos();
-        a[j] = -amp[j] * w * w * ph.sin();
-    }
-    StreamSample {
-        t0_s,
-        lookahead_passes: 1.0,
-        position: JointsDeg::new(p),
-        velocity: JointsDeg::new(v),
-        acceleration: JointsDeg::new(a),
-    }
-}
+// The trajectory of the `stream_speed` example and the `emulator` bench (the rest of that
+// module is not used here).
+#[path = "../benches/streamer/mod.rs"]
+#[allow(dead_code)]
+mod streamer;
+use streamer::sample;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let seconds: u32 = std::env::args()

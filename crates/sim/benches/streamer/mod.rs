@@ -75,6 +75,29 @@ fn fast_encode(s: &StreamSample, out: &mut Vec<u8>) {
     }
 }
 
+/// The sample of the smooth six-joint trajectory at trajectory time `t`, stamped `t0_s`.
+pub(crate) fn sample(t: f64, t0_s: f64) -> StreamSample {
+    let w = 0.8;
+    let amp = [30.0, 10.0, 10.0, 20.0, 15.0, 40.0];
+    let base = [0.0, 10.0, -80.0, 0.0, -80.0, 0.0];
+    let mut p = [0.0; 6];
+    let mut v = [0.0; 6];
+    let mut a = [0.0; 6];
+    for j in 0..6 {
+        let ph = w * t + j as f64;
+        p[j] = base[j] + amp[j] * ph.sin() - amp[j] * (j as f64).sin();
+        v[j] = amp[j] * w * ph.cos();
+        a[j] = -amp[j] * w * w * ph.sin();
+    }
+    StreamSample {
+        t0_s,
+        lookahead_passes: 1.0,
+        position: JointsDeg::new(p),
+        velocity: JointsDeg::new(v),
+        acceleration: JointsDeg::new(a),
+    }
+}
+
 impl Streamer {
     /// A streamer at `monitor_percent`.
     pub(crate) fn new(monitor_percent: f64, client_encoder: bool) -> Streamer {
@@ -98,26 +121,7 @@ impl Streamer {
     /// One simulated second: 100 command-7 samples of a smooth multi-joint trajectory.
     pub(crate) fn second(&mut self) {
         for _ in 0..100 {
-            let t = self.t;
-            let w = 0.8;
-            let amp = [30.0, 10.0, 10.0, 20.0, 15.0, 40.0];
-            let base = [0.0, 10.0, -80.0, 0.0, -80.0, 0.0];
-            let mut p = [0.0; 6];
-            let mut v = [0.0; 6];
-            let mut a = [0.0; 6];
-            for j in 0..6 {
-                let ph = w * t + j as f64;
-                p[j] = base[j] + amp[j] * ph.sin() - amp[j] * (j as f64).sin();
-                v[j] = amp[j] * w * ph.cos();
-                a[j] = -amp[j] * w * w * ph.sin();
-            }
-            let s = StreamSample {
-                t0_s: self.c.timer1_s(),
-                lookahead_passes: 1.0,
-                position: JointsDeg::new(p),
-                velocity: JointsDeg::new(v),
-                acceleration: JointsDeg::new(a),
-            };
+            let s = sample(self.t, self.c.timer1_s());
             if self.client_encoder {
                 self.request = Request::new(Command::StreamedMove(s))
                     .encode()
