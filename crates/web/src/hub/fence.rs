@@ -293,20 +293,35 @@ impl Fence {
         if self.spec.workspace.is_none() || !from.is_finite() {
             return Ok(());
         }
-        // One sample per degree of the largest joint travel (at least 16, at most 2000).
+        // At least 16 samples, from the start.
+        self.in_box_along(from, to, 16, 0, |s| {
+            format!("{:.0} % of the way to the target", s * 100.0)
+        })
+    }
+
+    /// Checks the straight joint-space piece from `from` to `to` against the workspace box,
+    /// one sample per degree of the largest joint travel (at least `min_samples`, at most
+    /// 2000), the samples `first..n` of `n` (0 includes `from`; `to` itself is not sampled).
+    /// `at(s)` names the sample at fraction `s` of the way.
+    fn in_box_along(
+        &self,
+        from: &JointsDeg,
+        to: &JointsDeg,
+        min_samples: usize,
+        first: usize,
+        at: impl Fn(f64) -> String,
+    ) -> Result<(), FenceViolation> {
         let travel = (0..JOINT_COUNT)
             .map(|i| (to[i] - from[i]).abs())
             .fold(0.0, f64::max);
-        let n = (travel.ceil() as usize).clamp(16, 2000);
-        for k in 0..n {
+        let n = (travel.ceil() as usize).clamp(min_samples, 2000);
+        for k in first..n {
             let s = k as f64 / n as f64;
             let mut q = [0.0; JOINT_COUNT];
             for (i, v) in q.iter_mut().enumerate() {
                 *v = from[i] + s * (to[i] - from[i]);
             }
-            self.in_box(&JointsDeg(q), || {
-                format!("{:.0} % of the way to the target", s * 100.0)
-            })?;
+            self.in_box(&JointsDeg(q), || at(s))?;
         }
         Ok(())
     }
@@ -325,18 +340,8 @@ impl Fence {
             self.in_ranges(q)?;
             self.in_box(q, || format!("path point {k}"))?;
             if let (Some(from), Some(_)) = (previous, &self.spec.workspace) {
-                let travel = (0..JOINT_COUNT)
-                    .map(|i| (q[i] - from[i]).abs())
-                    .fold(0.0, f64::max);
-                let n = (travel.ceil() as usize).clamp(1, 2000);
-                for step in 1..n {
-                    let s = step as f64 / n as f64;
-                    let mut p = [0.0; JOINT_COUNT];
-                    for (i, v) in p.iter_mut().enumerate() {
-                        *v = from[i] + s * (q[i] - from[i]);
-                    }
-                    self.in_box(&JointsDeg(p), || format!("on the way to path point {k}"))?;
-                }
+                // Between the points only: both ends are checked as points.
+                self.in_box_along(&from, q, 1, 1, |_| format!("on the way to path point {k}"))?;
             }
             previous = Some(*q);
         }
