@@ -198,16 +198,11 @@ impl Robot {
             tokio::time::sleep(STOP_SETTLE - settled).await;
             status = self.poll().await?;
         }
-        let ex = self
-            .link
-            .command(&Request::new(Command::StartProgram))
-            .await?;
-        if ex.frame.status.task_running {
+        let Some(mut sent_at) = self.send_start().await? else {
             return Ok(());
-        }
+        };
         let deadline = started + self.common.config.start_timeout;
         let mut rx = self.link.status.clone();
-        let mut sent_at = ex.sent_at;
         let mut retry_at = Instant::now() + START_RETRY;
         loop {
             {
@@ -228,14 +223,10 @@ impl Robot {
                         return Ok(());
                     }
                     if blockers(&last, false).is_empty() {
-                        let ex = self
-                            .link
-                            .command(&Request::new(Command::StartProgram))
-                            .await?;
-                        if ex.frame.status.task_running {
-                            return Ok(());
+                        match self.send_start().await? {
+                            None => return Ok(()),
+                            Some(at) => sent_at = at,
                         }
-                        sent_at = ex.sent_at;
                     }
                 }
                 _ = tokio::time::sleep_until(deadline) => {
@@ -250,6 +241,15 @@ impl Robot {
                 }
             }
         }
+    }
+
+    /// Sends a 1: `None` when its reply shows the program running, else when it was sent.
+    async fn send_start(&self) -> Result<Option<Instant>, ClientError> {
+        let ex = self
+            .link
+            .command(&Request::new(Command::StartProgram))
+            .await?;
+        Ok((!ex.frame.status.task_running).then_some(ex.sent_at))
     }
 
     /// Stops the motion program (command 2): the robot stops at once and the program ends;
