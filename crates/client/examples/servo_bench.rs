@@ -89,6 +89,7 @@ fn run(
         "push_p99_us": (percentile(&costs, 0.99) * us * 100.0).round() / 100.0,
         "sent": st.sent,
         "coalesced": st.coalesced,
+        "unsent": st.unsent,
         "push_to_send_mean_us": r1(st.push_to_send_mean.as_secs_f64() * us),
         "push_to_send_max_us": r1(st.push_to_send_max.as_secs_f64() * us),
         "rtt_mean_us": r1(st.rtt_mean.as_secs_f64() * us),

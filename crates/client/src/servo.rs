@@ -223,6 +223,10 @@ pub struct ServoStats {
     pub sent: u64,
     /// Accepted pushes replaced by a newer one before they could be sent.
     pub coalesced: u64,
+    /// Accepted pushes neither sent nor coalesced: the newest one, still waiting for the
+    /// previous reply when the servo ended (a stop sends no further sample). Zero while the
+    /// servo runs; in the final [`ServoReport`], `sent + coalesced + unsent == pushes`.
+    pub unsent: u64,
     /// Mean time between accepted pushes.
     pub push_interval_mean: Duration,
     /// Longest time between accepted pushes.
@@ -625,9 +629,14 @@ impl Servo {
     }
 
     fn report(&self, outcome: ServoOutcome) -> ServoReport {
+        let mut stats = lock(&self.state.input).sums.snapshot();
+        stats.unsent = stats
+            .pushes
+            .saturating_sub(stats.sent)
+            .saturating_sub(stats.coalesced);
         ServoReport {
             outcome,
-            stats: lock(&self.state.input).sums.snapshot(),
+            stats,
             final_joints: Some(self.link.latest().status.joints),
             duration: self.state.opened.elapsed(),
         }

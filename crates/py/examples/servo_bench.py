@@ -67,6 +67,7 @@ def run(address: str, rate: float, seconds: float) -> dict:
         "push_p99_us": round(percentile(costs, 0.99) * us, 2),
         "sent": st["sent"],
         "coalesced": st["coalesced"],
+        "unsent": st["unsent"],
         "push_to_send_mean_us": round(st["push_to_send_mean_s"] * us, 1),
         "push_to_send_max_us": round(st["push_to_send_max_s"] * us, 1),
         "rtt_mean_us": round(st["rtt_mean_s"] * us, 1),

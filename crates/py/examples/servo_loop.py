@@ -33,6 +33,7 @@ def run(address: str, rate: float, seconds: float) -> None:
         report = servo.stop()
         st = report.stats
         print(f"{report.outcome}: {st['pushes']} pushes, {st['sent']} sent, {st['coalesced']} coalesced, "
+              f"{st['unsent']} unsent, "
               f"tracking RMS {st['tracking_error_rms_deg']:.3f} deg, "
               f"push-to-send mean {st['push_to_send_mean_s'] * 1e6:.0f} us")
 

@@ -243,11 +243,12 @@ impl ServoReport {
                 .unwrap_or_default()
         };
         format!(
-            "ServoReport(outcome={:?}, pushes={}, sent={}, coalesced={}, duration_s={:.3})",
+            "ServoReport(outcome={:?}, pushes={}, sent={}, coalesced={}, unsent={}, duration_s={:.3})",
             self.outcome,
             get("pushes"),
             get("sent"),
             get("coalesced"),
+            get("unsent"),
             self.duration_s
         )
     }
@@ -259,6 +260,7 @@ fn servo_stats<'py>(py: Python<'py>, s: &client::ServoStats) -> PyResult<Bound<'
     d.set_item("refused", s.refused)?;
     d.set_item("sent", s.sent)?;
     d.set_item("coalesced", s.coalesced)?;
+    d.set_item("unsent", s.unsent)?;
     d.set_item("push_interval_mean_s", s.push_interval_mean.as_secs_f64())?;
     d.set_item("push_interval_max_s", s.push_interval_max.as_secs_f64())?;
     d.set_item("push_to_send_mean_s", s.push_to_send_mean.as_secs_f64())?;

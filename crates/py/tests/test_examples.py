@@ -56,5 +56,7 @@ def test_servo_bench():
     out = run("servo_bench.py", "--rate", "200", "--seconds", "0.5")
     figures = json.loads(out.strip().splitlines()[-1])
     assert figures["client"] == "python" and figures["pushes"] == 100
-    assert figures["sent"] + figures["coalesced"] == 100
+    # The stop may find the last push still waiting for the previous reply: it is not sent.
+    assert figures["sent"] + figures["coalesced"] + figures["unsent"] == 100
+    assert figures["unsent"] <= 1
     assert figures["achieved_hz"] > 0 and figures["push_mean_us"] > 0

@@ -34,7 +34,9 @@ def test_a_push_loop_is_followed_and_stop_reports(robot, emu):
     assert report.outcome == "stopped"
     st = report.stats
     assert st["pushes"] == k and st["refused"] == 0
-    assert st["sent"] + st["coalesced"] == st["pushes"]
+    # Every accepted push is accounted for; only the newest can be left unsent by the stop.
+    assert st["sent"] + st["coalesced"] + st["unsent"] == st["pushes"]
+    assert st["unsent"] <= 1
     assert st["sent"] >= 20
     assert st["tracking_samples"] > 0 and st["tracking_error_rms_deg"] < 2.0
     assert 0 < st["push_interval_mean_s"] < 0.1

@@ -43,6 +43,7 @@ class ServoStats(TypedDict):
     refused: int
     sent: int
     coalesced: int
+    unsent: int
     push_interval_mean_s: float
     push_interval_max_s: float
     push_to_send_mean_s: float
