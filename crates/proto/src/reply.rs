@@ -6,11 +6,16 @@ use std::fmt;
 use crate::error::{excerpt, DecodeError};
 use crate::error_code::ErrorCode;
 use crate::joints::{JointsDeg, JOINT_COUNT};
-use crate::number::{parse_field, write_default_int, write_f10_3, F10_OVERFLOW, F10_WIDTH};
+use crate::number::{
+    f10_3_field, parse_field, put_default_int, DEFAULT_INT_MAX, F10_OVERFLOW, F10_WIDTH,
+};
 use crate::session::{AS_FALSE, AS_TRUE, PROTOCOL_VERSION};
 
 /// Number of fields in a reply.
 pub const REPLY_FIELDS: usize = 14;
+
+/// Longest encoded reply: seven integers, seven `/F10.3` fields and the final blank.
+const ENCODED_MAX: usize = 7 * DEFAULT_INT_MAX + 7 * F10_WIDTH + 1;
 
 /// Reply field 8, TIMER(1): seconds since the connection was accepted, or overflow when the
 /// value no longer fits `/F10.3` (after about 11.6 days of one connection).
@@ -84,7 +89,10 @@ impl Status {
 
     /// [`Status::encode`] as bytes (what a server sends), without the text conversion.
     pub fn encode_bytes(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(96);
+        // Built on the stack, then copied once into a vector of the exact length.
+        let mut buf = [b' '; ENCODED_MAX];
+        let mut n = 0;
+        let mut int = [0u8; DEFAULT_INT_MAX];
         for v in [
             self.version,
             i64::from(self.error.raw()),
@@ -94,17 +102,22 @@ impl Status {
             as_bool(self.power),
             as_bool(self.task_running),
         ] {
-            write_default_int(&mut out, v);
+            let len = put_default_int(&mut int, v);
+            buf[n..n + len].copy_from_slice(&int[..len]);
+            n += len;
         }
-        match self.timer {
-            Timer::Seconds(s) => write_f10_3(&mut out, s),
-            Timer::Overflow => out.extend_from_slice(F10_OVERFLOW.as_bytes()),
-        }
+        let timer = match self.timer {
+            Timer::Seconds(s) => f10_3_field(s),
+            Timer::Overflow => [b'*'; F10_WIDTH],
+        };
+        buf[n..n + F10_WIDTH].copy_from_slice(&timer);
+        n += F10_WIDTH;
         for j in self.joints.iter() {
-            write_f10_3(&mut out, j);
+            buf[n..n + F10_WIDTH].copy_from_slice(&f10_3_field(j));
+            n += F10_WIDTH;
         }
-        out.push(b' ');
-        out
+        // The final blank (the buffer is blanks).
+        buf[..n + 1].to_vec()
     }
 
     /// Decodes one complete reply, tolerantly: runs of blanks, a leading blank, a missing
@@ -405,5 +418,69 @@ mod tests {
             Err(DecodeError::JointOverflow { joint: 1 })
         ));
         assert!(Status::decode("").is_err());
+    }
+
+    /// The encoder as it was: field by field into a growing vector.
+    fn previous_encode_bytes(s: &Status) -> Vec<u8> {
+        use crate::number::reference::{write_default_int, write_f10_3};
+        let mut out = Vec::with_capacity(96);
+        for v in [
+            s.version,
+            i64::from(s.error.raw()),
+            as_bool(s.run),
+            as_bool(s.repeat),
+            as_bool(s.teach_lock),
+            as_bool(s.power),
+            as_bool(s.task_running),
+        ] {
+            write_default_int(&mut out, v);
+        }
+        match s.timer {
+            Timer::Seconds(t) => write_f10_3(&mut out, t),
+            Timer::Overflow => out.extend_from_slice(F10_OVERFLOW.as_bytes()),
+        }
+        for j in s.joints.iter() {
+            write_f10_3(&mut out, j);
+        }
+        out.push(b' ');
+        out
+    }
+
+    fn any_value() -> impl proptest::strategy::Strategy<Value = f64> {
+        use proptest::prelude::*;
+        prop_oneof![
+            any::<f64>(),
+            -400.0f64..400.0,
+            (-2_000_000_000i64..2_000_000_000).prop_map(|k| k as f64 / 1000.0 + 0.0005),
+            (-2_000_000_000i64..2_000_000_000).prop_map(|k| k as f64 / 1000.0),
+            Just(f64::NAN),
+            Just(-0.0),
+        ]
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(10_000))]
+        /// The encoder writes every status byte for byte as the previous encoder did.
+        #[test]
+        fn encoding_matches_the_previous_encoder(
+            version in proptest::prop_oneof![proptest::strategy::Just(1040i64), proptest::prelude::any::<i64>()],
+            error in proptest::prelude::any::<i32>(),
+            switches in proptest::prelude::any::<[bool; 5]>(),
+            timer in proptest::option::of(any_value()),
+            joints in proptest::array::uniform6(any_value()),
+        ) {
+            let s = Status {
+                version,
+                error: ErrorCode(error),
+                run: switches[0],
+                repeat: switches[1],
+                teach_lock: switches[2],
+                power: switches[3],
+                task_running: switches[4],
+                timer: timer.map_or(Timer::Overflow, Timer::Seconds),
+                joints: JointsDeg::new(joints),
+            };
+            proptest::prop_assert_eq!(s.encode_bytes(), previous_encode_bytes(&s));
+        }
     }
 }

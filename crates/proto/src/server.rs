@@ -19,7 +19,7 @@
 //! ```
 
 use crate::joints::{JointsDeg, JOINT_COUNT};
-use crate::number::as_val_bytes;
+use crate::number::{general_val, short_decimal};
 use crate::request::{Command, StreamSample};
 use crate::session::{MAX_REQUEST_BYTES, PROTOCOL_VERSION};
 
@@ -45,20 +45,19 @@ impl ServerRequest {
     /// controller.
     pub fn parse(bytes: &[u8]) -> ServerRequest {
         let head = &bytes[..bytes.len().min(MAX_REQUEST_BYTES)];
-        // The tokens are cut and read on the bytes: only ASCII blanks separate and only ASCII
-        // characters form numbers, so this reads what the text decoded lossily would.
-        let mut tokens = server_token_bytes(head);
-        let mut val = || tokens.next().map_or(0.0, as_val_bytes);
-        let version = val();
-        let command_number = val();
-        let count_val = val();
+        // The tokens are cut and read on the bytes, in one pass: only ASCII blanks separate and
+        // only ASCII characters form numbers, so this reads what the text decoded lossily would.
+        let mut tokens = TokenValues { text: head, at: 0 };
+        let version = tokens.next_value();
+        let command_number = tokens.next_value();
+        let count_val = tokens.next_value();
         let count = if count_val >= 1.0 {
             (count_val.trunc() as usize).min(MAX_ARGS)
         } else {
             0
         };
         let mut args = Vec::with_capacity(count);
-        args.extend((0..count).map(|_| val()));
+        args.extend((0..count).map(|_| tokens.next_value()));
         ServerRequest {
             version,
             command_number,
@@ -140,20 +139,44 @@ pub fn server_tokens(text: &str) -> impl Iterator<Item = &str> {
     })
 }
 
-/// [`server_tokens`] on bytes.
-fn server_token_bytes(text: &[u8]) -> impl Iterator<Item = &[u8]> {
-    let mut rest = Some(text);
-    let mut first = true;
-    std::iter::from_fn(move || {
-        let r = rest?;
-        let cut = r.iter().position(|&c| c == b' ').unwrap_or(r.len());
-        let (token, after) = r.split_at(cut);
-        let blanks = after.iter().take_while(|&&c| c == b' ').count();
-        let after = &after[blanks..];
-        rest = (!after.is_empty()).then_some(after);
-        let is_first = std::mem::replace(&mut first, false);
-        (!token.is_empty() || cut == 0 && is_first).then_some(token)
-    })
+/// `VAL` of each token of [`server_tokens`], read on the bytes in one pass; 0 for every token
+/// after the last.
+struct TokenValues<'a> {
+    text: &'a [u8],
+    /// Where the next token starts: after a run of blanks, except at the start (a leading
+    /// blank is an empty first token, as `$DECODE` cuts it).
+    at: usize,
+}
+
+impl TokenValues<'_> {
+    /// `VAL` of the next token (0 when there is none: `VAL("")` is 0 too).
+    #[inline]
+    fn next_value(&mut self) -> f64 {
+        let text = self.text;
+        let start = self.at;
+        // `VAL` skips leading blanks; inside a token only tabs can lead.
+        let mut i = start;
+        while text.get(i) == Some(&b'\t') {
+            i += 1;
+        }
+        let rest = text.get(i..).unwrap_or_default();
+        let (value, mut end) = match short_decimal(rest) {
+            Some((v, len)) => (f64::from(v as f32), i + len),
+            None => {
+                let len = rest.iter().position(|&c| c == b' ').unwrap_or(rest.len());
+                (general_val(&rest[..len]), i + len)
+            }
+        };
+        // The rest of the token (what follows its number), then the run of blanks after it.
+        while text.get(end).is_some_and(|&c| c != b' ') {
+            end += 1;
+        }
+        while text.get(end) == Some(&b' ') {
+            end += 1;
+        }
+        self.at = end;
+        value
+    }
 }
 
 #[cfg(test)]
@@ -289,5 +312,128 @@ mod tests {
         let r = ServerRequest::parse(text.as_bytes());
         assert!(r.version_matches());
         assert_eq!(r.command(), c);
+    }
+
+    /// The tokenizer on bytes as it was (an iterator over the tokens).
+    fn previous_token_bytes(text: &[u8]) -> impl Iterator<Item = &[u8]> {
+        let mut rest = Some(text);
+        let mut first = true;
+        std::iter::from_fn(move || {
+            let r = rest?;
+            let cut = r.iter().position(|&c| c == b' ').unwrap_or(r.len());
+            let (token, after) = r.split_at(cut);
+            let blanks = after.iter().take_while(|&&c| c == b' ').count();
+            let after = &after[blanks..];
+            rest = (!after.is_empty()).then_some(after);
+            let is_first = std::mem::replace(&mut first, false);
+            (!token.is_empty() || cut == 0 && is_first).then_some(token)
+        })
+    }
+
+    /// The parser as it was before the one-pass reading: tokens cut first, then each read by
+    /// the previous `VAL`.
+    fn previous_parse(bytes: &[u8]) -> ServerRequest {
+        let head = &bytes[..bytes.len().min(MAX_REQUEST_BYTES)];
+        let mut tokens = previous_token_bytes(head);
+        let mut val = || {
+            tokens
+                .next()
+                .map_or(0.0, crate::number::reference::as_val_bytes)
+        };
+        let version = val();
+        let command_number = val();
+        let count_val = val();
+        let count = if count_val >= 1.0 {
+            (count_val.trunc() as usize).min(MAX_ARGS)
+        } else {
+            0
+        };
+        let args = (0..count).map(|_| val()).collect();
+        ServerRequest {
+            version,
+            command_number,
+            count,
+            args,
+        }
+    }
+
+    /// Bit for bit (signed zeros and all): `PartialEq` on f64 would call 0 and -0 equal.
+    fn bits(r: &ServerRequest) -> (u64, u64, usize, Vec<u64>) {
+        (
+            r.version.to_bits(),
+            r.command_number.to_bits(),
+            r.count,
+            r.args.iter().map(|a| a.to_bits()).collect(),
+        )
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(5_000))]
+        /// The one-pass parser reads every request bit for bit as the previous parser did:
+        /// command-7 requests as clients write them, requests with odd tokens (runs of blanks,
+        /// tabs, signs, points, exponents, asterisks, long digit strings, overflow), and
+        /// arbitrary bytes, also beyond byte 255.
+        #[test]
+        fn the_one_pass_parser_reads_what_the_previous_parser_read(
+            numbers in proptest::collection::vec(-1.0e6f64..1.0e6, 0..30),
+            count in 0usize..40,
+            parts in proptest::collection::vec(
+                proptest::prop_oneof![
+                    proptest::string::bytes_regex("[ ]{1,3}").unwrap(),
+                    proptest::string::bytes_regex("[+-]?[0-9]{0,9}[.]?[0-9]{0,9}").unwrap(),
+                    proptest::string::bytes_regex("[0-9]{1,20}[.]?[0-9]{0,20}").unwrap(),
+                    proptest::string::bytes_regex("[+-]?[0-9]{0,3}[.]?[0-9]{0,3}[eE][+-]?[0-9]{0,3}").unwrap(),
+                    proptest::string::bytes_regex("[-+.*eE\t]{1,3}|x|\\*{10}|1040|7|21").unwrap(),
+                    proptest::collection::vec(proptest::prelude::any::<u8>(), 0..6),
+                ],
+                0..100,
+            ),
+            bytes in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..300),
+        ) {
+            let mut cmd7 = format!("1040 7 {count}");
+            for v in &numbers {
+                cmd7.push(' ');
+                crate::number::push_request_number(&mut cmd7, *v, "x").unwrap_or_default();
+            }
+            let odd = parts.concat();
+            let mut prefixed = b"1040 7 21 ".to_vec();
+            prefixed.extend_from_slice(&odd);
+            for input in [cmd7.as_bytes(), &odd, &prefixed, &bytes] {
+                let new = ServerRequest::parse(input);
+                let old = previous_parse(input);
+                proptest::prop_assert_eq!(bits(&new), bits(&old), "{:?}", String::from_utf8_lossy(input));
+            }
+        }
+    }
+
+    #[test]
+    fn one_pass_edges() {
+        for input in [
+            &b""[..],
+            b" ",
+            b"   ",
+            b" 1040",
+            b"1040",
+            b"1040 ",
+            b"1040 7 21",
+            b"1040 7 21 ",
+            b"1040\t7 1 5",
+            b"\t1040 7 1 \t-5",
+            b"1040 7 3 1e5 -2.5e-3 9999999999999999999",
+            b"1040 7 3 -0 -.0 +.",
+            b"1040 7 3 1.2.3 --5 +-5",
+            b"1040 7 3 1e99 -1e39 3.4e38",
+            b"1040 3 1.9e0 50",
+            b"1040 3 1 0.0000000000000001",
+            b"1040 3 1 0000000000000001.5",
+            b"1040 200 200",
+        ] {
+            assert_eq!(
+                bits(&ServerRequest::parse(input)),
+                bits(&previous_parse(input)),
+                "{:?}",
+                String::from_utf8_lossy(input)
+            );
+        }
     }
 }
