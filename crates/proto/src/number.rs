@@ -128,7 +128,9 @@ pub(crate) fn short_decimal(b: &[u8]) -> Option<(f64, usize)> {
     if count > SHORT_DIGITS || matches!(b.get(i), Some(b'e' | b'E')) {
         return None;
     }
-    let v = m as f64 / POW10[decimals];
+    // m < 10^15 < 2^63: the signed conversion (one instruction, where the unsigned one takes
+    // several) is exact.
+    let v = m as i64 as f64 / POW10[decimals];
     Some((if negative { -v } else { v }, i))
 }
 
@@ -353,26 +355,49 @@ pub(crate) fn f10_3_field(value: f64) -> [u8; F10_WIDTH] {
     // Right-justified, written from the right: 3 decimals, the point, the integer part (at
     // least one digit), the sign.
     let mut field = [b' '; F10_WIDTH];
-    let frac = (a % 1000) as u16;
-    field[9] = b'0' + (frac % 10) as u8;
-    field[8] = b'0' + (frac / 10 % 10) as u8;
+    // Below 10^9: u32 arithmetic, two digits per division.
+    let a = a as u32;
+    let frac = a % 1000;
     field[7] = b'0' + (frac / 100) as u8;
+    field[8..10].copy_from_slice(&digit_pair(frac % 100));
     field[6] = b'.';
-    // Below 10^6: a u32 divides faster.
-    let mut int = (a / 1000) as u32;
+    let mut int = a / 1000;
     let mut i = 6;
-    loop {
+    while int >= 100 {
+        field[i - 2..i].copy_from_slice(&digit_pair(int % 100));
+        int /= 100;
+        i -= 2;
+    }
+    if int >= 10 {
+        field[i - 2..i].copy_from_slice(&digit_pair(int));
+        i -= 2;
+    } else {
+        field[i - 1] = b'0' + int as u8;
         i -= 1;
-        field[i] = b'0' + (int % 10) as u8;
-        int /= 10;
-        if int == 0 {
-            break;
-        }
     }
     if negative {
         field[i - 1] = b'-';
     }
     field
+}
+
+/// `"00"` to `"99"`, one after the other.
+const DIGIT_PAIRS: [u8; 200] = {
+    let mut t = [0u8; 200];
+    let mut n = 0;
+    while n < 100 {
+        t[2 * n] = b'0' + (n / 10) as u8;
+        t[2 * n + 1] = b'0' + (n % 10) as u8;
+        n += 1;
+    }
+    t
+};
+
+/// The two digits of `n` (below 100).
+#[inline(always)]
+fn digit_pair(n: u32) -> [u8; 2] {
+    let i = 2 * (n as usize % 100);
+    [DIGIT_PAIRS[i], DIGIT_PAIRS[i + 1]]
 }
 
 /// `/F10.3` of a finite value next to a rounding tie, through the exact float printer.
@@ -411,18 +436,20 @@ pub fn push_default_int(out: &mut String, value: i64) {
 pub(crate) const DEFAULT_INT_MAX: usize = 21;
 
 /// Writes `value` in the AS default format (see [`format_default_int`]) at the start of `out`
-/// (at least [`DEFAULT_INT_MAX`] bytes long) and returns how many bytes it wrote.
-pub(crate) fn put_default_int(out: &mut [u8; DEFAULT_INT_MAX], value: i64) -> usize {
-    // The switch fields are 0 and -1: one digit needs no loop.
+/// and returns how many bytes it wrote (at most [`DEFAULT_INT_MAX`]; `out` must hold them).
+pub(crate) fn put_default_int(out: &mut [u8], value: i64) -> usize {
+    // The switch fields are 0 and -1: one digit needs no loop and no copy.
     if (-9..=9).contains(&value) {
         let digit = b'0' + value.unsigned_abs() as u8;
-        out[0] = b' ';
         if value < 0 {
-            out[1] = b'-';
-            out[2] = digit;
+            if let Some(field) = out.get_mut(..3) {
+                field.copy_from_slice(&[b' ', b'-', digit]);
+            }
             return 3;
         }
-        out[1] = digit;
+        if let Some(field) = out.get_mut(..2) {
+            field.copy_from_slice(&[b' ', digit]);
+        }
         return 2;
     }
     let mut field = [b' '; DEFAULT_INT_MAX];
@@ -442,7 +469,9 @@ pub(crate) fn put_default_int(out: &mut [u8; DEFAULT_INT_MAX], value: i64) -> us
     }
     // The blank before the number.
     let text = &field[i - 1..];
-    out[..text.len()].copy_from_slice(text);
+    if let Some(dest) = out.get_mut(..text.len()) {
+        dest.copy_from_slice(text);
+    }
     text.len()
 }
 
@@ -860,9 +889,13 @@ mod tests {
             half in proptest::bool::ANY,
             i in proptest::prelude::any::<i64>(),
             small in -100_000i64..100_000,
+            width in 0u32..10,
+            field in -1.0e6f64..1.0e6,
         ) {
             let near = k as f64 / 1000.0 + if half { 0.0005 } else { 0.0 };
-            for x in [v, near, near.next_up(), near.next_down(), v / 1e6, v / 1e300, -near] {
+            // Every number of integer digits, both signs.
+            let sized = field / 10f64.powi(width as i32);
+            for x in [v, near, near.next_up(), near.next_down(), v / 1e6, v / 1e300, -near, sized, -sized] {
                 let mut old = Vec::new();
                 reference::write_f10_3(&mut old, x);
                 proptest::prop_assert_eq!(&f10_3_field(x)[..], &old[..], "{}", x);

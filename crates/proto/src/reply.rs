@@ -92,7 +92,6 @@ impl Status {
         // Built on the stack, then copied once into a vector of the exact length.
         let mut buf = [b' '; ENCODED_MAX];
         let mut n = 0;
-        let mut int = [0u8; DEFAULT_INT_MAX];
         for v in [
             self.version,
             i64::from(self.error.raw()),
@@ -102,9 +101,7 @@ impl Status {
             as_bool(self.power),
             as_bool(self.task_running),
         ] {
-            let len = put_default_int(&mut int, v);
-            buf[n..n + len].copy_from_slice(&int[..len]);
-            n += len;
+            n += put_default_int(&mut buf[n..], v);
         }
         let timer = match self.timer {
             Timer::Seconds(s) => f10_3_field(s),
