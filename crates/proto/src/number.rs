@@ -81,22 +81,6 @@ const POW10: [f64; 16] = [
 /// Most digits [`short_decimal`] reads: `m < 10^15 < 2^53` is then an exact double.
 const SHORT_DIGITS: usize = 15;
 
-/// Appends the decimal digits at the start of `b` to `m` (wrapping: a caller that reads more
-/// than [`SHORT_DIGITS`] digits discards `m`); returns how many there were.
-#[inline(always)]
-fn accumulate_digits(b: &[u8], m: &mut u64) -> usize {
-    let mut n = 0;
-    while let Some(&c) = b.get(n) {
-        let d = c.wrapping_sub(b'0');
-        if d > 9 {
-            break;
-        }
-        *m = m.wrapping_mul(10).wrapping_add(u64::from(d));
-        n += 1;
-    }
-    n
-}
-
 /// The number at the start of `b` when it is short: `[sign]digits[.digits]` with at most 15
 /// digits and no exponent (whatever follows the number is ignored, as `VAL` ignores it), with
 /// the index where the reading stopped. `Some((0.0, _))` when `b` does not start with a
@@ -107,25 +91,53 @@ fn accumulate_digits(b: &[u8], m: &mut u64) -> usize {
 /// without the general parser's cost.
 #[inline(always)]
 pub(crate) fn short_decimal(b: &[u8]) -> Option<(f64, usize)> {
-    let (negative, mut i) = match b.first() {
-        Some(b'-') => (true, 1),
-        Some(b'+') => (false, 1),
-        _ => (false, 0),
-    };
-    let mut m: u64 = 0;
-    let int_digits = accumulate_digits(b.get(i..).unwrap_or_default(), &mut m);
-    i += int_digits;
-    let mut decimals = 0;
-    if b.get(i) == Some(&b'.') {
+    short_decimal_at(b, 0)
+}
+
+/// [`short_decimal`] of `&b[start..]` (nothing when `start` is past the end), with the index
+/// in `b` where the reading stopped. On indices rather than a subslice, and with the digits
+/// accumulated wrapping (a reading of more than [`SHORT_DIGITS`] digits discards `m`), so the
+/// loops compile to a few instructions per byte.
+#[inline(always)]
+pub(crate) fn short_decimal_at(b: &[u8], start: usize) -> Option<(f64, usize)> {
+    let len = b.len();
+    let mut i = start;
+    let mut negative = false;
+    if let Some(&c @ (b'-' | b'+')) = b.get(i) {
+        negative = c == b'-';
         i += 1;
-        decimals = accumulate_digits(b.get(i..).unwrap_or_default(), &mut m);
-        i += decimals;
     }
-    let count = int_digits + decimals;
+    let int_start = i;
+    let mut m: u64 = 0;
+    while i < len {
+        let d = b[i].wrapping_sub(b'0');
+        if d > 9 {
+            break;
+        }
+        m = m.wrapping_mul(10).wrapping_add(u64::from(d));
+        i += 1;
+    }
+    let mut count = i - int_start;
+    let mut decimals = 0;
+    if i < len && b[i] == b'.' {
+        i += 1;
+        let frac_start = i;
+        while i < len {
+            let d = b[i].wrapping_sub(b'0');
+            if d > 9 {
+                break;
+            }
+            m = m.wrapping_mul(10).wrapping_add(u64::from(d));
+            i += 1;
+        }
+        decimals = i - frac_start;
+        count += decimals;
+    }
     if count == 0 {
         return Some((0.0, i));
     }
-    if count > SHORT_DIGITS || matches!(b.get(i), Some(b'e' | b'E')) {
+    // `| 0x20` maps 'E' to 'e' (and nothing else to it).
+    if count > SHORT_DIGITS || (i < len && (b[i] | 0x20) == b'e') {
         return None;
     }
     // m < 10^15 < 2^63: the signed conversion (one instruction, where the unsigned one takes

@@ -19,7 +19,7 @@
 //! ```
 
 use crate::joints::{JointsDeg, JOINT_COUNT};
-use crate::number::{general_val, short_decimal};
+use crate::number::{general_val, short_decimal_at};
 use crate::request::{Command, StreamSample};
 use crate::session::{MAX_REQUEST_BYTES, PROTOCOL_VERSION};
 
@@ -150,7 +150,7 @@ struct TokenValues<'a> {
 
 impl TokenValues<'_> {
     /// `VAL` of the next token (0 when there is none: `VAL("")` is 0 too).
-    #[inline]
+    #[inline(always)]
     fn next_value(&mut self) -> f64 {
         let text = self.text;
         let start = self.at;
@@ -159,10 +159,10 @@ impl TokenValues<'_> {
         while text.get(i) == Some(&b'\t') {
             i += 1;
         }
-        let rest = text.get(i..).unwrap_or_default();
-        let (value, mut end) = match short_decimal(rest) {
-            Some((v, len)) => (f64::from(v as f32), i + len),
+        let (value, mut end) = match short_decimal_at(text, i) {
+            Some((v, end)) => (f64::from(v as f32), end),
             None => {
+                let rest = text.get(i..).unwrap_or_default();
                 let len = rest.iter().position(|&c| c == b' ').unwrap_or(rest.len());
                 (general_val(&rest[..len]), i + len)
             }
