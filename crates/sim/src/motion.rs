@@ -575,6 +575,9 @@ pub struct Robot {
     target: JointsDeg,
     /// Oldest first (they usually finish in that order).
     active: VecDeque<Active>,
+    /// Every segment in `active` lasts at least as long as the one before it: since they
+    /// start in order, none ends before the first (the tick then tests only the first).
+    ends_in_order: bool,
     planned: Option<Motion>,
     brake: Option<Brake>,
     /// Motion clock: advances with time scaled by the HOLD ramp.
@@ -632,6 +635,7 @@ impl Robot {
             anchor: joints,
             target: joints,
             active: VecDeque::new(),
+            ends_in_order: true,
             planned: None,
             brake: None,
             clock: 0.0,
@@ -778,6 +782,12 @@ impl Robot {
                 sum.members += 1;
             }
         }
+        // `started` never decreases (the motion clock only advances), so segments of
+        // non-decreasing durations end in order.
+        self.ends_in_order = match self.active.back() {
+            Some(last) => self.ends_in_order && duration_s >= last.duration_s,
+            None => true,
+        };
         self.active.push_back(Active {
             duration_s,
             from_start,
@@ -884,19 +894,25 @@ impl Robot {
                 }
             };
             // Finished segments fold into the anchor, oldest first: those at the front are
-            // popped (no move of the others), the rest (rarely any) removed in place.
+            // popped (no move of the others), the rest (rarely any) removed in place. When
+            // they end in order (`ends_in_order`: `clock − started` is not larger for a later
+            // start, and the duration not smaller), none behind an unfinished first one has
+            // finished.
             while self.active.front().is_some_and(|a| finished(a, anchor)) {
                 self.active.pop_front();
             }
-            if self
-                .active
-                .iter()
-                .any(|a| clock - a.started >= a.duration_s)
+            if !self.ends_in_order
+                && self
+                    .active
+                    .iter()
+                    .any(|a| clock - a.started >= a.duration_s)
             {
                 self.active.retain(|a| !finished(a, anchor));
             }
             let mut q = self.anchor;
+            let mut in_sum = 0;
             if let Some(sum) = &mut self.cycloids {
+                in_sum = sum.members;
                 if sum.members > 0 {
                     if clock - sum.epoch > CYCLOIDS_REBASE_S {
                         // A new epoch: the members' phases against it.
@@ -914,7 +930,17 @@ impl Robot {
                     sum.add(clock, &mut q);
                 }
             }
-            for a in &mut self.active {
+            debug_assert_eq!(
+                in_sum,
+                self.active.iter().filter(|a| a.in_sum.is_some()).count()
+            );
+            // The segments outside the sum (none while a stream's lines all join it).
+            let outside = if self.active.len() > in_sum {
+                self.active.len()
+            } else {
+                0
+            };
+            for a in self.active.iter_mut().take(outside) {
                 if a.in_sum.is_some() {
                     continue;
                 }
@@ -945,10 +971,9 @@ impl Robot {
             q
         };
         // Speed limit, then the joint ranges.
-        let speeds = model.max_speeds_deg_s();
         let mut q = desired;
         for (j, spec) in model.joints.iter().enumerate() {
-            let step = speeds[j] * dt;
+            let step = spec.max_speed_deg_s * dt;
             q[j] = q[j].clamp(prev[j] - step, prev[j] + step);
             q[j] = q[j].clamp(spec.min_deg, spec.max_deg);
         }
