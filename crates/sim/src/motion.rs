@@ -10,7 +10,7 @@
 use std::cell::Cell;
 use std::collections::VecDeque;
 
-use fs020n_kin::{JointMove, Pose, RobotModel};
+use fs020n_kin::{FlangeNear, JointMove, Pose, RobotModel};
 use fs020n_proto::{JointsDeg, JOINT_COUNT};
 
 /// A straight-line (LMOVE) tool path, pre-sampled through inverse kinematics.
@@ -588,40 +588,16 @@ pub struct Robot {
     /// The flange pose at `target`, computed once per target (the blending test compares the
     /// tool with it every tick while a motion waits).
     target_pose: Cell<Option<(JointsDeg, Pose)>>,
-    /// The last blending test that failed, to skip tests whose outcome is known.
-    blend_ref: Cell<Option<BlendRef>>,
+    /// The flange and its derivatives where the blending test last computed the forward
+    /// kinematics: the tests whose outcome a bound decides skip it.
+    blend_ref: Cell<Option<FlangeNear>>,
     /// The one-piece lines in progress of one duration, summed in closed form.
     cycloids: Option<Cycloids>,
 }
 
-/// The last blending test that found the tool outside the ACCURACY sphere
-/// ([`Robot::ready_for_next`]).
-#[derive(Debug, Clone, Copy)]
-struct BlendRef {
-    /// The joints then.
-    joints: JointsDeg,
-    /// The target then, and the ACCURACY.
-    target: JointsDeg,
-    accuracy_mm: f64,
-    /// How far the tool was outside the sphere, metres, less a margin for rounding.
-    slack_m: f64,
-}
-
 /// Margin on the distance to the ACCURACY sphere for the rounding of the forward kinematics
-/// (≈ 1e-15 m) and of the bound: a nanometre.
+/// and of the estimate (≈ 1e-15 m): a nanometre.
 const BLEND_MARGIN_M: f64 = 1e-9;
-
-/// For each joint, a bound on the distance from its axis to the flange in any configuration,
-/// metres: the lengths of the links after it. Turning joint `j` by `δ` radians moves the flange
-/// by at most `R_j·|δ|`, so a joint change `Δq` moves it by at most `Σ R_j |Δq_j|`.
-fn reach_bounds_m(model: &RobotModel) -> [f64; JOINT_COUNT] {
-    let g = &model.geometry;
-    let wrist = g.flange_m.abs();
-    let forearm = g.forearm_m.abs() + wrist;
-    let upper = g.upper_arm_m.abs() + forearm;
-    let base = g.shoulder_offset_m.abs() + upper;
-    [base, upper, forearm, wrist, wrist, 0.0]
-}
 
 /// Time for HOLD to bring the motion to a pause (and for RUN to resume it), seconds.
 pub const HOLD_RAMP_S: f64 = 0.2;
@@ -709,34 +685,27 @@ impl Robot {
         if self.active.is_empty() {
             return true;
         }
-        // Since the last exact test said "not yet", the tool has moved at most
-        // Σ R_j |Δq_j| (see `reach_bounds_m`): while that is less than the distance it had
-        // left to the ACCURACY sphere, it is still outside, and the test's outcome is known
-        // without the forward kinematics.
-        if let Some(r) = self.blend_ref.get() {
-            if r.accuracy_mm.to_bits() == accuracy_mm.to_bits()
-                && same_bits(&r.target, &self.target)
-            {
-                let mut moved = 0.0;
-                for (j, reach) in reach_bounds_m(model).iter().enumerate() {
-                    moved += reach * (self.joints[j] - r.joints[j]).abs();
-                }
-                if moved * std::f64::consts::PI / 180.0 < r.slack_m {
-                    return false;
-                }
+        // The flange estimated from the last exact test's derivatives, with a proven error
+        // bound (`FlangeNear`): when the sphere is clearly outside or clearly inside that
+        // ball, the exact test's outcome is known without the forward kinematics.
+        let q = self.joints.to_rad();
+        let there = self.target_pose(model).position_m();
+        let accuracy_m = accuracy_mm / 1000.0;
+        if let Some(near) = self.blend_ref.get() {
+            let (estimate, error_m) = near.estimate_m(&q);
+            let distance_m = (estimate - there).norm();
+            let slack_m = error_m + BLEND_MARGIN_M;
+            if distance_m - slack_m > accuracy_m {
+                return false;
+            }
+            if distance_m + slack_m < accuracy_m {
+                return true;
             }
         }
-        let here = model.flange_position_m(&self.joints.to_rad());
-        let there = self.target_pose(model).position_m();
-        let distance_m = (here - there).norm();
-        let ready = distance_m * 1000.0 <= accuracy_mm;
-        self.blend_ref.set((!ready).then_some(BlendRef {
-            joints: self.joints,
-            target: self.target,
-            accuracy_mm,
-            slack_m: (distance_m - accuracy_mm / 1000.0) * (1.0 - 1e-9) - BLEND_MARGIN_M,
-        }));
-        ready
+        let near = model.flange_near(&q);
+        self.blend_ref.set(Some(near));
+        let distance_m = (near.position_m() - there).norm();
+        distance_m * 1000.0 <= accuracy_mm
     }
 
     /// The flange pose at [`target`](Self::target) (`model.forward(target)`), cached.
@@ -1042,6 +1011,63 @@ mod tests {
         assert!(worst <= 1e-9, "{worst:e}");
         assert!(summed > 10_000, "{summed} lines summed in closed form");
         assert!(robot.clock > CYCLOIDS_REBASE_S);
+    }
+
+    /// The blending test decided by the bound (`FlangeNear`) gives, at every tick, the outcome
+    /// of the exact test (the forward kinematics against the target), for ACCURACY from
+    /// touching to far, on streams of short lines, long lines and joint moves — and the bound
+    /// decides most of them.
+    #[test]
+    fn blending_test_matches_the_exact_test() {
+        let model = RobotModel::fs020n();
+        let mut robot = Robot::new(JointsDeg::new([0.0, 10.0, -80.0, 0.0, -80.0, 0.0]));
+        let dt = 0.002;
+        let accuracies = [0.0, 0.5, 1.0, 10.0, 50.0, 300.0];
+        let (mut tests, mut ready, mut exact_runs) = (0u32, 0u32, 0u32);
+        for k in 0..20_000u32 {
+            if k % 5 == 0 {
+                let from = robot.target();
+                let t = f64::from(k) * dt;
+                let mut to = from;
+                let amp = match k % 500 {
+                    0 => 20.0,
+                    250 => 3.0,
+                    _ => 0.3,
+                };
+                for j in 0..JOINT_COUNT {
+                    to[j] += amp * (0.37 * t + 1.3 * j as f64).sin();
+                }
+                // Joint moves every 1000 ticks and wherever no straight line goes.
+                let line = (k % 1000 != 500)
+                    .then(|| LinearPath::plan(&model, from, to, 0.1, dt))
+                    .flatten();
+                let shape = match line {
+                    Some(l) => Shape::Linear(l),
+                    None => Shape::Joint(JointMove::plan(&model, from, to, 1.0)),
+                };
+                robot.start(Motion { from, to, shape });
+            }
+            robot.tick(&model, dt);
+            let here = model.flange_position_m(&robot.joints().to_rad());
+            let there = model.forward(&robot.target().to_rad()).position_m();
+            let distance_mm = (here - there).norm() * 1000.0;
+            let accuracy = accuracies[k as usize % accuracies.len()];
+            let before = robot.blend_ref.get();
+            let outcome = robot.ready_for_next(&model, accuracy);
+            let expected = robot.active.is_empty() || distance_mm <= accuracy;
+            assert_eq!(
+                outcome, expected,
+                "tick {k}: {distance_mm} mm, ACCURACY {accuracy}"
+            );
+            tests += 1;
+            ready += u32::from(outcome);
+            exact_runs += u32::from(robot.blend_ref.get() != before);
+        }
+        assert!(ready > 1000 && tests - ready > 1000, "{ready} of {tests}");
+        assert!(
+            exact_runs < tests / 4,
+            "{exact_runs} exact tests of {tests}"
+        );
     }
 
     /// The tick-by-tick evaluation (piece cursor, rotated sine) matches the direct one within

@@ -84,7 +84,9 @@ fn fast_encode(s: &StreamSample, out: &mut Vec<u8>) {
 /// `true` when two joint vectors are the same bits.
 #[allow(dead_code)] // used by the examples, not the bench
 pub(crate) fn same_bits(a: &JointsDeg, b: &JointsDeg) -> bool {
-    a.0.iter().zip(b.0.iter()).all(|(x, y)| x.to_bits() == y.to_bits())
+    a.0.iter()
+        .zip(b.0.iter())
+        .all(|(x, y)| x.to_bits() == y.to_bits())
 }
 
 /// The sample of the smooth six-joint trajectory at trajectory time `t`, stamped `t0_s`.
