@@ -12,6 +12,7 @@ use std::collections::VecDeque;
 
 use fs020n_kin::{FlangeNear, JointMove, Pose, RobotModel};
 use fs020n_proto::{JointsDeg, JOINT_COUNT};
+use smallvec::SmallVec;
 
 /// A straight-line (LMOVE) tool path, pre-sampled through inverse kinematics.
 ///
@@ -23,10 +24,11 @@ use fs020n_proto::{JointsDeg, JOINT_COUNT};
 /// IK solutions (the emulator's hot path), near them the sampling densifies by itself.
 #[derive(Debug, Clone)]
 pub struct LinearPath {
-    /// Path parameters (0 = start, 1 = target), increasing.
-    params: Vec<f64>,
+    /// Path parameters (0 = start, 1 = target), increasing. Held inline for a one-piece
+    /// line (a stream's lines mostly are): no allocation.
+    params: SmallVec<[f64; 2]>,
     /// Joint configurations at `params`, first = start, last = target.
-    samples: Vec<JointsDeg>,
+    samples: SmallVec<[JointsDeg; 2]>,
     duration_s: f64,
     /// The flange pose at the target (computed for planning; the robot reuses it as its
     /// target's pose when the motion starts).
@@ -47,6 +49,12 @@ const FLIP_DEG: f64 = 30.0;
 const MAX_HALVINGS: u32 = 12;
 /// Most samples of one path.
 const MAX_SAMPLES: usize = 20_000;
+
+/// `cos(0.995 · LINEAR_SAMPLE_DEG / 2)`, the cosine of half of a little less than the sampling
+/// angle: two unit quaternions whose dot product is at least this (in absolute value) differ
+/// by a rotation of less than [`LINEAR_SAMPLE_DEG`], by a margin (≈ 1.5e-6) far beyond the
+/// rounding of either computation (≈ 1e-16). Checked against the formula by a test.
+const COS_HALF_SAMPLE_ANGLE: f64 = 0.999_849_214_359_025_2;
 
 impl LinearPath {
     /// Plans a straight tool line from `from` to `to` (joint configurations), taking at least
@@ -78,12 +86,20 @@ impl LinearPath {
         let p0 = from_pose;
         let p1 = model.forward(&to.to_rad());
         let distance_mm = p0.distance_m(&p1) * 1000.0;
-        let angle_deg = p0.angle_to_rad(&p1).to_degrees();
-        let n = ((distance_mm / LINEAR_SAMPLE_MM).ceil() as usize)
-            .max((angle_deg / LINEAR_SAMPLE_DEG).ceil() as usize)
-            .clamp(1, MAX_SAMPLES);
         let (pos0, pos1) = (p0.position_m(), p1.position_m());
         let (rot0, rot1) = (p0.rotation(), p1.rotation());
+        // The rotation's pieces: none to add when it turns by less than one sampling angle,
+        // which the quaternions' dot product (the cosine of half the angle) shows without
+        // the angle's `atan2`.
+        let angle_pieces = if rot0.coords.dot(&rot1.coords).abs() >= COS_HALF_SAMPLE_ANGLE {
+            1
+        } else {
+            let angle_deg = p0.angle_to_rad(&p1).to_degrees();
+            (angle_deg / LINEAR_SAMPLE_DEG).ceil() as usize
+        };
+        let n = ((distance_mm / LINEAR_SAMPLE_MM).ceil() as usize)
+            .max(angle_pieces)
+            .clamp(1, MAX_SAMPLES);
         let solve = |s: f64, seed: &JointsDeg| -> Option<JointsDeg> {
             if s >= 1.0 {
                 return Some(to);
@@ -94,8 +110,8 @@ impl LinearPath {
                 .ok()
                 .map(|q| q.to_deg())
         };
-        let mut params = Vec::with_capacity(n + 1);
-        let mut samples = Vec::with_capacity(n + 1);
+        let mut params = SmallVec::<[f64; 2]>::with_capacity(n + 1);
+        let mut samples = SmallVec::<[JointsDeg; 2]>::with_capacity(n + 1);
         params.push(0.0);
         samples.push(from);
         // The pieces waiting to be refined: one per halving level at most, and the top.
@@ -1011,6 +1027,12 @@ mod tests {
         assert!(worst <= 1e-9, "{worst:e}");
         assert!(summed > 10_000, "{summed} lines summed in closed form");
         assert!(robot.clock > CYCLOIDS_REBASE_S);
+    }
+
+    #[test]
+    fn the_sampling_angle_cosine_is_its_formula() {
+        let formula = (0.995 * LINEAR_SAMPLE_DEG / 2.0).to_radians().cos();
+        assert!((COS_HALF_SAMPLE_ANGLE - formula).abs() < 1e-15, "{formula}");
     }
 
     /// The blending test decided by the bound (`FlangeNear`) gives, at every tick, the outcome
