@@ -606,7 +606,7 @@ pub struct Robot {
     target_pose: Cell<Option<(JointsDeg, Pose)>>,
     /// The flange and its derivatives where the blending test last computed the forward
     /// kinematics: the tests whose outcome a bound decides skip it.
-    blend_ref: Cell<Option<FlangeNear>>,
+    blend_ref: Option<FlangeNear>,
     /// The one-piece lines in progress of one duration, summed in closed form.
     cycloids: Option<Cycloids>,
 }
@@ -634,7 +634,7 @@ impl Robot {
             hold_scale: 1.0,
             held: false,
             target_pose: Cell::new(None),
-            blend_ref: Cell::new(None),
+            blend_ref: None,
             cycloids: None,
         }
     }
@@ -694,7 +694,7 @@ impl Robot {
 
     /// `true` when a new motion may start now: nothing in progress, or the tool is within
     /// `accuracy_mm` of the current target (continuous-path blending).
-    pub fn ready_for_next(&self, model: &RobotModel, accuracy_mm: f64) -> bool {
+    pub fn ready_for_next(&mut self, model: &RobotModel, accuracy_mm: f64) -> bool {
         if self.brake.is_some() {
             return false;
         }
@@ -705,9 +705,13 @@ impl Robot {
         // bound (`FlangeNear`): when the sphere is clearly outside or clearly inside that
         // ball, the exact test's outcome is known without the forward kinematics.
         let q = self.joints.to_rad();
-        let there = self.target_pose(model).position_m();
+        // The cached target pose read in place (`Cell::get` would copy it).
+        let there = match self.target_pose.get_mut() {
+            Some((joints, pose)) if same_bits(joints, &self.target) => pose.position_m(),
+            _ => self.target_pose(model).position_m(),
+        };
         let accuracy_m = accuracy_mm / 1000.0;
-        if let Some(near) = self.blend_ref.get() {
+        if let Some(near) = &self.blend_ref {
             let (estimate, error_m) = near.estimate_m(&q);
             let distance_m = (estimate - there).norm();
             let slack_m = error_m + BLEND_MARGIN_M;
@@ -719,7 +723,7 @@ impl Robot {
             }
         }
         let near = model.flange_near(&q);
-        self.blend_ref.set(Some(near));
+        self.blend_ref = Some(near);
         let distance_m = (near.position_m() - there).norm();
         distance_m * 1000.0 <= accuracy_mm
     }
@@ -1074,7 +1078,7 @@ mod tests {
             let there = model.forward(&robot.target().to_rad()).position_m();
             let distance_mm = (here - there).norm() * 1000.0;
             let accuracy = accuracies[k as usize % accuracies.len()];
-            let before = robot.blend_ref.get();
+            let before = robot.blend_ref;
             let outcome = robot.ready_for_next(&model, accuracy);
             let expected = robot.active.is_empty() || distance_mm <= accuracy;
             assert_eq!(
@@ -1083,7 +1087,7 @@ mod tests {
             );
             tests += 1;
             ready += u32::from(outcome);
-            exact_runs += u32::from(robot.blend_ref.get() != before);
+            exact_runs += u32::from(robot.blend_ref != before);
         }
         assert!(ready > 1000 && tests - ready > 1000, "{ready} of {tests}");
         assert!(
