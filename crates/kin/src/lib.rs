@@ -35,7 +35,8 @@ pub mod urdf;
 
 pub use fs020n_proto::{JointsDeg, JointsRad, JOINT_COUNT};
 pub use kinematics::{
-    IkError, IkSolutions, SingularityMargins, IK_MAX_SOLUTIONS, PROTOCOL_SINGULAR_MARGIN_DEG,
+    FlangeNear, IkError, IkSolutions, SingularityMargins, IK_MAX_SOLUTIONS,
+    PROTOCOL_SINGULAR_MARGIN_DEG,
 };
 pub use model::{
     ControllerDefaults, FilePosition, Geometry, JointSpec, LimitError, ModelError, RobotModel,

@@ -1,7 +1,9 @@
 //! Emulator benchmarks (results in docs/PERFORMANCE.md, "## Emulator"):
 //!
-//! 1. `stream_100hz/sim_second`: one simulated second of a robot streaming command 7 at 100 Hz,
-//!    on the `Controller` directly (virtual time). Simulated seconds per wall second = 1 / time.
+//! 1. `stream_100hz/sim_second_*`: one simulated second of a robot streaming command 7 at
+//!    100 Hz, on the `Controller` directly (virtual time). Simulated seconds per wall second =
+//!    1 / time. `…_emulator_alone` times only the emulator (the requests recorded beforehand,
+//!    untimed); the others include the bench building each request.
 //! 2. `tcp_poll/reply`: one lock-step `0 0 0` poll round trip over loopback TCP.
 
 use std::hint::black_box;
@@ -13,7 +15,7 @@ use fs020n_sim::ControllerConfig;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 
 mod streamer;
-use streamer::Streamer;
+use streamer::{Replay, Streamer};
 
 fn stream(c: &mut Criterion) {
     let mut g = c.benchmark_group("stream_100hz");
@@ -42,6 +44,24 @@ fn stream(c: &mut Criterion) {
             s.c.counters().passes
         );
     }
+    // The emulator alone: each measurement replays freshly recorded requests on a fresh
+    // controller (the recording is not timed).
+    g.bench_function("sim_second_monitor_100_emulator_alone", |b| {
+        b.iter_custom(|iters| {
+            let seconds = u32::try_from(iters).unwrap();
+            let requests = streamer::record(100.0, seconds);
+            let mut r = Replay::new(100.0);
+            let t = Instant::now();
+            r.run(&requests);
+            t.elapsed()
+        })
+    });
+    let requests = streamer::record(100.0, 50);
+    let mut r = Replay::new(100.0);
+    let t = Instant::now();
+    r.run(&requests);
+    let factor = 50.0 / t.elapsed().as_secs_f64();
+    println!("sim_second_monitor_100_emulator_alone: {factor:.0} simulated s per wall s");
     g.finish();
 }
 

@@ -556,7 +556,7 @@ impl Controller {
     }
 
     /// `true` when a new motion may start now (the tool within `accuracy_mm` of the target).
-    pub(crate) fn robot_ready_for_next(&self, accuracy_mm: f64) -> bool {
+    pub(crate) fn robot_ready_for_next(&mut self, accuracy_mm: f64) -> bool {
         self.robot.ready_for_next(&self.model, accuracy_mm)
     }
 

@@ -10,8 +10,9 @@
 use std::cell::Cell;
 use std::collections::VecDeque;
 
-use fs020n_kin::{JointMove, Pose, RobotModel};
+use fs020n_kin::{FlangeNear, JointMove, Pose, RobotModel};
 use fs020n_proto::{JointsDeg, JOINT_COUNT};
+use smallvec::SmallVec;
 
 /// A straight-line (LMOVE) tool path, pre-sampled through inverse kinematics.
 ///
@@ -23,10 +24,11 @@ use fs020n_proto::{JointsDeg, JOINT_COUNT};
 /// IK solutions (the emulator's hot path), near them the sampling densifies by itself.
 #[derive(Debug, Clone)]
 pub struct LinearPath {
-    /// Path parameters (0 = start, 1 = target), increasing.
-    params: Vec<f64>,
+    /// Path parameters (0 = start, 1 = target), increasing. Held inline for a one-piece
+    /// line (a stream's lines mostly are): no allocation.
+    params: SmallVec<[f64; 2]>,
     /// Joint configurations at `params`, first = start, last = target.
-    samples: Vec<JointsDeg>,
+    samples: SmallVec<[JointsDeg; 2]>,
     duration_s: f64,
     /// The flange pose at the target (computed for planning; the robot reuses it as its
     /// target's pose when the motion starts).
@@ -47,6 +49,12 @@ const FLIP_DEG: f64 = 30.0;
 const MAX_HALVINGS: u32 = 12;
 /// Most samples of one path.
 const MAX_SAMPLES: usize = 20_000;
+
+/// `cos(0.995 · LINEAR_SAMPLE_DEG / 2)`, the cosine of half of a little less than the sampling
+/// angle: two unit quaternions whose dot product is at least this (in absolute value) differ
+/// by a rotation of less than [`LINEAR_SAMPLE_DEG`], by a margin (≈ 1.5e-6) far beyond the
+/// rounding of either computation (≈ 1e-16). Checked against the formula by a test.
+const COS_HALF_SAMPLE_ANGLE: f64 = 0.999_849_214_359_025_2;
 
 impl LinearPath {
     /// Plans a straight tool line from `from` to `to` (joint configurations), taking at least
@@ -78,12 +86,20 @@ impl LinearPath {
         let p0 = from_pose;
         let p1 = model.forward(&to.to_rad());
         let distance_mm = p0.distance_m(&p1) * 1000.0;
-        let angle_deg = p0.angle_to_rad(&p1).to_degrees();
-        let n = ((distance_mm / LINEAR_SAMPLE_MM).ceil() as usize)
-            .max((angle_deg / LINEAR_SAMPLE_DEG).ceil() as usize)
-            .clamp(1, MAX_SAMPLES);
         let (pos0, pos1) = (p0.position_m(), p1.position_m());
         let (rot0, rot1) = (p0.rotation(), p1.rotation());
+        // The rotation's pieces: none to add when it turns by less than one sampling angle,
+        // which the quaternions' dot product (the cosine of half the angle) shows without
+        // the angle's `atan2`.
+        let angle_pieces = if rot0.coords.dot(&rot1.coords).abs() >= COS_HALF_SAMPLE_ANGLE {
+            1
+        } else {
+            let angle_deg = p0.angle_to_rad(&p1).to_degrees();
+            (angle_deg / LINEAR_SAMPLE_DEG).ceil() as usize
+        };
+        let n = ((distance_mm / LINEAR_SAMPLE_MM).ceil() as usize)
+            .max(angle_pieces)
+            .clamp(1, MAX_SAMPLES);
         let solve = |s: f64, seed: &JointsDeg| -> Option<JointsDeg> {
             if s >= 1.0 {
                 return Some(to);
@@ -94,8 +110,8 @@ impl LinearPath {
                 .ok()
                 .map(|q| q.to_deg())
         };
-        let mut params = Vec::with_capacity(n + 1);
-        let mut samples = Vec::with_capacity(n + 1);
+        let mut params = SmallVec::<[f64; 2]>::with_capacity(n + 1);
+        let mut samples = SmallVec::<[JointsDeg; 2]>::with_capacity(n + 1);
         params.push(0.0);
         samples.push(from);
         // The pieces waiting to be refined: one per halving level at most, and the top.
@@ -575,6 +591,9 @@ pub struct Robot {
     target: JointsDeg,
     /// Oldest first (they usually finish in that order).
     active: VecDeque<Active>,
+    /// Every segment in `active` lasts at least as long as the one before it: since they
+    /// start in order, none ends before the first (the tick then tests only the first).
+    ends_in_order: bool,
     planned: Option<Motion>,
     brake: Option<Brake>,
     /// Motion clock: advances with time scaled by the HOLD ramp.
@@ -585,40 +604,16 @@ pub struct Robot {
     /// The flange pose at `target`, computed once per target (the blending test compares the
     /// tool with it every tick while a motion waits).
     target_pose: Cell<Option<(JointsDeg, Pose)>>,
-    /// The last blending test that failed, to skip tests whose outcome is known.
-    blend_ref: Cell<Option<BlendRef>>,
+    /// The flange and its derivatives where the blending test last computed the forward
+    /// kinematics: the tests whose outcome a bound decides skip it.
+    blend_ref: Option<FlangeNear>,
     /// The one-piece lines in progress of one duration, summed in closed form.
     cycloids: Option<Cycloids>,
 }
 
-/// The last blending test that found the tool outside the ACCURACY sphere
-/// ([`Robot::ready_for_next`]).
-#[derive(Debug, Clone, Copy)]
-struct BlendRef {
-    /// The joints then.
-    joints: JointsDeg,
-    /// The target then, and the ACCURACY.
-    target: JointsDeg,
-    accuracy_mm: f64,
-    /// How far the tool was outside the sphere, metres, less a margin for rounding.
-    slack_m: f64,
-}
-
 /// Margin on the distance to the ACCURACY sphere for the rounding of the forward kinematics
-/// (≈ 1e-15 m) and of the bound: a nanometre.
+/// and of the estimate (≈ 1e-15 m): a nanometre.
 const BLEND_MARGIN_M: f64 = 1e-9;
-
-/// For each joint, a bound on the distance from its axis to the flange in any configuration,
-/// metres: the lengths of the links after it. Turning joint `j` by `δ` radians moves the flange
-/// by at most `R_j·|δ|`, so a joint change `Δq` moves it by at most `Σ R_j |Δq_j|`.
-fn reach_bounds_m(model: &RobotModel) -> [f64; JOINT_COUNT] {
-    let g = &model.geometry;
-    let wrist = g.flange_m.abs();
-    let forearm = g.forearm_m.abs() + wrist;
-    let upper = g.upper_arm_m.abs() + forearm;
-    let base = g.shoulder_offset_m.abs() + upper;
-    [base, upper, forearm, wrist, wrist, 0.0]
-}
 
 /// Time for HOLD to bring the motion to a pause (and for RUN to resume it), seconds.
 pub const HOLD_RAMP_S: f64 = 0.2;
@@ -632,13 +627,14 @@ impl Robot {
             anchor: joints,
             target: joints,
             active: VecDeque::new(),
+            ends_in_order: true,
             planned: None,
             brake: None,
             clock: 0.0,
             hold_scale: 1.0,
             held: false,
             target_pose: Cell::new(None),
-            blend_ref: Cell::new(None),
+            blend_ref: None,
             cycloids: None,
         }
     }
@@ -698,41 +694,38 @@ impl Robot {
 
     /// `true` when a new motion may start now: nothing in progress, or the tool is within
     /// `accuracy_mm` of the current target (continuous-path blending).
-    pub fn ready_for_next(&self, model: &RobotModel, accuracy_mm: f64) -> bool {
+    pub fn ready_for_next(&mut self, model: &RobotModel, accuracy_mm: f64) -> bool {
         if self.brake.is_some() {
             return false;
         }
         if self.active.is_empty() {
             return true;
         }
-        // Since the last exact test said "not yet", the tool has moved at most
-        // Σ R_j |Δq_j| (see `reach_bounds_m`): while that is less than the distance it had
-        // left to the ACCURACY sphere, it is still outside, and the test's outcome is known
-        // without the forward kinematics.
-        if let Some(r) = self.blend_ref.get() {
-            if r.accuracy_mm.to_bits() == accuracy_mm.to_bits()
-                && same_bits(&r.target, &self.target)
-            {
-                let mut moved = 0.0;
-                for (j, reach) in reach_bounds_m(model).iter().enumerate() {
-                    moved += reach * (self.joints[j] - r.joints[j]).abs();
-                }
-                if moved * std::f64::consts::PI / 180.0 < r.slack_m {
-                    return false;
-                }
+        // The flange estimated from the last exact test's derivatives, with a proven error
+        // bound (`FlangeNear`): when the sphere is clearly outside or clearly inside that
+        // ball, the exact test's outcome is known without the forward kinematics.
+        let q = self.joints.to_rad();
+        // The cached target pose read in place (`Cell::get` would copy it).
+        let there = match self.target_pose.get_mut() {
+            Some((joints, pose)) if same_bits(joints, &self.target) => pose.position_m(),
+            _ => self.target_pose(model).position_m(),
+        };
+        let accuracy_m = accuracy_mm / 1000.0;
+        if let Some(near) = &self.blend_ref {
+            let (estimate, error_m) = near.estimate_m(&q);
+            let distance_m = (estimate - there).norm();
+            let slack_m = error_m + BLEND_MARGIN_M;
+            if distance_m - slack_m > accuracy_m {
+                return false;
+            }
+            if distance_m + slack_m < accuracy_m {
+                return true;
             }
         }
-        let here = model.flange_position_m(&self.joints.to_rad());
-        let there = self.target_pose(model).position_m();
-        let distance_m = (here - there).norm();
-        let ready = distance_m * 1000.0 <= accuracy_mm;
-        self.blend_ref.set((!ready).then_some(BlendRef {
-            joints: self.joints,
-            target: self.target,
-            accuracy_mm,
-            slack_m: (distance_m - accuracy_mm / 1000.0) * (1.0 - 1e-9) - BLEND_MARGIN_M,
-        }));
-        ready
+        let near = model.flange_near(&q);
+        self.blend_ref = Some(near);
+        let distance_m = (near.position_m() - there).norm();
+        distance_m * 1000.0 <= accuracy_mm
     }
 
     /// The flange pose at [`target`](Self::target) (`model.forward(target)`), cached.
@@ -778,6 +771,12 @@ impl Robot {
                 sum.members += 1;
             }
         }
+        // `started` never decreases (the motion clock only advances), so segments of
+        // non-decreasing durations end in order.
+        self.ends_in_order = match self.active.back() {
+            Some(last) => self.ends_in_order && duration_s >= last.duration_s,
+            None => true,
+        };
         self.active.push_back(Active {
             duration_s,
             from_start,
@@ -884,19 +883,25 @@ impl Robot {
                 }
             };
             // Finished segments fold into the anchor, oldest first: those at the front are
-            // popped (no move of the others), the rest (rarely any) removed in place.
+            // popped (no move of the others), the rest (rarely any) removed in place. When
+            // they end in order (`ends_in_order`: `clock − started` is not larger for a later
+            // start, and the duration not smaller), none behind an unfinished first one has
+            // finished.
             while self.active.front().is_some_and(|a| finished(a, anchor)) {
                 self.active.pop_front();
             }
-            if self
-                .active
-                .iter()
-                .any(|a| clock - a.started >= a.duration_s)
+            if !self.ends_in_order
+                && self
+                    .active
+                    .iter()
+                    .any(|a| clock - a.started >= a.duration_s)
             {
                 self.active.retain(|a| !finished(a, anchor));
             }
             let mut q = self.anchor;
+            let mut in_sum = 0;
             if let Some(sum) = &mut self.cycloids {
+                in_sum = sum.members;
                 if sum.members > 0 {
                     if clock - sum.epoch > CYCLOIDS_REBASE_S {
                         // A new epoch: the members' phases against it.
@@ -914,7 +919,17 @@ impl Robot {
                     sum.add(clock, &mut q);
                 }
             }
-            for a in &mut self.active {
+            debug_assert_eq!(
+                in_sum,
+                self.active.iter().filter(|a| a.in_sum.is_some()).count()
+            );
+            // The segments outside the sum (none while a stream's lines all join it).
+            let outside = if self.active.len() > in_sum {
+                self.active.len()
+            } else {
+                0
+            };
+            for a in self.active.iter_mut().take(outside) {
                 if a.in_sum.is_some() {
                     continue;
                 }
@@ -945,10 +960,9 @@ impl Robot {
             q
         };
         // Speed limit, then the joint ranges.
-        let speeds = model.max_speeds_deg_s();
         let mut q = desired;
         for (j, spec) in model.joints.iter().enumerate() {
-            let step = speeds[j] * dt;
+            let step = spec.max_speed_deg_s * dt;
             q[j] = q[j].clamp(prev[j] - step, prev[j] + step);
             q[j] = q[j].clamp(spec.min_deg, spec.max_deg);
         }
@@ -1017,6 +1031,69 @@ mod tests {
         assert!(worst <= 1e-9, "{worst:e}");
         assert!(summed > 10_000, "{summed} lines summed in closed form");
         assert!(robot.clock > CYCLOIDS_REBASE_S);
+    }
+
+    #[test]
+    fn the_sampling_angle_cosine_is_its_formula() {
+        let formula = (0.995 * LINEAR_SAMPLE_DEG / 2.0).to_radians().cos();
+        assert!((COS_HALF_SAMPLE_ANGLE - formula).abs() < 1e-15, "{formula}");
+    }
+
+    /// The blending test decided by the bound (`FlangeNear`) gives, at every tick, the outcome
+    /// of the exact test (the forward kinematics against the target), for ACCURACY from
+    /// touching to far, on streams of short lines, long lines and joint moves — and the bound
+    /// decides most of them.
+    #[test]
+    fn blending_test_matches_the_exact_test() {
+        let model = RobotModel::fs020n();
+        let mut robot = Robot::new(JointsDeg::new([0.0, 10.0, -80.0, 0.0, -80.0, 0.0]));
+        let dt = 0.002;
+        let accuracies = [0.0, 0.5, 1.0, 10.0, 50.0, 300.0];
+        let (mut tests, mut ready, mut exact_runs) = (0u32, 0u32, 0u32);
+        for k in 0..20_000u32 {
+            if k % 5 == 0 {
+                let from = robot.target();
+                let t = f64::from(k) * dt;
+                let mut to = from;
+                let amp = match k % 500 {
+                    0 => 20.0,
+                    250 => 3.0,
+                    _ => 0.3,
+                };
+                for j in 0..JOINT_COUNT {
+                    to[j] += amp * (0.37 * t + 1.3 * j as f64).sin();
+                }
+                // Joint moves every 1000 ticks and wherever no straight line goes.
+                let line = (k % 1000 != 500)
+                    .then(|| LinearPath::plan(&model, from, to, 0.1, dt))
+                    .flatten();
+                let shape = match line {
+                    Some(l) => Shape::Linear(l),
+                    None => Shape::Joint(JointMove::plan(&model, from, to, 1.0)),
+                };
+                robot.start(Motion { from, to, shape });
+            }
+            robot.tick(&model, dt);
+            let here = model.flange_position_m(&robot.joints().to_rad());
+            let there = model.forward(&robot.target().to_rad()).position_m();
+            let distance_mm = (here - there).norm() * 1000.0;
+            let accuracy = accuracies[k as usize % accuracies.len()];
+            let before = robot.blend_ref;
+            let outcome = robot.ready_for_next(&model, accuracy);
+            let expected = robot.active.is_empty() || distance_mm <= accuracy;
+            assert_eq!(
+                outcome, expected,
+                "tick {k}: {distance_mm} mm, ACCURACY {accuracy}"
+            );
+            tests += 1;
+            ready += u32::from(outcome);
+            exact_runs += u32::from(robot.blend_ref != before);
+        }
+        assert!(ready > 1000 && tests - ready > 1000, "{ready} of {tests}");
+        assert!(
+            exact_runs < tests / 4,
+            "{exact_runs} exact tests of {tests}"
+        );
     }
 
     /// The tick-by-tick evaluation (piece cursor, rotated sine) matches the direct one within

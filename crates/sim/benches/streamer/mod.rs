@@ -1,5 +1,11 @@
 //! The streaming workload shared by the `emulator` bench and the `stream_speed` example: one
 //! robot streaming command 7 at 100 Hz on the `Controller` directly (virtual time).
+//!
+//! Two ways to run it: [`Streamer`] builds each request when it is due (the client's work and
+//! the emulator's), and [`Replay`] feeds a fresh controller the requests a `Streamer` built
+//! before (recorded with [`record`], untimed), so that only the emulator's work is timed. The
+//! controller runs on virtual time and is deterministic: the replayed controller sees the same
+//! bytes at the same virtual times and computes the same motion.
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -25,7 +31,18 @@ fn fast_encode(s: &StreamSample, out: &mut Vec<u8>) {
     out.clear();
     out.extend_from_slice(b"1040 7 21");
     let mut num = |v: f64| {
-        let m = (v * 1000.0).round() as i64;
+        // `(v * 1000.0).round() as i64` without the call `round` compiles to on a baseline
+        // x86-64: `x − trunc(x)` is exact below 2^52 (these numbers are far below).
+        let x = v * 1000.0;
+        let t = x as i64;
+        let frac = x - t as f64;
+        let m = if frac >= 0.5 {
+            t + 1
+        } else if frac <= -0.5 {
+            t - 1
+        } else {
+            t
+        };
         // Built right to left in a buffer: " -123.456" at most 1 + 1 + 20 + 4 bytes.
         let mut buf = [0u8; 32];
         let mut i = buf.len();
@@ -75,6 +92,14 @@ fn fast_encode(s: &StreamSample, out: &mut Vec<u8>) {
     }
 }
 
+/// `true` when two joint vectors are the same bits.
+#[allow(dead_code)] // used by the examples, not the bench
+pub(crate) fn same_bits(a: &JointsDeg, b: &JointsDeg) -> bool {
+    a.0.iter()
+        .zip(b.0.iter())
+        .all(|(x, y)| x.to_bits() == y.to_bits())
+}
+
 /// The sample of the smooth six-joint trajectory at trajectory time `t`, stamped `t0_s`.
 pub(crate) fn sample(t: f64, t0_s: f64) -> StreamSample {
     let w = 0.8;
@@ -98,17 +123,24 @@ pub(crate) fn sample(t: f64, t0_s: f64) -> StreamSample {
     }
 }
 
+/// A controller at the streaming start position with a session, the program started and the
+/// monitor speed set.
+fn started_controller(monitor_percent: f64) -> (Controller, SessionId) {
+    let mut c = Controller::new(ControllerConfig {
+        joints: JointsDeg::new([0.0, 10.0, -80.0, 0.0, -80.0, 0.0]),
+        ..ControllerConfig::default()
+    });
+    let id = c.try_accept().unwrap();
+    c.handle_request(id, b"1040 1 0").unwrap();
+    c.handle_request(id, format!("1040 3 1 {monitor_percent}").as_bytes())
+        .unwrap();
+    (c, id)
+}
+
 impl Streamer {
     /// A streamer at `monitor_percent`.
     pub(crate) fn new(monitor_percent: f64, client_encoder: bool) -> Streamer {
-        let mut c = Controller::new(ControllerConfig {
-            joints: JointsDeg::new([0.0, 10.0, -80.0, 0.0, -80.0, 0.0]),
-            ..ControllerConfig::default()
-        });
-        let id = c.try_accept().unwrap();
-        c.handle_request(id, b"1040 1 0").unwrap();
-        c.handle_request(id, format!("1040 3 1 {monitor_percent}").as_bytes())
-            .unwrap();
+        let (c, id) = started_controller(monitor_percent);
         Streamer {
             c,
             id,
@@ -120,6 +152,11 @@ impl Streamer {
 
     /// One simulated second: 100 command-7 samples of a smooth multi-joint trajectory.
     pub(crate) fn second(&mut self) {
+        self.second_with(|_| {});
+    }
+
+    /// [`second`](Self::second), handing every request to `keep` after it was sent.
+    fn second_with(&mut self, mut keep: impl FnMut(&[u8])) {
         for _ in 0..100 {
             let s = sample(self.t, self.c.timer1_s());
             if self.client_encoder {
@@ -131,8 +168,45 @@ impl Streamer {
                 fast_encode(&s, &mut self.request);
             }
             black_box(self.c.handle_request(self.id, &self.request).unwrap());
+            keep(&self.request);
             self.c.advance_by(Duration::from_millis(10));
             self.t += 0.01;
+        }
+        assert!(self.c.error().is_none(), "{}", self.c.error());
+    }
+}
+
+/// The requests of `seconds` simulated seconds of a [`Streamer`] at `monitor_percent` (the
+/// bench's own encoder), in order: 100 per second.
+pub(crate) fn record(monitor_percent: f64, seconds: u32) -> Vec<Vec<u8>> {
+    let mut s = Streamer::new(monitor_percent, false);
+    let mut requests = Vec::with_capacity(seconds as usize * 100);
+    for _ in 0..seconds {
+        s.second_with(|r| requests.push(r.to_vec()));
+    }
+    requests
+}
+
+/// A fresh controller fed recorded requests (see [`record`]) on the streamer's schedule: only
+/// the emulator's work (`handle_request` and `advance_by`).
+pub(crate) struct Replay {
+    /// The controller.
+    pub(crate) c: Controller,
+    id: SessionId,
+}
+
+impl Replay {
+    /// A replay at `monitor_percent` (the one the requests were recorded at).
+    pub(crate) fn new(monitor_percent: f64) -> Replay {
+        let (c, id) = started_controller(monitor_percent);
+        Replay { c, id }
+    }
+
+    /// Sends `requests` one per 10 ms of virtual time.
+    pub(crate) fn run(&mut self, requests: &[Vec<u8>]) {
+        for r in requests {
+            black_box(self.c.handle_request(self.id, r).unwrap());
+            self.c.advance_by(Duration::from_millis(10));
         }
         assert!(self.c.error().is_none(), "{}", self.c.error());
     }
