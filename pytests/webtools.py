@@ -85,8 +85,19 @@ def host_port(text):
 class Raw:
     """A raw protocol-1040 client: one write per request, strict lock-step."""
 
-    def __init__(self, addr):
-        self.sock = socket.create_connection(host_port(addr), timeout=10)
+    def __init__(self, addr, within=20.0):
+        # The emulated controller listens in 3 s windows with a gap between them (as the real
+        # one's TCP_ACCEPT loop does) and refuses connections in the gap: retry until a window
+        # opens, as a real client must.
+        deadline = time.monotonic() + within
+        while True:
+            try:
+                self.sock = socket.create_connection(host_port(addr), timeout=10)
+                break
+            except ConnectionRefusedError:
+                if time.monotonic() > deadline:
+                    raise
+                time.sleep(0.05)
         self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
 
     def request(self, text):
