@@ -212,6 +212,41 @@ fn arm_points(g: &Geometry, q: &JointsRad) -> ArmPoints {
     }
 }
 
+/// The flange position and what it is computed from (JT1–JT5).
+struct FlangePoint {
+    arm: ArmPoints,
+    s4: f64,
+    c4: f64,
+    /// R04's third column (the JT4 axis).
+    r04_z: Vector3<f64>,
+    flange: Vector3<f64>,
+}
+
+/// The flange position without the orientation: exactly `frames(g, q).flange`. The flange
+/// axis is the third column of R06 = R03·Rz(q4)·Ry(−q5)·Rz(q6); Rz(q6) keeps it, so it is
+/// R04·(sin(−q5), 0, cos(−q5)) with R04's first and third columns: the same products and sums
+/// as `frames` (the terms dropped are exact zeros), without JT6 and the rest of the
+/// orientation.
+#[inline(always)]
+fn flange_point(g: &Geometry, q: &JointsRad) -> FlangePoint {
+    let arm = arm_points(g, q);
+    let (s1, c1, s23, c23) = (arm.s1, arm.c1, arm.s23, arm.c23);
+    let (s4, c4) = q[3].sin_cos();
+    let (s5, c5) = (-q[4]).sin_cos();
+    // R03's columns: (c1·c23, s1·c23, −s23), (−s1, c1, 0), (c1·s23, s1·s23, c23).
+    let r04_x = Vector3::new(c1 * c23 * c4 + -s1 * s4, s1 * c23 * c4 + c1 * s4, -s23 * c4);
+    let r04_z = Vector3::new(c1 * s23, s1 * s23, c23);
+    let axis = r04_x * s5 + r04_z * c5;
+    let flange = arm.wrist + g.flange_m * axis;
+    FlangePoint {
+        arm,
+        s4,
+        c4,
+        r04_z,
+        flange,
+    }
+}
+
 fn frames(g: &Geometry, q: &JointsRad) -> Frames {
     let ArmPoints {
         s1,
@@ -317,48 +352,29 @@ impl RobotModel {
     /// The flange position in the base frame, metres: exactly `forward(q).position_m()`,
     /// without building the orientation (cheaper when only distances matter).
     pub fn flange_position_m(&self, q: &JointsRad) -> Vector3<f64> {
-        // The flange axis is the third column of R06 = R03·Rz(q4)·Ry(−q5)·Rz(q6); Rz(q6)
-        // keeps it, so it is R04·(sin(−q5), 0, cos(−q5)) with R04's first and third columns:
-        // the same products and sums as `frames` (the terms dropped are exact zeros), without
-        // JT6 and the rest of the orientation.
-        let g = &self.geometry;
-        let ArmPoints {
-            s1,
-            c1,
-            s23,
-            c23,
-            wrist,
-            ..
-        } = arm_points(g, q);
-        let (s4, c4) = q[3].sin_cos();
-        let (s5, c5) = (-q[4]).sin_cos();
-        // R03's columns: (c1·c23, s1·c23, −s23), (−s1, c1, 0), (c1·s23, s1·s23, c23).
-        let r04_x = Vector3::new(c1 * c23 * c4 + -s1 * s4, s1 * c23 * c4 + c1 * s4, -s23 * c4);
-        let r04_z = Vector3::new(c1 * s23, s1 * s23, c23);
-        let axis = r04_x * s5 + r04_z * c5;
-        wrist + g.flange_m * axis
+        flange_point(&self.geometry, q).flange
     }
 
     /// The flange position at `q` with its first derivatives, to estimate the flange position
     /// at nearby joints with a proven error bound (see [`FlangeNear`]). The position is
     /// exactly [`flange_position_m`](Self::flange_position_m)'s.
     pub fn flange_near(&self, q: &JointsRad) -> FlangeNear {
-        let g = &self.geometry;
-        let ArmPoints {
-            s1,
-            c1,
-            s23,
-            c23,
-            shoulder,
-            elbow,
-            wrist,
-        } = arm_points(g, q);
-        let (s4, c4) = q[3].sin_cos();
-        let (s5, c5) = (-q[4]).sin_cos();
-        // As in `flange_position_m`, bit for bit.
-        let r04_x = Vector3::new(c1 * c23 * c4 + -s1 * s4, s1 * c23 * c4 + c1 * s4, -s23 * c4);
-        let r04_z = Vector3::new(c1 * s23, s1 * s23, c23);
-        let flange = wrist + g.flange_m * (r04_x * s5 + r04_z * c5);
+        let FlangePoint {
+            arm:
+                ArmPoints {
+                    s1,
+                    c1,
+                    s23,
+                    c23,
+                    shoulder,
+                    elbow,
+                    wrist,
+                },
+            s4,
+            c4,
+            r04_z,
+            flange,
+        } = flange_point(&self.geometry, q);
         // Each joint turns everything after it about its axis: column j is axis_j × (p − o_j).
         // JT1: the base z axis; JT2: (−s1, c1, 0) through the shoulder; JT3: the opposite
         // direction (it enters as q2 − q3) through the elbow; JT4: R03's z axis through the
