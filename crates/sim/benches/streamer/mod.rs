@@ -31,8 +31,9 @@ fn fast_encode(s: &StreamSample, out: &mut Vec<u8>) {
     out.clear();
     out.extend_from_slice(b"1040 7 21");
     let mut num = |v: f64| {
-        // `(v * 1000.0).round() as i64` without the call `round` compiles to on a baseline
-        // x86-64: `x − trunc(x)` is exact below 2^52 (these numbers are far below).
+        // `(v * 1000.0).round() as i64` without the library call that `round` compiles to
+        // on baseline x86-64: `x − trunc(x)` is exact below 2^52 (these numbers are far
+        // below), so halves round away from zero as `round` does.
         let x = v * 1000.0;
         let t = x as i64;
         let frac = x - t as f64;
