@@ -827,19 +827,25 @@ mod tests {
         }
     }
 
+    /// Uniform numbers in [0, 1) from `seed`: a small deterministic generator (xorshift, no
+    /// dependency).
+    fn uniform_numbers(seed: u64) -> impl FnMut() -> f64 {
+        let mut state = seed;
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     /// `flange_near`: the position is `flange_position_m`'s bit for bit, the derivatives are
     /// the flange Jacobian's linear rows, and the estimate at nearby joints is within its
     /// error bound of the forward kinematics (which it nearly reaches for some steps).
     #[test]
     fn flange_near_estimates_within_its_bound() {
         let m = RobotModel::fs020n();
-        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut uniform = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uniform = uniform_numbers(0x9e37_79b9_7f4a_7c15);
         let mut tightest: f64 = 0.0;
         for _ in 0..2000 {
             let mut q = JointsRad::ZERO;
@@ -881,14 +887,7 @@ mod tests {
     #[test]
     fn inverse_nearest_is_the_nearest_of_all_solutions() {
         let m = RobotModel::fs020n();
-        // A small deterministic generator (no dependency).
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut uniform = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uniform = uniform_numbers(0x2545_f491_4f6c_dd1d);
         let mut checked = 0;
         for _ in 0..3000 {
             let mut q = JointsDeg::ZERO;
