@@ -1,6 +1,7 @@
 //! Benchmark of an online servo loop in Rust: the push rate and jitter a plain thread achieves
-//! against an emulator in the same process over loopback TCP (real time). The Python twin is
-//! `crates/py/examples/servo_bench.py`; both print the same JSON figures, one line per rate.
+//! against an emulator in the same process over loopback TCP (real time). The Python package's
+//! examples hold its twin, servo_bench.py (docs/PYTHON.md); both print the same JSON figures,
+//! one line per rate.
 //!
 //! ```sh
 //! cargo run --release -p fs020n-client --example servo_bench -- --rate 125 --rate 500 --rate 1000 --seconds 10
