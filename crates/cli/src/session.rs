@@ -4,7 +4,7 @@
 use std::net::SocketAddr;
 use std::time::Duration;
 
-use fs020n_client::{Activity, Blocker, ClientConfig, ClientError, RawRefusal, Robot};
+use fs020n_client::{Activity, Blocker, ClientConfig, ClientError, ErrorKind, RawRefusal, Robot};
 use fs020n_kin::RobotModel;
 use fs020n_sim::{ControllerConfig, Emulator, TcpServer};
 
@@ -185,13 +185,28 @@ pub(crate) fn client_error(e: ClientError) -> CliError {
     describe(e, Place::Command)
 }
 
+/// The exit code of each kind of client failure (docs/CLI.md, "Exit codes"): the client's one
+/// classification, mapped once.
+pub(crate) fn exit_for(kind: ErrorKind) -> Exit {
+    match kind {
+        ErrorKind::Refused => Exit::Input,
+        ErrorKind::NotReady => Exit::NotReady,
+        ErrorKind::Connect | ErrorKind::LinkLost => Exit::Link,
+        ErrorKind::Motion | ErrorKind::MoveTimeout | ErrorKind::Busy | ErrorKind::Cancelled => {
+            Exit::Motion
+        }
+        _ => Exit::Failure,
+    }
+}
+
 /// Maps a client error to what the user reads (remedies as actions of this tool at `place`)
-/// and the exit code.
+/// and the exit code ([`exit_for`] of its kind).
 pub(crate) fn describe(e: ClientError, place: Place) -> CliError {
     let again = match place {
         Place::Command => "run the command again (nothing is resumed automatically)",
         Place::Shell => "type `reconnect`, then `start` again (nothing is resumed automatically)",
     };
+    let exit = exit_for(e.kind());
     let speed = match place {
         Place::Command => "give a higher --speed or a longer --timeout",
         Place::Shell => "set a higher speed (`speed PCT`)",
@@ -203,7 +218,7 @@ pub(crate) fn describe(e: ClientError, place: Place) -> CliError {
             waited,
             last,
         } => CliError::new(
-            Exit::Link,
+            exit,
             format!(
                 "could not connect to {target} within {} ({attempts} attempts; last error: {last})",
                 rounded(waited)
@@ -215,12 +230,12 @@ pub(crate) fn describe(e: ClientError, place: Place) -> CliError {
              (the controller serves one at a time)",
         ),
         ClientError::Address { target, message } => {
-            CliError::new(Exit::Link, format!("cannot connect to {target}: {message}")).with_remedy(
+            CliError::new(exit, format!("cannot connect to {target}: {message}")).with_remedy(
                 "check the host name in --robot (or FS020N_ROBOT), or give an IP address",
             )
         }
         ClientError::NotAController { target, cause } => CliError::new(
-            Exit::Link,
+            exit,
             format!("{target} is not a protocol-1040 server: {cause}"),
         )
         .with_remedy(
@@ -228,7 +243,7 @@ pub(crate) fn describe(e: ClientError, place: Place) -> CliError {
              otherwise (`fs020n sim` listens on 127.0.0.1:10050)",
         ),
         ClientError::LinkLost(cause) => CliError::new(
-            Exit::Link,
+            exit,
             format!(
                 "link to the robot lost: {cause}; the controller ended the session, which stops \
                  the robot"
@@ -236,16 +251,16 @@ pub(crate) fn describe(e: ClientError, place: Place) -> CliError {
         )
         .with_remedy(again),
         ClientError::Closed => {
-            CliError::new(Exit::Link, "the session is closed").with_remedy(again)
+            CliError::new(exit, "the session is closed").with_remedy(again)
         }
         ClientError::Blocked(b) => blocked(
-            Exit::NotReady,
+            exit,
             "the robot is not ready to move; nothing was sent".to_owned(),
             &b,
             place,
         ),
         ClientError::StartFailed { waited, blockers } if !blockers.is_empty() => blocked(
-            Exit::NotReady,
+            exit,
             format!(
                 "the motion program did not start within {}",
                 rounded(waited)
@@ -254,7 +269,7 @@ pub(crate) fn describe(e: ClientError, place: Place) -> CliError {
             place,
         ),
         ClientError::StartFailed { waited, .. } => CliError::new(
-            Exit::NotReady,
+            exit,
             format!(
                 "the motion program did not start within {} although no switch blocks it",
                 rounded(waited)
@@ -262,10 +277,10 @@ pub(crate) fn describe(e: ClientError, place: Place) -> CliError {
         )
         .with_remedy("check the controller's terminal for an AS error"),
         ClientError::Aborted { during, blockers } => {
-            blocked(Exit::Motion, format!("{during} stopped"), &blockers, place)
+            blocked(exit, format!("{during} stopped"), &blockers, place)
         }
         ClientError::HoldTimeout { during, waited } => CliError::new(
-            Exit::Motion,
+            exit,
             format!(
                 "the {during} was held (RUN/HOLD on HOLD) for {}, longer than the hold timeout; \
                  it was cancelled",
@@ -282,7 +297,7 @@ pub(crate) fn describe(e: ClientError, place: Place) -> CliError {
             timeout,
             remaining_deg,
         } => CliError::new(
-            Exit::Motion,
+            exit,
             format!(
                 "the move did not reach its target within {} ({remaining_deg:.3} deg to go); it \
                  was cancelled",
@@ -291,7 +306,7 @@ pub(crate) fn describe(e: ClientError, place: Place) -> CliError {
         )
         .with_remedy(format!("check the robot's surroundings; {speed}")),
         ClientError::StreamUnderrun { gap, allowed } => CliError::new(
-            Exit::Motion,
+            exit,
             format!(
                 "stream underrun: {} between samples (allowed {}); the stream was cancelled",
                 rounded(gap),
@@ -300,11 +315,11 @@ pub(crate) fn describe(e: ClientError, place: Place) -> CliError {
         )
         .with_remedy("lower --rate, or the load on this computer"),
         ClientError::NoServerClock => CliError::new(
-            Exit::Motion,
+            exit,
             "no estimate of the controller's clock: no reply carried TIMER(1)",
         )
         .with_remedy("run the command again, or play with --mode waypoints"),
-        ClientError::RawRefused(RawRefusal::Motion { text }) => CliError::input(format!(
+        ClientError::RawRefused(RawRefusal::Motion { text }) => CliError::new(exit, format!(
             "{text:?} is a motion command (the controller would move the robot); nothing was sent"
         ))
         .with_remedy(match place {
@@ -314,28 +329,28 @@ pub(crate) fn describe(e: ClientError, place: Place) -> CliError {
             }
             Place::Shell => "add --yes to send it",
         }),
-        ClientError::RawRefused(why) => CliError::input(format!("raw request refused: {why}")),
+        ClientError::RawRefused(why) => CliError::new(exit, format!("raw request refused: {why}")),
         ClientError::Busy(Activity::Stream) => {
-            CliError::new(Exit::Motion, "a stream is running; nothing was sent").with_remedy(
+            CliError::new(exit, "a stream is running; nothing was sent").with_remedy(
                 match place {
                     Place::Command => "wait for it to end, or press Ctrl-C",
                     Place::Shell => "type `cancel` first",
                 },
             )
         }
-        ClientError::Cancelled(why) => CliError::new(Exit::Motion, why.to_string()),
-        ClientError::Recording { path, message } => {
-            CliError::failure(format!("cannot open the recording file {path}: {message}"))
+        ClientError::Busy(Activity::Servo) => {
+            CliError::new(exit, "a servo is running; nothing was sent").with_remedy(
+                match place {
+                    Place::Command => "wait for it to end, or press Ctrl-C",
+                    Place::Shell => "type `cancel` first",
+                },
+            )
         }
-        e @ (ClientError::Limit(_)
-        | ClientError::NonFinite { .. }
-        | ClientError::Encode(_)
-        | ClientError::Speed { .. }
-        | ClientError::Trajectory(_)
-        | ClientError::Ik(_)
-        | ClientError::Sample(_)
-        | ClientError::Config(_)) => CliError::input(e.to_string()),
-        e => CliError::failure(e.to_string()),
+        ClientError::Cancelled(why) => CliError::new(exit, why.to_string()),
+        ClientError::Recording { path, message } => {
+            CliError::new(exit, format!("cannot open the recording file {path}: {message}"))
+        }
+        e => CliError::new(exit, e.to_string()),
     }
 }
 

@@ -330,29 +330,93 @@ impl From<Cancellation> for ClientError {
     }
 }
 
+/// What kind of failure a [`ClientError`] is: the one classification every face maps — the
+/// command line to its exit codes, the Python package to its exception classes, the ROS 2 node
+/// and the hub to their results. The remedies stay per face (each names its own actions); the
+/// kind says only which family of failure it is.
+///
+/// | kind | CLI exit code | Python exception |
+/// |---|---|---|
+/// | [`Refused`](ErrorKind::Refused) | 2 | `LimitError` |
+/// | [`NotReady`](ErrorKind::NotReady) | 4 | `NotReadyError` |
+/// | [`Connect`](ErrorKind::Connect) | 3 | `ConnectError` |
+/// | [`LinkLost`](ErrorKind::LinkLost) | 3 | `LinkLostError` |
+/// | [`Motion`](ErrorKind::Motion) | 5 | `MotionError` |
+/// | [`MoveTimeout`](ErrorKind::MoveTimeout) | 5 | `MoveTimeoutError` |
+/// | [`Busy`](ErrorKind::Busy) | 5 | `BusyError` |
+/// | [`Cancelled`](ErrorKind::Cancelled) | 5 | `Error` |
+/// | [`Other`](ErrorKind::Other) | 1 | `Error` |
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum ErrorKind {
+    /// A value, trajectory, raw text or configuration refused by a check: nothing was sent.
+    Refused,
+    /// The controller's state blocks motion (a switch, an error), or the program did not
+    /// start: nothing moved.
+    NotReady,
+    /// The controller could not be reached, or the peer is not a protocol-1040 server.
+    Connect,
+    /// The link was lost or the session closed: only a reconnect helps.
+    LinkLost,
+    /// A motion was stopped by the controller's state, a stream fell behind, or streaming
+    /// has no clock estimate.
+    Motion,
+    /// A motion did not finish in time, or stayed on HOLD beyond its hold timeout.
+    MoveTimeout,
+    /// Another operation holds the motion channel: nothing was sent.
+    Busy,
+    /// A motion was cancelled or superseded on request.
+    Cancelled,
+    /// Anything else (a recording file, the blocking API inside a runtime).
+    Other,
+}
+
 impl ClientError {
+    /// The kind of failure: the one classification the faces map to exit codes and
+    /// exception classes ([`ErrorKind`]).
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            ClientError::Limit(_)
+            | ClientError::NonFinite { .. }
+            | ClientError::Encode(_)
+            | ClientError::Sample(_)
+            | ClientError::Speed { .. }
+            | ClientError::Trajectory(_)
+            | ClientError::Ik(_)
+            | ClientError::RawRefused(_)
+            | ClientError::Config(_) => ErrorKind::Refused,
+            ClientError::Blocked(_) | ClientError::StartFailed { .. } => ErrorKind::NotReady,
+            ClientError::Connect { .. }
+            | ClientError::Address { .. }
+            | ClientError::NotAController { .. } => ErrorKind::Connect,
+            ClientError::LinkLost(_) | ClientError::Closed => ErrorKind::LinkLost,
+            ClientError::Aborted { .. }
+            | ClientError::StreamUnderrun { .. }
+            | ClientError::NoServerClock => ErrorKind::Motion,
+            ClientError::MoveTimeout { .. } | ClientError::HoldTimeout { .. } => {
+                ErrorKind::MoveTimeout
+            }
+            ClientError::Busy(_) => ErrorKind::Busy,
+            ClientError::Cancelled(_) => ErrorKind::Cancelled,
+            ClientError::Recording { .. } | ClientError::InsideAsyncRuntime => ErrorKind::Other,
+        }
+    }
+
     /// `true` when the session is gone (link lost or closed) and only a reconnect helps.
     pub fn is_link_dead(&self) -> bool {
-        matches!(self, ClientError::LinkLost(_) | ClientError::Closed)
+        self.kind() == ErrorKind::LinkLost
     }
 
     /// `true` when nothing was sent because the request was refused by a check before sending
-    /// (a value, a trajectory, a raw text, a blocked status, a busy channel).
+    /// (a value, a trajectory, a raw text, a configuration, a blocked status, a busy channel,
+    /// a cancel that came first).
     pub fn refused_before_sending(&self) -> bool {
-        matches!(
-            self,
-            ClientError::Blocked(_)
-                | ClientError::Limit(_)
-                | ClientError::NonFinite { .. }
-                | ClientError::Encode(_)
-                | ClientError::Sample(_)
-                | ClientError::Speed { .. }
-                | ClientError::Trajectory(_)
-                | ClientError::Ik(_)
-                | ClientError::RawRefused(_)
-                | ClientError::Busy(_)
-                | ClientError::Cancelled(Cancellation::NotSent)
-        )
+        match self.kind() {
+            ErrorKind::Refused | ErrorKind::Busy => true,
+            ErrorKind::NotReady => matches!(self, ClientError::Blocked(_)),
+            ErrorKind::Cancelled => matches!(self, ClientError::Cancelled(Cancellation::NotSent)),
+            _ => false,
+        }
     }
 
     /// The blockers carried by this error, if any.
@@ -401,5 +465,51 @@ mod tests {
         let e = ClientError::from(Cancellation::Superseded);
         assert!(e.to_string().contains("superseded"));
         assert!(e.source().is_some());
+    }
+
+    #[test]
+    fn every_refusal_is_one_kind_and_counts_as_refused_before_sending() {
+        let refused = [
+            ClientError::Speed { percent: 0.0 },
+            ClientError::NonFinite { what: "x".into() },
+            ClientError::RawRefused(RawRefusal::Empty),
+            ClientError::Config("x".into()),
+        ];
+        for e in refused {
+            assert_eq!(e.kind(), ErrorKind::Refused, "{e}");
+            assert!(e.refused_before_sending(), "{e}");
+        }
+        let busy = ClientError::Busy(Activity::Servo);
+        assert_eq!(busy.kind(), ErrorKind::Busy);
+        assert!(busy.refused_before_sending());
+        let blocked = ClientError::Blocked(vec![]);
+        assert_eq!(blocked.kind(), ErrorKind::NotReady);
+        assert!(blocked.refused_before_sending());
+    }
+
+    #[test]
+    fn a_start_that_was_sent_or_a_running_motion_is_not_refused_before_sending() {
+        let started = ClientError::StartFailed {
+            waited: Duration::from_secs(3),
+            blockers: vec![],
+        };
+        assert_eq!(started.kind(), ErrorKind::NotReady);
+        assert!(!started.refused_before_sending());
+        let cancelled = ClientError::from(Cancellation::Cancelled);
+        assert_eq!(cancelled.kind(), ErrorKind::Cancelled);
+        assert!(!cancelled.refused_before_sending());
+        assert!(ClientError::from(Cancellation::NotSent).refused_before_sending());
+        let lost = ClientError::from(LinkError::Closed);
+        assert_eq!(lost.kind(), ErrorKind::LinkLost);
+        assert!(lost.is_link_dead() && !lost.refused_before_sending());
+        assert_eq!(ClientError::NoServerClock.kind(), ErrorKind::Motion);
+        assert_eq!(
+            ClientError::HoldTimeout {
+                during: "stream",
+                waited: Duration::from_secs(1)
+            }
+            .kind(),
+            ErrorKind::MoveTimeout
+        );
     }
 }

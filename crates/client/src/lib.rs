@@ -67,7 +67,7 @@ mod transport;
 
 pub use clock::{ClockFit, ServerClock};
 pub use config::{ClientConfig, RecordFormat, Recording};
-pub use error::{Activity, Cancellation, ClientError, LinkError, RawRefusal};
+pub use error::{Activity, Cancellation, ClientError, ErrorKind, LinkError, RawRefusal};
 pub use lag::LagCompensation;
 pub use motion::{Completion, MoveHandle, MoveProgress, MoveReport};
 pub use record::{MCAP_CHUNK_INTERVAL, RECORD_QUEUE_LINES};

@@ -1,6 +1,6 @@
 //! Client errors as the exceptions of `fs020n/errors.py`.
 
-use fs020n_client::{Blocker, ClientError};
+use fs020n_client::{Blocker, ClientError, ErrorKind};
 use pyo3::prelude::*;
 
 /// Rust API names in the client's messages, and what a Python user calls instead.
@@ -50,26 +50,17 @@ pub(crate) fn blocker_pairs(blockers: &[Blocker]) -> Vec<(String, String)> {
         .collect()
 }
 
-/// The exception class (in `fs020n.errors`) of a client error.
+/// The exception class (in `fs020n.errors`) of a client error: the client's one
+/// classification ([`ErrorKind`]), named as this package names it.
 fn class_of(e: &ClientError) -> &'static str {
-    match e {
-        ClientError::Limit(_)
-        | ClientError::NonFinite { .. }
-        | ClientError::Encode(_)
-        | ClientError::Sample(_)
-        | ClientError::Speed { .. }
-        | ClientError::Trajectory(_)
-        | ClientError::Ik(_)
-        | ClientError::RawRefused(_)
-        | ClientError::Config(_) => "LimitError",
-        ClientError::Blocked(_) | ClientError::StartFailed { .. } => "NotReadyError",
-        ClientError::Connect { .. }
-        | ClientError::Address { .. }
-        | ClientError::NotAController { .. } => "ConnectError",
-        ClientError::LinkLost(_) | ClientError::Closed => "LinkLostError",
-        ClientError::Aborted { .. } | ClientError::StreamUnderrun { .. } => "MotionError",
-        ClientError::MoveTimeout { .. } | ClientError::HoldTimeout { .. } => "MoveTimeoutError",
-        ClientError::Busy(_) => "BusyError",
+    match e.kind() {
+        ErrorKind::Refused => "LimitError",
+        ErrorKind::NotReady => "NotReadyError",
+        ErrorKind::Connect => "ConnectError",
+        ErrorKind::LinkLost => "LinkLostError",
+        ErrorKind::Motion => "MotionError",
+        ErrorKind::MoveTimeout => "MoveTimeoutError",
+        ErrorKind::Busy => "BusyError",
         _ => "Error",
     }
 }
