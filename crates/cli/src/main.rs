@@ -2,22 +2,13 @@
 #![forbid(unsafe_code)]
 
 mod args;
-mod demo;
+mod cmd;
+mod context;
 mod error;
 mod fleet;
-mod hub;
 mod linear;
-mod offline;
 mod output;
-mod plot;
 mod recording;
-mod replay;
-mod robot_cmds;
-#[cfg(feature = "ros2")]
-mod ros2;
-mod session;
-mod shell;
-mod sim;
 mod trajectory_file;
 
 use std::io::IsTerminal;
@@ -127,12 +118,12 @@ fn load_model(cli: &Cli) -> CliResult<RobotModel> {
     }
 }
 
-fn ctx(cli: &Cli, model: RobotModel) -> session::Ctx {
+fn ctx(cli: &Cli, model: RobotModel) -> context::Ctx {
     let record = cli
         .record
         .as_deref()
         .and_then(|p| recording::recording(p).ok());
-    session::Ctx {
+    context::Ctx {
         record,
         addr: cli.robot.clone(),
         json: cli.json,
@@ -169,31 +160,23 @@ fn run(cli: Cli, robot_typed: bool) -> CliResult {
         }
     }
     match &cli.command {
-        Cmd::Decode(args) => offline::decode(args, cli.json),
-        Cmd::Fk { joints } => offline::fk(&model, joints, cli.json),
-        Cmd::Ik { pose, near } => offline::ik(&model, pose, near.as_deref(), cli.json),
+        Cmd::Decode(args) => cmd::decode::decode(args, cli.json),
+        Cmd::Fk { joints } => cmd::fk::fk(&model, joints, cli.json),
+        Cmd::Ik { pose, near } => cmd::ik::ik(&model, pose, near.as_deref(), cli.json),
         Cmd::Completions { shell } => {
             clap_complete::generate(*shell, &mut command(), "fs020n", &mut std::io::stdout());
             Ok(())
         }
-        Cmd::Status { watch, rate } => robot_cmds::status(&ctx(&cli, model), *watch, *rate),
-        Cmd::Shell => shell::shell(&ctx(&cli, model)),
-        Cmd::Speed { percent } => robot_cmds::speed(&ctx(&cli, model), *percent),
-        Cmd::Move(args) => robot_cmds::move_cmd(&ctx(&cli, model), args),
-        Cmd::Play(args) => robot_cmds::play(&ctx(&cli, model), args),
-        Cmd::Record(args) if recording::is_client_recording(&args.file) => {
-            if cli.record.is_some() {
-                return Err(CliError::input(
-                    "record FILE already records every request and reply: leave out --record",
-                ));
-            }
-            recording::record(&ctx(&cli, model), args)
-        }
-        Cmd::Record(args) => robot_cmds::record(&ctx(&cli, model), args),
-        Cmd::Plot(args) => plot::plot(args, cli.json),
-        Cmd::Replay(args) => replay::run(&ctx(&cli, model), args),
-        Cmd::Raw { text, yes } => robot_cmds::raw(&ctx(&cli, model), text, *yes),
-        Cmd::Bench { count } => robot_cmds::bench(&ctx(&cli, model), *count),
+        Cmd::Status { watch, rate } => cmd::status::status(&ctx(&cli, model), *watch, *rate),
+        Cmd::Shell => cmd::shell::shell(&ctx(&cli, model)),
+        Cmd::Speed { percent } => cmd::speed::speed(&ctx(&cli, model), *percent),
+        Cmd::Move(args) => cmd::move_cmd::move_cmd(&ctx(&cli, model), args),
+        Cmd::Play(args) => cmd::play::play(&ctx(&cli, model), args),
+        Cmd::Record(args) => cmd::record::record(&ctx(&cli, model), args, cli.record.is_some()),
+        Cmd::Plot(args) => cmd::plot::plot(args, cli.json),
+        Cmd::Replay(args) => cmd::replay::run(&ctx(&cli, model), args),
+        Cmd::Raw { text, yes } => cmd::raw::raw(&ctx(&cli, model), text, *yes),
+        Cmd::Bench { count } => cmd::bench::bench(&ctx(&cli, model), *count),
         Cmd::Demo { speed, yes, plot } => {
             if let Some(p) = plot {
                 if fs020n_record::plot::ImageFormat::from_path(p).is_none() {
@@ -210,7 +193,7 @@ fn run(cli: Cli, robot_typed: bool) -> CliResult {
             if let Some(t) = &temporary {
                 c.record = Some(fs020n_client::Recording::new(t));
             }
-            let r = demo::demo(&c, *speed, *yes, plot.as_deref());
+            let r = cmd::demo::demo(&c, *speed, *yes, plot.as_deref());
             if let Some(t) = temporary {
                 let _ = std::fs::remove_file(t);
             }
@@ -222,10 +205,10 @@ fn run(cli: Cli, robot_typed: bool) -> CliResult {
                     "--robot has no meaning for `sim` (it is the robot); use --listen HOST:PORT",
                 ));
             }
-            sim::sim(args, &model, cli.json)
+            cmd::sim::sim(args, &model, cli.json)
         }
         #[cfg(feature = "ros2")]
-        Cmd::Ros2(args) => ros2::ros2(&ctx(&cli, model), args),
-        Cmd::Hub(args) => hub::hub(args, &ctx(&cli, model), cli.json),
+        Cmd::Ros2(args) => cmd::ros2::ros2(&ctx(&cli, model), args),
+        Cmd::Hub(args) => cmd::hub::hub(args, &ctx(&cli, model), cli.json),
     }
 }

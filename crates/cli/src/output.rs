@@ -1,5 +1,7 @@
 //! Formatting of statuses and numbers for people and for `--json`.
 
+use std::time::Duration;
+
 use fs020n_client::RttStats;
 use fs020n_kin::{RobotModel, Xyzoat};
 use fs020n_proto::{JointsDeg, Status, Timer};
@@ -113,4 +115,14 @@ pub(crate) fn rtt_line(r: &RttStats) -> String {
         us(r.p99),
         us(r.max)
     )
+}
+
+/// A duration for people: `"250 ms"`, `"10.0 s"`.
+pub(crate) fn rounded(d: Duration) -> String {
+    let s = d.as_secs_f64();
+    if s < 1.0 {
+        format!("{:.0} ms", s * 1e3)
+    } else {
+        format!("{s:.1} s")
+    }
 }

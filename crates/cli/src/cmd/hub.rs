@@ -10,9 +10,10 @@ use fs020n_web::{Hub, HubConfig};
 use serde_json::json;
 
 use crate::args::HubArgs;
+use crate::cmd::sim::ShutdownSignals;
+use crate::context::{runtime, Ctx};
+use crate::error::client_error;
 use crate::error::{CliError, CliResult};
-use crate::session::{client_error, runtime, Ctx};
-use crate::sim::ShutdownSignals;
 
 fn resolve(text: &str, what: &str) -> CliResult<SocketAddr> {
     text.to_socket_addrs()
@@ -83,7 +84,7 @@ pub(crate) fn hub(args: &HubArgs, ctx: &Ctx, as_json: bool) -> CliResult {
     }
     #[cfg(feature = "ros2")]
     let node_config = if args.ros2 {
-        Some(crate::ros2::node_config(&args.ros2_node)?)
+        Some(crate::cmd::ros2::node_config(&args.ros2_node)?)
     } else {
         None
     };
@@ -196,7 +197,7 @@ pub(crate) fn hub(args: &HubArgs, ctx: &Ctx, as_json: bool) -> CliResult {
             match node.as_mut() {
                 Some(task) => match task.await {
                     Ok(Ok(())) => None,
-                    Ok(Err(e)) => Some(crate::ros2::ros2_error(e)),
+                    Ok(Err(e)) => Some(crate::cmd::ros2::ros2_error(e)),
                     Err(e) => Some(CliError::failure(format!("the ROS 2 node failed: {e}"))),
                 },
                 None => std::future::pending().await,

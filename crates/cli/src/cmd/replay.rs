@@ -6,9 +6,9 @@ use fs020n_sim::{ControllerConfig, Emulator, Panel};
 use serde_json::json;
 
 use crate::args::ReplayArgs;
+use crate::cmd::plot::{read_recording, record_error};
+use crate::context::{check_speed, runtime, Ctx};
 use crate::error::{CliError, CliResult, Exit};
-use crate::plot::{read_recording, record_error};
-use crate::session::{check_speed, runtime, Ctx};
 
 /// Largest `--tolerance`, degrees.
 pub(crate) const MAX_TOLERANCE_DEG: f64 = 90.0;

@@ -9,8 +9,8 @@ use fs020n_web::run_robot;
 use serde_json::json;
 
 use crate::args::SimArgs;
+use crate::context::ctrl_c;
 use crate::error::{CliError, CliResult};
-use crate::session::ctrl_c;
 
 fn resolve(text: &str, what: &str) -> CliResult<SocketAddr> {
     text.to_socket_addrs()

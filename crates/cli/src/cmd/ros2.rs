@@ -9,8 +9,9 @@ use fs020n_sim::{run_robot, SimOptions};
 use serde_json::json;
 
 use crate::args::{Ros2Args, Ros2NodeArgs};
+use crate::context::{close_quietly, runtime, Ctx, Interrupt};
+use crate::error::client_error;
 use crate::error::{CliError, CliResult, Exit};
-use crate::session::{client_error, close_quietly, runtime, Ctx, Interrupt};
 
 /// The node's settings from the defaults, the ROS 2 environment, the parameter file and the
 /// flags (in that order).

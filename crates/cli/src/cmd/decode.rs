@@ -1,8 +1,7 @@
-//! Commands that need no robot: decode, fk, ik.
+//! `decode`: a reply (or a request with `--request`) read as the controller and the client read it.
 
-use fs020n_kin::{IkError, Pose, RobotModel, Xyzoat};
 use fs020n_proto::server::ServerRequest;
-use fs020n_proto::{Command, DecodeError, JointsDeg, Status};
+use fs020n_proto::{Command, DecodeError, Status};
 use serde_json::{json, Value};
 
 use crate::args::DecodeArgs;
@@ -176,84 +175,4 @@ fn command_json(c: &Command) -> Value {
         }),
         _ => Value::Null,
     }
-}
-
-fn joints_from(values: &[f64], what: &str) -> CliResult<JointsDeg> {
-    let arr: [f64; 6] = values
-        .try_into()
-        .map_err(|_| CliError::input(format!("{what}: expected 6 values, got {}", values.len())))?;
-    let j = JointsDeg::new(arr);
-    if !j.is_finite() {
-        return Err(CliError::input(format!(
-            "{what}: values must be finite numbers"
-        )));
-    }
-    Ok(j)
-}
-
-/// `fk`.
-pub(crate) fn fk(model: &RobotModel, joints: &[f64], as_json: bool) -> CliResult {
-    let q = joints_from(joints, "joints")?;
-    if let Err(e) = model.check_limits(&q) {
-        eprintln!("warning: {e}");
-    }
-    let p = model.forward(&q.to_rad()).to_xyzoat();
-    if as_json {
-        println!("{}", serde_json::to_string(&p).unwrap_or_default());
-    } else {
-        println!("flange of {q}");
-        println!(
-            "  X {:.3}  Y {:.3}  Z {:.3} mm   O {:.3}  A {:.3}  T {:.3} deg",
-            p.x_mm, p.y_mm, p.z_mm, p.o_deg, p.a_deg, p.t_deg
-        );
-    }
-    Ok(())
-}
-
-/// `ik`.
-pub(crate) fn ik(
-    model: &RobotModel,
-    pose: &[f64],
-    near: Option<&[f64]>,
-    as_json: bool,
-) -> CliResult {
-    let p: [f64; 6] = pose
-        .try_into()
-        .map_err(|_| CliError::input("pose: expected X Y Z O A T"))?;
-    if p.iter().any(|v| !v.is_finite()) {
-        return Err(CliError::input("pose: values must be finite numbers"));
-    }
-    let seed = match near {
-        Some(n) => joints_from(n, "--near")?,
-        None => model.home,
-    };
-    let target = Pose::from_xyzoat(Xyzoat::new(p[0], p[1], p[2], p[3], p[4], p[5]));
-    let unreachable = |e: IkError| CliError::input(format!("unreachable: {e}"));
-    let all = model.inverse_all(&target).map_err(unreachable)?;
-    let nearest = model
-        .inverse_nearest(&target, &seed.to_rad())
-        .map_err(unreachable)?
-        .to_deg();
-    let solutions: Vec<JointsDeg> = all.iter().map(|q| q.to_deg()).collect();
-    if as_json {
-        println!(
-            "{}",
-            json!({
-                "solutions": solutions.iter().map(joints_json).collect::<Vec<_>>(),
-                "nearest": joints_json(&nearest),
-            })
-        );
-    } else {
-        println!("{} solution(s) within the joint ranges:", solutions.len());
-        for s in &solutions {
-            let mark = if s.max_abs_diff(&nearest) < 1e-9 {
-                "  <- nearest"
-            } else {
-                ""
-            };
-            println!("  {s}{mark}");
-        }
-        println!("nearest to {seed}: {nearest}");
-    }
-    Ok(())
 }

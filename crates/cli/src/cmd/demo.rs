@@ -8,12 +8,14 @@ use fs020n_proto::JointsDeg;
 use nalgebra::Vector3;
 use serde_json::json;
 
+use crate::cmd::bench::measure;
+use crate::cmd::play::print_stream_report;
+use crate::context::{
+    check_speed, close_quietly, connect, robot_or_embedded, runtime, Ctx, Interrupt,
+};
+use crate::error::client_error;
 use crate::error::{CliError, CliResult, Exit};
 use crate::output::{joints_json, rtt_line};
-use crate::robot_cmds::{measure, print_stream_report};
-use crate::session::{
-    check_speed, client_error, close_quietly, connect, robot_or_embedded, runtime, Ctx, Interrupt,
-};
 
 /// The poses the demo visits (degrees).
 pub(crate) const POSES: [[f64; 6]; 4] = [

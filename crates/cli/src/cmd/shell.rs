@@ -7,11 +7,10 @@ use rustyline::error::ReadlineError;
 use rustyline::history::DefaultHistory;
 use rustyline::Editor;
 
+use crate::context::{check_speed, check_target, close_quietly, connect, runtime, Ctx, Interrupt};
+use crate::error::{describe, Place};
 use crate::error::{CliError, CliResult, Exit};
 use crate::output::{robot_status_json, robot_status_table, rtt_line, status_table};
-use crate::session::{
-    check_speed, check_target, close_quietly, connect, describe, runtime, Ctx, Interrupt, Place,
-};
 
 /// A client error at the prompt: remedies name what to type here.
 fn shell_error(e: fs020n_client::ClientError) -> CliError {
@@ -147,7 +146,7 @@ pub(crate) fn shell(ctx: &Ctx) -> CliResult {
     rt.block_on(close_quietly(&robot));
     match lost {
         // The shell ends here: the remedy is to run it again.
-        Some(e) => Err(crate::session::client_error(e)),
+        Some(e) => Err(crate::error::client_error(e)),
         None => {
             println!("session closed");
             Ok(())
