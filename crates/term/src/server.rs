@@ -1,0 +1,463 @@
+//! The controller's side of one terminal session as a state machine: no sockets, no clocks.
+//!
+//! [`TerminalSession`] plays the protocol — the telnet opening, login, echo, the prompt, line
+//! ends, the `LOAD`/`SAVE` block transfer and the questions — and leaves what the commands *do*
+//! to the controller behind it, a [`Monitor`]. The emulator implements `Monitor` on its
+//! machine and interpreter; this crate's tests implement a small one.
+//!
+//! Feed bytes with [`TerminalSession::handle_input`]; send what
+//! [`TerminalSession::poll_transmit`] gives. Text the controller prints on its own (a PC
+//! program's end, `PRINT` output) goes through [`TerminalSession::print_unsolicited`].
+
+use std::collections::VecDeque;
+
+use crate::frame::{controller_frame, Letter, Piece, Scanner, Sender, SUB};
+use crate::line::LineReader;
+use crate::telnet::{TelnetFilter, CONTROLLER_OPENING};
+use crate::text::{self, MonitorError};
+
+/// What a monitor command printed.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Reply {
+    /// Lines of output (none for a silent success).
+    Lines(Vec<String>),
+    /// A monitor error line, `(Pnnnn)text`.
+    Error(MonitorError),
+    /// Ask `Are you sure ? (Yes:1, No:0)` first; on `1`, [`Monitor::confirmed`] runs.
+    AreYouSure,
+}
+
+/// A syntax error found while loading: the session asks the controller's question about it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SyntaxError {
+    /// The offending line as the controller quotes it.
+    pub line: String,
+}
+
+/// How a load ended, for [`Monitor::finish_load`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum LoadAnswer {
+    /// Every syntax error was answered "change to comment and continue" (or there was none):
+    /// keep the file with those lines commented out.
+    Keep,
+    /// A syntax error was answered "delete program and abort".
+    Abort,
+}
+
+/// The controller behind the terminal.
+pub trait Monitor {
+    /// The terminal's name for a new session (`AUX1`…), or `None` when every slot is taken.
+    fn open_session(&mut self) -> Option<String>;
+    /// The session ended (its slot is free again).
+    fn close_session(&mut self, terminal: &str);
+    /// Runs one command line (not `LOAD`/`SAVE`, which the session handles).
+    fn run(&mut self, line: &str) -> Reply;
+    /// The user answered `1` to the question of the last command.
+    fn confirmed(&mut self) -> Reply;
+    /// `true` while an earlier transfer was left open (every `LOAD`/`SAVE` gets P2076).
+    fn transfer_blocked(&self) -> bool;
+    /// A transfer was left open: the link dropped or the client stopped mid-transfer.
+    fn transfer_abandoned(&mut self);
+    /// Checks a whole received file: its syntax errors, in order.
+    fn check_load(&mut self, file: &[u8]) -> Vec<SyntaxError>;
+    /// Loads the checked file (or not, on `Abort`); returns the lines to print (one
+    /// `Program name()` per program) and the count of errors to report.
+    fn finish_load(&mut self, file: &[u8], answer: LoadAnswer) -> (Vec<String>, usize);
+    /// The file a `SAVE` spec asks for (`/P backup.as=prog`), or an error.
+    fn save(&mut self, spec: &str) -> Result<Vec<u8>, MonitorError>;
+}
+
+/// How the session talks.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SessionConfig {
+    /// Largest piece of output handed out at once: a real controller's text comes in pieces
+    /// (one virtual controller sends 1–16 bytes at a time). `usize::MAX` for whole replies.
+    pub max_piece: usize,
+    /// Bytes per `D` frame of a `SAVE`.
+    pub save_chunk: usize,
+}
+
+impl Default for SessionConfig {
+    fn default() -> Self {
+        SessionConfig {
+            max_piece: usize::MAX,
+            save_chunk: 512,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum State {
+    Login,
+    Monitor,
+    Confirm,
+    LoadOpening,
+    LoadBlocks,
+    LoadQuestion { errors: Vec<SyntaxError>, next: usize },
+    LoadClosing { answer: LoadAnswer, syntax_errors: usize },
+    SaveOpening { file: Vec<u8> },
+    SaveClosing,
+    Closed,
+}
+
+/// One terminal session (see the module's documentation).
+#[derive(Debug)]
+pub struct TerminalSession {
+    config: SessionConfig,
+    terminal: Option<String>,
+    telnet: TelnetFilter,
+    scanner: Scanner,
+    lines: LineReader,
+    state: State,
+    file_name: String,
+    file: Vec<u8>,
+    out: VecDeque<u8>,
+    /// The last byte typed was a CR (a LF right after it is the same line end).
+    after_cr: bool,
+    /// The last byte queued for the client.
+    last_byte: u8,
+}
+
+impl TerminalSession {
+    /// A session on a new connection: the opening, the banner and `login: ` are queued. When
+    /// the monitor has no free slot, the session says so and is closed at once.
+    pub fn open(monitor: &mut impl Monitor, config: SessionConfig) -> TerminalSession {
+        let terminal = monitor.open_session();
+        let mut s = TerminalSession {
+            config,
+            terminal,
+            telnet: TelnetFilter::new(),
+            scanner: Scanner::new(Sender::Client),
+            lines: LineReader::new(),
+            state: State::Login,
+            file_name: String::new(),
+            file: Vec::new(),
+            out: VecDeque::new(),
+            after_cr: false,
+            last_byte: 0,
+        };
+        s.out.extend(CONTROLLER_OPENING);
+        if s.terminal.is_none() {
+            s.say(&format!("\r{}\r\n", "All terminal sessions are in use."));
+            s.state = State::Closed;
+        } else {
+            s.say(&format!("\r{}\r\n\r\n{}", text::BANNER, text::LOGIN_PROMPT));
+        }
+        s
+    }
+
+    /// `true` once the session has ended (the driver closes the connection).
+    pub fn is_closed(&self) -> bool {
+        self.state == State::Closed && self.out.is_empty()
+    }
+
+    /// The terminal's name (`AUX1`), once logged in or refused (`None`).
+    pub fn terminal(&self) -> Option<&str> {
+        self.terminal.as_deref()
+    }
+
+    /// The next bytes to send (at most [`SessionConfig::max_piece`]).
+    pub fn poll_transmit(&mut self) -> Option<Vec<u8>> {
+        if self.out.is_empty() {
+            return None;
+        }
+        let n = self.out.len().min(self.config.max_piece.max(1));
+        Some(self.out.drain(..n).collect())
+    }
+
+    /// Text the controller prints on its own, at any time (after the prompt already sent).
+    pub fn print_unsolicited(&mut self, line: &str) {
+        if matches!(self.state, State::Monitor) {
+            self.say(&format!("{line}\r\n"));
+        }
+    }
+
+    /// The connection ended: a transfer in progress is left open on the controller.
+    pub fn handle_close(&mut self, monitor: &mut impl Monitor) {
+        if matches!(
+            self.state,
+            State::LoadOpening
+                | State::LoadBlocks
+                | State::LoadQuestion { .. }
+                | State::LoadClosing { .. }
+                | State::SaveOpening { .. }
+                | State::SaveClosing
+        ) {
+            monitor.transfer_abandoned();
+        }
+        if self.state != State::Closed {
+            if let Some(t) = &self.terminal {
+                monitor.close_session(t);
+            }
+        }
+        self.state = State::Closed;
+        self.out.clear();
+    }
+
+    /// Feeds bytes from the client.
+    pub fn handle_input(&mut self, monitor: &mut impl Monitor, bytes: &[u8]) {
+        let mut data = Vec::with_capacity(bytes.len());
+        self.telnet.push(bytes, &mut data);
+        let mut pieces = Vec::new();
+        self.scanner.push(&data, &mut pieces);
+        for piece in pieces {
+            match piece {
+                Piece::Frame { letter, payload } => self.on_frame(monitor, letter, payload),
+                Piece::Malformed { .. } => {}
+                Piece::Text(t) => self.on_text(monitor, &t),
+            }
+        }
+    }
+
+    fn on_text(&mut self, monitor: &mut impl Monitor, bytes: &[u8]) {
+        if matches!(self.state, State::Closed) {
+            return;
+        }
+        // The controller echoes what is typed (it offered WILL ECHO), except during a transfer.
+        let typing = matches!(
+            self.state,
+            State::Login | State::Monitor | State::Confirm | State::LoadQuestion { .. }
+        );
+        let mut lines = Vec::new();
+        for &b in bytes {
+            let after_cr = std::mem::replace(&mut self.after_cr, b == b'\r');
+            if typing {
+                match b {
+                    // A line end is echoed as CR LF, once, before what the line prints.
+                    b'\n' if after_cr => {}
+                    b'\r' | b'\n' => self.emit(b"\r\n"),
+                    0 => {}
+                    _ => self.emit(&[b]),
+                }
+            }
+            self.lines.push(std::slice::from_ref(&b), &mut lines);
+            for line in lines.drain(..) {
+                self.on_line(monitor, &line.text());
+            }
+        }
+    }
+
+    fn on_line(&mut self, monitor: &mut impl Monitor, line: &str) {
+        let line = line.trim();
+        match std::mem::replace(&mut self.state, State::Monitor) {
+            State::Login => {
+                if line.eq_ignore_ascii_case(text::LOGIN_USER) {
+                    let name = self.terminal.clone().unwrap_or_default();
+                    self.say(&text::greeting(&name));
+                    self.prompt();
+                } else {
+                    self.say(text::LOGIN_PROMPT);
+                    self.state = State::Login;
+                }
+            }
+            State::Monitor => self.on_command(monitor, line),
+            State::Confirm => {
+                if line == "1" {
+                    let reply = monitor.confirmed();
+                    self.reply(reply);
+                } else {
+                    self.prompt();
+                }
+            }
+            State::LoadQuestion { errors, next } => {
+                if line == text::ANSWER_ABORT_LOAD {
+                    self.close_load(LoadAnswer::Abort, next + 1);
+                } else if line == text::ANSWER_COMMENT_OUT {
+                    self.ask_or_close(errors, next + 1);
+                } else {
+                    self.state = State::LoadQuestion { errors, next };
+                }
+            }
+            other => self.state = other,
+        }
+    }
+
+    fn on_command(&mut self, monitor: &mut impl Monitor, line: &str) {
+        let (word, rest) = split_word(line);
+        let word_upper = word.to_ascii_uppercase();
+        if line.is_empty() {
+            self.prompt();
+        } else if is_abbreviation(&word_upper, "LOAD", 2) {
+            self.begin_transfer(monitor, rest, true);
+        } else if is_abbreviation(&word_upper, "SAVE", 2) || word_upper.starts_with("SAVE/") {
+            let spec = if word_upper.starts_with("SAVE/") {
+                format!("{} {rest}", &word[4..])
+            } else {
+                rest.to_owned()
+            };
+            self.begin_transfer(monitor, spec.trim(), false);
+        } else {
+            let reply = monitor.run(line);
+            self.reply(reply);
+        }
+    }
+
+    fn begin_transfer(&mut self, monitor: &mut impl Monitor, spec: &str, load: bool) {
+        if monitor.transfer_blocked() {
+            self.reply(Reply::Error(text::P2076_TRANSFER_IN_PROGRESS));
+            return;
+        }
+        if load {
+            let name = spec.trim();
+            if name.is_empty() {
+                self.reply(Reply::Error(text::P0117_INVALID_NAME));
+                return;
+            }
+            self.file_name = name.to_owned();
+            self.file.clear();
+            self.out
+                .extend(controller_frame(Letter::A, name.as_bytes()));
+            self.state = State::LoadOpening;
+        } else {
+            match monitor.save(spec) {
+                Ok(file) => {
+                    let name = spec
+                        .rsplit(' ')
+                        .next()
+                        .unwrap_or("")
+                        .split('=')
+                        .next()
+                        .unwrap_or("")
+                        .to_owned();
+                    let name = if name.contains('.') {
+                        name
+                    } else {
+                        format!("{name}.as")
+                    };
+                    self.file_name = name.clone();
+                    self.emit(&controller_frame(Letter::B, name.as_bytes()));
+                    self.state = State::SaveOpening { file };
+                }
+                Err(e) => self.reply(Reply::Error(e)),
+            }
+        }
+    }
+
+    fn on_frame(&mut self, monitor: &mut impl Monitor, letter: Letter, payload: Vec<u8>) {
+        match (std::mem::replace(&mut self.state, State::Monitor), letter) {
+            (State::LoadOpening, Letter::A) => {
+                let line = text::loading(&self.file_name);
+                self.say(&format!("{line}\r\n"));
+                self.emit(&controller_frame(Letter::C, b""));
+                self.state = State::LoadBlocks;
+            }
+            (State::LoadBlocks, Letter::C) => {
+                if payload == [SUB] {
+                    let errors = monitor.check_load(&self.file);
+                    self.ask_or_close(errors, 0);
+                } else {
+                    self.file.extend_from_slice(&payload);
+                    self.emit(&controller_frame(Letter::C, b""));
+                    self.state = State::LoadBlocks;
+                }
+            }
+            (State::LoadClosing { answer, syntax_errors }, Letter::E) => {
+                let file = std::mem::take(&mut self.file);
+                let (lines, errors) = monitor.finish_load(&file, answer);
+                for l in lines {
+                    self.say(&format!("{l}\r\n"));
+                }
+                self.say(&text::load_completed(errors.max(syntax_errors)));
+                self.prompt();
+            }
+            (State::SaveOpening { file }, Letter::B) => {
+                let line = text::saving(&self.file_name);
+                self.say(&format!("{line}\r\n"));
+                for chunk in file.chunks(self.config.save_chunk.max(1)) {
+                    self.emit(&controller_frame(Letter::D, chunk));
+                }
+                self.emit(&controller_frame(Letter::E, b""));
+                self.state = State::SaveClosing;
+            }
+            (State::SaveClosing, Letter::E) => {
+                self.say(text::SAVE_COMPLETED);
+                self.prompt();
+            }
+            (other, _) => self.state = other,
+        }
+    }
+
+    /// Asks about syntax error `next`, or closes the load when none is left.
+    fn ask_or_close(&mut self, errors: Vec<SyntaxError>, next: usize) {
+        match errors.get(next) {
+            Some(e) => {
+                self.say(&format!(
+                    "\r\n{}\r\n{}\r\n{}\r\n",
+                    e.line,
+                    text::SYNTAX_ERROR,
+                    text::SYNTAX_ERROR_CHOICES
+                ));
+                self.state = State::LoadQuestion { errors, next };
+            }
+            None => {
+                self.emit(&controller_frame(Letter::E, b""));
+                self.state = State::LoadClosing {
+                    answer: LoadAnswer::Keep,
+                    syntax_errors: next,
+                };
+            }
+        }
+    }
+
+    fn close_load(&mut self, answer: LoadAnswer, errors: usize) {
+        self.emit(&controller_frame(Letter::E, b""));
+        self.state = State::LoadClosing {
+            answer,
+            syntax_errors: errors,
+        };
+    }
+
+    fn reply(&mut self, reply: Reply) {
+        match reply {
+            Reply::Lines(lines) => {
+                let text = lines.join("\r\n");
+                self.say(&text);
+                self.prompt();
+            }
+            Reply::Error(e) => {
+                self.say(&e.line());
+                self.prompt();
+            }
+            Reply::AreYouSure => {
+                self.say(text::ARE_YOU_SURE);
+                self.state = State::Confirm;
+            }
+        }
+    }
+
+    /// The prompt: CR LF `>`, where the CR LF is the echo's when nothing was printed since.
+    fn prompt(&mut self) {
+        if self.last_byte == b'\n' {
+            self.emit(b">");
+        } else {
+            self.emit(text::PROMPT);
+        }
+        self.state = State::Monitor;
+    }
+
+    fn say(&mut self, s: &str) {
+        self.emit(s.as_bytes());
+    }
+
+    fn emit(&mut self, bytes: &[u8]) {
+        if let Some(&b) = bytes.last() {
+            self.last_byte = b;
+        }
+        self.out.extend(bytes);
+    }
+}
+
+/// The first word of a line and the rest, trimmed.
+pub fn split_word(line: &str) -> (&str, &str) {
+    let line = line.trim();
+    match line.find([' ', '\t']) {
+        Some(i) => (&line[..i], line[i..].trim()),
+        None => (line, ""),
+    }
+}
+
+/// `true` when `word` (upper case) abbreviates `keyword` with at least `min` characters, as the
+/// monitor accepts abbreviated keywords (`PCEXE` for `PCEXECUTE`).
+pub fn is_abbreviation(word: &str, keyword: &str, min: usize) -> bool {
+    word.len() >= min.min(keyword.len()) && keyword.starts_with(word)
+}

@@ -1,0 +1,213 @@
+//! Every text the controller's terminal prints that a program matches on, in one place.
+//!
+//! The facts come from the public captures and the manuals summarised in the project's research
+//! notes on the AS terminal; each constant says how sure it is (**H**: a manual or several
+//! captures agree; **M**: one capture, or what several clients rely on; **L**: inference).
+//! Where the sources conflict, the constant holds the recommended choice and says so. The
+//! emulator prints these texts and the deploy client matches them: correcting a fact here
+//! corrects both.
+
+/// The telnet port of the controller's terminal (E and F: **H**, D: **M**).
+pub const TERMINAL_PORT: u16 = 23;
+
+/// The line the controller sends before `login: ` (**H** for the E series; the emulator says
+/// the same whatever generation it plays).
+pub const BANNER: &str = "Connecting to Kawasaki E Controller";
+
+/// The login prompt (**H**).
+pub const LOGIN_PROMPT: &str = "login: ";
+
+/// The user name that opens the monitor; no password is asked (**H**).
+pub const LOGIN_USER: &str = "as";
+
+/// The greeting after login, with the terminal's name (`AUX1`, `AUX2`, …) in the quotes (**H**).
+pub fn greeting(terminal: &str) -> String {
+    format!("This is AS monitor terminal \"{terminal}\"")
+}
+
+/// The prompt that ends every reply: CR LF then `>` (**H**). The controller sends no blank
+/// after it.
+pub const PROMPT: &[u8] = b"\r\n>";
+
+/// The end of a line of output (**H**).
+pub const EOL: &str = "\r\n";
+
+/// Characters of one input line the controller reads; the rest is ignored (**H**).
+pub const MAX_LINE_CHARS: usize = 128;
+
+/// Terminal sessions an E controller serves at once (**H**); a further connection is refused
+/// until one leaves.
+pub const MAX_SESSIONS: usize = 3;
+
+/// The yes/no question of `KILL`, `PCKILL` and `DELETE` (**H**); the answer `1` confirms.
+pub const ARE_YOU_SURE: &str = "Are you sure ? (Yes:1, No:0)";
+
+/// The first line of the syntax-error question in the middle of a `LOAD` (**H**, real
+/// controllers and K-ROSET).
+pub const SYNTAX_ERROR: &str = "STEP syntax error.";
+
+/// The choices of the syntax-error question (**H**). Conflict: the E manual words it "The step
+/// format is incorrect (0: Continue load 1: Delete program and exit)"; match on
+/// [`DELETE_AND_ABORT_MARK`], which both wordings contain in spirit and every capture contains
+/// literally.
+pub const SYNTAX_ERROR_CHOICES: &str =
+    "(0:Change to comment and continue, 1:Delete program and abort)";
+
+/// What identifies the syntax-error question's choices in any wording.
+pub const DELETE_AND_ABORT_MARK: &str = "Delete program";
+
+/// The answer to the syntax-error question that deletes the program and aborts the load. The
+/// deploy client always gives it: the other answer comments the line out silently.
+pub const ANSWER_ABORT_LOAD: &str = "1";
+
+/// The answer that comments the bad line out and goes on (what a careless terminal defaults to).
+pub const ANSWER_COMMENT_OUT: &str = "0";
+
+/// `Loading...(name)`: a `LOAD` began (**H**).
+pub fn loading(file: &str) -> String {
+    format!("Loading...({file})")
+}
+
+/// `Saving...(name)`: a `SAVE` began (**M**).
+pub fn saving(file: &str) -> String {
+    format!("Saving...({file})")
+}
+
+/// The last line of a `LOAD` with the count of errors (**H**).
+pub fn load_completed(errors: usize) -> String {
+    format!("File load completed. ({errors} errors)")
+}
+
+/// What identifies the last line of a `LOAD`.
+pub const LOAD_COMPLETED_MARK: &str = "File load completed.";
+
+/// The last line of a `SAVE` (**M**).
+pub const SAVE_COMPLETED: &str = "File save completed.";
+
+/// The line the controller prints for each program it loads (**H**, captures; the manual's
+/// example differs).
+pub fn program_loaded(name: &str, params: &str) -> String {
+    format!("Program {name}({params})")
+}
+
+/// `Cleared error state.`: `ERESET` when there was an error (**M**).
+pub const CLEARED_ERROR: &str = "Cleared error state.";
+
+/// A PC program's end, printed after a prompt that was already sent (**M**).
+pub fn pc_completed(task: u8) -> String {
+    format!("Program completed.No = {task}")
+}
+
+/// `PC program aborted.No = n` after `PCABORT n:` (**M**: a client looks for the text and
+/// the number).
+pub fn pc_aborted(task: u8) -> String {
+    format!("PC program aborted.No = {task}")
+}
+
+/// The line of `PCSTATUS` that says whether the task runs (**H**).
+pub fn pc_status_line(running: bool) -> &'static str {
+    if running {
+        "PC status: Program running"
+    } else {
+        "PC status: Program is not running"
+    }
+}
+
+/// The last part of `STATUS` and `PCSTATUS` when no program runs (**H**).
+pub const NO_PROGRAM_RUNNING: &str = "No program is running.";
+
+/// The header of the program line of `STATUS`/`PCSTATUS` (**H**: a client reads the name from
+/// token 0 and the step from token 2 of the line after it).
+pub const PROGRAM_TABLE_HEADER: &str = "Program name   Priority   Step No.";
+
+/// An error the monitor prints: `(Pnnnn)` and the text, no blank between (**H**).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MonitorError {
+    /// The number after `P`.
+    pub code: u16,
+    /// The text (AS-E, appendix 4).
+    pub text: &'static str,
+}
+
+impl MonitorError {
+    /// The line as the controller prints it: `(P1019)PC program is running.`
+    pub fn line(&self) -> String {
+        format!("(P{:04}){}", self.code, self.text)
+    }
+}
+
+/// P1009: the robot program runs already.
+pub const P1009_ALREADY_RUNNING: MonitorError = MonitorError {
+    code: 1009,
+    text: "Program is already running.",
+};
+/// P1013: an error state blocks execution.
+pub const P1013_IN_ERROR: MonitorError = MonitorError {
+    code: 1013,
+    text: "Cannot execute because in error now. Reset error.",
+};
+/// P1014: the program is on a task's stack.
+pub const P1014_IN_USE: MonitorError = MonitorError {
+    code: 1014,
+    text: "Cannot execute because program already in use.",
+};
+/// P1018: a program must be killed before it is deleted.
+pub const P1018_KILL_FIRST: MonitorError = MonitorError {
+    code: 1018,
+    text: "KILL or PCKILL to delete program.",
+};
+/// P1019: a PC program runs in the task.
+pub const P1019_PC_RUNNING: MonitorError = MonitorError {
+    code: 1019,
+    text: "PC program is running.",
+};
+/// P1026: a running program cannot be killed.
+pub const P1026_CANNOT_KILL_RUNNING: MonitorError = MonitorError {
+    code: 1026,
+    text: "Cannot KILL program that is running.",
+};
+/// P1038: no program of that name.
+pub const P1038_NO_PROGRAM: MonitorError = MonitorError {
+    code: 1038,
+    text: "Program does not exist.",
+};
+/// P2076: an earlier transfer never ended. The whole line was never captured: clients match
+/// its tail (`ess.`) or `LOAD in progress`; the text here is the manual's.
+pub const P2076_TRANSFER_IN_PROGRESS: MonitorError = MonitorError {
+    code: 2076,
+    text: "SAVE/LOAD in progress.",
+};
+/// P0117: a name that is not a valid program or variable name (**M**).
+pub const P0117_INVALID_NAME: MonitorError = MonitorError {
+    code: 117,
+    text: "Invalid variable (or program) name.",
+};
+/// An unknown command. The wording is not in the sources; the emulator's choice (**L**).
+pub const UNKNOWN_COMMAND: MonitorError = MonitorError {
+    code: 100,
+    text: "Command not found.",
+};
+
+/// Every monitor error this crate knows, for matching a line back to its code.
+pub const MONITOR_ERRORS: &[MonitorError] = &[
+    P1009_ALREADY_RUNNING,
+    P1013_IN_ERROR,
+    P1014_IN_USE,
+    P1018_KILL_FIRST,
+    P1019_PC_RUNNING,
+    P1026_CANNOT_KILL_RUNNING,
+    P1038_NO_PROGRAM,
+    P2076_TRANSFER_IN_PROGRESS,
+    P0117_INVALID_NAME,
+    UNKNOWN_COMMAND,
+];
+
+/// The code of a `(Pnnnn)` error line, if the line is one.
+pub fn monitor_error_code(line: &str) -> Option<u16> {
+    let rest = line.trim_start().strip_prefix("(P")?;
+    let end = rest.find(')')?;
+    rest[..end].parse().ok()
+}
+
+/// The prompt of a paged listing with SCREEN ON (**H**); a space continues.
+pub const PRESS_SPACE: &str = "Press SPACE key to continue.";

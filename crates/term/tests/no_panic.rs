@@ -1,0 +1,114 @@
+//! Any bytes, cut anywhere, into either end: no panic, bounded state, and the client always
+//! comes back idle by its deadline.
+
+use std::time::Duration;
+
+use fs020n_term::text::MonitorError;
+use fs020n_term::{
+    ClientConfig, Event, LoadAnswer, Monitor, Reply, SessionConfig, SyntaxError, TerminalClient,
+    TerminalSession,
+};
+use proptest::prelude::*;
+
+/// A controller that answers everything the same way.
+struct Anything;
+
+impl Monitor for Anything {
+    fn open_session(&mut self) -> Option<String> {
+        Some("AUX1".into())
+    }
+    fn close_session(&mut self, _terminal: &str) {}
+    fn run(&mut self, line: &str) -> Reply {
+        if line.len() % 2 == 0 {
+            Reply::AreYouSure
+        } else {
+            Reply::Lines(vec![line.to_owned()])
+        }
+    }
+    fn confirmed(&mut self) -> Reply {
+        Reply::Lines(vec![])
+    }
+    fn transfer_blocked(&self) -> bool {
+        false
+    }
+    fn transfer_abandoned(&mut self) {}
+    fn check_load(&mut self, file: &[u8]) -> Vec<SyntaxError> {
+        (0..file.len() % 3)
+            .map(|i| SyntaxError {
+                line: format!("step {i}"),
+            })
+            .collect()
+    }
+    fn finish_load(&mut self, _file: &[u8], _answer: LoadAnswer) -> (Vec<String>, usize) {
+        (vec![], 0)
+    }
+    fn save(&mut self, spec: &str) -> Result<Vec<u8>, MonitorError> {
+        Ok(spec.as_bytes().to_vec())
+    }
+}
+
+fn chunks() -> impl Strategy<Value = Vec<Vec<u8>>> {
+    let byte = prop_oneof![
+        any::<u8>(),
+        Just(0x02u8),
+        Just(0x05),
+        Just(0x17),
+        Just(0x1A),
+        Just(0xFF),
+        Just(b'\r'),
+        Just(b'\n'),
+        Just(b'C'),
+        Just(b'A'),
+        Just(b'>'),
+    ];
+    prop::collection::vec(prop::collection::vec(byte, 0..64), 0..24)
+}
+
+proptest! {
+    #[test]
+    fn a_session_takes_any_bytes(input in chunks()) {
+        let mut m = Anything;
+        let mut s = TerminalSession::open(&mut m, SessionConfig { max_piece: 7, save_chunk: 3 });
+        for c in &input {
+            s.handle_input(&mut m, c);
+            while s.poll_transmit().is_some() {}
+        }
+        s.handle_close(&mut m);
+        prop_assert!(s.is_closed());
+    }
+
+    #[test]
+    fn a_client_takes_any_bytes_and_is_idle_after_its_deadline(input in chunks(), op in 0u8..4) {
+        let config = ClientConfig::default();
+        let mut c = TerminalClient::new(config.clone());
+        let mut now = Duration::ZERO;
+        match op {
+            0 => c.login(now).unwrap(),
+            1 => c.command(now, "PCSTATUS 1:", true).unwrap(),
+            2 => c.load(now, "x.as", b".PROGRAM x()\n.END\n").unwrap(),
+            _ => c.save(now, "x.as").unwrap(),
+        }
+        for chunk in &input {
+            now += Duration::from_millis(1);
+            c.handle_input(now, chunk);
+            while c.poll_transmit().is_some() {}
+        }
+        // However the bytes left it, time alone brings it back to idle.
+        for _ in 0..10_000 {
+            match c.poll_timeout() {
+                Some(t) => {
+                    now = now.max(t);
+                    c.handle_timeout(now);
+                    while c.poll_transmit().is_some() {}
+                }
+                None => break,
+            }
+        }
+        prop_assert!(c.is_idle());
+        let mut finished = false;
+        while let Some(e) = c.poll_event() {
+            finished |= !matches!(e, Event::Answered { .. });
+        }
+        prop_assert!(finished);
+    }
+}

@@ -1,0 +1,416 @@
+//! The terminal client against the terminal session, in memory on a fake clock: every exchange
+//! the deploy client relies on, with the controller's output cut in small pieces and the
+//! client's line ends in each form terminals use.
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use fs020n_term::text::{self, MonitorError};
+use fs020n_term::{
+    ClientConfig, Event, LoadAnswer, Monitor, Question, Reply, SessionConfig, SyntaxError,
+    TerminalClient, TerminalError, TerminalSession,
+};
+
+/// A small controller for the session: programs by name, a switch, a transfer lock.
+#[derive(Default)]
+struct Shelf {
+    programs: BTreeMap<String, String>,
+    sessions: usize,
+    blocked: bool,
+    abandoned: usize,
+    pending_kill: Option<String>,
+    last_answer: Option<LoadAnswer>,
+    received: Vec<u8>,
+}
+
+fn programs_of(file: &[u8]) -> Vec<(String, String)> {
+    let text = String::from_utf8_lossy(file);
+    let mut out = Vec::new();
+    let mut current: Option<(String, String)> = None;
+    for line in text.lines() {
+        if let Some(rest) = line.trim().strip_prefix(".PROGRAM ") {
+            let name = rest.split('(').next().unwrap_or("").trim().to_owned();
+            current = Some((name, String::new()));
+        } else if line.trim() == ".END" {
+            out.extend(current.take());
+        } else if let Some((_, body)) = &mut current {
+            body.push_str(line);
+            body.push_str("\r\n");
+        }
+    }
+    out
+}
+
+impl Monitor for Shelf {
+    fn open_session(&mut self) -> Option<String> {
+        (self.sessions < text::MAX_SESSIONS).then(|| {
+            self.sessions += 1;
+            format!("AUX{}", self.sessions)
+        })
+    }
+    fn close_session(&mut self, _terminal: &str) {
+        self.sessions -= 1;
+    }
+    fn run(&mut self, line: &str) -> Reply {
+        let (word, rest) = fs020n_term::server::split_word(line);
+        match word.to_ascii_uppercase().as_str() {
+            "DIRECTORY/P" => Reply::Lines(vec![
+                "Program list".into(),
+                self.programs.keys().cloned().collect::<Vec<_>>().join(" "),
+            ]),
+            "KILL" => match self.programs.contains_key(rest) {
+                true => {
+                    self.pending_kill = Some(rest.to_owned());
+                    Reply::AreYouSure
+                }
+                false => Reply::Error(text::P1038_NO_PROGRAM),
+            },
+            _ => Reply::Error(text::UNKNOWN_COMMAND),
+        }
+    }
+    fn confirmed(&mut self) -> Reply {
+        if let Some(name) = self.pending_kill.take() {
+            self.programs.remove(&name);
+        }
+        Reply::Lines(vec![])
+    }
+    fn transfer_blocked(&self) -> bool {
+        self.blocked
+    }
+    fn transfer_abandoned(&mut self) {
+        self.abandoned += 1;
+        self.blocked = true;
+    }
+    fn check_load(&mut self, file: &[u8]) -> Vec<SyntaxError> {
+        self.received = file.to_vec();
+        String::from_utf8_lossy(file)
+            .lines()
+            .filter(|l| l.contains("NOT AS"))
+            .map(|l| SyntaxError {
+                line: l.trim().to_owned(),
+            })
+            .collect()
+    }
+    fn finish_load(&mut self, file: &[u8], answer: LoadAnswer) -> (Vec<String>, usize) {
+        self.last_answer = Some(answer.clone());
+        if answer == LoadAnswer::Abort {
+            return (vec![], 1);
+        }
+        let mut lines = Vec::new();
+        for (name, body) in programs_of(file) {
+            lines.push(text::program_loaded(&name, ""));
+            self.programs.insert(name, body);
+        }
+        (lines, 0)
+    }
+    fn save(&mut self, spec: &str) -> Result<Vec<u8>, MonitorError> {
+        let name = spec.split('=').nth(1).unwrap_or("").trim();
+        match self.programs.get(name) {
+            Some(body) => Ok(format!(".PROGRAM {name}()\r\n{body}.END\r\n").into_bytes()),
+            None => Err(text::P1038_NO_PROGRAM),
+        }
+    }
+}
+
+/// Both ends on one fake clock.
+struct Link {
+    now: Duration,
+    client: TerminalClient,
+    session: TerminalSession,
+    shelf: Shelf,
+    /// Every event the client produced, in order.
+    events: Vec<Event>,
+}
+
+impl Link {
+    fn new(client: ClientConfig, piece: usize) -> Link {
+        let mut shelf = Shelf::default();
+        let session = TerminalSession::open(
+            &mut shelf,
+            SessionConfig {
+                max_piece: piece,
+                ..SessionConfig::default()
+            },
+        );
+        Link {
+            now: Duration::ZERO,
+            client: TerminalClient::new(client),
+            session,
+            shelf,
+            events: Vec::new(),
+        }
+    }
+
+    /// Runs until the client is idle again; returns the events of this operation.
+    fn settle(&mut self) -> Vec<Event> {
+        let start = self.events.len();
+        for _ in 0..100_000 {
+            let mut moved = false;
+            while let Some(bytes) = self.client.poll_transmit() {
+                self.session.handle_input(&mut self.shelf, &bytes);
+                moved = true;
+            }
+            while let Some(bytes) = self.session.poll_transmit() {
+                self.now += Duration::from_micros(100);
+                self.client.handle_input(self.now, &bytes);
+                moved = true;
+            }
+            while let Some(e) = self.client.poll_event() {
+                self.events.push(e);
+            }
+            if self.client.is_idle() {
+                return self.events[start..].to_vec();
+            }
+            if !moved {
+                match self.client.poll_timeout() {
+                    Some(t) => {
+                        self.now = self.now.max(t);
+                        self.client.handle_timeout(self.now);
+                    }
+                    None => break,
+                }
+            }
+        }
+        panic!("the exchange did not settle: {:?}", self.events);
+    }
+
+    fn login(&mut self) {
+        self.client.login(self.now).unwrap();
+        let events = self.settle();
+        assert_eq!(
+            events,
+            vec![Event::LoggedIn {
+                terminal: Some("AUX1".into())
+            }]
+        );
+    }
+
+    fn command(&mut self, line: &str, confirm: bool) -> Vec<Event> {
+        self.client.command(self.now, line, confirm).unwrap();
+        self.settle()
+    }
+}
+
+fn file_of(size: usize) -> Vec<u8> {
+    let mut f = b".PROGRAM big()\r\n".to_vec();
+    let mut i = 0;
+    while f.len() < size {
+        f.extend_from_slice(format!("  x{i} = {i}\r\n").as_bytes());
+        i += 1;
+    }
+    f.extend_from_slice(b".END\r\n.PROGRAM autostart.pc()\r\n  PRINT \"hi\"\r\n.END\r\n");
+    f
+}
+
+#[test]
+fn a_client_logs_in_and_a_command_replies_without_its_echo_and_prompt() {
+    for (line_end, piece) in [(&b"\r\n"[..], usize::MAX), (b"\n", 1), (b"\r", 7)] {
+        let mut link = Link::new(
+            ClientConfig {
+                line_end,
+                ..ClientConfig::default()
+            },
+            piece,
+        );
+        link.login();
+        let events = link.command("DIRECTORY/P", false);
+        assert_eq!(
+            events,
+            vec![Event::Reply {
+                command: "DIRECTORY/P".into(),
+                output: "Program list".into()
+            }],
+            "line end {line_end:?}, pieces of {piece}"
+        );
+    }
+}
+
+#[test]
+fn a_load_sends_the_file_in_blocks_as_asked_and_the_controller_gets_every_byte() {
+    for block in [486, 1000, 3000] {
+        let mut link = Link::new(
+            ClientConfig {
+                block_bytes: block,
+                ..ClientConfig::default()
+            },
+            16,
+        );
+        link.login();
+        let file = file_of(3_000);
+        link.client.load(link.now, "deploy.as", &file).unwrap();
+        let events = link.settle();
+        assert_eq!(link.shelf.received, file, "blocks of {block}");
+        match events.last() {
+            Some(Event::Loaded {
+                errors: 0,
+                syntax_error: None,
+                output,
+            }) => {
+                assert!(output.contains("Loading...(deploy.as)"), "{output}");
+                assert!(output.contains("Program autostart.pc()"), "{output}");
+                assert!(output.contains("File load completed. (0 errors)"), "{output}");
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(link.shelf.programs.contains_key("autostart.pc"));
+    }
+}
+
+#[test]
+fn a_syntax_error_is_answered_abort_and_nothing_is_loaded() {
+    let mut link = Link::new(ClientConfig::default(), 5);
+    link.login();
+    let file = b".PROGRAM bad()\r\n  THIS IS NOT AS\r\n.END\r\n";
+    link.client.load(link.now, "bad.as", file).unwrap();
+    let events = link.settle();
+    assert_eq!(
+        events[0],
+        Event::Answered {
+            question: Question::SyntaxError("THIS IS NOT AS".into()),
+            answer: "1".into()
+        }
+    );
+    match &events[1] {
+        Event::Loaded {
+            syntax_error: Some(line),
+            errors,
+            ..
+        } => {
+            assert_eq!(line, "THIS IS NOT AS");
+            assert_eq!(*errors, 1);
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(link.shelf.last_answer, Some(LoadAnswer::Abort));
+    assert!(link.shelf.programs.is_empty());
+}
+
+#[test]
+fn a_blocked_transfer_is_p2076_and_the_client_says_to_restart() {
+    let mut link = Link::new(ClientConfig::default(), usize::MAX);
+    link.login();
+    link.shelf.blocked = true;
+    link.client.load(link.now, "x.as", b".PROGRAM x()\n.END\n").unwrap();
+    assert_eq!(
+        link.settle(),
+        vec![Event::Failed(TerminalError::TransferInProgress)]
+    );
+    assert!(TerminalError::TransferInProgress
+        .to_string()
+        .contains("restart the controller"));
+}
+
+#[test]
+fn a_connection_dropped_mid_load_leaves_the_transfer_open() {
+    let mut shelf = Shelf::default();
+    let mut session = TerminalSession::open(&mut shelf, SessionConfig::default());
+    session.handle_input(&mut shelf, b"as\r\nLOAD x.as\r\n");
+    session.handle_close(&mut shelf);
+    assert_eq!(shelf.abandoned, 1);
+    assert!(shelf.transfer_blocked());
+    assert_eq!(shelf.sessions, 0);
+}
+
+#[test]
+fn kill_asks_are_you_sure_and_only_confirm_answers_yes() {
+    let mut link = Link::new(ClientConfig::default(), 3);
+    link.login();
+    link.shelf.programs.insert("p".into(), String::new());
+    let events = link.command("KILL p", false);
+    assert_eq!(
+        events[0],
+        Event::Answered {
+            question: Question::AreYouSure,
+            answer: "0".into()
+        }
+    );
+    assert!(link.shelf.programs.contains_key("p"));
+    let events = link.command("KILL p", true);
+    assert_eq!(
+        events[0],
+        Event::Answered {
+            question: Question::AreYouSure,
+            answer: "1".into()
+        }
+    );
+    assert!(!link.shelf.programs.contains_key("p"));
+}
+
+#[test]
+fn a_monitor_error_comes_back_as_its_p_line() {
+    let mut link = Link::new(ClientConfig::default(), usize::MAX);
+    link.login();
+    match &link.command("KILL nothing", true)[0] {
+        Event::Reply { output, .. } => {
+            assert_eq!(output, "(P1038)Program does not exist.");
+            assert_eq!(text::monitor_error_code(output), Some(1038));
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn save_returns_the_file_the_controller_sent() {
+    let mut link = Link::new(ClientConfig::default(), 9);
+    link.login();
+    link.client
+        .load(link.now, "x.as", b".PROGRAM x()\r\n  a = 1\r\n.END\r\n")
+        .unwrap();
+    link.settle();
+    link.client.save(link.now, "/P back.as=x").unwrap();
+    match link.settle().last() {
+        Some(Event::Saved { file, output }) => {
+            assert_eq!(file, b".PROGRAM x()\r\n  a = 1\r\n.END\r\n");
+            assert!(output.contains(text::SAVE_COMPLETED), "{output}");
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn a_silent_controller_fails_the_command_at_its_timeout() {
+    let mut client = TerminalClient::new(ClientConfig::default());
+    client.command(Duration::ZERO, "ID", false).unwrap();
+    assert_eq!(client.poll_transmit(), Some(b"ID\r\n".to_vec()));
+    let t = client.poll_timeout().unwrap();
+    assert_eq!(t, ClientConfig::default().timeout);
+    client.handle_timeout(t);
+    match client.poll_event() {
+        Some(Event::Failed(TerminalError::Timeout { waiting_for, .. })) => {
+            assert_eq!(waiting_for, "the command")
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(client.is_idle());
+}
+
+#[test]
+fn a_fourth_session_is_refused_and_closed() {
+    let mut shelf = Shelf::default();
+    let sessions: Vec<_> = (0..3)
+        .map(|_| TerminalSession::open(&mut shelf, SessionConfig::default()))
+        .collect();
+    assert_eq!(sessions[2].terminal(), Some("AUX3"));
+    let mut fourth = TerminalSession::open(&mut shelf, SessionConfig::default());
+    assert_eq!(fourth.terminal(), None);
+    while fourth.poll_transmit().is_some() {}
+    assert!(fourth.is_closed());
+}
+
+#[test]
+fn the_client_refuses_what_cannot_be_typed_or_framed() {
+    let mut client = TerminalClient::new(ClientConfig::default());
+    assert!(matches!(
+        client.command(Duration::ZERO, "ID\nKILL x", true),
+        Err(TerminalError::Unsendable(_))
+    ));
+    assert!(matches!(
+        client.load(Duration::ZERO, "x.as", b".PROGRAM x()\x17\n"),
+        Err(TerminalError::Unsendable(_))
+    ));
+    client.command(Duration::ZERO, "ID", false).unwrap();
+    assert_eq!(
+        client.command(Duration::ZERO, "ID", false),
+        Err(TerminalError::Busy)
+    );
+}
