@@ -220,7 +220,12 @@ impl TerminalClient {
     /// Sends one monitor command and waits for its prompt. With `confirm`, a question
     /// `Are you sure ? (Yes:1, No:0)` is answered `1` (`KILL`, `PCKILL`, `DELETE`); without,
     /// it is answered `0`.
-    pub fn command(&mut self, now: Duration, line: &str, confirm: bool) -> Result<(), TerminalError> {
+    pub fn command(
+        &mut self,
+        now: Duration,
+        line: &str,
+        confirm: bool,
+    ) -> Result<(), TerminalError> {
         check_line(line)?;
         self.begin(
             now,
@@ -238,7 +243,10 @@ impl TerminalClient {
     pub fn load(&mut self, now: Duration, name: &str, data: &[u8]) -> Result<(), TerminalError> {
         let line = format!("LOAD {name}");
         check_line(&line)?;
-        if let Some(b) = data.iter().find(|b| matches!(**b, 0x02 | 0x05 | 0x17 | SUB)) {
+        if let Some(b) = data
+            .iter()
+            .find(|b| matches!(**b, 0x02 | 0x05 | 0x17 | SUB))
+        {
             return Err(TerminalError::Unsendable(format!(
                 "the file holds the control byte 0x{b:02X}, which the block transfer uses; remove it"
             )));
@@ -460,7 +468,8 @@ impl TerminalClient {
                     };
                     self.finish(Event::Failed(failure));
                 } else {
-                    let errors = completed_errors(&all).unwrap_or(usize::from(syntax_error.is_some()));
+                    let errors =
+                        completed_errors(&all).unwrap_or(usize::from(syntax_error.is_some()));
                     self.finish(Event::Loaded {
                         errors,
                         syntax_error,

@@ -306,7 +306,11 @@ mod tests {
 
     #[test]
     fn an_enq_not_followed_by_stx_is_text() {
-        let out = scan_split(Sender::Controller, &[b'a', ENQ, b'b', ENQ, ENQ, STX, b'E', ETB], 3);
+        let out = scan_split(
+            Sender::Controller,
+            &[b'a', ENQ, b'b', ENQ, ENQ, STX, b'E', ETB],
+            3,
+        );
         assert_eq!(
             out,
             vec![
@@ -324,7 +328,13 @@ mod tests {
         let mut s = Scanner::new(Sender::Controller);
         let mut out = Vec::new();
         s.push(&[ENQ, STX, b'Z', b'x', ETB], &mut out);
-        assert_eq!(out, vec![Piece::Malformed { letter: b'Z', len: 1 }]);
+        assert_eq!(
+            out,
+            vec![Piece::Malformed {
+                letter: b'Z',
+                len: 1
+            }]
+        );
         out.clear();
         s.push(&[ENQ, STX, b'C'], &mut out);
         s.push(&vec![b'x'; MAX_PAYLOAD + 10], &mut out);

@@ -13,10 +13,13 @@
 //!   answering the controller's questions the safe way.
 //! * [`server`] — [`TerminalSession`]: the controller's side of a session over a [`Monitor`],
 //!   which the emulator implements.
+//! * `connection` (feature `tokio`) — the client over TCP, with a transcript of every byte.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod client;
+#[cfg(feature = "tokio")]
+pub mod connection;
 pub mod frame;
 pub mod line;
 pub mod server;

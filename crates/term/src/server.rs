@@ -93,9 +93,17 @@ enum State {
     Confirm,
     LoadOpening,
     LoadBlocks,
-    LoadQuestion { errors: Vec<SyntaxError>, next: usize },
-    LoadClosing { answer: LoadAnswer, syntax_errors: usize },
-    SaveOpening { file: Vec<u8> },
+    LoadQuestion {
+        errors: Vec<SyntaxError>,
+        next: usize,
+    },
+    LoadClosing {
+        answer: LoadAnswer,
+        syntax_errors: usize,
+    },
+    SaveOpening {
+        file: Vec<u8>,
+    },
     SaveClosing,
     Closed,
 }
@@ -351,7 +359,13 @@ impl TerminalSession {
                     self.state = State::LoadBlocks;
                 }
             }
-            (State::LoadClosing { answer, syntax_errors }, Letter::E) => {
+            (
+                State::LoadClosing {
+                    answer,
+                    syntax_errors,
+                },
+                Letter::E,
+            ) => {
                 let file = std::mem::take(&mut self.file);
                 let (lines, errors) = monitor.finish_load(&file, answer);
                 for l in lines {

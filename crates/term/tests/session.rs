@@ -2,115 +2,16 @@
 //! the deploy client relies on, with the controller's output cut in small pieces and the
 //! client's line ends in each form terminals use.
 
-use std::collections::BTreeMap;
+mod common;
+
 use std::time::Duration;
 
-use fs020n_term::text::{self, MonitorError};
+use common::Shelf;
+use fs020n_term::text;
 use fs020n_term::{
-    ClientConfig, Event, LoadAnswer, Monitor, Question, Reply, SessionConfig, SyntaxError,
-    TerminalClient, TerminalError, TerminalSession,
+    ClientConfig, Event, LoadAnswer, Monitor, Question, SessionConfig, TerminalClient,
+    TerminalError, TerminalSession,
 };
-
-/// A small controller for the session: programs by name, a switch, a transfer lock.
-#[derive(Default)]
-struct Shelf {
-    programs: BTreeMap<String, String>,
-    sessions: usize,
-    blocked: bool,
-    abandoned: usize,
-    pending_kill: Option<String>,
-    last_answer: Option<LoadAnswer>,
-    received: Vec<u8>,
-}
-
-fn programs_of(file: &[u8]) -> Vec<(String, String)> {
-    let text = String::from_utf8_lossy(file);
-    let mut out = Vec::new();
-    let mut current: Option<(String, String)> = None;
-    for line in text.lines() {
-        if let Some(rest) = line.trim().strip_prefix(".PROGRAM ") {
-            let name = rest.split('(').next().unwrap_or("").trim().to_owned();
-            current = Some((name, String::new()));
-        } else if line.trim() == ".END" {
-            out.extend(current.take());
-        } else if let Some((_, body)) = &mut current {
-            body.push_str(line);
-            body.push_str("\r\n");
-        }
-    }
-    out
-}
-
-impl Monitor for Shelf {
-    fn open_session(&mut self) -> Option<String> {
-        (self.sessions < text::MAX_SESSIONS).then(|| {
-            self.sessions += 1;
-            format!("AUX{}", self.sessions)
-        })
-    }
-    fn close_session(&mut self, _terminal: &str) {
-        self.sessions -= 1;
-    }
-    fn run(&mut self, line: &str) -> Reply {
-        let (word, rest) = fs020n_term::server::split_word(line);
-        match word.to_ascii_uppercase().as_str() {
-            "DIRECTORY/P" => Reply::Lines(vec![
-                "Program list".into(),
-                self.programs.keys().cloned().collect::<Vec<_>>().join(" "),
-            ]),
-            "KILL" => match self.programs.contains_key(rest) {
-                true => {
-                    self.pending_kill = Some(rest.to_owned());
-                    Reply::AreYouSure
-                }
-                false => Reply::Error(text::P1038_NO_PROGRAM),
-            },
-            _ => Reply::Error(text::UNKNOWN_COMMAND),
-        }
-    }
-    fn confirmed(&mut self) -> Reply {
-        if let Some(name) = self.pending_kill.take() {
-            self.programs.remove(&name);
-        }
-        Reply::Lines(vec![])
-    }
-    fn transfer_blocked(&self) -> bool {
-        self.blocked
-    }
-    fn transfer_abandoned(&mut self) {
-        self.abandoned += 1;
-        self.blocked = true;
-    }
-    fn check_load(&mut self, file: &[u8]) -> Vec<SyntaxError> {
-        self.received = file.to_vec();
-        String::from_utf8_lossy(file)
-            .lines()
-            .filter(|l| l.contains("NOT AS"))
-            .map(|l| SyntaxError {
-                line: l.trim().to_owned(),
-            })
-            .collect()
-    }
-    fn finish_load(&mut self, file: &[u8], answer: LoadAnswer) -> (Vec<String>, usize) {
-        self.last_answer = Some(answer.clone());
-        if answer == LoadAnswer::Abort {
-            return (vec![], 1);
-        }
-        let mut lines = Vec::new();
-        for (name, body) in programs_of(file) {
-            lines.push(text::program_loaded(&name, ""));
-            self.programs.insert(name, body);
-        }
-        (lines, 0)
-    }
-    fn save(&mut self, spec: &str) -> Result<Vec<u8>, MonitorError> {
-        let name = spec.split('=').nth(1).unwrap_or("").trim();
-        match self.programs.get(name) {
-            Some(body) => Ok(format!(".PROGRAM {name}()\r\n{body}.END\r\n").into_bytes()),
-            None => Err(text::P1038_NO_PROGRAM),
-        }
-    }
-}
 
 /// Both ends on one fake clock.
 struct Link {
@@ -248,7 +149,10 @@ fn a_load_sends_the_file_in_blocks_as_asked_and_the_controller_gets_every_byte()
             }) => {
                 assert!(output.contains("Loading...(deploy.as)"), "{output}");
                 assert!(output.contains("Program autostart.pc()"), "{output}");
-                assert!(output.contains("File load completed. (0 errors)"), "{output}");
+                assert!(
+                    output.contains("File load completed. (0 errors)"),
+                    "{output}"
+                );
             }
             other => panic!("{other:?}"),
         }
@@ -290,7 +194,9 @@ fn a_blocked_transfer_is_p2076_and_the_client_says_to_restart() {
     let mut link = Link::new(ClientConfig::default(), usize::MAX);
     link.login();
     link.shelf.blocked = true;
-    link.client.load(link.now, "x.as", b".PROGRAM x()\n.END\n").unwrap();
+    link.client
+        .load(link.now, "x.as", b".PROGRAM x()\n.END\n")
+        .unwrap();
     assert_eq!(
         link.settle(),
         vec![Event::Failed(TerminalError::TransferInProgress)]
