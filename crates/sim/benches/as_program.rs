@@ -1,4 +1,4 @@
-//! The interpreted protocol-1040 server (`fs020n_as::SERVER_1040` on `as_host`) streaming
+//! The interpreted protocol-1040 server (`fs020n_as::SERVER_1040` on `Controller::with_program`) streaming
 //! command 7 at 100 Hz on virtual time (results in docs/PERFORMANCE.md, "AS interpreter").
 //!
 //! One simulated second = 100 × (the client sends a command 7, the controller advances 10 ms
@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 use criterion::{criterion_group, criterion_main, Criterion};
 use fs020n_as::Config;
 use fs020n_proto::JointsDeg;
-use fs020n_sim::as_host::{ClientId, ServerProgram};
+use fs020n_sim::{ClientId, ServerProgram};
 use fs020n_sim::{Controller, ControllerConfig};
 
 struct Streamer {

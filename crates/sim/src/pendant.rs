@@ -29,8 +29,8 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use tokio::task::JoinHandle;
 
-use crate::controller::{PanelChange, PanelError};
 use crate::fault::Fault;
+use crate::machine::{PanelChange, PanelError};
 use crate::server::Emulator;
 use crate::snapshot::Snapshot;
 
@@ -361,7 +361,7 @@ struct AbsSpeedBody {
 /// The AS program's tasks (program, line, state, what they wait for) and terminal.
 async fn tasks_get(
     State(st): State<AppState>,
-) -> Result<Json<crate::as_host::ProgramInfo>, ApiError> {
+) -> Result<Json<crate::snapshot::ProgramInfo>, ApiError> {
     st.emulator.snapshot().program.map(Json).ok_or_else(|| {
         ApiError::new(
             StatusCode::NOT_FOUND,
