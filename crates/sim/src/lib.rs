@@ -26,6 +26,8 @@
 
 mod controller;
 mod fault;
+#[cfg(feature = "pendant")]
+mod guard;
 mod machine;
 mod motion;
 mod native;
@@ -39,6 +41,8 @@ mod snapshot;
 
 pub use controller::Controller;
 pub use fault::{Fault, ReplyFault, MAX_FAULT_BYTES, MAX_FAULT_COUNT, MAX_FAULT_MS};
+#[cfg(feature = "pendant")]
+pub use guard::{GuardRefusal, PendantAccess, RequestGuard};
 pub use machine::{
     Behaviour, ControllerConfig, PanelChange, PanelError, PlannedAfterBrake, Timing, LISTEN_GAP,
     PASS_TIME, SIGNAL_EDGE, TICK,
@@ -50,9 +54,7 @@ pub use motion::{
 pub use native::{Handled, SessionGone, SessionId};
 pub use panel::Panel;
 #[cfg(feature = "pendant")]
-pub use pendant::{
-    parse_fault, pendant_router, serve_pendant, ApiError, PendantAccess, PendantServer,
-};
+pub use pendant::{parse_fault, pendant_router, serve_pendant, ApiError, PendantServer};
 pub use program::{
     ClientId, ClientRead, ProgramError, ServerProgram, CLIENT_BUFFER, MAX_TOOL_SPEED_MM_S,
     SNAPSHOT_TERMINAL_LINES,
