@@ -33,14 +33,13 @@ use std::time::Duration;
 use fs020n_as::{Config, Interpreter, LoadError, MotionRequest, TaskId, TerminalLine, TraceLine};
 use fs020n_proto::server::ServerRequest;
 use fs020n_proto::{JointsDeg, Status, PROTOCOL_VERSION};
-use serde::Serialize;
 
 use crate::machine::{Machine, ServerPicture};
 use crate::snapshot::{CommandInfo, ProgramInfo, Refused, SessionInfo, Snapshot, TaskState};
 pub use host::MAX_TOOL_SPEED_MM_S;
 use host::{panel_of, Host, MotionLink};
-pub use net::CLIENT_BUFFER;
-use net::{Net, Peer, Sock};
+use net::Net;
+pub use net::{ClientId, ClientRead, CLIENT_BUFFER};
 
 /// Terminal lines shown in the snapshot.
 pub const SNAPSHOT_TERMINAL_LINES: usize = 50;
@@ -119,22 +118,6 @@ impl ServerProgram {
     }
 }
 
-/// A client of the program's TCP stack (a connection to the controller).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
-pub struct ClientId(pub i32);
-
-/// What a client reads ([`crate::Controller::program_recv`]).
-#[derive(Debug, Clone, PartialEq, Eq, Default)]
-pub struct ClientRead {
-    /// The bytes due now.
-    pub bytes: Vec<u8>,
-    /// The program closed the connection (and everything it sent has been read), or it is
-    /// gone: the client sees the end of the stream.
-    pub closed: bool,
-    /// When more bytes become due (a delayed or split reply).
-    pub next_at: Option<Duration>,
-}
-
 /// The program server inside a controller: the interpreter, its TCP stack and what the
 /// machine's tick needs from it.
 #[derive(Debug, Clone)]
@@ -156,10 +139,7 @@ impl ProgramServer {
         let mut p = ProgramServer {
             interp: program.interp,
             name: program.name,
-            net: Net {
-                next_id: 1,
-                ..Net::default()
-            },
+            net: Net::new(),
             planned: None,
             link: MotionLink::default(),
             task: TaskState::NotRunning,
@@ -219,7 +199,7 @@ impl ProgramServer {
         let skip = terminal.len().saturating_sub(SNAPSHOT_TERMINAL_LINES);
         ProgramInfo {
             name: self.name.clone(),
-            served_port: self.net.served_port,
+            served_port: self.net.served_port(),
             tasks: self.interp.tasks_at(panel_of(m), moving),
             terminal: terminal[skip..].to_vec(),
         }
@@ -241,19 +221,7 @@ impl ProgramServer {
     /// The session part of the snapshot: a client of the served port, and the newest request
     /// when the program keeps the protocol-1040 ring (`ros_cmd_ind`, `ros_cmd[…]`).
     fn session_info(&self, m: &Machine) -> SessionInfo {
-        // An accepted client of the served port (not one still waiting in a backlog).
-        let waiting = |id: &i32| self.net.listeners.values().any(|b| b.contains(id));
-        let client = self
-            .net
-            .sockets
-            .iter()
-            .find(|(id, s)| {
-                matches!(s.peer, Peer::Client)
-                    && Some(s.port) == self.net.served_port
-                    && !s.program_closed
-                    && !waiting(id)
-            })
-            .map(|(id, _)| *id);
+        let client = self.net.served_client();
         let open = client.is_some();
         let newest = self.interp.real("ros_cmd_ind").and_then(|ind| {
             let ind = ind as i32;
@@ -294,10 +262,7 @@ impl ProgramServer {
             timer1_s: open.then(|| f64::from(self.interp.timer(1))),
             newest_index: newest.as_ref().filter(|_| open).map(|(i, _)| *i as usize),
             newest_command: newest.filter(|_| open).map(|(_, c)| c),
-            listening: self
-                .net
-                .served_port
-                .is_some_and(|p| self.net.listeners.contains_key(&p)),
+            listening: self.net.listening(None),
             reading_paused: m.reading_paused_until().is_some(),
             last_end: None,
         }
@@ -335,106 +300,51 @@ impl ProgramServer {
 
     /// Counts every change a client can see (listening, data, a close).
     pub(crate) fn io_generation(&self) -> u64 {
-        self.net.generation
+        self.net.generation()
     }
 
     /// The port served at the robot's address (the first the program listened on).
     pub(crate) fn served_port(&self) -> Option<u16> {
-        self.net.served_port
+        self.net.served_port()
     }
 
     /// `true` while the program listens on `port` (`None`: the served port).
     pub(crate) fn listening(&self, port: Option<u16>) -> bool {
-        port.or(self.net.served_port)
-            .is_some_and(|p| self.net.listeners.contains_key(&p))
+        self.net.listening(port)
     }
 
     /// Breaks every client connection (fault injection: the program sees the connection
     /// broken on its next receive or send).
     pub(crate) fn close_clients(&mut self) {
-        for s in self.net.sockets.values_mut() {
-            if matches!(s.peer, Peer::Client) {
-                s.peer_closed = true;
-                s.program_closed = true;
-                s.outbox.clear();
-                s.outbox_bytes = 0;
-            }
-        }
-        self.net.generation += 1;
+        self.net.close_clients();
     }
 
-    /// A client connects to `port` (`None`: the served port) from `ip`, refused while the
-    /// program does not listen there.
+    /// A client connects to `port` (`None`: the served port) from `ip`, refused (and counted)
+    /// while the program does not listen there.
     pub(crate) fn connect(
         &mut self,
         m: &mut Machine,
         port: Option<u16>,
         ip: [u8; 4],
     ) -> Result<ClientId, Refused> {
-        let Some(port) = port
-            .or(self.net.served_port)
-            .filter(|p| self.net.listeners.contains_key(p))
-        else {
+        self.net.connect_client(port, ip).ok_or_else(|| {
             m.counters_mut().refused += 1;
-            return Err(Refused::ListenGap);
-        };
-        let net = &mut self.net;
-        let id = net.next_id;
-        net.next_id += 1;
-        if let Some(backlog) = net.listeners.get_mut(&port) {
-            backlog.push_back(id);
-        }
-        net.sockets.insert(id, Sock::new(Peer::Client, port, ip));
-        net.generation += 1;
-        Ok(ClientId(id))
+            Refused::ListenGap
+        })
     }
 
     /// A client sends bytes; `false` when its connection is gone (closed by the program).
     pub(crate) fn send(&mut self, client: ClientId, bytes: &[u8]) -> bool {
-        match self.net.sockets.get_mut(&client.0) {
-            Some(s) if !s.program_closed => {
-                s.inbox.extend(bytes);
-                self.net.generation += 1;
-                true
-            }
-            _ => false,
-        }
+        self.net.client_send(client, bytes)
     }
 
     /// What a client reads at `now`.
     pub(crate) fn recv(&mut self, now: Duration, client: ClientId) -> ClientRead {
-        let Some(s) = self.net.sockets.get_mut(&client.0) else {
-            return ClientRead {
-                closed: true,
-                ..ClientRead::default()
-            };
-        };
-        let mut out = ClientRead::default();
-        while let Some(c) = s.outbox.front() {
-            if c.at > now {
-                out.next_at = Some(c.at);
-                break;
-            }
-            if let Some(c) = s.outbox.pop_front() {
-                s.outbox_bytes -= c.bytes.len();
-                out.bytes.extend_from_slice(&c.bytes);
-            }
-        }
-        if !out.bytes.is_empty() {
-            self.net.generation += 1;
-        }
-        out.closed = s.program_closed && s.outbox.is_empty();
-        out
+        self.net.client_recv(now, client)
     }
 
     /// The client closes its connection (the program's next receive reports it broken).
     pub(crate) fn close(&mut self, client: ClientId) {
-        if let Some(s) = self.net.sockets.get_mut(&client.0) {
-            s.peer_closed = true;
-            if s.program_closed {
-                self.net.sockets.remove(&client.0);
-            }
-            self.net.generation += 1;
-        }
+        self.net.client_close(client);
     }
 }
