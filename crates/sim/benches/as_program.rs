@@ -1,5 +1,6 @@
-//! The interpreted protocol-1040 server (`fs020n_as::SERVER_1040` on `Controller::with_program`) streaming
-//! command 7 at 100 Hz on virtual time (results in docs/PERFORMANCE.md, "AS interpreter").
+//! The interpreted protocol-1040 server (`fs020n_as::SERVER_1040` run by
+//! `Controller::with_program`) streaming command 7 at 100 Hz on virtual time (results in
+//! docs/PERFORMANCE.md, "AS interpreter").
 //!
 //! One simulated second = 100 × (the client sends a command 7, the controller advances 10 ms
 //! with the interpreter running both tasks, the client reads the reply). Goal ≥ 500 simulated

@@ -1,6 +1,6 @@
-//! The emulator running an AS program (`Controller::with_program`): on a tokio runtime with paused time
-//! (in-memory clients) and over loopback TCP; the pendant's `/tasks`; faults; a user's own
-//! modified server.
+//! The emulator running an AS program (`Controller::with_program`): on a tokio runtime with
+//! paused time (in-memory clients) and over loopback TCP; the pendant's `/tasks`; faults; a
+//! user's own modified server.
 #![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use std::time::Duration;
