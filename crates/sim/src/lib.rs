@@ -8,8 +8,9 @@
 //!   time for users. Its doc maps its API.
 //! - [`Emulator`]: the controller on a tokio clock, served over TCP with the controller's listen
 //!   windows ([`Emulator::serve_tcp`]) or in memory ([`Emulator::connect`]).
-//! - `serve_pendant` (default feature `pendant`): the pendant API (HTTP + JSON): state, switches, E-stop, reset, monitor
-//!   speed, fault injection ([`Fault`]).
+//! - `serve_pendant` (default feature `pendant`): the pendant API (HTTP + JSON): state,
+//!   switches, E-stop, reset, monitor speed, fault injection ([`Fault`]); behind the HTTP guard
+//!   (`RequestGuard`: Host, Origin, JSON POSTs, bearer token) that the web faces share.
 //! - [`run_robot`] with [`SimOptions`]: a whole robot (robot port + pendant) for a command line.
 //! - [`Snapshot`]: the serializable state.
 //! - [`Controller::with_program`]: the controller running an AS program ([`ServerProgram`], e.g.

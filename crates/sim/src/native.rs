@@ -301,7 +301,8 @@ impl NativeServer {
         let switches = panel.power && panel.run && panel.repeat && !panel.teach_lock;
         if !switches || self.task(m) == TaskState::Running || !m.error().is_none() {
             m.counters_mut().starts_ignored += 1;
-            tracing::info!(blockers = ?m.start_blockers(self.program_executes()), "command 1 ignored");
+            let blockers = m.start_blockers(self.program_executes());
+            tracing::info!(?blockers, "command 1 ignored");
             return;
         }
         if let Some(run) = &mut self.program {

@@ -2,16 +2,17 @@
 //! driving the [`Machine`] as its [`fs020n_as::System`] (`program/host.rs`) and its `TCP_…`
 //! instructions served by an in-controller TCP stack (`program/net.rs`).
 //!
-//! [`crate::Controller::with_program`] loads a program (e.g. this project's protocol-1040 server text,
-//! [`ServerProgram::server_1040`], or a user's modified copy): the interpreter runs its tasks
-//! on the controller's clock, its motions go to the emulator's own motion planner (the same
-//! joint moves, straight lines, blending, braking and limits as the native server), its
-//! `SWITCH(…)`, `ERROR` and `MC …` read and operate the same panel, and its `TCP_…`
+//! [`crate::Controller::with_program`] loads a program (e.g. this project's protocol-1040
+//! server text, [`ServerProgram::server_1040`], or a user's modified copy): the interpreter runs
+//! its tasks on the controller's clock, its motions go to the emulator's own motion planner
+//! (the same joint moves, straight lines, blending, braking and limits as the native server),
+//! its `SWITCH(…)`, `ERROR` and `MC …` read and operate the same panel, and its `TCP_…`
 //! instructions use an in-controller TCP stack whose clients are the network layer
 //! ([`crate::Emulator::serve_program_tcp`], [`crate::Emulator::connect_program`]) or a test
-//! ([`crate::Controller::program_connect`]). The pendant and fault injection work as with the native
-//! server: reply faults apply to what the program sends to a client, `close_connection` breaks
-//! the client connections, `stop_reading` stops delivering the client's bytes.
+//! ([`crate::Controller::program_connect`]). The pendant and fault injection work as with the
+//! native server: reply faults apply to what the program sends to a client,
+//! `close_connection` breaks the client connections, `stop_reading` stops delivering the
+//! client's bytes.
 //!
 //! Choices (docs/AS.md, "In the emulator"):
 //! - the first port the program listens on is the one served at the robot's address;
