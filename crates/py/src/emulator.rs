@@ -301,17 +301,16 @@ impl Emulator {
                 obj.insert(k.extract::<String>()?, py_to_json(&v)?);
             }
         }
-        let fault =
-            fs020n_sim::pendant::parse_fault(serde_json::Value::Object(obj)).map_err(|e| {
-                limit_error(
-                    py,
-                    &format!(
-                        "not a fault: {e}; kinds: delay_replies(count, delay_ms), \
+        let fault = fs020n_sim::parse_fault(serde_json::Value::Object(obj)).map_err(|e| {
+            limit_error(
+                py,
+                &format!(
+                    "not a fault: {e}; kinds: delay_replies(count, delay_ms), \
                          withhold_replies(count), garbage_reply(text), split_reply(parts, gap_ms), \
                          close_connection(), stop_reading(duration_ms), raise_error(code)"
-                    ),
-                )
-            })?;
+                ),
+            )
+        })?;
         self.with(|c| c.inject(fault));
         Ok(())
     }

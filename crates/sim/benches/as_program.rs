@@ -1,5 +1,6 @@
-//! The interpreted protocol-1040 server (`fs020n_as::SERVER_1040` on `as_host`) streaming
-//! command 7 at 100 Hz on virtual time (results in docs/PERFORMANCE.md, "AS interpreter").
+//! The interpreted protocol-1040 server (`fs020n_as::SERVER_1040` run by
+//! `Controller::with_program`) streaming command 7 at 100 Hz on virtual time (results in
+//! docs/PERFORMANCE.md, "AS interpreter").
 //!
 //! One simulated second = 100 × (the client sends a command 7, the controller advances 10 ms
 //! with the interpreter running both tasks, the client reads the reply). Goal ≥ 500 simulated
@@ -11,7 +12,7 @@ use std::time::{Duration, Instant};
 use criterion::{criterion_group, criterion_main, Criterion};
 use fs020n_as::Config;
 use fs020n_proto::JointsDeg;
-use fs020n_sim::as_host::{ClientId, ServerProgram};
+use fs020n_sim::{ClientId, ServerProgram};
 use fs020n_sim::{Controller, ControllerConfig};
 
 struct Streamer {

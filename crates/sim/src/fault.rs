@@ -70,7 +70,7 @@ pub enum ReplyFault {
 
 /// Pending reply faults.
 #[derive(Debug, Clone, Default)]
-pub struct FaultQueue {
+pub(crate) struct FaultQueue {
     replies: VecDeque<ReplyFault>,
 }
 
@@ -166,12 +166,12 @@ impl FaultQueue {
     }
 
     /// Number of reply faults waiting.
-    pub fn pending(&self) -> usize {
+    pub(crate) fn pending(&self) -> usize {
         self.replies.len()
     }
 
     /// Drops all pending faults.
-    pub fn clear(&mut self) {
+    pub(crate) fn clear(&mut self) {
         self.replies.clear();
     }
 }

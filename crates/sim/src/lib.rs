@@ -3,45 +3,69 @@
 //! An emulator of the Kawasaki FS020N controller running the protocol-1040 AS server program,
 //! rule for rule (docs/EMULATOR.md).
 //!
-//! - [`Controller`]: the deterministic core (panel, error, communication task, motion program,
-//!   arm), advanced by a clock it is given — virtual time in tests, real time for users.
+//! - [`Controller`]: the deterministic core (a machine — clock, arm, panel, error, faults — and
+//!   the server program on it), advanced by a clock it is given — virtual time in tests, real
+//!   time for users. Its doc maps its API.
 //! - [`Emulator`]: the controller on a tokio clock, served over TCP with the controller's listen
 //!   windows ([`Emulator::serve_tcp`]) or in memory ([`Emulator::connect`]).
-//! - `serve_pendant` (default feature `pendant`): the pendant API (HTTP + JSON): state, switches, E-stop, reset, monitor
-//!   speed, fault injection ([`Fault`]).
+//! - `serve_pendant` (default feature `pendant`): the pendant API (HTTP + JSON): state,
+//!   switches, E-stop, reset, monitor speed, fault injection ([`Fault`]); behind the HTTP guard
+//!   (`RequestGuard`: Host, Origin, JSON POSTs, bearer token) that the web faces share.
 //! - [`run_robot`] with [`SimOptions`]: a whole robot (robot port + pendant) for a command line.
 //! - [`Snapshot`]: the serializable state.
-//! - [`as_host`]: the controller running an AS program ([`ServerProgram`], e.g. this project's
-//!   AS text of the protocol-1040 server, or a user's modified copy) instead of the native
-//!   server, on the same motion planner, panel, pendant and faults (docs/AS.md).
+//! - [`Controller::with_program`]: the controller running an AS program ([`ServerProgram`], e.g.
+//!   this project's AS text of the protocol-1040 server, or a user's modified copy) instead of
+//!   the native server, on the same machine: motion planner, panel, pendant and faults
+//!   (docs/AS.md).
+//!
+//! Inside, the arrows run one way: `controller` (the façade) over `native` (the native
+//! protocol-1040 server) and `program` (the AS program server), both over `machine` (clock,
+//! arm, panel, error, faults, counters), over `motion`, `fault`, `panel` and `snapshot`; the
+//! tokio side (`server`, `pendant`, `run`) drives the controller from above.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-pub mod as_host;
-pub mod controller;
-pub mod fault;
-pub mod motion;
-pub mod panel;
+mod controller;
+mod fault;
 #[cfg(feature = "pendant")]
-pub mod pendant;
-pub mod run;
-pub mod server;
-pub mod snapshot;
+mod guard;
+mod machine;
+mod motion;
+mod native;
+mod panel;
+#[cfg(feature = "pendant")]
+mod pendant;
+mod program;
+mod run;
+mod server;
+mod snapshot;
 
-pub use as_host::{ClientId, ClientRead, ProgramError, ProgramInfo, ServerProgram};
-pub use controller::{
-    Behaviour, Controller, ControllerConfig, Counters, Handled, MoveKind, PanelChange, PanelError,
-    PassInfo, PassMotion, PlannedAfterBrake, Refused, SessionEnd, SessionGone, SessionId,
-    TaskState, Timing, PASS_TIME, SIGNAL_EDGE, TICK,
+pub use controller::Controller;
+pub use fault::{Fault, ReplyFault, MAX_FAULT_BYTES, MAX_FAULT_COUNT, MAX_FAULT_MS};
+#[cfg(feature = "pendant")]
+pub use guard::{GuardRefusal, PendantAccess, RequestGuard};
+pub use machine::{
+    Behaviour, ControllerConfig, PanelChange, PanelError, PlannedAfterBrake, Timing, LISTEN_GAP,
+    PASS_TIME, SIGNAL_EDGE, TICK,
 };
-pub use fault::{Fault, ReplyFault};
-pub use motion::MotionPhase;
+pub use motion::{
+    LinearPath, Motion, MotionPhase, Robot, Shape, HOLD_RAMP_S, LINEAR_MAX_JOINT_STEP_DEG,
+    LINEAR_SAMPLE_DEG, LINEAR_SAMPLE_MM,
+};
+pub use native::{Handled, SessionGone, SessionId};
 pub use panel::Panel;
 #[cfg(feature = "pendant")]
-pub use pendant::{pendant_router, serve_pendant, PendantAccess, PendantServer};
+pub use pendant::{parse_fault, pendant_router, serve_pendant, ApiError, PendantServer};
+pub use program::{
+    ClientId, ClientRead, ProgramError, ServerProgram, CLIENT_BUFFER, MAX_TOOL_SPEED_MM_S,
+    SNAPSHOT_TERMINAL_LINES,
+};
 pub use run::{run_robot, RunningRobot, SimOptions};
-pub use server::{Emulator, TcpServer};
-pub use snapshot::{CommandInfo, ErrorInfo, LastEnd, SessionInfo, Snapshot};
+pub use server::{Emulator, TcpServer, PIPE_CAPACITY, RECEIVE_BUFFER, SEND_BUFFER};
+pub use snapshot::{
+    CommandInfo, Counters, ErrorInfo, LastEnd, MoveKind, PassInfo, PassMotion, ProgramInfo,
+    Refused, SessionEnd, SessionInfo, Snapshot, TaskState,
+};
 
 /// The README's examples, compiled as doctests.
 #[cfg(doctest)]

@@ -8,7 +8,7 @@
 //! Security: bound to a loopback address by default. Bound to any other address it requires a
 //! bearer token (`Authorization: Bearer <token>`) and refuses to start without one; a token given
 //! on loopback is required too. Because a web page in the user's browser can reach loopback,
-//! every request must also pass the browser checks ([`PendantAccess`]): its `Host` must name
+//! every request must also pass the browser checks ([`RequestGuard`]): its `Host` must name
 //! the address the pendant is bound to (no DNS rebinding), an `Origin` header, when present,
 //! must be the pendant's own origin, and a POST must carry `Content-Type: application/json`
 //! (which a cross-site form cannot send without a CORS preflight this API never grants).
@@ -29,8 +29,9 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use tokio::task::JoinHandle;
 
-use crate::controller::{PanelChange, PanelError};
 use crate::fault::Fault;
+use crate::guard::{GuardRefusal, RequestGuard};
+use crate::machine::{PanelChange, PanelError};
 use crate::server::Emulator;
 use crate::snapshot::Snapshot;
 
@@ -90,64 +91,7 @@ fn bad_json(rejection: JsonRejection, example: &str) -> ApiError {
 #[derive(Clone)]
 struct AppState {
     emulator: Emulator,
-    token: Option<Arc<str>>,
-    access: Arc<PendantAccess>,
-}
-
-/// Who may call the pendant API: the `Host` names and the origin the browser checks accept.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct PendantAccess {
-    /// Accepted `host:port` authorities (lower case). Empty: any `Host` (only for an API bound
-    /// to an unspecified address, which requires a token anyway).
-    hosts: Vec<String>,
-}
-
-impl PendantAccess {
-    /// The authorities under which a pendant bound to `addr` is reached: the address itself,
-    /// and on loopback also `localhost` and both loopback literals. Bound to `0.0.0.0`/`::`,
-    /// the machine's addresses are not known, so any `Host` is accepted (a token is then
-    /// mandatory).
-    pub fn bound_to(addr: SocketAddr) -> PendantAccess {
-        let port = addr.port();
-        if addr.ip().is_unspecified() {
-            return PendantAccess { hosts: Vec::new() };
-        }
-        let mut hosts = vec![match addr {
-            SocketAddr::V4(a) => format!("{}:{port}", a.ip()),
-            SocketAddr::V6(a) => format!("[{}]:{port}", a.ip()),
-        }];
-        if addr.ip().is_loopback() {
-            for h in ["localhost", "127.0.0.1", "[::1]"] {
-                let h = format!("{h}:{port}");
-                if !hosts.contains(&h) {
-                    hosts.push(h);
-                }
-            }
-        }
-        PendantAccess { hosts }
-    }
-
-    /// `true` when `host` (a `Host` header value) names this pendant. A missing port means 80.
-    pub fn host_allowed(&self, host: &str) -> bool {
-        if self.hosts.is_empty() {
-            return true;
-        }
-        let host = host.trim().to_ascii_lowercase();
-        let with_port = if host.ends_with(']') || !host.contains(':') {
-            format!("{host}:80")
-        } else {
-            host
-        };
-        self.hosts.contains(&with_port)
-    }
-
-    /// `true` when `origin` (an `Origin` header value) is this pendant's own origin.
-    pub fn origin_allowed(&self, origin: &str) -> bool {
-        match origin.trim().strip_prefix("http://") {
-            Some(authority) if !authority.contains('/') => self.host_allowed(authority),
-            _ => false,
-        }
-    }
+    guard: Arc<RequestGuard>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -158,12 +102,11 @@ struct SpeedBody {
 
 /// The pendant API as an axum router (for embedding it in another server bound to `bound`).
 /// `token`, when given, is required on every request; the browser checks of
-/// [`PendantAccess::bound_to`]`(bound)` apply to every request.
+/// [`crate::PendantAccess::bound_to`]`(bound)` apply to every request.
 pub fn pendant_router(emulator: Emulator, token: Option<String>, bound: SocketAddr) -> Router {
     let state = AppState {
         emulator,
-        token: token.map(Arc::from),
-        access: Arc::new(PendantAccess::bound_to(bound)),
+        guard: Arc::new(RequestGuard::new(bound, token)),
     };
     Router::new()
         .route("/api", get(index))
@@ -179,77 +122,47 @@ pub fn pendant_router(emulator: Emulator, token: Option<String>, bound: SocketAd
         .route("/tasks", get(tasks_get))
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
-        .layer(middleware::from_fn_with_state(state.clone(), auth))
-        .layer(middleware::from_fn_with_state(
-            state.clone(),
-            browser_checks,
-        ))
+        .layer(middleware::from_fn_with_state(state.clone(), guard))
         .with_state(state)
 }
 
-/// Refuses what a foreign web page could send: a `Host` that is not the pendant's (DNS
-/// rebinding), a foreign `Origin`, and a POST without `Content-Type: application/json`.
-async fn browser_checks(State(st): State<AppState>, req: Request, next: Next) -> Response {
-    let headers = req.headers();
-    let host = headers.get(header::HOST).and_then(|v| v.to_str().ok());
-    if !host.is_some_and(|h| st.access.host_allowed(h)) {
-        return ApiError::new(
+/// Refuses what a foreign web page could send (a `Host` that is not the pendant's, a foreign
+/// `Origin`, a POST without `Content-Type: application/json`) and a request without the token.
+async fn guard(State(st): State<AppState>, req: Request, next: Next) -> Response {
+    match st.guard.check(req.method(), req.headers(), true) {
+        Ok(()) => next.run(req).await,
+        Err(refusal) => refused(refusal).into_response(),
+    }
+}
+
+/// A refusal of the guard, in the pendant's words.
+fn refused(refusal: GuardRefusal) -> Response {
+    match refusal {
+        GuardRefusal::ForeignHost(host) => ApiError::new(
             StatusCode::MISDIRECTED_REQUEST,
             format!(
                 "the Host header {:?} does not name this pendant",
-                host.unwrap_or("(none)")
+                host.as_deref().unwrap_or("(none)")
             ),
             "call the pendant by the address it listens on (e.g. http://127.0.0.1:10051/)",
         )
-        .into_response();
-    }
-    if let Some(origin) = headers.get(header::ORIGIN) {
-        let origin = origin.to_str().unwrap_or("");
-        if !st.access.origin_allowed(origin) {
-            return ApiError::new(
-                StatusCode::FORBIDDEN,
-                format!("requests from the web origin {origin:?} are refused"),
-                "only the pendant's own page may call it from a browser; use curl or the CLI otherwise",
-            )
-            .into_response();
-        }
-    }
-    if req.method() == axum::http::Method::POST {
-        let json = headers
-            .get(header::CONTENT_TYPE)
-            .and_then(|v| v.to_str().ok())
-            .and_then(|v| v.split(';').next())
-            .is_some_and(|v| v.trim().eq_ignore_ascii_case("application/json"));
-        if !json {
-            return ApiError::new(
-                StatusCode::UNSUPPORTED_MEDIA_TYPE,
-                "a POST to the pendant API must carry Content-Type: application/json",
-                "send the header `Content-Type: application/json` (curl: --json '{}' or -H 'Content-Type: application/json')",
-            )
-            .into_response();
-        }
-    }
-    next.run(req).await
-}
-
-async fn auth(State(st): State<AppState>, req: Request, next: Next) -> Response {
-    if let Some(token) = &st.token {
-        let given = req
-            .headers()
-            .get(header::AUTHORIZATION)
-            .and_then(|v| v.to_str().ok())
-            // The scheme name is case-insensitive (RFC 9110 §11.1).
-            .and_then(|v| {
-                let (scheme, rest) = v.split_once(' ')?;
-                scheme
-                    .eq_ignore_ascii_case("bearer")
-                    .then_some(rest.trim_start())
-            });
-        let ok = given.is_some_and(|g| constant_time_eq(g.as_bytes(), token.as_bytes()));
-        if !ok {
+        .into_response(),
+        GuardRefusal::ForeignOrigin(origin) => ApiError::new(
+            StatusCode::FORBIDDEN,
+            format!("requests from the web origin {origin:?} are refused"),
+            "only the pendant's own page may call it from a browser; use curl or the CLI otherwise",
+        )
+        .into_response(),
+        GuardRefusal::NotJson => ApiError::new(
+            StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            "a POST to the pendant API must carry Content-Type: application/json",
+            "send the header `Content-Type: application/json` (curl: --json '{}' or -H 'Content-Type: application/json')",
+        )
+        .into_response(),
+        GuardRefusal::NoToken | GuardRefusal::WrongToken => {
             let mut r = ApiError::new(
                 StatusCode::UNAUTHORIZED,
-                if given.is_some() {
+                if refusal == GuardRefusal::WrongToken {
                     "wrong pendant token"
                 } else {
                     "this pendant API requires a token"
@@ -261,17 +174,9 @@ async fn auth(State(st): State<AppState>, req: Request, next: Next) -> Response 
                 header::WWW_AUTHENTICATE,
                 header::HeaderValue::from_static("Bearer"),
             );
-            return r;
+            r
         }
     }
-    next.run(req).await
-}
-
-fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
-    if a.len() != b.len() {
-        return false;
-    }
-    a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
 }
 
 async fn index() -> Json<Value> {
@@ -361,7 +266,7 @@ struct AbsSpeedBody {
 /// The AS program's tasks (program, line, state, what they wait for) and terminal.
 async fn tasks_get(
     State(st): State<AppState>,
-) -> Result<Json<crate::as_host::ProgramInfo>, ApiError> {
+) -> Result<Json<crate::snapshot::ProgramInfo>, ApiError> {
     st.emulator.snapshot().program.map(Json).ok_or_else(|| {
         ApiError::new(
             StatusCode::NOT_FOUND,

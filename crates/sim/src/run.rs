@@ -9,7 +9,7 @@ use fs020n_kin::RobotModel;
 use fs020n_proto::session::DEFAULT_PORT;
 use fs020n_proto::{ErrorCode, JointsDeg};
 
-use crate::controller::ControllerConfig;
+use crate::machine::ControllerConfig;
 use crate::panel::Panel;
 #[cfg(feature = "pendant")]
 use crate::pendant::{serve_pendant, PendantServer};
@@ -230,10 +230,10 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
             (emulator, robot)
         }
         Some(path) => {
-            let program = crate::as_host::ServerProgram::from_file(path).map_err(|e| {
+            let program = crate::program::ServerProgram::from_file(path).map_err(|e| {
                 let kind = match &e {
-                    crate::as_host::ProgramError::Read { source, .. } => source.kind(),
-                    crate::as_host::ProgramError::Load(_) => io::ErrorKind::InvalidData,
+                    crate::program::ProgramError::Read { source, .. } => source.kind(),
+                    crate::program::ProgramError::Load(_) => io::ErrorKind::InvalidData,
                 };
                 io::Error::new(kind, e.to_string())
             })?;

@@ -1,5 +1,6 @@
 //! The emulator on a tokio runtime: the controller advanced by the runtime's clock, served over
-//! TCP (with the controller's listen windows) or over in-memory streams.
+//! TCP (with the controller's listen windows) or over in-memory streams; an AS program's
+//! clients are served by `server/program.rs`.
 //!
 //! Under `tokio::time::pause()` (or `#[tokio::test(start_paused = true)]`) the runtime's clock is
 //! virtual: the emulator and a client on in-memory streams then run thousands of times faster
@@ -17,8 +18,13 @@ use tokio::sync::watch;
 use tokio::task::JoinHandle;
 use tokio::time::Instant;
 
-use crate::controller::{Controller, ControllerConfig, SessionEnd, SessionId};
+use crate::controller::Controller;
 use crate::fault::ReplyFault;
+use crate::machine::ControllerConfig;
+use crate::native::SessionId;
+use crate::snapshot::{SessionEnd, Snapshot};
+
+mod program;
 
 /// Size of the in-memory pipe of [`Emulator::connect`] in each direction, bytes (small, like a
 /// socket buffer that fills when the peer stops reading).
@@ -137,7 +143,7 @@ impl Emulator {
     }
 
     /// A serializable picture of the controller now.
-    pub fn snapshot(&self) -> crate::snapshot::Snapshot {
+    pub fn snapshot(&self) -> Snapshot {
         self.with(|c| c.snapshot())
     }
 

@@ -1,6 +1,7 @@
 //! A serializable picture of the whole controller at one instant: what the pendant API returns
 //! from `GET /state`, what the CLI prints, what tests compare.
 
+use fs020n_as::{TaskInfo, TerminalLine};
 use fs020n_kin::Xyzoat;
 use fs020n_proto::{Command, ErrorCode, JointsDeg};
 use std::time::Duration;
@@ -24,6 +25,17 @@ pub enum SessionEnd {
     Disconnected,
     /// Closed by fault injection.
     Fault,
+}
+
+/// Why a connection was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum Refused {
+    /// Between two listen windows.
+    #[error("connection refused: the controller is between two listen windows")]
+    ListenGap,
+    /// Another client holds the session.
+    #[error("connection refused: another client holds the session")]
+    SessionOpen,
 }
 
 /// State of the motion program (robot task 1).
@@ -170,7 +182,7 @@ pub struct Snapshot {
     /// The AS program the controller runs instead of the native server (absent without one):
     /// its tasks, their lines and states, and the terminal.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub program: Option<crate::as_host::ProgramInfo>,
+    pub program: Option<ProgramInfo>,
 }
 
 /// An error as the pendant shows it.
@@ -231,4 +243,17 @@ pub struct LastEnd {
     pub id: u64,
     /// Why.
     pub reason: SessionEnd,
+}
+
+/// The AS program as the pendant shows it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ProgramInfo {
+    /// The program file.
+    pub name: String,
+    /// The port served at the robot's address (the first the program listened on).
+    pub served_port: Option<u16>,
+    /// Every task: program, line, state, what it waits for.
+    pub tasks: Vec<TaskInfo>,
+    /// The latest terminal lines.
+    pub terminal: Vec<TerminalLine>,
 }

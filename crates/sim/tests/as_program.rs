@@ -1,12 +1,12 @@
-//! The emulator running an AS program (`as_host`): on a tokio runtime with paused time
-//! (in-memory clients) and over loopback TCP; the pendant's `/tasks`; faults; a user's own
-//! modified server.
+//! The emulator running an AS program (`Controller::with_program`): on a tokio runtime with
+//! paused time (in-memory clients) and over loopback TCP; the pendant's `/tasks`; faults; a
+//! user's own modified server.
 #![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use std::time::Duration;
 
 use fs020n_proto::{ErrorCode, Status};
-use fs020n_sim::as_host::ServerProgram;
+use fs020n_sim::ServerProgram;
 use fs020n_sim::{ControllerConfig, Emulator, Fault};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 

@@ -25,8 +25,7 @@ use std::time::Duration;
 
 use fs020n_as::{Config, CostModel};
 use fs020n_proto::Status;
-use fs020n_sim::as_host::{ClientId, ServerProgram};
-use fs020n_sim::{Controller, ControllerConfig, SessionId};
+use fs020n_sim::{ClientId, Controller, ControllerConfig, ServerProgram, SessionId};
 
 /// One side of the comparison.
 trait Server {

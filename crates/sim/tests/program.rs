@@ -792,7 +792,7 @@ fn an_injected_error_stops_the_program_and_brakes() {
 
 #[test]
 fn long_straight_lines_stay_on_the_line_with_adaptive_sampling() {
-    use fs020n_sim::motion::LinearPath;
+    use fs020n_sim::LinearPath;
     let model = RobotModel::fs020n();
     let from = JointsDeg::new([-20.0, 10.0, -80.0, 30.0, -60.0, 0.0]);
     let to = JointsDeg::new([25.0, 30.0, -70.0, -20.0, -40.0, 45.0]);

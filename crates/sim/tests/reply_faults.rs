@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use common::{jmove, ms, running};
 use fs020n_proto::{ReplyDecoder, Status};
-use fs020n_sim::fault::MAX_FAULT_COUNT;
+use fs020n_sim::MAX_FAULT_COUNT;
 use fs020n_sim::{ControllerConfig, Emulator, Fault, SessionEnd, TaskState};
 use tokio::io::{AsyncReadExt, AsyncWriteExt, DuplexStream};
 

@@ -6,7 +6,7 @@ use std::net::SocketAddr;
 use std::time::Duration;
 
 use fs020n_proto::{ReplyDecoder, Status};
-use fs020n_sim::controller::Timing;
+use fs020n_sim::Timing;
 use fs020n_sim::{
     run_robot, serve_pendant, ControllerConfig, Emulator, Panel, SimOptions, TaskState,
 };

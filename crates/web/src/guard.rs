@@ -3,8 +3,8 @@
 //!
 //! - **Host** must name the address the server is bound to (`127.0.0.1:8080`, or
 //!   `localhost:8080` / `[::1]:8080` on loopback; any host when bound to `0.0.0.0`/`::`, where a
-//!   token is mandatory). A rebinding attack sends its own host name. The rules are the
-//!   emulator pendant's ([`PendantAccess`]).
+//!   token is mandatory; a request without a `Host` is refused). A rebinding attack sends its
+//!   own host name.
 //! - **Origin**, when the browser sends one, must be this server's own origin.
 //! - **POST** must carry `Content-Type: application/json` (a cross-site form cannot).
 //! - **Token**: when the server has one, every request except the page itself (`/` and
@@ -12,7 +12,8 @@
 //!   token from its own URL fragment (`http://host:port/#token=…`, never sent to the server)
 //!   and sends it with every request.
 //!
-//! Refusals are JSON `{"error": …, "remedy": …}` like the pendant API's.
+//! The rules are the emulator pendant's, one guard for both ([`RequestGuard`]); this module
+//! words its refusals as JSON `{"error": …, "remedy": …}` like the pendant API's.
 
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -22,7 +23,7 @@ use axum::http::{header, HeaderMap, Method, StatusCode};
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 use axum::Json;
-use fs020n_sim::PendantAccess;
+use fs020n_sim::{GuardRefusal, RequestGuard};
 use serde::Serialize;
 
 /// An HTTP error: status, what went wrong, and what to do about it.
@@ -62,13 +63,12 @@ impl IntoResponse for WebError {
     }
 }
 
-/// The rules of one server: its bound address and its token. Host and Origin are checked
-/// with the emulator pendant's own rules ([`PendantAccess`]).
+/// The rules of one server: its bound address and its token, checked by the emulator
+/// pendant's own guard ([`RequestGuard`]).
 #[derive(Debug, Clone)]
 pub struct Guard {
     bound: SocketAddr,
-    access: Arc<PendantAccess>,
-    token: Option<Arc<str>>,
+    rules: Arc<RequestGuard>,
 }
 
 impl Guard {
@@ -77,8 +77,7 @@ impl Guard {
     pub fn new(bound: SocketAddr, token: Option<String>) -> Guard {
         Guard {
             bound,
-            access: Arc::new(PendantAccess::bound_to(bound)),
-            token: token.filter(|t| !t.is_empty()).map(Arc::from),
+            rules: Arc::new(RequestGuard::new(bound, token.filter(|t| !t.is_empty()))),
         }
     }
 
@@ -102,87 +101,59 @@ impl Guard {
 
     /// `true` when `host` (a Host header value) names this server.
     pub fn host_allowed(&self, host: &str) -> bool {
-        self.access.host_allowed(host)
+        self.rules.access().host_allowed(host)
     }
 
-    /// Checks one request; `Err` is the refusal to send.
+    /// Checks one request; `Err` is the refusal to send. The page itself (`/` and
+    /// `/assets/…`) needs no token.
     pub fn check(&self, method: &Method, path: &str, headers: &HeaderMap) -> Result<(), WebError> {
-        let host = headers
-            .get(header::HOST)
-            .and_then(|v| v.to_str().ok())
-            .unwrap_or("");
-        if !self.host_allowed(host) {
-            return Err(WebError::new(
+        let public = path == "/" || path.starts_with("/assets/");
+        self.rules
+            .check(method, headers, !public)
+            .map_err(|refusal| self.refused(refusal))
+    }
+
+    /// A refusal of the guard, in this server's words.
+    fn refused(&self, refusal: GuardRefusal) -> WebError {
+        match refusal {
+            GuardRefusal::ForeignHost(host) => WebError::new(
                 StatusCode::MISDIRECTED_REQUEST,
-                format!("Host {host:?} is not this server ({})", self.bound),
+                format!(
+                    "Host {:?} is not this server ({})",
+                    host.as_deref().unwrap_or(""),
+                    self.bound
+                ),
                 format!(
                     "open the page by its address, http://{}/ (a different host name is refused \
                      against DNS rebinding)",
                     self.bound
                 ),
-            ));
+            ),
+            GuardRefusal::ForeignOrigin(origin) => WebError::new(
+                StatusCode::FORBIDDEN,
+                format!("cross-origin request from {origin:?} refused"),
+                format!(
+                    "only the page served by this server (http://{}) may use it",
+                    self.bound
+                ),
+            ),
+            GuardRefusal::NotJson => WebError::new(
+                StatusCode::UNSUPPORTED_MEDIA_TYPE,
+                "a POST needs Content-Type: application/json",
+                "send a JSON body with the header Content-Type: application/json (e.g. {})",
+            ),
+            GuardRefusal::NoToken | GuardRefusal::WrongToken => WebError::new(
+                StatusCode::UNAUTHORIZED,
+                if refusal == GuardRefusal::WrongToken {
+                    "wrong token"
+                } else {
+                    "this server requires a token"
+                },
+                "send `Authorization: Bearer <token>`; in a browser open \
+                 http://HOST:PORT/#token=<token>",
+            ),
         }
-        if let Some(origin) = headers.get(header::ORIGIN) {
-            let origin = origin.to_str().unwrap_or("");
-            if !self.access.origin_allowed(origin) {
-                return Err(WebError::new(
-                    StatusCode::FORBIDDEN,
-                    format!("cross-origin request from {origin:?} refused"),
-                    format!(
-                        "only the page served by this server (http://{}) may use it",
-                        self.bound
-                    ),
-                ));
-            }
-        }
-        if method == Method::POST {
-            let json = headers
-                .get(header::CONTENT_TYPE)
-                .and_then(|v| v.to_str().ok())
-                .and_then(|v| v.split(';').next())
-                .is_some_and(|v| v.trim().eq_ignore_ascii_case("application/json"));
-            if !json {
-                return Err(WebError::new(
-                    StatusCode::UNSUPPORTED_MEDIA_TYPE,
-                    "a POST needs Content-Type: application/json",
-                    "send a JSON body with the header Content-Type: application/json (e.g. {})",
-                ));
-            }
-        }
-        let public = path == "/" || path.starts_with("/assets/");
-        if let (Some(token), false) = (&self.token, public) {
-            let given = headers
-                .get(header::AUTHORIZATION)
-                .and_then(|v| v.to_str().ok())
-                .and_then(|v| {
-                    let (scheme, rest) = v.split_once(' ')?;
-                    scheme
-                        .eq_ignore_ascii_case("bearer")
-                        .then_some(rest.trim_start())
-                });
-            let ok = given.is_some_and(|g| constant_time_eq(g.as_bytes(), token.as_bytes()));
-            if !ok {
-                return Err(WebError::new(
-                    StatusCode::UNAUTHORIZED,
-                    if given.is_some() {
-                        "wrong token"
-                    } else {
-                        "this server requires a token"
-                    },
-                    "send `Authorization: Bearer <token>`; in a browser open \
-                     http://HOST:PORT/#token=<token>",
-                ));
-            }
-        }
-        Ok(())
     }
-}
-
-fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
-    if a.len() != b.len() {
-        return false;
-    }
-    a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
 }
 
 /// The axum middleware applying a [`Guard`] (use with

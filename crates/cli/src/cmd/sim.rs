@@ -92,7 +92,7 @@ fn check_program(args: &SimArgs) -> CliResult<Option<String>> {
     let Some(path) = &args.as_program else {
         return Ok(None);
     };
-    let program = fs020n_sim::as_host::ServerProgram::from_file(path)
+    let program = fs020n_sim::ServerProgram::from_file(path)
         .map_err(|e| CliError::input(format!("--as-program: {e}")))?;
     for w in program.warnings() {
         eprintln!("warning: {w}");

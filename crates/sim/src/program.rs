@@ -1,0 +1,351 @@
+//! The AS program server: an AS program run instead of the native server, its interpreter
+//! driving the [`Machine`] as its [`fs020n_as::System`] (`program/host.rs`) and its `TCP_…`
+//! instructions served by an in-controller TCP stack (`program/net.rs`).
+//!
+//! [`crate::Controller::with_program`] loads a program (e.g. this project's protocol-1040
+//! server text, [`ServerProgram::server_1040`], or a user's modified copy): the interpreter runs
+//! its tasks on the controller's clock, its motions go to the emulator's own motion planner
+//! (the same joint moves, straight lines, blending, braking and limits as the native server),
+//! its `SWITCH(…)`, `ERROR` and `MC …` read and operate the same panel, and its `TCP_…`
+//! instructions use an in-controller TCP stack whose clients are the network layer
+//! ([`crate::Emulator::serve_program_tcp`], [`crate::Emulator::connect_program`]) or a test
+//! ([`crate::Controller::program_connect`]). The pendant and fault injection work as with the
+//! native server: reply faults apply to what the program sends to a client,
+//! `close_connection` breaks the client connections, `stop_reading` stops delivering the
+//! client's bytes.
+//!
+//! Choices (docs/AS.md, "In the emulator"):
+//! - the first port the program listens on is the one served at the robot's address;
+//! - `ACCURACY` is the distance of the flange to the target, as for the native server; FINE or
+//!   CP OFF blend only once the motion is done;
+//! - `SPEED … S` on an LMOVE is the motion time at monitor 100 % (scaled by the monitor speed),
+//!   exactly as the native server's 0.1 s LMOVE; percent and mm/s speeds of an LMOVE are
+//!   relative to [`MAX_TOOL_SPEED_MM_S`]; ACCEL/DECEL below 100 % are not modelled (the
+//!   planner always uses the joints' full acceleration);
+//! - `BRAKE` follows [`crate::Behaviour::planned_after_brake`] like command 5 of the native
+//!   server; an `ONI` drops the planned motion.
+
+mod host;
+mod net;
+
+use std::path::Path;
+use std::time::Duration;
+
+use fs020n_as::{Config, Interpreter, LoadError, MotionRequest, TaskId, TerminalLine, TraceLine};
+use fs020n_proto::server::ServerRequest;
+use fs020n_proto::{JointsDeg, Status, PROTOCOL_VERSION};
+
+use crate::machine::{Machine, ServerPicture};
+use crate::snapshot::{CommandInfo, ProgramInfo, Refused, SessionInfo, Snapshot, TaskState};
+pub use host::MAX_TOOL_SPEED_MM_S;
+use host::{panel_of, Host, MotionLink};
+use net::Net;
+pub use net::{ClientId, ClientRead, CLIENT_BUFFER};
+
+/// Terminal lines shown in the snapshot.
+pub const SNAPSHOT_TERMINAL_LINES: usize = 50;
+
+/// An AS program loaded and compiled, ready to run in a controller.
+#[derive(Debug, Clone)]
+pub struct ServerProgram {
+    interp: Interpreter,
+    name: String,
+}
+
+/// Why a program file could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum ProgramError {
+    /// The file could not be read.
+    #[error("cannot read the AS program {path}: {source}")]
+    Read {
+        /// The file.
+        path: String,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The text does not parse or load (every error with file:line:column).
+    #[error("the AS program does not load (nothing runs until it does):\n{0}")]
+    Load(#[from] LoadError),
+}
+
+impl ServerProgram {
+    /// Loads program text (`name` is the file name used in messages).
+    pub fn from_source(name: &str, text: &str) -> Result<ServerProgram, LoadError> {
+        ServerProgram::from_source_with(name, text, Config::default())
+    }
+
+    /// Loads program text with interpreter settings (cost model, …).
+    pub fn from_source_with(
+        name: &str,
+        text: &str,
+        config: Config,
+    ) -> Result<ServerProgram, LoadError> {
+        Ok(ServerProgram {
+            interp: Interpreter::from_source(name, text, config)?,
+            name: name.to_owned(),
+        })
+    }
+
+    /// Loads a program file.
+    pub fn from_file(path: &Path) -> Result<ServerProgram, ProgramError> {
+        let text = std::fs::read(path).map_err(|source| ProgramError::Read {
+            path: path.display().to_string(),
+            source,
+        })?;
+        let name = path.display().to_string();
+        Ok(ServerProgram::from_source(
+            &name,
+            &String::from_utf8_lossy(&text),
+        )?)
+    }
+
+    /// This project's AS text of the protocol-1040 server ([`fs020n_as::SERVER_1040`]).
+    pub fn server_1040() -> Result<ServerProgram, LoadError> {
+        ServerProgram::from_source("server1040.as", fs020n_as::SERVER_1040)
+    }
+
+    /// The file name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Things skipped while loading (unknown sections), as messages.
+    pub fn warnings(&self) -> Vec<String> {
+        self.interp
+            .warnings()
+            .iter()
+            .map(|w| w.to_string())
+            .collect()
+    }
+}
+
+/// The program server inside a controller: the interpreter, its TCP stack and what the
+/// machine's tick needs from it.
+#[derive(Debug, Clone)]
+pub(crate) struct ProgramServer {
+    interp: Interpreter,
+    name: String,
+    net: Net,
+    /// The planned motion (re-planned after a BRAKE when the behaviour is to execute it).
+    planned: Option<(MotionRequest, JointsDeg)>,
+    link: MotionLink,
+    /// The robot task's state after the latest step.
+    task: TaskState,
+}
+
+impl ProgramServer {
+    /// Loads `program` on `m`: its `autostart.pc` (… `autostart5.pc`) start at once, in PC
+    /// tasks 1–5.
+    pub(crate) fn start(program: ServerProgram, m: &mut Machine) -> ProgramServer {
+        let mut p = ProgramServer {
+            interp: program.interp,
+            name: program.name,
+            net: Net::new(),
+            planned: None,
+            link: MotionLink::default(),
+            task: TaskState::NotRunning,
+        };
+        let mut host = Host {
+            m,
+            net: &mut p.net,
+            planned: &mut p.planned,
+            link: &mut p.link,
+        };
+        p.interp.start(&mut host);
+        p
+    }
+
+    /// Runs the program's tasks up to `t`; they advance the machine up to each of their steps.
+    pub(crate) fn run_until(&mut self, m: &mut Machine, t: Duration) {
+        let mut host = Host {
+            m,
+            net: &mut self.net,
+            planned: &mut self.planned,
+            link: &mut self.link,
+        };
+        self.interp.run_until(&mut host, t);
+        let task = self.interp.task_state(TaskId::Robot, &host);
+        self.task = match task {
+            fs020n_as::TaskState::Idle => TaskState::NotRunning,
+            fs020n_as::TaskState::Running => TaskState::Running,
+            fs020n_as::TaskState::Paused => TaskState::Paused,
+            fs020n_as::TaskState::WaitingMotion => TaskState::Finishing,
+        };
+    }
+
+    // ----------------------------------------------------------------- observers
+
+    /// The robot task's state after the latest step.
+    pub(crate) fn task(&self) -> TaskState {
+        self.task
+    }
+
+    /// The ABS.SPEED system switch as the program sees it.
+    pub(crate) fn abs_speed(&self) -> bool {
+        self.interp.system_switch("abs.speed").unwrap_or(false)
+    }
+
+    pub(crate) fn set_abs_speed(&mut self, on: bool) {
+        self.interp.set_system_switch("abs.speed", on);
+    }
+
+    /// The status reply as the native server would send it now (a program builds its own).
+    pub(crate) fn status(&self, m: &Machine) -> Status {
+        m.status(self.task == TaskState::Running, 0.0)
+    }
+
+    pub(crate) fn info(&self, m: &Machine) -> ProgramInfo {
+        let moving = !m.robot().is_still();
+        let terminal: Vec<TerminalLine> = self.interp.terminal().cloned().collect();
+        let skip = terminal.len().saturating_sub(SNAPSHOT_TERMINAL_LINES);
+        ProgramInfo {
+            name: self.name.clone(),
+            served_port: self.net.served_port(),
+            tasks: self.interp.tasks_at(panel_of(m), moving),
+            terminal: terminal[skip..].to_vec(),
+        }
+    }
+
+    /// A serializable picture of the machine and this server now.
+    pub(crate) fn snapshot(&self, m: &Machine) -> Snapshot {
+        m.snapshot(ServerPicture {
+            task: self.task,
+            abs_speed: self.abs_speed(),
+            step_s: 0.0,
+            last_pass: None,
+            program_executes: false,
+            session: self.session_info(m),
+            program: Some(self.info(m)),
+        })
+    }
+
+    /// The session part of the snapshot: a client of the served port, and the newest request
+    /// when the program keeps the protocol-1040 ring (`ros_cmd_ind`, `ros_cmd[…]`).
+    fn session_info(&self, m: &Machine) -> SessionInfo {
+        let client = self.net.served_client();
+        let open = client.is_some();
+        let newest = self.interp.real("ros_cmd_ind").and_then(|ind| {
+            let ind = ind as i32;
+            let number = self.interp.real_at("ros_cmd", &[ind, 0])?;
+            let count = self.interp.real_at("ros_cmd", &[ind, 1]).unwrap_or(0.0);
+            let count = if count >= 1.0 {
+                (count as usize).min(128)
+            } else {
+                0
+            };
+            let args = (0..count)
+                .map(|k| {
+                    f64::from(
+                        self.interp
+                            .real_at("ros_cmd", &[ind, 2 + k as i32])
+                            .unwrap_or(0.0),
+                    )
+                })
+                .collect();
+            let cmd = ServerRequest {
+                version: PROTOCOL_VERSION as f64,
+                command_number: f64::from(number),
+                count,
+                args,
+            }
+            .command();
+            Some((
+                ind,
+                CommandInfo {
+                    number: cmd.number(),
+                    command: cmd,
+                },
+            ))
+        });
+        SessionInfo {
+            open,
+            id: client.map(|c| c as u64),
+            timer1_s: open.then(|| f64::from(self.interp.timer(1))),
+            newest_index: newest.as_ref().filter(|_| open).map(|(i, _)| *i as usize),
+            newest_command: newest.filter(|_| open).map(|(_, c)| c),
+            listening: self.net.listening(None),
+            reading_paused: m.reading_paused_until().is_some(),
+            last_end: None,
+        }
+    }
+
+    pub(crate) fn terminal(&self) -> Vec<TerminalLine> {
+        self.interp.terminal().cloned().collect()
+    }
+
+    pub(crate) fn set_trace(&mut self, on: bool) {
+        self.interp.set_trace(on);
+    }
+
+    pub(crate) fn take_trace(&mut self) -> Vec<TraceLine> {
+        self.interp.take_trace()
+    }
+
+    pub(crate) fn next_event(&self) -> Option<Duration> {
+        self.interp.next_event()
+    }
+
+    pub(crate) fn signal(&self, n: i32) -> bool {
+        self.interp.signal(n)
+    }
+
+    pub(crate) fn set_input(&mut self, n: i32, on: bool) {
+        self.interp.set_signal(n, on);
+    }
+
+    pub(crate) fn real(&self, name: &str) -> Option<f32> {
+        self.interp.real(name)
+    }
+
+    // ----------------------------------------------------------------- clients
+
+    /// Counts every change a client can see (listening, data, a close).
+    pub(crate) fn io_generation(&self) -> u64 {
+        self.net.generation()
+    }
+
+    /// The port served at the robot's address (the first the program listened on).
+    pub(crate) fn served_port(&self) -> Option<u16> {
+        self.net.served_port()
+    }
+
+    /// `true` while the program listens on `port` (`None`: the served port).
+    pub(crate) fn listening(&self, port: Option<u16>) -> bool {
+        self.net.listening(port)
+    }
+
+    /// Breaks every client connection (fault injection: the program sees the connection
+    /// broken on its next receive or send).
+    pub(crate) fn close_clients(&mut self) {
+        self.net.close_clients();
+    }
+
+    /// A client connects to `port` (`None`: the served port) from `ip`, refused (and counted)
+    /// while the program does not listen there.
+    pub(crate) fn connect(
+        &mut self,
+        m: &mut Machine,
+        port: Option<u16>,
+        ip: [u8; 4],
+    ) -> Result<ClientId, Refused> {
+        self.net.connect_client(port, ip).ok_or_else(|| {
+            m.counters_mut().refused += 1;
+            Refused::ListenGap
+        })
+    }
+
+    /// A client sends bytes; `false` when its connection is gone (closed by the program).
+    pub(crate) fn send(&mut self, client: ClientId, bytes: &[u8]) -> bool {
+        self.net.client_send(client, bytes)
+    }
+
+    /// What a client reads at `now`.
+    pub(crate) fn recv(&mut self, now: Duration, client: ClientId) -> ClientRead {
+        self.net.client_recv(now, client)
+    }
+
+    /// The client closes its connection (the program's next receive reports it broken).
+    pub(crate) fn close(&mut self, client: ClientId) {
+        self.net.client_close(client);
+    }
+}

@@ -1,0 +1,461 @@
+//! The machine as an AS interpreter's [`System`], for one `run_until`: motions go to the
+//! machine's planner (the same joint moves, straight lines, blending, braking and limits as the
+//! native server), `SWITCH(…)`, `ERROR` and `MC …` read and operate its panel, and the
+//! `TCP_…` instructions use the program's [`Net`].
+
+use std::collections::VecDeque;
+use std::time::Duration;
+
+use fs020n_as::{
+    Issued, Joints, MotionKind, MotionRequest, PanelState, SockPoll, Speed, System, Target, TaskId,
+    Trans,
+};
+use fs020n_kin::{JointMove, Pose, Xyzoat};
+use fs020n_proto::{ErrorCode, JointsDeg};
+
+use super::net::{close_socket, Chunk, Net, Peer, Sock, CLIENT_BUFFER};
+use crate::fault::ReplyFault;
+use crate::machine::{Machine, OnTick, PlannedAfterBrake};
+use crate::motion::{LinearPath, Motion, Shape};
+
+/// Tool speed that percent and mm/s speeds of an `LMOVE` refer to, mm/s (an assumption: the
+/// FS020N's maximum TCP speed is not published; the protocol-1040 server uses time-based
+/// LMOVEs, which do not depend on it).
+pub const MAX_TOOL_SPEED_MM_S: f64 = 2000.0;
+
+/// What the machine's tick needs from the program: the ACCURACY its look-ahead blends in with.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct MotionLink {
+    /// ACCURACY of the motion in progress, mm (the next one blends in within it).
+    pub(crate) accuracy_mm: f64,
+    /// ACCURACY of the planned motion (it becomes the current one's when it starts).
+    pub(crate) planned_accuracy_mm: f64,
+}
+
+/// An AS program's planned motion blends in once the tool is within its ACCURACY; the
+/// interpreter does everything else at its own steps.
+impl OnTick for MotionLink {
+    fn is_idle(&self) -> bool {
+        true
+    }
+
+    fn deadline(&self) -> Option<Duration> {
+        None
+    }
+
+    fn on_time(&mut self, _m: &mut Machine) {}
+
+    fn before_motion(&mut self, m: &mut Machine) {
+        if m.panel().run {
+            if let Some(motion) = m.take_planned_if_ready(self.accuracy_mm) {
+                self.accuracy_mm = self.planned_accuracy_mm;
+                m.start_motion(motion);
+            }
+        }
+    }
+
+    fn after_motion(&mut self, _m: &mut Machine) {}
+}
+
+/// The panel as the interpreter sees it.
+pub(crate) fn panel_of(m: &Machine) -> PanelState {
+    let p = m.panel();
+    PanelState {
+        power: p.power,
+        run: p.run,
+        repeat: p.repeat,
+        teach_lock: p.teach_lock,
+    }
+}
+
+/// The controller as the interpreter's system, for one `run_until`.
+pub(crate) struct Host<'a> {
+    pub(crate) m: &'a mut Machine,
+    pub(crate) net: &'a mut Net,
+    pub(crate) planned: &'a mut Option<(MotionRequest, JointsDeg)>,
+    pub(crate) link: &'a mut MotionLink,
+}
+
+fn xyzoat(p: &Trans) -> Xyzoat {
+    Xyzoat {
+        x_mm: p[0],
+        y_mm: p[1],
+        z_mm: p[2],
+        o_deg: p[3],
+        a_deg: p[4],
+        t_deg: p[5],
+    }
+}
+
+impl Host<'_> {
+    /// The program speed as a fraction of the joints' maximum speeds, with the monitor speed
+    /// (product, or minimum with ABS.SPEED).
+    fn joint_fraction(&self, req: &MotionRequest, from: JointsDeg, to: JointsDeg) -> f64 {
+        let monitor = self.m.monitor_speed();
+        let program = match req.speed {
+            Speed::Percent(p) => p,
+            Speed::MmPerS(v) => 100.0 * v / MAX_TOOL_SPEED_MM_S,
+            Speed::Seconds(s) => {
+                // A time for a joint move: the percentage that takes that long at 100 %.
+                let full = JointMove::plan(self.m.model(), from, to, 1.0).duration_s();
+                if s > 0.0 {
+                    100.0 * full / s
+                } else {
+                    100.0
+                }
+            }
+        }
+        .clamp(0.01, 100.0);
+        let eff = if req.abs_speed {
+            program.min(monitor)
+        } else {
+            program * monitor / 100.0
+        };
+        (eff / 100.0).clamp(1.0e-4, 1.0)
+    }
+
+    /// The duration asked of a straight-line move, seconds (the planner stretches it when a
+    /// joint would exceed its speed).
+    fn linear_duration(&self, req: &MotionRequest, from: JointsDeg, to: JointsDeg) -> f64 {
+        let monitor = self.m.monitor_speed().max(0.01);
+        let model = self.m.model();
+        let dist_mm = model
+            .forward(&from.to_rad())
+            .distance_m(&model.forward(&to.to_rad()))
+            * 1000.0;
+        let tool_speed = |program_mm_s: f64| {
+            let v = if req.abs_speed {
+                program_mm_s.min(MAX_TOOL_SPEED_MM_S * monitor / 100.0)
+            } else {
+                program_mm_s * monitor / 100.0
+            };
+            dist_mm / v.max(1.0e-3)
+        };
+        match req.speed {
+            // Time and absolute speeds are defined at monitor 100 % (the native server's rule).
+            Speed::Seconds(s) => s * 100.0 / monitor,
+            Speed::MmPerS(v) => tool_speed(v),
+            Speed::Percent(p) => tool_speed(MAX_TOOL_SPEED_MM_S * p.clamp(0.01, 100.0) / 100.0),
+        }
+    }
+
+    fn build(
+        &self,
+        req: &MotionRequest,
+        from: JointsDeg,
+    ) -> Result<(Motion, JointsDeg), ErrorCode> {
+        let model = self.m.model();
+        let target = match (req.kind, req.target) {
+            (MotionKind::Delay, _) => from,
+            (_, Target::Joints(j)) => JointsDeg(j),
+            (_, Target::Pose(p)) => model
+                .inverse_nearest(&Pose::from_xyzoat(xyzoat(&p)), &from.to_rad())
+                .map(|q| q.to_deg())
+                .map_err(|_| ErrorCode::DESTINATION_OUT_OF_RANGE)?,
+        };
+        if !target.is_finite() || !model.within_limits(&target) {
+            tracing::warn!(%target, "E1088: destination is out of motion range");
+            return Err(ErrorCode::DESTINATION_OUT_OF_RANGE);
+        }
+        let tick = self.m.timing().tick.as_secs_f64();
+        let shape = match req.kind {
+            MotionKind::Joint => Shape::Joint(JointMove::plan(
+                model,
+                from,
+                target,
+                self.joint_fraction(req, from, target),
+            )),
+            MotionKind::Linear => {
+                let d = self.linear_duration(req, from, target);
+                match LinearPath::plan(model, from, target, d, tick) {
+                    Some(p) => Shape::Linear(p),
+                    None => {
+                        tracing::warn!(%target, "E1088: no straight-line path to the destination");
+                        return Err(ErrorCode::DESTINATION_OUT_OF_RANGE);
+                    }
+                }
+            }
+            MotionKind::Delay => {
+                match LinearPath::plan(model, from, from, req.delay_s.max(0.0), tick) {
+                    Some(p) => Shape::Linear(p),
+                    None => return Err(ErrorCode::DESTINATION_OUT_OF_RANGE),
+                }
+            }
+        };
+        Ok((
+            Motion {
+                from,
+                to: target,
+                shape,
+            },
+            target,
+        ))
+    }
+
+    fn accuracy_of(req: &MotionRequest) -> f64 {
+        if req.fine || !req.cp {
+            0.0
+        } else {
+            req.accuracy_mm
+        }
+    }
+
+    fn sock(&mut self, id: i32) -> Option<&mut Sock> {
+        self.net.sockets.get_mut(&id).filter(|s| !s.program_closed)
+    }
+}
+
+impl System for Host<'_> {
+    fn advance_to(&mut self, t: Duration) {
+        self.m.integrate_to(t, &mut *self.link);
+    }
+
+    fn joints(&self) -> Joints {
+        self.m.robot().joints().0
+    }
+
+    fn pose(&self) -> Option<Trans> {
+        let x = self
+            .m
+            .model()
+            .forward(&self.m.robot().joints().to_rad())
+            .to_xyzoat();
+        Some([x.x_mm, x.y_mm, x.z_mm, x.o_deg, x.a_deg, x.t_deg])
+    }
+
+    fn home(&self) -> Joints {
+        self.m.model().home.0
+    }
+
+    fn issue_motion(&mut self, req: &MotionRequest) -> Result<Issued, ErrorCode> {
+        let from = self.m.robot().target();
+        let (m, target) = self.build(req, from)?;
+        let accuracy = Host::accuracy_of(req);
+        if !self.m.robot().has_planned() && self.m.ready_for_next(self.link.accuracy_mm) {
+            self.link.accuracy_mm = accuracy;
+            self.m.start_motion(m);
+            *self.planned = None;
+            Ok(Issued::Started)
+        } else {
+            self.link.planned_accuracy_mm = accuracy;
+            self.m.plan_motion(m);
+            *self.planned = Some((*req, target));
+            Ok(Issued::Planned)
+        }
+    }
+
+    fn motion_planned(&self) -> bool {
+        self.m.robot().has_planned()
+    }
+
+    fn motion_in_progress(&self) -> bool {
+        !self.m.robot().is_still()
+    }
+
+    fn brake(&mut self) {
+        let had_planned = self.m.robot().has_planned();
+        self.m.brake();
+        let planned = self.planned.take();
+        if self.m.behaviour().planned_after_brake == PlannedAfterBrake::Execute && had_planned {
+            // The planned motion starts from where the brake stops the arm.
+            if let Some((req, _)) = planned {
+                let from = self.m.robot().target();
+                match self.build(&req, from) {
+                    Ok((m, target)) => {
+                        self.m.plan_motion(m);
+                        *self.planned = Some((req, target));
+                    }
+                    Err(code) => self.m.raise(code),
+                }
+            }
+        }
+    }
+
+    fn cut_motion(&mut self) {
+        self.m.brake();
+        *self.planned = None;
+    }
+
+    fn set_program_hold(&mut self, held: bool) {
+        let run = self.m.panel().run;
+        self.m.set_hold(held || !run);
+    }
+
+    fn panel(&self) -> PanelState {
+        panel_of(self.m)
+    }
+
+    fn error(&self) -> ErrorCode {
+        self.m.error()
+    }
+
+    fn raise_error(&mut self, code: ErrorCode) {
+        tracing::warn!(%code, "AS program error");
+        self.m.raise(code);
+    }
+
+    fn reset_error(&mut self) -> Result<(), String> {
+        self.m.reset_error().map_err(|e| e.to_string())
+    }
+
+    fn monitor_speed(&self) -> f64 {
+        self.m.monitor_speed()
+    }
+
+    fn set_monitor_speed(&mut self, percent: f64) -> Result<(), String> {
+        if !(percent.is_finite() && percent > 0.0) {
+            return Err(format!("monitor speed {percent} % is not above 0"));
+        }
+        self.m
+            .set_monitor_speed(percent.min(100.0))
+            .map_err(|e| e.to_string())
+    }
+
+    fn tcp_listen(&mut self, port: u16) -> i32 {
+        if self.net.listeners.contains_key(&port) {
+            return -34055;
+        }
+        self.net.listeners.insert(port, VecDeque::new());
+        self.net.served_port.get_or_insert(port);
+        self.net.generation += 1;
+        0
+    }
+
+    fn tcp_end_listen(&mut self, port: u16) -> i32 {
+        match self.net.listeners.remove(&port) {
+            Some(backlog) => {
+                // Connections never accepted are reset.
+                for id in backlog {
+                    close_socket(self.net, id);
+                }
+                self.net.generation += 1;
+                0
+            }
+            None => -34056,
+        }
+    }
+
+    fn tcp_accept(&mut self, port: u16) -> SockPoll<(i32, [u8; 4])> {
+        let Some(backlog) = self.net.listeners.get_mut(&port) else {
+            return SockPoll::Ready(Err(-34056));
+        };
+        match backlog.pop_front() {
+            Some(id) => {
+                let ip = self.net.sockets.get(&id).map_or([0; 4], |s| s.ip);
+                if self.net.served_port == Some(port) {
+                    self.m.counters_mut().sessions += 1;
+                }
+                tracing::info!(port, socket = id, "AS program accepted a connection");
+                SockPoll::Ready(Ok((id, ip)))
+            }
+            None => SockPoll::Pending,
+        }
+    }
+
+    fn tcp_connect(&mut self, _ip: [u8; 4], port: u16) -> SockPoll<i32> {
+        // The program's own listeners (a controller talking to itself); nothing else is
+        // reachable from the emulator.
+        if !self.net.listeners.contains_key(&port) {
+            return SockPoll::Ready(Err(-34025));
+        }
+        let a = self.net.next_id;
+        let b = a + 1;
+        self.net.next_id += 2;
+        self.net
+            .sockets
+            .insert(a, Sock::new(Peer::Socket(b), 0, [127, 0, 0, 1]));
+        self.net
+            .sockets
+            .insert(b, Sock::new(Peer::Socket(a), port, [127, 0, 0, 1]));
+        if let Some(backlog) = self.net.listeners.get_mut(&port) {
+            backlog.push_back(b);
+        }
+        SockPoll::Ready(Ok(a))
+    }
+
+    fn tcp_recv(&mut self, sock: i32, max: usize) -> SockPoll<Vec<u8>> {
+        let paused = self.m.reading_paused_until().is_some();
+        let Some(s) = self.sock(sock) else {
+            return SockPoll::Ready(Err(-34057));
+        };
+        if matches!(s.peer, Peer::Client) && paused {
+            return SockPoll::Pending;
+        }
+        if s.inbox.is_empty() {
+            return if s.peer_closed {
+                SockPoll::Ready(Err(-34025))
+            } else {
+                SockPoll::Pending
+            };
+        }
+        let n = s.inbox.len().min(max);
+        // Copied slice by slice (the ring's two halves), not byte by byte.
+        let mut out = Vec::with_capacity(n);
+        let (a, b) = s.inbox.as_slices();
+        let from_a = a.len().min(n);
+        out.extend_from_slice(&a[..from_a]);
+        out.extend_from_slice(&b[..(n - from_a).min(b.len())]);
+        s.inbox.drain(..n);
+        SockPoll::Ready(Ok(out))
+    }
+
+    fn tcp_send(&mut self, sock: i32, data: &[u8]) -> SockPoll<()> {
+        let now = self.m.now();
+        let Some(s) = self.sock(sock) else {
+            return SockPoll::Ready(Err(-34057));
+        };
+        if s.peer_closed {
+            return SockPoll::Ready(Err(-34025));
+        }
+        match s.peer.clone() {
+            Peer::Socket(p) => match self.net.sockets.get_mut(&p) {
+                Some(peer) if peer.inbox.len() + data.len() <= CLIENT_BUFFER * 16 => {
+                    peer.inbox.extend(data);
+                    SockPoll::Ready(Ok(()))
+                }
+                Some(_) => SockPoll::Pending,
+                None => SockPoll::Ready(Err(-34025)),
+            },
+            Peer::Client => {
+                if s.outbox_bytes > 0 && s.outbox_bytes + data.len() > CLIENT_BUFFER {
+                    return SockPoll::Pending;
+                }
+                let fault = self.m.next_reply_fault();
+                let Some(s) = self.sock(sock) else {
+                    return SockPoll::Ready(Err(-34057));
+                };
+                let mut push = |at: Duration, bytes: Vec<u8>| {
+                    s.outbox_bytes += bytes.len();
+                    s.outbox.push_back(Chunk { at, bytes });
+                };
+                match fault {
+                    None => push(now, data.to_vec()),
+                    Some(ReplyFault::Withhold) => {}
+                    Some(ReplyFault::Garbage(b)) => push(now, b),
+                    Some(ReplyFault::Delay(d)) => push(now + d, data.to_vec()),
+                    Some(ReplyFault::Split { parts, gap }) => {
+                        let size = data.len().div_ceil(parts.max(1)).max(1);
+                        for (k, piece) in data.chunks(size).enumerate() {
+                            push(now + gap * k as u32, piece.to_vec());
+                        }
+                    }
+                }
+                self.net.generation += 1;
+                SockPoll::Ready(Ok(()))
+            }
+        }
+    }
+
+    fn tcp_close(&mut self, sock: i32) -> i32 {
+        if self.sock(sock).is_none() {
+            return -34057;
+        }
+        close_socket(self.net, sock);
+        self.net.generation += 1;
+        0
+    }
+
+    fn terminal(&mut self, task: TaskId, line: &str) {
+        tracing::debug!(%task, line, "AS terminal");
+    }
+}
