@@ -211,3 +211,111 @@ pub fn monitor_error_code(line: &str) -> Option<u16> {
 
 /// The prompt of a paged listing with SCREEN ON (**H**); a space continues.
 pub const PRESS_SPACE: &str = "Press SPACE key to continue.";
+
+/// What `PCSTATUS n:` or `STATUS` says of a task.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct TaskStatus {
+    /// A program is on the task and runs or waits (`Program running`, `Program WAIT`).
+    pub running: bool,
+    /// The program on the task, from the line under [`PROGRAM_TABLE_HEADER`] (token 0).
+    pub program: Option<String>,
+    /// Its step (token 2 of that line), when given.
+    pub step: Option<u32>,
+}
+
+/// Reads the output of `PCSTATUS n:` or `STATUS` (**H** for the words, **M** for the table:
+/// a client reads the name from token 0 and the step from token 2).
+pub fn parse_task_status(output: &str) -> TaskStatus {
+    let mut status = TaskStatus::default();
+    let mut lines = output.lines().map(str::trim);
+    while let Some(line) = lines.next() {
+        let lower = line.to_ascii_lowercase();
+        if !lower.contains("not running")
+            && !lower.starts_with("no program")
+            && (lower.contains("program running")
+                || lower.contains("program wait")
+                || lower.contains("program is running"))
+        {
+            status.running = true;
+        }
+        if line.starts_with("Program name") {
+            if let Some(row) = lines.next() {
+                let tokens: Vec<&str> = row.split_whitespace().collect();
+                if let Some(name) = tokens.first() {
+                    status.program = Some((*name).to_owned());
+                }
+                status.step = tokens.get(2).and_then(|t| t.parse().ok());
+            }
+        }
+    }
+    status
+}
+
+/// The state `SWITCH name` printed: its last `ON`/`OFF` token (**M**).
+pub fn parse_switch(output: &str) -> Option<bool> {
+    output
+        .split_whitespace()
+        .rev()
+        .find_map(|t| match t.to_ascii_uppercase().as_str() {
+            "ON" => Some(true),
+            "OFF" => Some(false),
+            _ => None,
+        })
+}
+
+/// The AS version in the output of `ID`: the first line after `[Software version]`, or a
+/// token that starts with `AS` and holds `_` (`ASE_K80000W48`) (**M**).
+pub fn parse_as_version(output: &str) -> Option<String> {
+    let mut lines = output.lines().map(str::trim);
+    while let Some(line) = lines.next() {
+        if line.contains("Software version") {
+            if let Some(next) = lines.find(|l| !l.is_empty()) {
+                return Some(next.to_owned());
+            }
+        }
+    }
+    output
+        .split_whitespace()
+        .find(|t| t.starts_with("AS") && t.contains('_'))
+        .map(str::to_owned)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_task_status_names_the_running_program_and_its_step() {
+        let out = format!(
+            "{}\nCompleted cycles: 0\nRemaining cycles: 1\n{}\nautostart.pc      0     12   TCP_RECV",
+            pc_status_line(true),
+            PROGRAM_TABLE_HEADER
+        );
+        let s = parse_task_status(&out);
+        assert!(s.running);
+        assert_eq!(s.program.as_deref(), Some("autostart.pc"));
+        assert_eq!(s.step, Some(12));
+        let idle = parse_task_status(&format!("{}\n{NO_PROGRAM_RUNNING}", pc_status_line(false)));
+        assert_eq!(idle, TaskStatus::default());
+    }
+
+    #[test]
+    fn a_switch_reads_its_last_on_or_off() {
+        assert_eq!(parse_switch("AUTOSTART.PC        ON"), Some(true));
+        assert_eq!(parse_switch("AUTOSTART.PC OFF"), Some(false));
+        assert_eq!(parse_switch("(P0117)Invalid variable (or program) name."), None);
+    }
+
+    #[test]
+    fn the_as_version_is_read_after_its_heading_or_as_a_token() {
+        assert_eq!(
+            parse_as_version("Robot name: FS020N\n[Software version]\nASE_FS020N_EMU 1.0\n").as_deref(),
+            Some("ASE_FS020N_EMU 1.0")
+        );
+        assert_eq!(
+            parse_as_version("AS version ASE_K80000W48").as_deref(),
+            Some("ASE_K80000W48")
+        );
+        assert_eq!(monitor_error_code("(P2076)SAVE/LOAD in progress."), Some(2076));
+    }
+}
