@@ -1,13 +1,19 @@
 //! The session: one connection, strictly one exchange on the wire at a time.
 //!
-//! A request is made by its caller's task: it takes the connection (a FIFO async mutex), writes
-//! the request in one `write`, waits for the complete reply (strict lock-step, deadline per
-//! request), publishes the status and feeds the clock estimator, the statistics and the
-//! recording. A request whose caller's future is dropped mid-exchange is completed by a spawned
-//! task. The session's keeper task sends keep-alive polls (`0 0 0`) whenever no request was
-//! made for a keep-alive period, serves the stops queued by `Drop` impls, and watches the idle
-//! connection. The first failure of the link kills the session: the cause is stored, every
-//! waiter gets it, and the connection is dropped. Nothing is ever retried or resumed.
+//! The rules live in [`SessionCore`] (`session/core.rs`), a state machine without I/O and
+//! without a clock. This file is its tokio driver, and keeps only what needs tokio: the
+//! connection behind a FIFO async mutex, the I/O of each request made by its caller's own task
+//! (no hand-off), the completion of a request whose caller's future was dropped (a spawned
+//! task), and the session's keeper task. A request is made by its caller's task: it takes the
+//! connection, asks the core to begin the request (the core refuses it or puts it in flight),
+//! writes and reads what the core asks for until the core reports the exchange, then consumes
+//! the core's events: the status is published, the clock estimator, the statistics and the
+//! recording are fed. The keeper task sends keep-alive polls when the core says one is due,
+//! serves the stops queued by `Drop` impls, and watches the idle connection. The first failure
+//! of the link kills the session: the cause is stored, every waiter gets it, and the connection
+//! is dropped. Nothing is ever retried or resumed.
+
+mod core;
 
 use std::borrow::Cow;
 use std::future::Future;
@@ -17,16 +23,17 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::task::Poll;
 use std::time::Duration;
 
-use fs020n_proto::{Command, ReplyDecoder, ReplyFrame, Request, Status, PROTOCOL_VERSION};
+use fs020n_proto::{Command, ReplyFrame, Request, Status};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::sync::{mpsc, watch, Notify, OwnedMutexGuard};
 use tokio::time::{sleep_until, timeout_at, Instant};
 
+use self::core::{Event, Reply, SessionCore, Timeouts, Transmit, WireRequest};
+pub(crate) use self::core::{Kind, MotionTag};
 use crate::clock::ServerClock;
 use crate::config::ClientConfig;
-use crate::error::{Cancellation, ClientError, LinkError};
+use crate::error::{ClientError, LinkError};
 use crate::record::{Dir, Recorder};
-use crate::safety::blockers;
 use crate::stats::StatsInner;
 use crate::transport::{BoxedStream, Connector};
 
@@ -59,44 +66,6 @@ impl StatusSnapshot {
     }
 }
 
-/// What a request is, for statistics, recording and the checks.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Kind {
-    /// A status poll asked for by the user.
-    Poll,
-    /// A keep-alive poll of the session task.
-    KeepAlive,
-    /// A command without motion (1, 2, 3, 5, ...).
-    Command,
-    /// A motion command (6/7): checked against the latest status and the motion epoch.
-    Motion,
-    /// A raw request without motion.
-    Raw,
-    /// 255: end the session, then wait for the server to close.
-    Close,
-}
-
-impl Kind {
-    fn as_str(self) -> &'static str {
-        match self {
-            Kind::Poll => "poll",
-            Kind::KeepAlive => "keepalive",
-            Kind::Command => "command",
-            Kind::Motion => "motion",
-            Kind::Raw => "raw",
-            Kind::Close => "close",
-        }
-    }
-}
-
-/// Identifies a motion command: the motion epoch it was validated in (bumped by every cancel
-/// and stop) and its own id.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) struct MotionTag {
-    pub(crate) epoch: u64,
-    pub(crate) id: u64,
-}
-
 /// One completed round trip.
 #[derive(Debug, Clone)]
 pub(crate) struct Exchange {
@@ -108,6 +77,15 @@ pub(crate) struct Exchange {
 impl Exchange {
     pub(crate) fn rtt(&self) -> Duration {
         self.received_at.duration_since(self.sent_at)
+    }
+
+    /// The core's reply on tokio's clock.
+    fn from_reply(reply: Reply) -> Exchange {
+        Exchange {
+            frame: reply.frame,
+            sent_at: Instant::from_std(reply.sent_at),
+            received_at: Instant::from_std(reply.received_at),
+        }
     }
 }
 
@@ -177,8 +155,10 @@ pub(crate) struct SessionShared {
     pub(crate) last_stop: Mutex<Option<Instant>>,
     /// The connection: whoever holds it makes the one exchange on the wire.
     io: Arc<tokio::sync::Mutex<Io>>,
-    /// When the last reply arrived.
-    last_exchange: Mutex<Instant>,
+    /// From when the keeper task watches the idle connection (the core's
+    /// [`watch_idle_at`](SessionCore::watch_idle_at), copied after every reply so that the
+    /// keeper can sleep without holding the connection).
+    idle_watch_at: Mutex<Instant>,
     /// A caller waits for the connection the keeper task holds while the link is idle.
     wanted: Notify,
 }
@@ -337,189 +317,127 @@ impl Link {
     }
 }
 
-/// How long bytes that form a complete reply but for the final blank wait for more before they
-/// are taken as the reply (the controller sends the blank in the same write: this is only for a
-/// peer that omits it).
-const OPEN_REPLY_QUIET: Duration = Duration::from_millis(20);
-
-/// The connection with its decoder and the request in flight.
-struct Conn {
-    stream: BoxedStream,
-    decoder: ReplyDecoder,
-    buf: Vec<u8>,
-    /// The request on the wire, kept here so that a dropped caller's exchange can be resumed.
-    flight: Option<Flight>,
+/// The session core's timeouts from the client's configuration.
+fn timeouts(cfg: &ClientConfig) -> Timeouts {
+    Timeouts {
+        write: cfg.write_timeout,
+        reply: cfg.reply_timeout,
+        keepalive_period: cfg.keepalive_period,
+        close: cfg.close_timeout,
+    }
 }
 
-/// A request being written or awaiting its reply.
-struct Flight {
-    text: Cow<'static, str>,
-    written: usize,
-    sent_at: Instant,
-    write_deadline: Instant,
-    write_timeout: Duration,
-    deadline: Instant,
-    reply_timeout: Duration,
+/// A time to wait for when the core has no deadline (never while a request is in flight).
+fn far_future() -> Instant {
+    Instant::now() + Duration::from_secs(86_400 * 365)
+}
+
+/// The connection with the session core that rules it.
+struct Conn {
+    stream: BoxedStream,
+    buf: Vec<u8>,
+    core: SessionCore,
 }
 
 impl Conn {
-    fn new(stream: BoxedStream) -> Conn {
+    fn new(stream: BoxedStream, timeouts: Timeouts) -> Conn {
         Conn {
             stream,
-            decoder: ReplyDecoder::new(),
             buf: vec![0; 1024],
-            flight: None,
+            core: SessionCore::new(timeouts),
         }
     }
 
-    fn unsolicited(&self) -> Option<LinkError> {
-        (!self.decoder.is_empty()).then(|| LinkError::Unsolicited {
-            excerpt: String::from_utf8_lossy(
-                &self.decoder.buffered()[..self.decoder.buffered().len().min(40)],
-            )
-            .into_owned(),
-        })
-    }
-
-    /// Writes `text` in one write and reads its complete reply before `reply_timeout`.
-    async fn exchange(
-        &mut self,
-        text: Cow<'static, str>,
-        write_timeout: Duration,
-        reply_timeout: Duration,
-    ) -> Result<Exchange, LinkError> {
-        self.begin(text, write_timeout, reply_timeout)?;
-        self.drive().await
-    }
-
-    /// Puts `text` in flight (nothing is written yet).
-    fn begin(
-        &mut self,
-        text: Cow<'static, str>,
-        write_timeout: Duration,
-        reply_timeout: Duration,
-    ) -> Result<(), LinkError> {
-        if let Some(e) = self.unsolicited() {
-            return Err(e);
+    /// Writes and reads what the core asks for until the request in flight is over (its reply
+    /// complete, or the link ended). Cancel-safe: the progress lives in the core, so calling it
+    /// again goes on where it stopped.
+    async fn drive(&mut self) {
+        while self.core.in_flight() {
+            self.step().await;
         }
-        let sent_at = Instant::now();
-        self.flight = Some(Flight {
-            text,
-            written: 0,
-            sent_at,
-            write_deadline: sent_at + write_timeout,
-            write_timeout,
-            deadline: sent_at + reply_timeout,
-            reply_timeout,
-        });
-        Ok(())
     }
 
-    /// Writes what remains of the request in flight and reads its reply. Cancel-safe: if this
-    /// future is dropped, calling it again goes on where it stopped.
-    async fn drive(&mut self) -> Result<Exchange, LinkError> {
-        let Some(f) = self.flight.as_mut() else {
-            return Err(LinkError::SessionEnded);
-        };
-        while f.written < f.text.len() {
-            let rest = &f.text.as_bytes()[f.written..];
-            match timeout_at(f.write_deadline, self.stream.write(rest)).await {
-                Err(_) => {
-                    return Err(LinkError::WriteTimeout {
-                        request: f.text.clone().into_owned(),
-                        deadline: f.write_timeout,
-                    })
+    /// After 255: reads until the server closes the connection or the core's close deadline.
+    async fn await_close(&mut self) {
+        while self.core.is_closing() {
+            self.step().await;
+        }
+    }
+
+    /// One I/O operation the core asks for — write, flush, or read — bounded by the core's next
+    /// deadline; its outcome goes to the core.
+    async fn step(&mut self) {
+        let deadline = self
+            .core
+            .poll_timeout()
+            .map_or_else(far_future, Instant::from_std);
+        match self.core.poll_transmit() {
+            Some(Transmit::Bytes(bytes)) => {
+                let r = timeout_at(deadline, self.stream.write(bytes)).await;
+                let now = Instant::now().into_std();
+                match r {
+                    Err(_) => self.core.handle_timeout(now),
+                    Ok(Err(e)) => self.core.handle_failure(now, LinkError::io(&e)),
+                    Ok(Ok(0)) => self.core.handle_closed(now),
+                    Ok(Ok(n)) => self.core.handle_written(n),
                 }
-                Ok(Err(e)) => return Err(LinkError::io(&e)),
-                Ok(Ok(0)) => return Err(LinkError::Closed),
-                Ok(Ok(n)) => f.written += n,
+            }
+            Some(Transmit::Flush) => {
+                let r = timeout_at(deadline, self.stream.flush()).await;
+                let now = Instant::now().into_std();
+                match r {
+                    Err(_) => self.core.handle_timeout(now),
+                    Ok(Err(e)) => self.core.handle_failure(now, LinkError::io(&e)),
+                    Ok(Ok(())) => self.core.handle_flushed(now),
+                }
+            }
+            None => {
+                let r = timeout_at(deadline, self.stream.read(&mut self.buf)).await;
+                self.feed(r);
             }
         }
-        match timeout_at(f.write_deadline, self.stream.flush()).await {
-            Err(_) => {
-                return Err(LinkError::WriteTimeout {
-                    request: f.text.clone().into_owned(),
-                    deadline: f.write_timeout,
-                })
-            }
-            Ok(Err(e)) => return Err(LinkError::io(&e)),
-            Ok(Ok(())) => {}
-        }
-        let (sent_at, deadline) = (f.sent_at, f.deadline);
-        let mut quiet = false;
-        loop {
-            let next = if std::mem::take(&mut quiet) {
-                self.decoder.take_open_reply()
-            } else {
-                self.decoder.next_reply()
-            };
-            match next {
-                Err(e) => return Err(LinkError::Undecodable(e)),
-                Ok(Some(frame)) => {
-                    let received_at = Instant::now();
-                    self.flight = None;
-                    if let Some(e) = self.unsolicited() {
-                        return Err(e);
-                    }
-                    if frame.status.version != PROTOCOL_VERSION {
-                        return Err(LinkError::NotAController {
-                            version: frame.status.version,
-                        });
-                    }
-                    return Ok(Exchange {
-                        frame,
-                        sent_at,
-                        received_at,
-                    });
-                }
-                Ok(None) => {}
-            }
-            // The controller sends its final blank with the reply. Bytes that would be a
-            // complete reply but for it are taken once the peer has been quiet for a moment.
-            let quiet_at = if self.decoder.may_be_open_reply() {
-                Some(Instant::now() + OPEN_REPLY_QUIET).filter(|&at| at < deadline)
-            } else {
-                None
-            };
-            let n = match timeout_at(
-                quiet_at.unwrap_or(deadline),
-                self.stream.read(&mut self.buf),
-            )
-            .await
-            {
-                Err(_) if quiet_at.is_some() => {
-                    quiet = true;
-                    continue;
-                }
-                Err(_) => {
-                    let (request, deadline) = match &self.flight {
-                        Some(f) => (f.text.clone().into_owned(), f.reply_timeout),
-                        None => (String::new(), Duration::ZERO),
-                    };
-                    return Err(LinkError::ReplyTimeout { request, deadline });
-                }
-                Ok(Err(e)) => return Err(LinkError::io(&e)),
-                Ok(Ok(0)) => return Err(LinkError::Closed),
-                Ok(Ok(n)) => n,
-            };
-            self.decoder
-                .push(&self.buf[..n])
-                .map_err(LinkError::Undecodable)?;
+    }
+
+    /// The outcome of a read (bounded by a deadline) to the core.
+    fn feed(&mut self, r: Result<std::io::Result<usize>, tokio::time::error::Elapsed>) {
+        let now = Instant::now().into_std();
+        match r {
+            Err(_) => self.core.handle_timeout(now),
+            Ok(r) => self.feed_read(now, r),
         }
     }
 
-    /// Bytes that arrived while no request was outstanding.
-    fn idle_bytes(&mut self, n: usize) -> Result<(), LinkError> {
-        if n == 0 {
-            return Err(LinkError::Closed);
+    fn feed_read(&mut self, now: std::time::Instant, r: std::io::Result<usize>) {
+        match r {
+            Err(e) => self.core.handle_failure(now, LinkError::io(&e)),
+            Ok(0) => self.core.handle_closed(now),
+            Ok(n) => self.core.handle_input(now, &self.buf[..n]),
         }
-        self.decoder
-            .push(&self.buf[..n])
-            .map_err(LinkError::Undecodable)?;
-        match self.unsolicited() {
-            Some(e) => Err(e),
-            None => Ok(()),
+    }
+
+    /// The connect poll: the first exchange, whose reply timeout is cut to what is left of the
+    /// connect timeout.
+    async fn first_poll(&mut self, reply_timeout: Duration) -> Result<Exchange, LinkError> {
+        let request =
+            WireRequest::new(Kind::Poll, POLL.into(), None).with_reply_timeout(reply_timeout);
+        if let Err(refusal) = self
+            .core
+            .begin_request(Instant::now().into_std(), 0, request)
+        {
+            return Err(match refusal.into_error() {
+                ClientError::LinkLost(e) => e,
+                _ => LinkError::SessionEnded,
+            });
         }
+        self.drive().await;
+        while let Some(event) = self.core.poll_event() {
+            match event {
+                Event::ExchangeDone { reply, .. } => return Ok(Exchange::from_reply(reply)),
+                Event::ExchangeFailed { cause, .. } => return Err(cause),
+                _ => {}
+            }
+        }
+        Err(LinkError::SessionEnded)
     }
 }
 
@@ -550,16 +468,13 @@ pub(crate) async fn establish(
             }
             Ok(Err(e)) => last = e.to_string(),
             Ok(Ok(stream)) => {
-                let mut conn = Conn::new(stream);
+                let mut conn = Conn::new(stream, timeouts(cfg));
                 let reply_timeout = cfg.reply_timeout.min(
                     deadline
                         .saturating_duration_since(Instant::now())
                         .max(Duration::from_millis(1)),
                 );
-                match conn
-                    .exchange(POLL.into(), cfg.write_timeout, reply_timeout)
-                    .await
-                {
+                match conn.first_poll(reply_timeout).await {
                     Ok(ex) => return Ok(spawn(conn, ex, common.clone(), connector.describe())),
                     // Something answered, but not as a controller: retrying cannot help.
                     Err(
@@ -607,6 +522,10 @@ fn spawn(conn: Conn, first: Exchange, common: Arc<Common>, target: String) -> Li
     };
     let (status_tx, status_rx) = watch::channel(snapshot);
     let (epoch, _) = watch::channel(0);
+    let idle_watch_at = conn
+        .core
+        .watch_idle_at()
+        .map_or(first.received_at, Instant::from_std);
     let shared = Arc::new(SessionShared {
         id,
         common: common.clone(),
@@ -621,9 +540,8 @@ fn spawn(conn: Conn, first: Exchange, common: Arc<Common>, target: String) -> Li
         io: Arc::new(tokio::sync::Mutex::new(Io {
             conn: Some(conn),
             status_tx: Some(status_tx),
-            seq: 0,
         })),
-        last_exchange: Mutex::new(first.received_at),
+        idle_watch_at: Mutex::new(idle_watch_at),
         wanted: Notify::new(),
     });
     {
@@ -666,14 +584,12 @@ pub(crate) struct Io {
     conn: Option<Conn>,
     /// `None` once the session has ended (subscribers see the end).
     status_tx: Option<watch::Sender<StatusSnapshot>>,
-    seq: u64,
 }
 
 impl std::fmt::Debug for Io {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Io")
             .field("open", &self.conn.is_some())
-            .field("seq", &self.seq)
             .finish()
     }
 }
@@ -682,6 +598,15 @@ impl std::fmt::Debug for Io {
 struct Op {
     text: Cow<'static, str>,
     kind: Kind,
+}
+
+/// What the driver learned from the core's events.
+#[derive(Default)]
+struct Drained {
+    /// The outcome of the request that was in flight, if it ended.
+    exchange: Option<Result<Exchange, ClientError>>,
+    /// A keep-alive poll is due.
+    keepalive_due: bool,
 }
 
 impl SessionShared {
@@ -700,29 +625,81 @@ impl SessionShared {
         }
     }
 
-    fn last_exchange(&self) -> Instant {
-        *lock(&self.last_exchange)
+    fn idle_watch_at(&self) -> Instant {
+        *lock(&self.idle_watch_at)
     }
 
-    /// A motion is sent only if no cancel/stop came after it was validated and the latest
-    /// status allows motion.
-    fn check_motion(&self, io: &Io, tag: MotionTag) -> Result<(), ClientError> {
-        if tag.epoch != self.current_epoch() {
-            return Err(Cancellation::NotSent.into());
-        }
-        let Some(status_tx) = &io.status_tx else {
+    /// Asks the core to begin `request` at `now`. A refusal is returned as the caller's error
+    /// (the checks of a motion are counted as refused before sending).
+    fn begin(&self, io: &mut Io, now: Instant, request: WireRequest) -> Result<(), ClientError> {
+        let Some(conn) = io.conn.as_mut() else {
             return Err(self.death());
         };
-        let b = blockers(&status_tx.borrow().status, true);
-        if b.is_empty() {
-            Ok(())
-        } else {
-            Err(ClientError::Blocked(b))
+        let kind = request.kind;
+        match conn
+            .core
+            .begin_request(now.into_std(), self.current_epoch(), request)
+        {
+            Ok(()) => {
+                if self.common.recorder.is_some() {
+                    if let Some(text) = conn.core.request_in_flight().map(|r| &r.text) {
+                        self.common
+                            .record(now, self.id, Dir::Tx, kind.as_str(), None, text);
+                    }
+                }
+                Ok(())
+            }
+            Err(refusal) => {
+                if refusal.is_check() {
+                    self.common.refused();
+                }
+                let e = refusal.into_error();
+                // Unsolicited bytes found before the request end the link.
+                self.drain(io);
+                Err(e)
+            }
         }
+    }
+
+    /// Consumes the core's events: a reply is published and counted, a failed request counted,
+    /// an ended link closed.
+    fn drain(&self, io: &mut Io) -> Drained {
+        let mut drained = Drained::default();
+        loop {
+            let Some(conn) = io.conn.as_mut() else { break };
+            let Some(event) = conn.core.poll_event() else {
+                break;
+            };
+            match event {
+                Event::ExchangeDone { request, reply } => {
+                    let seq = reply.seq;
+                    let ex = Exchange::from_reply(reply);
+                    if let Some(at) = conn.core.watch_idle_at() {
+                        *lock(&self.idle_watch_at) = Instant::from_std(at);
+                    }
+                    self.completed(io, &request.text, request.kind, &ex, seq);
+                    if let Some(tag) = request.motion {
+                        self.last_motion.store(tag.id, Ordering::Relaxed);
+                    }
+                    drained.exchange = Some(Ok(ex));
+                }
+                Event::ExchangeFailed { request, cause } => {
+                    tracing::debug!(session = self.id, kind = request.kind.as_str(), request = ?request.text, error = %cause, "exchange failed");
+                    lock(&self.common.stats).stats.requests += 1;
+                    drained.exchange = Some(Err(ClientError::LinkLost(cause)));
+                }
+                Event::KeepAliveDue => drained.keepalive_due = true,
+                Event::CloseUnconfirmed(e) => {
+                    tracing::warn!(error = %e, "the controller did not close the connection after 255");
+                }
+                Event::LinkEnded { at, cause } => self.ended(io, Instant::from_std(at), cause),
+            }
+        }
+        drained
     }
 
     /// Statistics, clock, recording, log and status of a completed round trip.
-    fn completed(&self, io: &mut Io, text: &str, kind: Kind, ex: &Exchange) {
+    fn completed(&self, io: &mut Io, text: &str, kind: Kind, ex: &Exchange, seq: u64) {
         let common = &self.common;
         let cfg = &common.config;
         let id = self.id;
@@ -765,53 +742,27 @@ impl SessionShared {
                 "exchange"
             );
         }
-        io.seq += 1;
         if let Some(status_tx) = &io.status_tx {
             status_tx.send_replace(StatusSnapshot {
                 status: ex.frame.status.clone(),
                 received_at: ex.received_at,
                 rtt,
-                seq: io.seq,
+                seq,
             });
         }
-        *lock(&self.last_exchange) = ex.received_at;
     }
 
-    /// Ends the session: the cause is stored for every caller, the connection closed, the
-    /// status subscribers see the end.
-    /// Records a request about to be written (when recording).
-    fn record_request(&self, kind: Kind, text: &str) {
-        if self.common.recorder.is_some() {
-            self.common
-                .record(Instant::now(), self.id, Dir::Tx, kind.as_str(), None, text);
-        }
-    }
-
-    /// The outcome of an exchange on the connection held by `io`: a reply is published and
-    /// counted; a link error ends the session.
-    fn settle(
-        &self,
-        io: &mut Io,
-        text: &str,
-        kind: Kind,
-        r: Result<Exchange, LinkError>,
-    ) -> Result<Exchange, ClientError> {
-        match r {
-            Ok(ex) => {
-                self.completed(io, text, kind, &ex);
-                Ok(ex)
-            }
-            Err(e) => {
-                tracing::debug!(session = self.id, kind = kind.as_str(), request = ?text, error = %e, "exchange failed");
-                lock(&self.common.stats).stats.requests += 1;
-                let e = ClientError::LinkLost(e);
-                self.end(io, e.clone());
-                Err(e)
-            }
-        }
-    }
-
+    /// Ends the session for a reason of the driver's (the first cause wins).
     fn end(&self, io: &mut Io, end: ClientError) {
+        if let Some(conn) = io.conn.as_mut() {
+            conn.core.end(Instant::now().into_std(), end);
+        }
+        self.drain(io);
+    }
+
+    /// The core ended the session: the cause is stored for every caller, the connection
+    /// closed, the status subscribers see the end.
+    fn ended(&self, io: &mut Io, at: Instant, end: ClientError) {
         if io.conn.is_none() {
             return;
         }
@@ -823,14 +774,7 @@ impl SessionShared {
         } else {
             tracing::info!(session = self.id, "session closed");
         }
-        common.record(
-            Instant::now(),
-            self.id,
-            Dir::Event,
-            "end",
-            None,
-            &end.to_string(),
-        );
+        common.record(at, self.id, Dir::Event, "end", None, &end.to_string());
         // Record the cause before anyone sees the connection gone.
         self.set_dead(end);
         io.conn = None;
@@ -845,9 +789,6 @@ impl SessionShared {
 struct InFlight {
     shared: Arc<SessionShared>,
     io: Option<OwnedMutexGuard<Io>>,
-    text: Cow<'static, str>,
-    kind: Kind,
-    motion: Option<MotionTag>,
     /// This is already the spawned completion: if it is dropped too (the runtime shuts down),
     /// the session ends.
     fallback: bool,
@@ -862,36 +803,25 @@ impl InFlight {
         let Some(conn) = io.conn.as_mut() else {
             return Err(self.shared.death());
         };
-        let r = conn.drive().await;
+        conn.drive().await;
         // From here on nothing awaits: the exchange is complete whether or not the caller
         // is still there.
-        self.settle(r)
-    }
-
-    fn settle(&mut self, r: Result<Exchange, LinkError>) -> Result<Exchange, ClientError> {
-        let Some(io) = self.io.as_mut() else {
-            return Err(self.shared.death());
-        };
-        let ex = self.shared.settle(io, &self.text, self.kind, r)?;
-        if let Some(tag) = self.motion {
-            self.shared.last_motion.store(tag.id, Ordering::Relaxed);
+        match self.shared.drain(io).exchange {
+            Some(r) => r,
+            None => Err(self.shared.death()),
         }
-        Ok(ex)
     }
 }
 
 impl Drop for InFlight {
     fn drop(&mut self) {
         let Some(io) = self.io.take() else { return };
-        if io.conn.as_ref().is_none_or(|c| c.flight.is_none()) {
+        if io.conn.as_ref().is_none_or(|c| !c.core.in_flight()) {
             return;
         }
         let mut rest = InFlight {
             shared: self.shared.clone(),
             io: Some(io),
-            text: self.text.clone(),
-            kind: self.kind,
-            motion: self.motion,
             fallback: true,
         };
         match tokio::runtime::Handle::try_current() {
@@ -934,33 +864,19 @@ async fn exchange_locked(
     if io.conn.is_none() {
         return Err(shared.death());
     }
-    if let Some(tag) = motion {
-        if second_poll {
-            let gone = CallerGone(&shared.common);
-            tokio::task::yield_now().await;
-            std::mem::forget(gone);
-        }
-        if let Err(e) = shared.check_motion(&io, tag) {
-            shared.common.refused();
-            return Err(e);
-        }
+    if motion.is_some() && second_poll {
+        let gone = CallerGone(&shared.common);
+        tokio::task::yield_now().await;
+        std::mem::forget(gone);
     }
-    let cfg = &shared.common.config;
-    shared.record_request(kind, &text);
-    let Some(conn) = io.conn.as_mut() else {
-        return Err(shared.death());
-    };
-    if let Err(e) = conn.begin(text.clone(), cfg.write_timeout, cfg.reply_timeout) {
-        let e = ClientError::LinkLost(e);
-        shared.end(&mut io, e.clone());
-        return Err(e);
-    }
+    shared.begin(
+        &mut io,
+        Instant::now(),
+        WireRequest::new(kind, text, motion),
+    )?;
     let mut flight = InFlight {
         shared: shared.clone(),
         io: Some(io),
-        text,
-        kind,
-        motion,
         fallback: false,
     };
     let r = flight.run().await;
@@ -969,48 +885,24 @@ async fn exchange_locked(
     };
     let ex = r?;
     if kind == Kind::Close {
-        let limit = cfg.close_timeout;
         if let Some(conn) = io.conn.as_mut() {
-            if let Err(e) = conn.await_close(limit).await {
-                tracing::warn!(error = %e, "the controller did not close the connection after 255");
-            }
+            conn.await_close().await;
         }
+        shared.drain(&mut io);
         shared.end(&mut io, ClientError::Closed);
     }
     Ok(ex)
 }
 
-impl Conn {
-    /// After 255: waits for the server to close the connection.
-    async fn await_close(&mut self, limit: Duration) -> Result<(), LinkError> {
-        let deadline = Instant::now() + limit;
-        loop {
-            match timeout_at(deadline, self.stream.read(&mut self.buf)).await {
-                Err(_) => {
-                    return Err(LinkError::ReplyTimeout {
-                        request: "end of stream after 255".into(),
-                        deadline: limit,
-                    })
-                }
-                Ok(Ok(0)) => return Ok(()),
-                Ok(Ok(_)) => {}
-                Ok(Err(e)) => return Err(LinkError::io(&e)),
-            }
-        }
-    }
-}
-
-/// The session's keeper task: keep-alive polls, queued stops, the polite close when every
-/// handle is gone, and — once nothing was exchanged for half a keep-alive period — watching
-/// the idle connection for its close or for bytes nobody asked for.
+/// The session's keeper task: keep-alive polls when the core says one is due, queued stops,
+/// the polite close when every handle is gone, and — from when the core says the connection is
+/// idle — watching it for its close or for bytes nobody asked for.
 async fn keeper(shared: Arc<SessionShared>, mut rx: mpsc::Receiver<Op>) {
-    let period = shared.common.config.keepalive_period;
-    let idle_after = period / 2;
     loop {
         if shared.is_dead() {
             break;
         }
-        let idle_at = shared.last_exchange() + idle_after;
+        let idle_at = shared.idle_watch_at();
         tokio::select! {
             biased;
             op = rx.recv() => {
@@ -1023,50 +915,57 @@ async fn keeper(shared: Arc<SessionShared>, mut rx: mpsc::Receiver<Op>) {
             () = sleep_until(idle_at) => {}
         }
         let mut io = shared.io.clone().lock_owned().await;
-        if io.conn.is_none() {
+        let Some(conn) = io.conn.as_ref() else {
             break;
-        }
-        if Instant::now() < shared.last_exchange() + idle_after {
+        };
+        if conn
+            .core
+            .watch_idle_at()
+            .is_some_and(|at| Instant::now() < Instant::from_std(at))
+        {
             continue;
         }
         // Idle: hold the connection and watch it until a caller wants it.
         loop {
-            let due = shared.last_exchange() + period;
             let Some(conn) = io.conn.as_mut() else {
                 return;
             };
-            let event = tokio::select! {
+            let due = conn
+                .core
+                .poll_timeout()
+                .map_or_else(far_future, Instant::from_std);
+            let wake = tokio::select! {
                 biased;
-                r = conn.stream.read(&mut conn.buf) => Event::Read(r),
-                () = shared.wanted.notified() => Event::Wanted,
-                op = rx.recv() => Event::Op(op),
-                () = sleep_until(due) => Event::KeepAlive,
+                r = conn.stream.read(&mut conn.buf) => Wake::Read(r),
+                () = shared.wanted.notified() => Wake::Wanted,
+                op = rx.recv() => Wake::Op(op),
+                () = sleep_until(due) => Wake::Timeout,
             };
-            let step = match event {
-                Event::Read(r) => {
-                    let r = r
-                        .map_err(|e| LinkError::io(&e))
-                        .and_then(|n| conn.idle_bytes(n));
-                    match r {
-                        Ok(()) => ControlFlow::Continue(()),
-                        Err(e) => {
-                            shared.end(&mut io, ClientError::LinkLost(e));
-                            ControlFlow::Break(())
-                        }
+            let step = match wake {
+                Wake::Read(r) => {
+                    conn.feed_read(Instant::now().into_std(), r);
+                    shared.drain(&mut io);
+                    if io.conn.is_none() {
+                        ControlFlow::Break(())
+                    } else {
+                        ControlFlow::Continue(())
                     }
                 }
-                Event::Wanted => break,
-                Event::Op(op) => serve(&shared, &mut io, op).await,
-                Event::KeepAlive => {
-                    if Instant::now() < shared.last_exchange() + period {
-                        ControlFlow::Continue(())
-                    } else {
+                Wake::Wanted => break,
+                Wake::Op(op) => serve(&shared, &mut io, op).await,
+                Wake::Timeout => {
+                    conn.core.handle_timeout(Instant::now().into_std());
+                    if shared.drain(&mut io).keepalive_due {
                         let r = exchange_in(&shared, &mut io, POLL.into(), Kind::KeepAlive).await;
                         if r.is_err() {
                             ControlFlow::Break(())
                         } else {
                             ControlFlow::Continue(())
                         }
+                    } else if io.conn.is_none() {
+                        ControlFlow::Break(())
+                    } else {
+                        ControlFlow::Continue(())
                     }
                 }
             };
@@ -1081,11 +980,12 @@ async fn keeper(shared: Arc<SessionShared>, mut rx: mpsc::Receiver<Op>) {
     while rx.try_recv().is_ok() {}
 }
 
-enum Event {
+/// What woke the keeper task while it watched the idle connection.
+enum Wake {
     Read(std::io::Result<usize>),
     Wanted,
     Op(Option<Op>),
-    KeepAlive,
+    Timeout,
 }
 
 /// Serves one queued request (`None`: every handle is gone, end the session politely).
@@ -1118,13 +1018,12 @@ async fn exchange_in(
     text: Cow<'static, str>,
     kind: Kind,
 ) -> Result<Exchange, ClientError> {
-    let cfg = &shared.common.config;
-    shared.record_request(kind, &text);
-    let Some(conn) = io.conn.as_mut() else {
-        return Err(shared.death());
-    };
-    let r = conn
-        .exchange(text.clone(), cfg.write_timeout, cfg.reply_timeout)
-        .await;
-    shared.settle(io, &text, kind, r)
+    shared.begin(io, Instant::now(), WireRequest::new(kind, text, None))?;
+    if let Some(conn) = io.conn.as_mut() {
+        conn.drive().await;
+    }
+    match shared.drain(io).exchange {
+        Some(r) => r,
+        None => Err(shared.death()),
+    }
 }
