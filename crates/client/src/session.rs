@@ -32,7 +32,7 @@ use self::core::{Event, Reply, SessionCore, Timeouts, Transmit, WireRequest};
 pub(crate) use self::core::{Kind, MotionTag};
 use crate::clock::ServerClock;
 use crate::config::ClientConfig;
-use crate::error::{ClientError, LinkError};
+use crate::error::{Cancellation, ClientError, LinkError};
 use crate::record::{Dir, Recorder};
 use crate::stats::StatsInner;
 use crate::transport::{BoxedStream, Connector};
@@ -235,12 +235,20 @@ impl Link {
     }
 
     /// [`exchange`](Self::exchange) for the client's own motion loops (stream, servo), which
-    /// own the handle their caller watches: the motion goes out on the first poll.
+    /// own the handle their caller watches: the motion goes out on the first poll. `epoch` is
+    /// the loop's motion epoch: the motion is tagged with it, so the core refuses it once a
+    /// cancel or stop has come. A cancel seen before the motion is tagged is the loop's end,
+    /// not a refusal: `Cancelled(NotSent)`, not counted as refused before sending.
     pub(crate) async fn exchange_own_motion(
         &self,
         text: impl Into<Cow<'static, str>>,
-        tag: MotionTag,
+        epoch: u64,
     ) -> Result<Exchange, ClientError> {
+        let tag = self.shared.motion_tag();
+        if tag.epoch != epoch {
+            return Err(Cancellation::NotSent.into());
+        }
+        let tag = MotionTag { epoch, id: tag.id };
         self.exchange_with(text.into(), Kind::Motion, Some(tag), false)
             .await
     }
@@ -665,8 +673,7 @@ impl SessionShared {
     /// an ended link closed.
     fn drain(&self, io: &mut Io) -> Drained {
         let mut drained = Drained::default();
-        loop {
-            let Some(conn) = io.conn.as_mut() else { break };
+        while let Some(conn) = io.conn.as_mut() {
             let Some(event) = conn.core.poll_event() else {
                 break;
             };

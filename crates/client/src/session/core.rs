@@ -11,7 +11,7 @@
 //! | [`handle_written`](SessionCore::handle_written), [`handle_flushed`](SessionCore::handle_flushed) | [`poll_transmit`](SessionCore::poll_transmit): what to write |
 //! | [`handle_input`](SessionCore::handle_input), [`handle_closed`](SessionCore::handle_closed), [`handle_failure`](SessionCore::handle_failure) | [`poll_event`](SessionCore::poll_event): [`Event`]s |
 //! | [`handle_timeout`](SessionCore::handle_timeout) | [`poll_timeout`](SessionCore::poll_timeout): the next deadline |
-//! | [`end`](SessionCore::end) (the driver's own reasons) | [`watch_idle_at`](SessionCore::watch_idle_at), [`latest_status`](SessionCore::latest_status) |
+//! | [`end`](SessionCore::end) (the driver's own reasons) | [`watch_idle_at`](SessionCore::watch_idle_at), [`in_flight`](SessionCore::in_flight), [`is_closing`](SessionCore::is_closing) |
 //!
 //! The rules, one place each:
 //!
@@ -486,11 +486,13 @@ impl SessionCore {
     }
 
     /// `true` once the session has ended.
+    #[cfg(test)]
     pub(crate) fn is_ended(&self) -> bool {
         matches!(self.state, State::Ended)
     }
 
-    /// The status of the latest reply.
+    /// The status of the latest reply (the one the motion checks use).
+    #[cfg(test)]
     pub(crate) fn latest_status(&self) -> Option<&Status> {
         self.latest.as_ref()
     }
