@@ -33,180 +33,26 @@
 //! * **the first failure ends the session**: the cause is kept and every later request is
 //!   refused with it.
 
-use std::borrow::Cow;
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
 use fs020n_proto::{ReplyDecoder, ReplyFrame, Status, PROTOCOL_VERSION};
 
-use crate::error::{Cancellation, ClientError, LinkError};
-use crate::safety::{blockers, Blocker};
+use crate::error::{ClientError, LinkError};
+use crate::safety::blockers;
 
+mod event;
+mod request;
 #[cfg(test)]
 mod tests;
+
+pub(crate) use self::event::{Event, Reply, Transmit};
+pub(crate) use self::request::{Kind, MotionTag, Refusal, Timeouts, WireRequest};
 
 /// How long bytes that form a complete reply but for the final blank wait for more before they
 /// are taken as the reply (the controller sends the blank in the same write: this is only for a
 /// peer that omits it).
 pub(crate) const OPEN_REPLY_QUIET: Duration = Duration::from_millis(20);
-
-/// What a request is, for statistics, recording and the checks.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Kind {
-    /// A status poll asked for by the user.
-    Poll,
-    /// A keep-alive poll of the session task.
-    KeepAlive,
-    /// A command without motion (1, 2, 3, 5, ...).
-    Command,
-    /// A motion command (6/7): checked against the latest status and the motion epoch.
-    Motion,
-    /// A raw request without motion.
-    Raw,
-    /// 255: end the session, then wait for the server to close.
-    Close,
-}
-
-impl Kind {
-    pub(crate) fn as_str(self) -> &'static str {
-        match self {
-            Kind::Poll => "poll",
-            Kind::KeepAlive => "keepalive",
-            Kind::Command => "command",
-            Kind::Motion => "motion",
-            Kind::Raw => "raw",
-            Kind::Close => "close",
-        }
-    }
-}
-
-/// Identifies a motion command: the motion epoch it was validated in (bumped by every cancel
-/// and stop) and its own id.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) struct MotionTag {
-    pub(crate) epoch: u64,
-    pub(crate) id: u64,
-}
-
-/// A request as the session core handles it: its text on the wire, its kind, its motion tag.
-#[derive(Debug, Clone, PartialEq)]
-pub(crate) struct WireRequest {
-    pub(crate) kind: Kind,
-    /// The request's text, written as it is.
-    pub(crate) text: Cow<'static, str>,
-    /// For a motion: the epoch it was validated in. `Some` makes the motion checks apply.
-    pub(crate) motion: Option<MotionTag>,
-    /// This request's reply timeout instead of the session's (the connect poll's, cut to what
-    /// is left of the connect timeout).
-    pub(crate) reply_timeout: Option<Duration>,
-}
-
-impl WireRequest {
-    pub(crate) fn new(
-        kind: Kind,
-        text: Cow<'static, str>,
-        motion: Option<MotionTag>,
-    ) -> WireRequest {
-        WireRequest {
-            kind,
-            text,
-            motion,
-            reply_timeout: None,
-        }
-    }
-
-    pub(crate) fn with_reply_timeout(mut self, reply_timeout: Duration) -> WireRequest {
-        self.reply_timeout = Some(reply_timeout);
-        self
-    }
-}
-
-/// The timeouts the core enforces.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) struct Timeouts {
-    /// From the start of a request to the end of its flush.
-    pub(crate) write: Duration,
-    /// From the start of a request to its complete reply.
-    pub(crate) reply: Duration,
-    /// Nothing exchanged for this long: a keep-alive poll is due.
-    pub(crate) keepalive_period: Duration,
-    /// After the reply to 255: how long the server has to close the connection.
-    pub(crate) close: Duration,
-}
-
-/// Why [`SessionCore::begin_request`] sent nothing.
-#[derive(Debug, Clone, PartialEq)]
-pub(crate) enum Refusal {
-    /// Lock-step: a request is in flight.
-    InFlight,
-    /// 255 was answered; the session waits for the server to close the connection.
-    Closing,
-    /// The session has ended (the cause).
-    Ended(ClientError),
-    /// A motion validated before a cancel or stop (an older motion epoch).
-    StaleEpoch,
-    /// A motion while the latest status blocks motion.
-    Blocked(Vec<Blocker>),
-}
-
-impl Refusal {
-    /// The error a caller gets.
-    pub(crate) fn into_error(self) -> ClientError {
-        match self {
-            Refusal::InFlight => ClientError::LinkLost(LinkError::SessionEnded),
-            Refusal::Closing => ClientError::Closed,
-            Refusal::Ended(cause) => cause,
-            Refusal::StaleEpoch => Cancellation::NotSent.into(),
-            Refusal::Blocked(b) => ClientError::Blocked(b),
-        }
-    }
-
-    /// `true` for the checks of the request itself (counted as refused before sending).
-    pub(crate) fn is_check(&self) -> bool {
-        matches!(self, Refusal::StaleEpoch | Refusal::Blocked(_))
-    }
-}
-
-/// A complete reply to a request.
-#[derive(Debug, Clone, PartialEq)]
-pub(crate) struct Reply {
-    pub(crate) frame: ReplyFrame,
-    /// When the request began.
-    pub(crate) sent_at: Instant,
-    /// When the reply was complete.
-    pub(crate) received_at: Instant,
-    /// Replies in this session before this one.
-    pub(crate) seq: u64,
-}
-
-/// What the core tells its driver.
-#[derive(Debug, Clone, PartialEq)]
-pub(crate) enum Event {
-    /// The request's reply is complete (the status is now the latest).
-    ExchangeDone { request: WireRequest, reply: Reply },
-    /// The request failed; [`Event::LinkEnded`] follows.
-    ExchangeFailed {
-        request: WireRequest,
-        cause: LinkError,
-    },
-    /// Nothing was exchanged for a keep-alive period: send a poll.
-    KeepAliveDue,
-    /// After 255 the server did not close the connection as it should (the session ends all
-    /// the same: [`Event::LinkEnded`] follows).
-    CloseUnconfirmed(LinkError),
-    /// The session is over: drop the connection.
-    LinkEnded { at: Instant, cause: ClientError },
-}
-
-/// What [`SessionCore::poll_transmit`] asks the driver to do.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Transmit<'a> {
-    /// Write these bytes (what is left of the request), then report with
-    /// [`SessionCore::handle_written`].
-    Bytes(&'a [u8]),
-    /// Flush, then report with [`SessionCore::handle_flushed`].
-    Flush,
-}
 
 /// A request being written or awaiting its reply.
 #[derive(Debug)]

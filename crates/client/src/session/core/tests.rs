@@ -3,6 +3,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use super::*;
+use crate::error::Cancellation;
+use crate::safety::Blocker;
 
 /// A reply of a controller whose motion program runs (motion allowed).
 const RUNNING: &str =
