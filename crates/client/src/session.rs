@@ -381,13 +381,13 @@ impl Conn {
             .map_or_else(far_future, Instant::from_std);
         match self.core.poll_transmit() {
             Some(Transmit::Bytes(bytes)) => {
-                let r = timeout_at(deadline, self.stream.write(bytes)).await;
-                let now = Instant::now().into_std();
-                match r {
-                    Err(_) => self.core.handle_timeout(now),
-                    Ok(Err(e)) => self.core.handle_failure(now, LinkError::io(&e)),
-                    Ok(Ok(0)) => self.core.handle_closed(now),
-                    Ok(Ok(n)) => self.core.handle_written(n),
+                match timeout_at(deadline, self.stream.write(bytes)).await {
+                    Ok(Ok(n)) if n > 0 => self.core.handle_written(n),
+                    Ok(Ok(_)) => self.core.handle_closed(Instant::now().into_std()),
+                    Ok(Err(e)) => self
+                        .core
+                        .handle_failure(Instant::now().into_std(), LinkError::io(&e)),
+                    Err(_) => self.core.handle_timeout(Instant::now().into_std()),
                 }
             }
             Some(Transmit::Flush) => {

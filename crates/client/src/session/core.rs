@@ -73,7 +73,7 @@ struct Flight {
 enum State {
     /// No request outstanding.
     Idle,
-    Flight(Box<Flight>),
+    Flight(Flight),
     /// 255 answered: waiting for the server's close until `deadline`.
     Closing {
         deadline: Instant,
@@ -147,7 +147,7 @@ impl SessionCore {
         let write_timeout = self.timeouts.write;
         let reply_timeout = request.reply_timeout.unwrap_or(self.timeouts.reply);
         self.keepalive_signalled = false;
-        self.state = State::Flight(Box::new(Flight {
+        self.state = State::Flight(Flight {
             request,
             written: 0,
             flushed: false,
@@ -157,7 +157,7 @@ impl SessionCore {
             deadline: now + reply_timeout,
             reply_timeout,
             quiet_at: None,
-        }));
+        });
         Ok(())
     }
 
@@ -415,7 +415,7 @@ impl SessionCore {
         };
         let Flight {
             request, sent_at, ..
-        } = *f;
+        } = f;
         if request.kind == Kind::Close {
             self.state = State::Closing {
                 deadline: now + self.timeouts.close,
