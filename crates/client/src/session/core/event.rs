@@ -4,7 +4,7 @@ use std::time::Instant;
 
 use fs020n_proto::ReplyFrame;
 
-use super::WireRequest;
+use super::request::WireRequest;
 use crate::error::{ClientError, LinkError};
 
 /// A complete reply to a request.
