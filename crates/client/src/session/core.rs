@@ -3,7 +3,9 @@
 //!
 //! [`SessionCore`] knows what may be sent, when a reply is complete, when a deadline has passed
 //! and when the link is over; it never reads, writes or looks at a clock. Its driver (the tokio
-//! code in `session.rs`) moves the bytes and passes the time in:
+//! code around it: `conn.rs` moves the bytes, `driver.rs` and `keeper.rs` consume the events)
+//! passes the time in as data (`std::time::Instant` values, so tests use a fake clock), and the
+//! session's motion epoch with each request:
 //!
 //! | to the core                                   | from the core                              |
 //! |-----------------------------------------------|--------------------------------------------|
