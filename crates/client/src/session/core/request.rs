@@ -109,6 +109,8 @@ impl Refusal {
     /// The error a caller gets.
     pub(crate) fn into_error(self) -> ClientError {
         match self {
+            // The driver's FIFO lock never lets a second request reach the core while one is
+            // in flight; should it ever, nothing is sent and the caller learns it cannot be.
             Refusal::InFlight => ClientError::LinkLost(LinkError::SessionEnded),
             Refusal::Closing => ClientError::Closed,
             Refusal::Ended(cause) => cause,
