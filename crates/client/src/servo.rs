@@ -68,7 +68,7 @@ use tokio::time::Instant;
 use crate::check::check_target;
 use crate::error::{Activity, Cancellation, ClientError, LinkError};
 use crate::safety::{blockers, check_stream_sample, MAX_LOOKAHEAD_PASSES};
-use crate::session::{lock, Link, MotionTag, SessionShared};
+use crate::session::{lock, Link, SessionShared};
 use crate::trajectory::{OptionError, TrajectoryError};
 
 /// Shortest accepted [`ServoOptions::watchdog`].
@@ -741,15 +741,7 @@ impl Servo {
             };
             check_stream_sample(model, &sample)?;
             let text = Request::new(Command::StreamedMove(sample)).encode()?;
-            let tag = self.link.shared.motion_tag();
-            if tag.epoch != self.epoch {
-                return Ok(ServoOutcome::Cancelled);
-            }
-            let tag = MotionTag {
-                epoch: self.epoch,
-                id: tag.id,
-            };
-            let ex = match self.link.exchange_own_motion(text, tag).await {
+            let ex = match self.link.exchange_own_motion(text, self.epoch).await {
                 Ok(ex) => ex,
                 Err(ClientError::Cancelled(_)) => return Ok(ServoOutcome::Cancelled),
                 Err(ClientError::Blocked(b)) => {

@@ -18,7 +18,7 @@ use crate::error::{Activity, ClientError, LinkError};
 use crate::lag::{LagCompensation, LagEstimator};
 use crate::motion::{only_held, LONGEST_WAIT};
 use crate::safety::{blockers, check_stream_sample, MAX_LOOKAHEAD_PASSES};
-use crate::session::{lock, Exchange, Link, MotionTag, SessionShared};
+use crate::session::{lock, Exchange, Link, SessionShared};
 use crate::trajectory::{OptionError, Trajectory, TrajectoryError, TrajectorySample};
 
 /// How samples are sent.
@@ -708,14 +708,6 @@ impl Streamer {
             let stamp_at = at.checked_sub(lead).unwrap_or(at);
             let command = self.command_for(tau, &sample, self.server_time(stamp_at))?;
             let text = Request::new(command).encode()?;
-            let tag = self.link.shared.motion_tag();
-            if tag.epoch != self.epoch {
-                return Ok(End::Cancelled);
-            }
-            let tag = MotionTag {
-                epoch: self.epoch,
-                id: tag.id,
-            };
             // The timers are in the runtime's timer wheel before the runtime sleeps for this
             // reply: the next sample's, and the one after it. A timer armed earlier than every
             // other one makes tokio wake its own driver (an eventfd write and one more
@@ -736,7 +728,7 @@ impl Streamer {
                 std::task::Poll::Ready(())
             })
             .await;
-            let ex = match self.link.exchange_own_motion(text, tag).await {
+            let ex = match self.link.exchange_own_motion(text, self.epoch).await {
                 Ok(ex) => ex,
                 Err(ClientError::Cancelled(_)) => return Ok(End::Cancelled),
                 // HOLD arrived with a keep-alive before this sample left: it was not sent.
