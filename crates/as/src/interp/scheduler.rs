@@ -5,6 +5,7 @@ use std::time::Duration;
 
 use crate::compile::{Code, Op};
 use crate::error::RuntimeError;
+use crate::sockets::TcpCode;
 use crate::system::{SockPoll, System, TaskId};
 
 use super::arith::{ns, truthy, Ns, NOT_PURE, R};
@@ -470,7 +471,7 @@ impl Interpreter {
                         None
                     }
                     SockPoll::Pending if now >= deadline => {
-                        self.finish_accept(i, Err(-34024), sys)?;
+                        self.finish_accept(i, Err(TcpCode::Timeout.code()), sys)?;
                         None
                     }
                     SockPoll::Pending => Some(Wait::Accept { port, deadline }),
@@ -481,7 +482,7 @@ impl Interpreter {
                         None
                     }
                     SockPoll::Pending if now >= deadline => {
-                        self.finish_ret(i, -34024.0, sys)?;
+                        self.finish_ret(i, TcpCode::Timeout.code() as f32, sys)?;
                         None
                     }
                     SockPoll::Pending => Some(Wait::Connect { ip, port, deadline }),
@@ -496,7 +497,7 @@ impl Interpreter {
                         None
                     }
                     SockPoll::Pending if now >= deadline => {
-                        self.finish_recv(i, Err(-34024), max, sys)?;
+                        self.finish_recv(i, Err(TcpCode::Timeout.code()), max, sys)?;
                         None
                     }
                     SockPoll::Pending => Some(Wait::Recv {
@@ -515,7 +516,7 @@ impl Interpreter {
                         None
                     }
                     SockPoll::Pending if now >= deadline => {
-                        self.finish_ret(i, -34024.0, sys)?;
+                        self.finish_ret(i, TcpCode::Timeout.code() as f32, sys)?;
                         None
                     }
                     SockPoll::Pending => Some(Wait::Send {

@@ -7,6 +7,7 @@ use crate::ast::SpeedUnit;
 use crate::compile::{CArg, CExpr, CProgram, Code, Op, RExpr, SExpr, Ty};
 use crate::error::RuntimeError;
 use crate::keywords::SYSTEM_SWITCHES;
+use crate::sockets::TcpCode;
 use crate::system::{Issued, MotionKind, MotionRequest, SockPoll, Speed, System, Target, TaskId};
 use crate::value::{Bytes, MAX_INDEX};
 
@@ -798,7 +799,7 @@ impl Interpreter {
                     }
                 }
                 if data.len() > MAX_TRANSFER {
-                    self.write_r(i, ret, -34022.0, sys)?;
+                    self.write_r(i, ret, TcpCode::TooLong.code() as f32, sys)?;
                     return Ok(Flow::Shared);
                 }
                 self.set_pc(i, pc);
