@@ -278,6 +278,18 @@ impl SocketTable {
         self.sockets.get(&sock).map(|s| s.port)
     }
 
+    /// The first (lowest id) outside client the program accepted on `port` and still holds
+    /// open (a connection still waiting in a backlog is not accepted yet).
+    pub fn accepted_client_on(&self, port: u16) -> Option<i32> {
+        let waiting = |id: &i32| self.listeners.values().any(|b| b.contains(id));
+        self.sockets
+            .iter()
+            .find(|(id, s)| {
+                s.peer == Peer::Client && s.port == port && !s.program_closed && !waiting(id)
+            })
+            .map(|(id, _)| *id)
+    }
+
     /// A socket the program may use (known, not closed by the program).
     fn open(&self, sock: i32) -> Option<&Socket> {
         self.sockets.get(&sock).filter(|s| !s.program_closed)
