@@ -12,7 +12,7 @@ use crate::value::Bytes;
 
 use super::arith::{as_bool, bin_r, check, signal_number, to_i32, truthy, R};
 use super::strings::{decode_cut, instr, val};
-use super::task::{LocVal, Run};
+use super::task::{LocVal, Run, TaskSlot};
 use super::Interpreter;
 use super::MAX_STRING;
 
@@ -20,7 +20,7 @@ impl Interpreter {
     /// [`Self::eval_r`] with a binary operation on constants and scalars in place (the
     /// usual statement: `.i == 1`, `.n = .n + 1`).
     #[inline(always)]
-    pub(super) fn eval_r_top(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<f32> {
+    pub(super) fn eval_r_top(&mut self, i: TaskSlot, e: &RExpr, sys: &mut dyn System) -> R<f32> {
         match e {
             RExpr::Bin(op, a, b) => {
                 let x = self.operand_r(i, a, sys)?;
@@ -37,7 +37,7 @@ impl Interpreter {
 
     /// A real expression: constants, variables and arithmetic here (a small function), the
     /// rest in [`Self::eval_r_other`].
-    pub(super) fn eval_r(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<f32> {
+    pub(super) fn eval_r(&mut self, i: TaskSlot, e: &RExpr, sys: &mut dyn System) -> R<f32> {
         match e {
             RExpr::Const(v) => Ok(*v),
             RExpr::Var(l) => self.operand_r_var(i, l, sys),
@@ -56,7 +56,7 @@ impl Interpreter {
     }
 
     #[inline(never)]
-    pub(super) fn eval_r_other(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<f32> {
+    pub(super) fn eval_r_other(&mut self, i: TaskSlot, e: &RExpr, sys: &mut dyn System) -> R<f32> {
         Ok(match e {
             RExpr::Const(_) | RExpr::Var(_) | RExpr::Bin(..) => self.eval_r(i, e, sys)?,
             RExpr::Neg(a) => -self.eval_r(i, a, sys)?,
@@ -131,7 +131,7 @@ impl Interpreter {
                     SwitchRef::Run => p.run,
                     SwitchRef::Repeat => p.repeat,
                     SwitchRef::TeachLock => p.teach_lock,
-                    SwitchRef::CycleStart => self.tasks[0].run == Run::Running,
+                    SwitchRef::CycleStart => self.tasks[TaskSlot::ROBOT].run == Run::Running,
                     SwitchRef::InError => !sys.error().is_none(),
                     SwitchRef::System(k) => self.switches.get(*k).copied().unwrap_or(false),
                 })
@@ -142,7 +142,7 @@ impl Interpreter {
 
     pub(super) fn eval_func(
         &mut self,
-        i: usize,
+        i: TaskSlot,
         f: RFunc,
         args: &[RExpr],
         sys: &mut dyn System,
@@ -190,10 +190,10 @@ impl Interpreter {
                 match id {
                     Some(id) => {
                         if id == TaskId::Robot
-                            && self.tasks[0].run == Run::Ending
+                            && self.tasks[TaskSlot::ROBOT].run == Run::Ending
                             && !sys.motion_in_progress()
                         {
-                            self.set_run(0, Run::Idle);
+                            self.set_run(TaskSlot::ROBOT, Run::Idle);
                         }
                         self.task_state(id, sys).number()
                     }
@@ -224,7 +224,7 @@ impl Interpreter {
         })
     }
 
-    pub(super) fn eval_s(&mut self, i: usize, e: &SExpr, sys: &mut dyn System) -> R<Bytes> {
+    pub(super) fn eval_s(&mut self, i: TaskSlot, e: &SExpr, sys: &mut dyn System) -> R<Bytes> {
         Ok(match e {
             SExpr::Const(b) => b.clone(),
             SExpr::Var(l) => self.read_s(i, l, sys)?,
@@ -317,14 +317,14 @@ impl Interpreter {
         })
     }
 
-    pub(super) fn eval_loc(&mut self, i: usize, l: &Loc, sys: &mut dyn System) -> R<LocVal> {
+    pub(super) fn eval_loc(&mut self, i: TaskSlot, l: &Loc, sys: &mut dyn System) -> R<LocVal> {
         Ok(match l {
             Loc::J(j) => LocVal::J(self.eval_j(i, j, sys)?),
             Loc::T(t) => LocVal::T(self.eval_t(i, t, sys)?),
         })
     }
 
-    pub(super) fn eval_j(&mut self, i: usize, e: &JExpr, sys: &mut dyn System) -> R<[f32; 6]> {
+    pub(super) fn eval_j(&mut self, i: TaskSlot, e: &JExpr, sys: &mut dyn System) -> R<[f32; 6]> {
         Ok(match e {
             JExpr::Var(l) => self.read_loc_var(i, l, Ty::Joint, sys)?,
             JExpr::PPoint(args) => {
@@ -338,7 +338,7 @@ impl Interpreter {
         })
     }
 
-    pub(super) fn eval_t(&mut self, i: usize, e: &TExpr, sys: &mut dyn System) -> R<[f32; 6]> {
+    pub(super) fn eval_t(&mut self, i: TaskSlot, e: &TExpr, sys: &mut dyn System) -> R<[f32; 6]> {
         Ok(match e {
             TExpr::Var(l) => self.read_loc_var(i, l, Ty::Trans, sys)?,
             TExpr::Trans(args) => {
@@ -370,7 +370,7 @@ impl Interpreter {
     /// Formats PRINT/$ENCODE items: the bytes (line feeds for `/C`) and whether `/S` was given.
     pub(super) fn encode(
         &mut self,
-        i: usize,
+        i: TaskSlot,
         items: &[Item],
         sys: &mut dyn System,
     ) -> R<(Vec<u8>, bool)> {

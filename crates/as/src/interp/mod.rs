@@ -49,7 +49,7 @@ use crate::system::TaskId;
 use crate::value::{Bytes, Store};
 
 use arith::{ns, Ns};
-use task::{SignalState, Task};
+use task::{SignalState, Task, TaskSlot};
 
 pub use config::{Config, CostModel};
 pub use report::{Refusal, TaskInfo, TaskState, TerminalLine, TraceLine};
@@ -77,7 +77,7 @@ pub struct Interpreter {
     now: Ns,
     globals: Store,
     /// With [`Config::persistent_locals`]: the locals of (task, program) between executions.
-    kept: HashMap<(usize, usize), Store>,
+    kept: HashMap<(TaskSlot, usize), Store>,
     elements: usize,
     tasks: Vec<Task>,
     signals: HashMap<i32, SignalState>,

@@ -7,7 +7,7 @@ use crate::keywords::SYSTEM_SWITCHES;
 use crate::system::{PanelState, System, TaskId};
 
 use super::report::{TaskInfo, TaskState, TerminalLine, TraceLine};
-use super::task::{Run, Wait};
+use super::task::{Run, TaskSlot, Wait};
 use super::Interpreter;
 
 impl Interpreter {
@@ -19,7 +19,7 @@ impl Interpreter {
     /// The state of a task given the panel and whether the robot moves (for observers that
     /// hold the system's state rather than a [`System`]).
     pub fn task_state_at(&self, task: TaskId, panel: PanelState, moving: bool) -> TaskState {
-        let i = task.index();
+        let i = TaskSlot::of(task);
         let t = &self.tasks[i];
         match t.run {
             Run::Idle => TaskState::Idle,
@@ -31,7 +31,7 @@ impl Interpreter {
                 }
             }
             Run::Running => {
-                let held = i == 0 && (self.mc_hold || !panel.run);
+                let held = i.is_robot() && (self.mc_hold || !panel.run);
                 if held || matches!(t.wait, Some(Wait::Paused | Wait::Held)) {
                     TaskState::Paused
                 } else {

@@ -10,7 +10,7 @@ use crate::system::{SockPoll, System, TaskId};
 
 use super::arith::{ns, truthy, Ns, NOT_PURE, R};
 use super::report::TerminalLine;
-use super::task::{Flow, Interrupt, Run, Task, Wait};
+use super::task::{Flow, Interrupt, Run, Task, TaskSlot, Wait};
 use super::Interpreter;
 use super::MAX_TRANSFER;
 
@@ -20,13 +20,13 @@ impl Interpreter {
         (after / p + 1).saturating_mul(p)
     }
 
-    pub(super) fn task_wake(&self, i: usize) -> Option<Ns> {
+    pub(super) fn task_wake(&self, i: TaskSlot) -> Option<Ns> {
         self.wake_time(i, &self.tasks[i])
     }
 
     /// [`Self::task_wake`] of task `i`, given.
     #[inline]
-    pub(super) fn wake_time(&self, i: usize, t: &Task) -> Option<Ns> {
+    pub(super) fn wake_time(&self, i: TaskSlot, t: &Task) -> Option<Ns> {
         if t.run == Run::Ending {
             return Some(t.poll_at);
         }
@@ -48,7 +48,7 @@ impl Interpreter {
             _ => None,
         };
         // The robot task also watches the panel and the error while it waits.
-        let poll = (i == 0 || w.polled()).then_some(t.poll_at);
+        let poll = (i.is_robot() || w.polled()).then_some(t.poll_at);
         match (own, poll) {
             (Some(a), Some(b)) => Some(a.min(b)),
             (a, b) => a.or(b),
@@ -56,7 +56,7 @@ impl Interpreter {
     }
 
     /// Stores a wait of task `i` and schedules its next poll.
-    pub(super) fn set_wait(&mut self, i: usize, w: Wait) {
+    pub(super) fn set_wait(&mut self, i: TaskSlot, w: Wait) {
         let base = self.now.max(self.tasks[i].ready_at.saturating_sub(1));
         let at = self.next_tick(base);
         let t = &mut self.tasks[i];
@@ -84,9 +84,9 @@ impl Interpreter {
 
     /// Task `k`'s entry of [`Self::interrupt_times_cached`].
     #[inline]
-    pub(super) fn interrupt_time_cached(&self, k: usize) -> Option<Ns> {
+    pub(super) fn interrupt_time_cached(&self, k: TaskSlot) -> Option<Ns> {
         self.refresh_int_cache();
-        self.int_cache.get(k).and_then(std::cell::Cell::get)
+        self.int_cache.get(k.index()).and_then(std::cell::Cell::get)
     }
 
     /// Recomputes the cached interrupt times when a signal or an armed interrupt changed.
@@ -114,10 +114,10 @@ impl Interpreter {
     }
 
     /// Sets task `k`'s run state (and its bit in [`Self::active`]).
-    pub(super) fn set_run(&mut self, k: usize, run: Run) {
-        if let Some(t) = self.tasks.get_mut(k) {
+    pub(super) fn set_run(&mut self, k: TaskSlot, run: Run) {
+        if let Some(t) = self.tasks.get_mut(k.index()) {
             t.run = run;
-            let bit = 1u8 << (k & 7);
+            let bit = 1u8 << (k.index() & 7);
             if run == Run::Idle {
                 self.active &= !bit;
             } else {
@@ -126,26 +126,27 @@ impl Interpreter {
         }
     }
 
-    pub(super) fn interrupt_time(&self, i: usize) -> Option<Ns> {
-        self.interrupt_times().get(i).copied().flatten()
+    pub(super) fn interrupt_time(&self, i: TaskSlot) -> Option<Ns> {
+        self.interrupt_times().get(i.index()).copied().flatten()
     }
 
     /// Earliest event, skipping task `skip`'s own steps; ties go to the lower task.
-    pub(super) fn next_event_from(&self, skip: Option<usize>) -> Option<(Ns, usize)> {
-        let mut best: Option<(Ns, usize)> = None;
+    pub(super) fn next_event_from(&self, skip: Option<TaskSlot>) -> Option<(Ns, TaskSlot)> {
+        let mut best: Option<(Ns, TaskSlot)> = None;
         let ints = if self.tasks.iter().any(|t| !t.interrupts.is_empty()) {
             self.interrupt_times()
         } else {
             [None; 6]
         };
         for i in 0..self.tasks.len() {
+            let slot = TaskSlot::at(i);
             let mut cands = [ints.get(i).copied().flatten(), None];
-            if skip != Some(i) {
-                cands[1] = self.task_wake(i);
+            if skip != Some(slot) {
+                cands[1] = self.task_wake(slot);
             }
             for t in cands.into_iter().flatten() {
                 if best.is_none_or(|(b, _)| t < b) {
-                    best = Some((t, i));
+                    best = Some((t, slot));
                 }
             }
         }
@@ -155,7 +156,7 @@ impl Interpreter {
     /// The next event in one pass over the tasks: its time, its task, whether it is that
     /// task's interrupt, and the horizon — what [`Self::next_event_from`] gives with that task's
     /// own steps skipped (where a run of its steps must stop).
-    pub(super) fn next_event_and_horizon(&self) -> Option<(Ns, usize, bool, Option<Ns>)> {
+    pub(super) fn next_event_and_horizon(&self) -> Option<(Ns, TaskSlot, bool, Option<Ns>)> {
         fn earlier(a: Option<Ns>, b: Option<Ns>) -> Option<Ns> {
             match (a, b) {
                 (Some(x), Some(y)) => Some(x.min(y)),
@@ -164,26 +165,27 @@ impl Interpreter {
         }
         // Only tasks that are not idle (an idle task has no step and no armed interrupt);
         // interrupt times only for tasks with armed interrupts (a task without any has none).
-        let mut best: Option<(Ns, usize, Option<Ns>)> = None;
+        let mut best: Option<(Ns, TaskSlot, Option<Ns>)> = None;
         let mut others: Option<Ns> = None;
         let mut mask = self.active;
         while mask != 0 {
             let k = mask.trailing_zeros() as usize;
             mask &= mask - 1;
             let Some(t) = self.tasks.get(k) else { break };
+            let slot = TaskSlot::at(k);
             let int = if t.interrupts.is_empty() {
                 None
             } else {
-                self.interrupt_time_cached(k)
+                self.interrupt_time_cached(slot)
             };
-            let Some(c) = earlier(int, self.wake_time(k, t)) else {
+            let Some(c) = earlier(int, self.wake_time(slot, t)) else {
                 continue;
             };
             match best {
                 Some((b, _, _)) if c >= b => others = earlier(others, Some(c)),
                 _ => {
                     others = earlier(others, best.map(|(b, _, _)| b));
-                    best = Some((c, k, int));
+                    best = Some((c, slot, int));
                 }
             }
         }
@@ -249,7 +251,7 @@ impl Interpreter {
     /// (`horizon`: the earliest event other than this task's steps, as found before the poll).
     pub(super) fn wake(
         &mut self,
-        i: usize,
+        i: TaskSlot,
         sys: &mut dyn System,
         until: Ns,
         horizon: Option<Ns>,
@@ -261,10 +263,11 @@ impl Interpreter {
         // time need not check them again.
         let t = &self.tasks[i];
         let plain = t.run == Run::Running && t.wait.is_none() && t.pending_on.is_none();
-        let checked_at = (i == 0 && plain && self.sys_at == Some(self.now)).then_some(self.now);
+        let checked_at =
+            (i.is_robot() && plain && self.sys_at == Some(self.now)).then_some(self.now);
         if plain {
             // The poll of a task without a wait or a pending ON, in place.
-            if i == 0 && !self.robot_allowed(sys) {
+            if i.is_robot() && !self.robot_allowed(sys) {
                 return;
             }
             self.tasks[i].kick = false;
@@ -313,7 +316,7 @@ impl Interpreter {
             }
             // A PC task's step that meets the system needs nothing more than the system at
             // its time; the robot task's checks the panel, the error and HOLD (in `step`).
-            if (!sync || i != 0) && self.trace.is_none() {
+            if (!sync || !i.is_robot()) && self.trace.is_none() {
                 if let Some(p) = p {
                     // A run of pure computation between two syncs: the ops run here, with the
                     // pc, the time and the step count in locals (written back when the run
@@ -368,7 +371,7 @@ impl Interpreter {
                 Ok(Flow::Next) => {}
                 Ok(Flow::Shared) => {
                     for (k, t) in self.tasks.iter_mut().enumerate() {
-                        if k != i && t.wait.as_ref().is_some_and(Wait::socket) {
+                        if TaskSlot::at(k) != i && t.wait.as_ref().is_some_and(Wait::socket) {
                             t.kick = true;
                         }
                     }
@@ -422,7 +425,7 @@ impl Interpreter {
 
     /// Polls task `i`'s wait; `true` when it may run steps now.
     #[inline(never)]
-    pub(super) fn poll(&mut self, i: usize, sys: &mut dyn System) -> bool {
+    pub(super) fn poll(&mut self, i: TaskSlot, sys: &mut dyn System) -> bool {
         if self.tasks[i].run == Run::Ending {
             // TASK(1) = 3 until the last motion is done.
             if !self.robot_allowed(sys) {
@@ -438,7 +441,7 @@ impl Interpreter {
         if self.tasks[i].run != Run::Running {
             return false;
         }
-        if i == 0 && !self.robot_allowed(sys) {
+        if i.is_robot() && !self.robot_allowed(sys) {
             return false;
         }
         self.tasks[i].kick = false;
@@ -545,14 +548,14 @@ impl Interpreter {
     }
 
     /// Delivers a pending `ON` interrupt at a step boundary; `true` when the task may run.
-    pub(super) fn deliver_on(&mut self, i: usize, sys: &mut dyn System) -> bool {
+    pub(super) fn deliver_on(&mut self, i: TaskSlot, sys: &mut dyn System) -> bool {
         if let Some(int) = self.tasks[i].pending_on.take() {
             self.branch(i, int, sys);
         }
         self.tasks[i].run == Run::Running && self.tasks[i].wait.is_none()
     }
 
-    pub(super) fn fire_interrupt(&mut self, i: usize, sys: &mut dyn System) {
+    pub(super) fn fire_interrupt(&mut self, i: TaskSlot, sys: &mut dyn System) {
         let now = self.now;
         let debounce = ns(self.cfg.signal_debounce);
         let signals = &self.signals;
@@ -585,7 +588,7 @@ impl Interpreter {
         }
     }
 
-    pub(super) fn branch(&mut self, i: usize, int: Interrupt, sys: &mut dyn System) {
+    pub(super) fn branch(&mut self, i: TaskSlot, int: Interrupt, sys: &mut dyn System) {
         self.release_frames(i, int.depth.max(1));
         let t = &mut self.tasks[i];
         t.ready_at = self.now;
@@ -600,18 +603,18 @@ impl Interpreter {
         }
     }
 
-    pub(super) fn current_op(&self, i: usize) -> Option<&Op> {
+    pub(super) fn current_op(&self, i: TaskSlot) -> Option<&Op> {
         let f = self.tasks[i].frames.last()?;
         self.code.programs.get(f.prog)?.ops.get(f.pc)
     }
 
-    pub(super) fn advance_pc(&mut self, i: usize) {
+    pub(super) fn advance_pc(&mut self, i: TaskSlot) {
         if let Some(f) = self.tasks[i].frames.last_mut() {
             f.pc += 1;
         }
     }
 
-    pub(super) fn fail(&mut self, i: usize, e: Box<RuntimeError>, sys: &mut dyn System) {
+    pub(super) fn fail(&mut self, i: TaskSlot, e: Box<RuntimeError>, sys: &mut dyn System) {
         self.advance_sys(sys, self.now);
         let id = self.tasks[i].id;
         let where_ = self.tasks[i].frames.last().map(|f| {

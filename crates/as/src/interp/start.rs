@@ -7,7 +7,7 @@ use crate::value::Store;
 
 use super::arith::R;
 use super::report::{p_code, Refusal, TaskState};
-use super::task::{ArgVal, ByRef, ByRefTarget, Frame, MotionParams, Run};
+use super::task::{ArgVal, ByRef, ByRefTarget, Frame, MotionParams, Run, TaskSlot};
 use super::Interpreter;
 
 impl Interpreter {
@@ -21,7 +21,7 @@ impl Interpreter {
                 format!("autostart{n}.pc")
             };
             if let Some(&p) = self.code.by_name.get(&name) {
-                self.start_task(usize::from(n), p, &[], 1);
+                self.start_task(TaskSlot::at(usize::from(n)), p, &[], 1);
                 self.message(sys, TaskId::Pc(n), format!("{name} started in PC task {n}"));
             }
         }
@@ -51,7 +51,7 @@ impl Interpreter {
     /// Stops a task at once (`ABORT`/`PCABORT` from outside, a panel switch that stops the
     /// robot program). The robot's motion is the system's business.
     pub fn abort(&mut self, task: TaskId) {
-        let i = task.index();
+        let i = TaskSlot::of(task);
         self.release_frames(i, 0);
         self.set_run(i, Run::Idle);
         let t = &mut self.tasks[i];
@@ -61,7 +61,7 @@ impl Interpreter {
         self.int_epoch += 1;
     }
 
-    pub(super) fn new_locals(&mut self, task: usize, prog: usize) -> Store {
+    pub(super) fn new_locals(&mut self, task: TaskSlot, prog: usize) -> Store {
         if self.cfg.persistent_locals {
             if let Some(s) = self.kept.remove(&(task, prog)) {
                 return s;
@@ -71,7 +71,7 @@ impl Interpreter {
     }
 
     /// Pops task `i`'s frames down to `keep`, releasing their locals.
-    pub(super) fn release_frames(&mut self, i: usize, keep: usize) {
+    pub(super) fn release_frames(&mut self, i: TaskSlot, keep: usize) {
         while self.tasks[i].frames.len() > keep {
             let Some(f) = self.tasks[i].frames.pop() else {
                 break;
@@ -80,7 +80,7 @@ impl Interpreter {
         }
     }
 
-    pub(super) fn release(&mut self, i: usize, f: Frame) {
+    pub(super) fn release(&mut self, i: TaskSlot, f: Frame) {
         if self.cfg.persistent_locals {
             self.kept.insert((i, f.prog), f.locals);
         } else {
@@ -92,7 +92,7 @@ impl Interpreter {
     /// value goes back.
     pub(super) fn push_frame(
         &mut self,
-        i: usize,
+        i: TaskSlot,
         prog: usize,
         args: &[(ArgVal, Option<ByRefTarget>)],
     ) -> R<()> {
@@ -154,7 +154,7 @@ impl Interpreter {
 
     pub(super) fn start_task(
         &mut self,
-        i: usize,
+        i: TaskSlot,
         prog: usize,
         args: &[(ArgVal, Option<ByRefTarget>)],
         cycles: i64,
@@ -211,7 +211,7 @@ impl Interpreter {
             return Err(p_code(-11009, "Program is already running."));
         }
         self.mc_hold = false;
-        if self.start_task(0, prog, &args, cycles) {
+        if self.start_task(TaskSlot::ROBOT, prog, &args, cycles) {
             Ok(())
         } else {
             Err(Refusal::Other(
@@ -235,7 +235,7 @@ impl Interpreter {
         if self.tasks[usize::from(task)].run != Run::Idle {
             return Err(Refusal::Other(format!("PC task {task} is already running")));
         }
-        if self.start_task(usize::from(task), prog, &args, cycles) {
+        if self.start_task(TaskSlot::at(usize::from(task)), prog, &args, cycles) {
             Ok(())
         } else {
             Err(Refusal::Other(
@@ -247,7 +247,7 @@ impl Interpreter {
     /// The program of task `i` ended (`.END` or `RETURN` of its first program, `HALT`).
     /// A robot program whose last motion still runs is "finishing" (TASK(1) = 3): its
     /// interrupts stay armed until the motion is done.
-    pub(super) fn end_program(&mut self, i: usize, sys: &mut dyn System, repeat: bool) {
+    pub(super) fn end_program(&mut self, i: TaskSlot, sys: &mut dyn System, repeat: bool) {
         let t = &mut self.tasks[i];
         if repeat && t.cycles_left != 1 {
             if t.cycles_left > 1 {
@@ -259,11 +259,11 @@ impl Interpreter {
             }
             return;
         }
-        if i == 0 && sys.motion_in_progress() {
+        if i.is_robot() && sys.motion_in_progress() {
             self.release_frames(i, 1);
             let at = self.next_tick(self.now);
-            self.set_run(0, Run::Ending);
-            let t = &mut self.tasks[0];
+            self.set_run(TaskSlot::ROBOT, Run::Ending);
+            let t = &mut self.tasks[TaskSlot::ROBOT];
             t.wait = None;
             t.pending_on = None;
             t.poll_at = at;

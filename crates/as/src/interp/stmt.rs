@@ -13,7 +13,7 @@ use crate::value::{Bytes, MAX_INDEX};
 
 use super::arith::{check, ns, secs, signal_number, truthy, Ns, NOT_PURE, R};
 use super::report::TraceLine;
-use super::task::{ArgVal, ByRefTarget, Flow, Interrupt, LocVal, Run, Wait};
+use super::task::{ArgVal, ByRefTarget, Flow, Interrupt, LocVal, Run, TaskSlot, Wait};
 use super::Interpreter;
 use super::MAX_TRANSFER;
 
@@ -23,7 +23,7 @@ impl Interpreter {
     #[allow(clippy::too_many_arguments)]
     pub(super) fn step(
         &mut self,
-        i: usize,
+        i: TaskSlot,
         sys: &mut dyn System,
         code: &Code,
         sync: bool,
@@ -31,7 +31,7 @@ impl Interpreter {
         p: Option<&CProgram>,
         pc: usize,
     ) -> R<Flow> {
-        if i == 0 && sync {
+        if i.is_robot() && sync {
             // (`checked`: the poll just did this at this time.)
             if !checked && !self.robot_allowed(sys) {
                 return Ok(Flow::Next);
@@ -41,7 +41,7 @@ impl Interpreter {
             }
         }
         let Some(p) = p else {
-            self.abort(TaskId::from_index(i));
+            self.abort(TaskId::from_index(i.index()));
             return Ok(Flow::Next);
         };
         let Some(op) = p.ops.get(pc) else {
@@ -68,7 +68,14 @@ impl Interpreter {
     }
 
     #[cold]
-    pub(super) fn trace_step(&mut self, i: usize, code: &Code, p: &CProgram, pc: usize, now: Ns) {
+    pub(super) fn trace_step(
+        &mut self,
+        i: TaskSlot,
+        code: &Code,
+        p: &CProgram,
+        pc: usize,
+        now: Ns,
+    ) {
         let id = self.tasks[i].id;
         let Some(trace) = &mut self.trace else { return };
         let line = p.lines.get(pc).copied().unwrap_or(0);
@@ -95,7 +102,7 @@ impl Interpreter {
     #[inline]
     pub(super) fn exec(
         &mut self,
-        i: usize,
+        i: TaskSlot,
         sys: &mut dyn System,
         code: &Code,
         op: &Op,
@@ -122,7 +129,7 @@ impl Interpreter {
     #[inline(always)]
     pub(super) fn exec_hot(
         &mut self,
-        i: usize,
+        i: TaskSlot,
         sys: &mut dyn System,
         op: &Op,
         pc: usize,
@@ -240,7 +247,7 @@ impl Interpreter {
     #[inline(never)]
     pub(super) fn exec_other(
         &mut self,
-        i: usize,
+        i: TaskSlot,
         sys: &mut dyn System,
         code: &Code,
         op: &Op,
@@ -248,7 +255,7 @@ impl Interpreter {
         now: Ns,
         mut cost: Ns,
     ) -> R<Flow> {
-        let robot = i == 0;
+        let robot = i.is_robot();
         let flow = match op {
             Op::Nop => Flow::Next,
             Op::AssignR(..)
@@ -481,8 +488,8 @@ impl Interpreter {
                 )));
             }
             Op::McAbort => {
-                if self.tasks[0].run == Run::Running {
-                    self.end_program(0, sys, false);
+                if self.tasks[TaskSlot::ROBOT].run == Run::Running {
+                    self.end_program(TaskSlot::ROBOT, sys, false);
                 }
                 Flow::Shared
             }
@@ -494,9 +501,9 @@ impl Interpreter {
             Op::McContinue => {
                 self.mc_hold = false;
                 sys.set_program_hold(false);
-                if matches!(self.tasks[0].wait, Some(Wait::Paused)) {
-                    self.tasks[0].wait = None;
-                    self.tasks[0].ready_at = now;
+                if matches!(self.tasks[TaskSlot::ROBOT].wait, Some(Wait::Paused)) {
+                    self.tasks[TaskSlot::ROBOT].wait = None;
+                    self.tasks[TaskSlot::ROBOT].ready_at = now;
                 }
                 Flow::Shared
             }
@@ -837,13 +844,13 @@ impl Interpreter {
         }
     }
 
-    pub(super) fn set_pc(&mut self, i: usize, pc: usize) {
+    pub(super) fn set_pc(&mut self, i: TaskSlot, pc: usize) {
         if let Some(f) = self.tasks[i].frames.last_mut() {
             f.pc = pc;
         }
     }
 
-    pub(super) fn port(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<u16> {
+    pub(super) fn port(&mut self, i: TaskSlot, e: &RExpr, sys: &mut dyn System) -> R<u16> {
         let p = self.eval_r(i, e, sys)?.trunc();
         if !(8192.0..=65535.0).contains(&p) {
             return Err(Box::new(RuntimeError::IllegalValue(format!(
@@ -855,7 +862,7 @@ impl Interpreter {
 
     pub(super) fn timeout(
         &mut self,
-        i: usize,
+        i: TaskSlot,
         e: Option<&RExpr>,
         sys: &mut dyn System,
     ) -> R<Duration> {
@@ -872,7 +879,7 @@ impl Interpreter {
     }
 
     /// Writes a socket instruction's result to its `ret` variable and goes on.
-    pub(super) fn finish_ret(&mut self, i: usize, v: f32, sys: &mut dyn System) -> R<()> {
+    pub(super) fn finish_ret(&mut self, i: TaskSlot, v: f32, sys: &mut dyn System) -> R<()> {
         let code = Arc::clone(&self.code);
         let op = self.tasks[i]
             .frames
@@ -894,7 +901,7 @@ impl Interpreter {
 
     pub(super) fn finish_accept(
         &mut self,
-        i: usize,
+        i: TaskSlot,
         r: Result<(i32, [u8; 4]), i32>,
         sys: &mut dyn System,
     ) -> R<()> {
@@ -920,7 +927,7 @@ impl Interpreter {
 
     pub(super) fn finish_recv(
         &mut self,
-        i: usize,
+        i: TaskSlot,
         r: Result<Vec<u8>, i32>,
         max: usize,
         sys: &mut dyn System,
@@ -961,7 +968,7 @@ impl Interpreter {
 
     pub(super) fn eval_args(
         &mut self,
-        i: usize,
+        i: TaskSlot,
         args: &[CArg],
         sys: &mut dyn System,
     ) -> R<Vec<(ArgVal, Option<ByRefTarget>)>> {
@@ -992,7 +999,7 @@ impl Interpreter {
     }
 
     /// RETURN (or `.END`): back to the caller, writing by-reference parameters back.
-    pub(super) fn ret(&mut self, i: usize, sys: &mut dyn System) -> R<()> {
+    pub(super) fn ret(&mut self, i: TaskSlot, sys: &mut dyn System) -> R<()> {
         if self.tasks[i].frames.len() <= 1 {
             self.end_program(i, sys, true);
             return Ok(());
@@ -1039,7 +1046,7 @@ impl Interpreter {
     /// Issues a motion with the task's motion parameters (the one-shot ones are used up).
     pub(super) fn motion(
         &mut self,
-        i: usize,
+        i: TaskSlot,
         kind: MotionKind,
         target: Target,
         delay_s: f64,

@@ -211,3 +211,53 @@ pub(super) struct ByRefTarget {
     pub(super) idx: Vec<i32>,
     pub(super) frame: usize,
 }
+
+/// A task's place in the interpreter's task table: 0 for the robot task, 1–5 for PC tasks
+/// 1–5 (what [`TaskId`] names, as an index; it costs what a `usize` costs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub(super) struct TaskSlot(usize);
+
+impl TaskSlot {
+    /// The robot task's slot.
+    pub(super) const ROBOT: TaskSlot = TaskSlot(0);
+
+    /// The slot of a task.
+    #[inline]
+    pub(super) fn of(id: TaskId) -> TaskSlot {
+        TaskSlot(id.index())
+    }
+
+    /// The slot at `index` of the task table (0–5).
+    #[inline]
+    pub(super) fn at(index: usize) -> TaskSlot {
+        TaskSlot(index)
+    }
+
+    /// The index in the task table.
+    #[inline(always)]
+    pub(super) fn index(self) -> usize {
+        self.0
+    }
+
+    /// `true` for the robot task.
+    #[inline(always)]
+    pub(super) fn is_robot(self) -> bool {
+        self.0 == 0
+    }
+}
+
+impl std::ops::Index<TaskSlot> for Vec<Task> {
+    type Output = Task;
+
+    #[inline(always)]
+    fn index(&self, slot: TaskSlot) -> &Task {
+        &self[slot.0]
+    }
+}
+
+impl std::ops::IndexMut<TaskSlot> for Vec<Task> {
+    #[inline(always)]
+    fn index_mut(&mut self, slot: TaskSlot) -> &mut Task {
+        &mut self[slot.0]
+    }
+}

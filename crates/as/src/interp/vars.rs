@@ -8,6 +8,7 @@ use crate::value::{Bytes, Store, Var, MAX_ELEMENTS, MAX_INDEX};
 
 use super::arith::{check, R};
 use super::strings::{decode_cut, val};
+use super::task::TaskSlot;
 use super::Interpreter;
 use super::MAX_STRING;
 
@@ -52,7 +53,7 @@ pub(super) fn simple_index_list(g: &Store, s: &Store, idx: &[RExpr]) -> Option<[
 }
 
 impl Interpreter {
-    pub(super) fn store(&mut self, i: usize, global: bool) -> &mut Store {
+    pub(super) fn store(&mut self, i: TaskSlot, global: bool) -> &mut Store {
         if global {
             &mut self.globals
         } else {
@@ -63,7 +64,7 @@ impl Interpreter {
         }
     }
 
-    pub(super) fn indices(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<[i32; 3]> {
+    pub(super) fn indices(&mut self, i: TaskSlot, l: &LRef, sys: &mut dyn System) -> R<[i32; 3]> {
         if let Some(out) = self.simple_indices(i, l) {
             return Ok(out);
         }
@@ -89,9 +90,9 @@ impl Interpreter {
     /// otherwise (then [`Self::indices`] evaluates them in full, with the same values or
     /// its errors: these reads change nothing).
     #[inline]
-    pub(super) fn simple_indices(&self, i: usize, l: &LRef) -> Option<[i32; 3]> {
+    pub(super) fn simple_indices(&self, i: TaskSlot, l: &LRef) -> Option<[i32; 3]> {
         let globals = &self.globals;
-        let locals = match self.tasks.get(i)?.frames.last() {
+        let locals = match self.tasks.get(i.index())?.frames.last() {
             Some(f) => &f.locals,
             None => globals,
         };
@@ -101,9 +102,9 @@ impl Interpreter {
     /// A real array element whose indices are [`Self::simple_indices`], when it exists
     /// (`None`: [`Self::read_r`] reads it in full, with its errors).
     #[inline]
-    pub(super) fn simple_element_r(&self, i: usize, l: &LRef) -> Option<f32> {
+    pub(super) fn simple_element_r(&self, i: TaskSlot, l: &LRef) -> Option<f32> {
         let globals = &self.globals;
-        let locals = match self.tasks.get(i)?.frames.last() {
+        let locals = match self.tasks.get(i.index())?.frames.last() {
             Some(f) => &f.locals,
             None => globals,
         };
@@ -118,7 +119,13 @@ impl Interpreter {
 
     /// One array index of `l`: 0 to [`MAX_INDEX`] after truncation.
     #[inline(always)]
-    pub(super) fn index(&mut self, i: usize, l: &LRef, e: &RExpr, sys: &mut dyn System) -> R<i32> {
+    pub(super) fn index(
+        &mut self,
+        i: TaskSlot,
+        l: &LRef,
+        e: &RExpr,
+        sys: &mut dyn System,
+    ) -> R<i32> {
         // `.i+1`, the common computed index, is added here (as `eval_r` adds).
         let v = match e {
             RExpr::Bin(BinOp::Add, a, b) => {
@@ -136,7 +143,7 @@ impl Interpreter {
     }
 
     #[cold]
-    pub(super) fn index_range(&self, i: usize, l: &LRef, v: f32) -> Box<RuntimeError> {
+    pub(super) fn index_range(&self, i: TaskSlot, l: &LRef, v: f32) -> Box<RuntimeError> {
         Box::new(RuntimeError::IndexRange(format!(
             "{} in {}",
             v,
@@ -144,7 +151,7 @@ impl Interpreter {
         )))
     }
 
-    pub(super) fn lref_name(&self, i: usize, l: &LRef, ty: Ty) -> String {
+    pub(super) fn lref_name(&self, i: TaskSlot, l: &LRef, ty: Ty) -> String {
         let name = if l.var.global {
             self.code.global_name(ty, l.var.slot).to_owned()
         } else {
@@ -159,7 +166,13 @@ impl Interpreter {
         var_display(ty, l.var.global, &name)
     }
 
-    pub(super) fn undefined(&self, i: usize, l: &LRef, ty: Ty, idx: &[i32]) -> Box<RuntimeError> {
+    pub(super) fn undefined(
+        &self,
+        i: TaskSlot,
+        l: &LRef,
+        ty: Ty,
+        idx: &[i32],
+    ) -> Box<RuntimeError> {
         let mut s = self.lref_name(i, l, ty);
         if !idx.is_empty() {
             let v: Vec<String> = idx.iter().map(|x| x.to_string()).collect();
@@ -180,7 +193,7 @@ impl Interpreter {
 
     /// A real scalar's value; `None` when it was never assigned.
     #[inline]
-    pub(super) fn scalar_r(&self, i: usize, var: VarRef) -> Option<f32> {
+    pub(super) fn scalar_r(&self, i: TaskSlot, var: VarRef) -> Option<f32> {
         let store = if var.global {
             &self.globals
         } else {
@@ -195,7 +208,7 @@ impl Interpreter {
     /// A real operand: a constant or a scalar read in place (the common leaves of an
     /// expression and of array indices), anything else through the evaluator.
     #[inline(always)]
-    pub(super) fn operand_r(&mut self, i: usize, e: &RExpr, sys: &mut dyn System) -> R<f32> {
+    pub(super) fn operand_r(&mut self, i: TaskSlot, e: &RExpr, sys: &mut dyn System) -> R<f32> {
         match e {
             RExpr::Const(v) => Ok(*v),
             RExpr::Var(l) if l.idx.is_empty() => match self.scalar_r(i, l.var) {
@@ -208,7 +221,7 @@ impl Interpreter {
 
     /// A real variable or element (a scalar read in place).
     #[inline(always)]
-    pub(super) fn operand_r_var(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<f32> {
+    pub(super) fn operand_r_var(&mut self, i: TaskSlot, l: &LRef, sys: &mut dyn System) -> R<f32> {
         if l.idx.is_empty() {
             match self.scalar_r(i, l.var) {
                 Some(v) => Ok(v),
@@ -219,7 +232,7 @@ impl Interpreter {
         }
     }
 
-    pub(super) fn read_r(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<f32> {
+    pub(super) fn read_r(&mut self, i: TaskSlot, l: &LRef, sys: &mut dyn System) -> R<f32> {
         if l.idx.is_empty() {
             let slot = l.var.slot as usize;
             return match self
@@ -249,7 +262,7 @@ impl Interpreter {
         }
     }
 
-    pub(super) fn write_r(&mut self, i: usize, l: &LRef, v: f32, sys: &mut dyn System) -> R<()> {
+    pub(super) fn write_r(&mut self, i: TaskSlot, l: &LRef, v: f32, sys: &mut dyn System) -> R<()> {
         if l.idx.is_empty() {
             if let Some(x) = self
                 .store(i, l.var.global)
@@ -269,7 +282,7 @@ impl Interpreter {
     }
 
     #[inline]
-    pub(super) fn write_r_at(&mut self, i: usize, var: VarRef, idx: &[i32], v: f32) -> R<()> {
+    pub(super) fn write_r_at(&mut self, i: TaskSlot, var: VarRef, idx: &[i32], v: f32) -> R<()> {
         let created = match self.store(i, var.global).reals.get_mut(var.slot as usize) {
             Some(x) => x.set(idx, v),
             None => false,
@@ -282,7 +295,7 @@ impl Interpreter {
     /// the token to `dst`; the same errors), without copies of the string's handle.
     pub(super) fn decode_scalar(
         &mut self,
-        i: usize,
+        i: TaskSlot,
         dst: &LRef,
         src: &LRef,
         d: &[u8],
@@ -320,7 +333,7 @@ impl Interpreter {
         Ok(())
     }
 
-    pub(super) fn read_s(&mut self, i: usize, l: &LRef, sys: &mut dyn System) -> R<Bytes> {
+    pub(super) fn read_s(&mut self, i: TaskSlot, l: &LRef, sys: &mut dyn System) -> R<Bytes> {
         if l.idx.is_empty() {
             let slot = l.var.slot as usize;
             return match self
@@ -347,7 +360,7 @@ impl Interpreter {
         }
     }
 
-    pub(super) fn write_s_at(&mut self, i: usize, var: VarRef, idx: &[i32], v: Bytes) -> R<()> {
+    pub(super) fn write_s_at(&mut self, i: TaskSlot, var: VarRef, idx: &[i32], v: Bytes) -> R<()> {
         if v.len() > MAX_STRING {
             return Err(Box::new(RuntimeError::StringTooLong(v.len())));
         }
@@ -358,7 +371,13 @@ impl Interpreter {
         self.count_element(created)
     }
 
-    pub(super) fn write_s(&mut self, i: usize, l: &LRef, v: Bytes, sys: &mut dyn System) -> R<()> {
+    pub(super) fn write_s(
+        &mut self,
+        i: TaskSlot,
+        l: &LRef,
+        v: Bytes,
+        sys: &mut dyn System,
+    ) -> R<()> {
         if l.idx.is_empty() {
             if v.len() > MAX_STRING {
                 return Err(Box::new(RuntimeError::StringTooLong(v.len())));
@@ -379,7 +398,7 @@ impl Interpreter {
 
     pub(super) fn read_loc_var(
         &mut self,
-        i: usize,
+        i: TaskSlot,
         l: &LRef,
         ty: Ty,
         sys: &mut dyn System,
@@ -406,7 +425,7 @@ impl Interpreter {
 
     pub(super) fn write_loc_var(
         &mut self,
-        i: usize,
+        i: TaskSlot,
         l: &LRef,
         ty: Ty,
         v: [f32; 6],
@@ -431,7 +450,7 @@ impl Interpreter {
     }
 
     /// `VAL` of a string scalar, read in place.
-    pub(super) fn val_scalar(&self, i: usize, l: &LRef) -> R<f32> {
+    pub(super) fn val_scalar(&self, i: TaskSlot, l: &LRef) -> R<f32> {
         let store = if l.var.global {
             &self.globals
         } else {
@@ -448,7 +467,7 @@ impl Interpreter {
         }
     }
 
-    pub(super) fn hidden_r(&mut self, i: usize, slot: u32) -> f32 {
+    pub(super) fn hidden_r(&mut self, i: TaskSlot, slot: u32) -> f32 {
         let s = slot as usize;
         self.store(i, false)
             .reals
@@ -457,7 +476,7 @@ impl Interpreter {
             .unwrap_or(0.0)
     }
 
-    pub(super) fn set_hidden_r(&mut self, i: usize, slot: u32, v: f32) {
+    pub(super) fn set_hidden_r(&mut self, i: TaskSlot, slot: u32, v: f32) {
         if let Some(x) = self.store(i, false).reals.get_mut(slot as usize) {
             x.scalar = Some(v);
         }
