@@ -27,7 +27,11 @@
 mod arith;
 mod config;
 mod expr;
+mod flow;
+mod monitor;
+mod motion;
 mod observers;
+mod print;
 mod report;
 mod scheduler;
 mod signals;
@@ -35,6 +39,7 @@ mod start;
 mod stmt;
 mod strings;
 mod task;
+mod tcp;
 mod vars;
 
 use std::collections::{HashMap, VecDeque};
