@@ -14,10 +14,6 @@
 //! - [`System`]: the controller side (motion, panel, error, sockets, terminal). The emulator
 //!   (`fs020n-sim`) implements it with its motion planner; [`testing::VirtualSystem`] (feature
 //!   `testing`) is a minimal one for program-logic tests.
-//! - [`sockets`]: the controller's socket stack — one [`sockets::SocketTable`] of listening
-//!   ports and sockets with the AS result codes ([`sockets::TcpCode`]), for local peers and
-//!   outside clients, that a [`System`] delegates its `tcp_*` calls to (the test system does;
-//!   the emulator's system can).
 //! - [`SERVER_1040`]: this project's own AS text of the protocol-1040 server
 //!   (`autostart.pc` + `ros_move`), written from the protocol specification.
 //!
@@ -37,19 +33,6 @@
 //! assert!(reply.starts_with(" 1040 0 -1 -1 0 -1 0 "), "{reply:?}");
 //! # Ok::<(), fs020n_as::LoadError>(())
 //! ```
-//!
-//! # Where things are
-//!
-//! | module | holds |
-//! |---|---|
-//! | [`lexer`], [`parser`], [`ast`], [`span`], [`keywords`] | program text to a syntax tree |
-//! | `compile` | the syntax tree to ops with resolved variable slots (private) |
-//! | `interp/` | the [`Interpreter`], one concern per file (its module documentation maps them): scheduler, starting programs, variables, signals, expressions, statements (`stmt.rs`, then `flow.rs`, `monitor.rs`, `motion.rs`, `print.rs`, `tcp.rs`) |
-//! | `value` | variable storage (private) |
-//! | [`system`] | the [`System`] trait: what a controller offers the interpreter |
-//! | [`sockets`] | the socket table and the AS TCP result codes |
-//! | [`error`] | load and runtime errors, `$ERROR` messages |
-//! | `testing` | `VirtualSystem`, a minimal system for tests (feature `testing`) |
 //!
 //! Everything supported, the cost model and the choices made where the manuals are silent:
 //! docs/AS.md.

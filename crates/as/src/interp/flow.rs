@@ -10,6 +10,7 @@ use super::Interpreter;
 
 impl Interpreter {
     /// `CASE x OF`: keeps the real selector.
+    #[inline(always)]
     pub(super) fn case_select_r(
         &mut self,
         i: TaskSlot,
@@ -23,6 +24,7 @@ impl Interpreter {
     }
 
     /// `CASE $x OF`: keeps the string selector.
+    #[inline(always)]
     pub(super) fn case_select_s(
         &mut self,
         i: TaskSlot,
@@ -38,6 +40,7 @@ impl Interpreter {
     }
 
     /// `VALUE a, b:` of a real `CASE`: jumps past the branch unless one matches.
+    #[inline(always)]
     pub(super) fn case_test_r(
         &mut self,
         i: TaskSlot,
@@ -61,6 +64,7 @@ impl Interpreter {
     }
 
     /// `VALUE $a, $b:` of a string `CASE`: jumps past the branch unless one matches.
+    #[inline(always)]
     pub(super) fn case_test_s(
         &mut self,
         i: TaskSlot,
@@ -90,6 +94,7 @@ impl Interpreter {
     }
 
     /// `CALL program(args)`: a new frame; the caller resumes after the CALL.
+    #[inline(always)]
     pub(super) fn call(
         &mut self,
         i: TaskSlot,
@@ -104,6 +109,7 @@ impl Interpreter {
     }
 
     /// `TWAIT t`: waits `t` seconds.
+    #[inline(always)]
     pub(super) fn twait(
         &mut self,
         i: TaskSlot,
@@ -116,6 +122,7 @@ impl Interpreter {
     }
 
     /// `WAIT condition`: polls the condition.
+    #[inline(always)]
     pub(super) fn wait_until(
         &mut self,
         i: TaskSlot,

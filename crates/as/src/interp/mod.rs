@@ -5,30 +5,24 @@
 //!
 //! # Map
 //!
-//! One concern per file; each file holds plain types or one `impl Interpreter` block. Runtime
-//! state travels explicitly: every method that acts for a task takes its [`task::TaskSlot`].
+//! One concern per file, each file one `impl Interpreter` block (or plain types):
 //!
 //! | file | concern |
 //! |---|---|
 //! | `mod.rs` | [`Interpreter`] (its state) and loading |
-//! | `config.rs`, `report.rs` | public settings ([`Config`], [`CostModel`]) and reports ([`TaskInfo`], [`TraceLine`], [`Refusal`], …) |
-//! | `task.rs` | a task's state (frames, waits, interrupts, motion parameters) and its [`task::TaskSlot`] |
+//! | `config.rs`, `report.rs` | public settings ([`Config`], [`CostModel`]) and reports ([`TaskInfo`], [`TraceLine`], …) |
+//! | `task.rs` | a task's state: frames, waits, interrupts, motion parameters; [`task::TaskSlot`] |
 //! | `observers.rs` | reading and setting state from outside (tasks, variables, signals, switches) |
 //! | `scheduler.rs` | `run_until`: which task runs next, waits and polls, interrupts, errors |
-//! | `start.rs` | starting and ending programs (`start`, `execute`, `pc_execute`, `abort`, frames) |
+//! | `start.rs` | starting and ending programs (`start`, `EXECUTE`, `PCEXECUTE`, frames) |
 //! | `vars.rs` | reading and writing variables with their indices |
-//! | `signals.rs` | signals: numbers, outputs, `SIGNAL`, `ON`/`ONI`, `IGNORE` |
-//! | `expr.rs` | expressions (reals, strings, locations, functions, `$ENCODE`/`PRINT` encoding) |
-//! | `stmt.rs` | one step: the hot path of pure computation (`exec_hot`), then `exec_other`, which dispatches every other op to one function per statement: |
-//! | `flow.rs` | `CASE`, `CALL`/`RETURN` and their arguments, `TWAIT`, `WAIT` |
-//! | `monitor.rs` | `EXECUTE`, `PCEXECUTE`, `PCABORT`, `MC …`, `TIMER` |
-//! | `motion.rs` | location assignments, `HERE`, `DECOMPOSE`, `JMOVE`/`LMOVE`, `HOME`, `DELAY`, `BREAK`, motion parameters |
-//! | `print.rs` | `PRINT`/`TYPE` |
-//! | `tcp.rs` | `TCP_LISTEN` … `TCP_CLOSE` (the system's socket table answers them) |
+//! | `signals.rs` | signal numbers and outputs |
+//! | `expr.rs` | expressions (reals, strings, locations, functions, `PRINT` encoding) |
+//! | `stmt.rs` | one step: the hot path of pure computation, then every other op |
 //! | `arith.rs`, `strings.rs` | free helpers: numbers and overflow, string functions |
 //!
 //! Arrows run one way: the `impl` files import the types (`task`, `report`, `config`) and the
-//! helpers (`arith`, `strings`); they reach one another only through `Interpreter`'s methods.
+//! helpers (`arith`, `strings`); they call one another only through `Interpreter`'s methods.
 
 mod arith;
 mod config;

@@ -11,6 +11,7 @@ use super::Interpreter;
 impl Interpreter {
     /// `EXECUTE program` from a PC program: starts it in robot task 1.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     pub(super) fn execute_stmt(
         &mut self,
         i: TaskSlot,
@@ -44,6 +45,7 @@ impl Interpreter {
 
     /// `PCEXECUTE n: program`.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     pub(super) fn pc_execute_stmt(
         &mut self,
         i: TaskSlot,
@@ -75,6 +77,7 @@ impl Interpreter {
     }
 
     /// `PCABORT n`.
+    #[inline(always)]
     pub(super) fn pc_abort(
         &mut self,
         i: TaskSlot,
@@ -92,6 +95,7 @@ impl Interpreter {
     }
 
     /// `MC CONTINUE`: resumes the motion and a paused robot program.
+    #[inline(always)]
     pub(super) fn mc_continue(&mut self, sys: &mut dyn System, now: Ns) -> R<Flow> {
         self.mc_hold = false;
         sys.set_program_hold(false);
@@ -103,6 +107,7 @@ impl Interpreter {
     }
 
     /// `MC SPEED p`: the monitor speed.
+    #[inline(always)]
     pub(super) fn mc_speed(&mut self, i: TaskSlot, e: &RExpr, sys: &mut dyn System) -> R<Flow> {
         let v = self.eval_r(i, e, sys)?;
         if let Err(why) = sys.set_monitor_speed(f64::from(v)) {
@@ -113,6 +118,7 @@ impl Interpreter {
     }
 
     /// `MC ERESET`: resets the error.
+    #[inline(always)]
     pub(super) fn mc_ereset(&mut self, i: TaskSlot, sys: &mut dyn System) -> R<Flow> {
         if let Err(why) = sys.reset_error() {
             let id = self.tasks[i].id;
@@ -122,6 +128,7 @@ impl Interpreter {
     }
 
     /// `TIMER n = t`.
+    #[inline(always)]
     pub(super) fn set_timer(
         &mut self,
         i: TaskSlot,

@@ -13,6 +13,7 @@ use super::Interpreter;
 
 impl Interpreter {
     /// `#p = …`: a joint-displacement assignment.
+    #[inline(always)]
     pub(super) fn assign_joints(
         &mut self,
         i: TaskSlot,
@@ -26,6 +27,7 @@ impl Interpreter {
     }
 
     /// `p = …`: a transformation assignment.
+    #[inline(always)]
     pub(super) fn assign_trans(
         &mut self,
         i: TaskSlot,
@@ -39,6 +41,7 @@ impl Interpreter {
     }
 
     /// `DECOMPOSE x[i] = location`: its six values into a real array.
+    #[inline(always)]
     pub(super) fn decompose(
         &mut self,
         i: TaskSlot,
@@ -66,6 +69,7 @@ impl Interpreter {
     }
 
     /// `HERE p`: the current pose.
+    #[inline(always)]
     pub(super) fn here_trans(&mut self, i: TaskSlot, l: &LRef, sys: &mut dyn System) -> R<Flow> {
         let Some(p) = sys.pose() else {
             return Err(Box::new(RuntimeError::IllegalValue(
@@ -77,6 +81,7 @@ impl Interpreter {
     }
 
     /// `JMOVE`/`LMOVE location`.
+    #[inline(always)]
     pub(super) fn move_to(
         &mut self,
         i: TaskSlot,
@@ -99,6 +104,7 @@ impl Interpreter {
     }
 
     /// `HOME`.
+    #[inline(always)]
     pub(super) fn home(&mut self, i: TaskSlot, sys: &mut dyn System, robot: bool) -> R<Flow> {
         self.require_robot(robot, "HOME")?;
         let home = sys.home();
@@ -106,6 +112,7 @@ impl Interpreter {
     }
 
     /// `DELAY t`: a motion that stands still.
+    #[inline(always)]
     pub(super) fn delay(
         &mut self,
         i: TaskSlot,
@@ -123,6 +130,7 @@ impl Interpreter {
     }
 
     /// `BREAK`: waits until the motion is done.
+    #[inline(always)]
     pub(super) fn break_motion(&mut self, sys: &mut dyn System, robot: bool) -> R<Flow> {
         self.require_robot(robot, "BREAK")?;
         Ok(if sys.motion_in_progress() {
@@ -133,6 +141,7 @@ impl Interpreter {
     }
 
     /// `SPEED v [unit] [ALWAYS]`.
+    #[inline(always)]
     pub(super) fn speed(
         &mut self,
         i: TaskSlot,
@@ -167,6 +176,7 @@ impl Interpreter {
     }
 
     /// `ACCURACY d [FINE] [ALWAYS]`.
+    #[inline(always)]
     pub(super) fn accuracy(
         &mut self,
         i: TaskSlot,
@@ -192,6 +202,7 @@ impl Interpreter {
     }
 
     /// `ACCEL`/`DECEL p [ALWAYS]`.
+    #[inline(always)]
     pub(super) fn accel_decel(
         &mut self,
         i: TaskSlot,

@@ -10,6 +10,7 @@ use super::Interpreter;
 impl Interpreter {
     /// `PRINT`/`TYPE items`: the terminal lines (a line ends unless `/S`); the extra time
     /// printing takes ([`crate::CostModel::print`] and per byte).
+    #[inline(always)]
     pub(super) fn print(&mut self, i: TaskSlot, items: &[Item], sys: &mut dyn System) -> R<Ns> {
         let (bytes, no_newline) = self.encode(i, items, sys)?;
         let cost =

@@ -30,6 +30,7 @@ impl Interpreter {
     }
 
     /// `SIGNAL n, -m, …`: sets and resets output and internal signals.
+    #[inline(always)]
     pub(super) fn signal_out(&mut self, i: TaskSlot, v: &[RExpr], sys: &mut dyn System) -> R<Flow> {
         for e in v.iter() {
             let s = signal_number(self.eval_r(i, e, sys)?);
@@ -45,6 +46,7 @@ impl Interpreter {
 
     /// `ON`/`ONI signal GOTO/CALL`: arms an interrupt.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     pub(super) fn arm_interrupt(
         &mut self,
         i: TaskSlot,
@@ -83,6 +85,7 @@ impl Interpreter {
     }
 
     /// `IGNORE signal`: disarms its interrupt.
+    #[inline(always)]
     pub(super) fn ignore(&mut self, i: TaskSlot, e: &RExpr, sys: &mut dyn System) -> R<Flow> {
         let s = signal_number(self.eval_r(i, e, sys)?);
         self.tasks[i]

@@ -232,7 +232,7 @@ impl Interpreter {
                 "PC task {task} does not exist (1 to 5)"
             )));
         }
-        if self.tasks[usize::from(task)].run != Run::Idle {
+        if self.tasks[TaskSlot::at(usize::from(task))].run != Run::Idle {
             return Err(Refusal::Other(format!("PC task {task} is already running")));
         }
         if self.start_task(TaskSlot::at(usize::from(task)), prog, &args, cycles) {

@@ -237,7 +237,10 @@ impl Interpreter {
         })
     }
 
-    /// The ops [`Self::exec`] leaves to this function.
+    /// The ops [`Self::exec`] leaves to this function: each statement has its function in the
+    /// file of its concern (`flow.rs`, `monitor.rs`, `motion.rs`, `print.rs`, `signals.rs`,
+    /// `tcp.rs`), marked `#[inline(always)]` so that this stays one function, as the compiler
+    /// saw it when the statements were written here (they are called from here alone).
     #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     pub(super) fn exec_other(

@@ -16,6 +16,7 @@ use super::MAX_TRANSFER;
 
 impl Interpreter {
     /// `TCP_LISTEN ret, port`.
+    #[inline(always)]
     pub(super) fn tcp_listen(
         &mut self,
         i: TaskSlot,
@@ -30,6 +31,7 @@ impl Interpreter {
     }
 
     /// `TCP_END_LISTEN ret, port`.
+    #[inline(always)]
     pub(super) fn tcp_end_listen(
         &mut self,
         i: TaskSlot,
@@ -44,6 +46,7 @@ impl Interpreter {
     }
 
     /// `TCP_ACCEPT ret, port, timeout[, ip]`: waits for a connection.
+    #[inline(always)]
     pub(super) fn tcp_accept(
         &mut self,
         i: TaskSlot,
@@ -67,6 +70,7 @@ impl Interpreter {
 
     /// `TCP_CONNECT ret, port, ip[i], timeout`.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     pub(super) fn tcp_connect(
         &mut self,
         i: TaskSlot,
@@ -117,6 +121,7 @@ impl Interpreter {
 
     /// `TCP_RECV ret, sock, $buf[i], n, timeout[, max]`: waits for bytes.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     pub(super) fn tcp_recv(
         &mut self,
         i: TaskSlot,
@@ -156,6 +161,7 @@ impl Interpreter {
     }
 
     /// `TCP_CLOSE ret, sock`.
+    #[inline(always)]
     pub(super) fn tcp_close(
         &mut self,
         i: TaskSlot,
@@ -288,6 +294,7 @@ impl Interpreter {
     /// `TCP_SEND ret, sock, $buf[i], n, timeout`: waits until the peer takes the bytes.
     /// `None`: refused at once for its size (`ret` = −34022), and the step takes no time.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     pub(super) fn tcp_send(
         &mut self,
         i: TaskSlot,
