@@ -5,6 +5,7 @@ use std::sync::Arc;
 
 use fs020n_proto::ErrorCode;
 
+use crate::sockets::TcpCode;
 use crate::span::Span;
 
 /// One reason a program text is refused, with where and what was expected.
@@ -141,16 +142,9 @@ pub fn error_message(code: i32) -> Option<&'static str> {
         -30108 => Some("Instruction not allowed in this task"),
         -30109 => Some("Too many nested CALLs"),
         -30110 => Some("Variable memory full"),
-        -34019 => Some("Socket open error"),
-        -34020 => Some("Socket close error"),
-        -34021 => Some("Communication error"),
-        -34022 => Some("Message too long"),
-        -34023 => Some("Cannot reach host"),
-        -34024 => Some("Communication timeout"),
-        -34025 => Some("Connection failed or broken"),
-        -34055 => Some("Cannot create socket (port in use)"),
-        -34056 => Some("Port not in LISTEN"),
-        -34057 => Some("Illegal socket id"),
-        other => ErrorCode(other).message(),
+        other => match TcpCode::from_code(other) {
+            Some(tcp) => Some(tcp.message()),
+            None => ErrorCode(other).message(),
+        },
     }
 }

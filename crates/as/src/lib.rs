@@ -46,6 +46,7 @@ mod interp;
 pub mod keywords;
 pub mod lexer;
 pub mod parser;
+pub mod sockets;
 pub mod span;
 pub mod system;
 #[cfg(any(test, feature = "testing"))]

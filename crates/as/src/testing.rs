@@ -1,7 +1,7 @@
 //! A minimal [`System`] for tests of AS programs and of the interpreter itself (feature
 //! `testing`): an FS020N model for ranges, HOME and the forward kinematics of `HERE`, a
 //! deliberately simple motion (each joint moves linearly, all arriving together, at
-//! `max_speed_deg_s` × the effective speed), an in-process TCP stack with test clients, and a
+//! `max_speed_deg_s` × the effective speed), the controller's socket table ([`crate::sockets`]) with in-process test clients, and a
 //! terminal that keeps every line.
 //!
 //! It is **not** the emulator: `fs020n-sim` implements [`System`] with the real motion planner
@@ -9,12 +9,12 @@
 //! panel, pendant and TCP server. Use this one when a program's logic is under test, the
 //! emulator when its motion or the protocol is.
 
-use std::collections::{HashMap, VecDeque};
 use std::time::Duration;
 
 use fs020n_kin::{Pose, RobotModel, Xyzoat};
 use fs020n_proto::{ErrorCode, JointsDeg};
 
+use crate::sockets::{Delivery, SocketLimits, SocketTable, TcpCode};
 use crate::system::{
     Issued, Joints, MotionKind, MotionRequest, PanelState, SockPoll, Speed, System, Target, TaskId,
     Trans,
@@ -69,13 +69,6 @@ fn max_abs_diff(a: &Joints, b: &Joints) -> f64 {
         .fold(0.0, f64::max)
 }
 
-#[derive(Debug, Clone, Default)]
-struct Sock {
-    inbox: VecDeque<u8>,
-    peer: Option<i32>,
-    peer_closed: bool,
-}
-
 /// The test system (see the module documentation). Its fields are public so that a test can
 /// set the panel, read the terminal and the issued motions.
 #[derive(Debug, Clone)]
@@ -105,9 +98,8 @@ pub struct VirtualSystem {
     joints: Joints,
     current: Option<Seg>,
     planned: Option<(Seg, Duration)>,
-    listeners: HashMap<u16, VecDeque<i32>>,
-    sockets: HashMap<i32, Sock>,
-    next_socket: i32,
+    /// The sockets (test clients are local peers of the program's sockets).
+    net: SocketTable,
 }
 
 impl Default for VirtualSystem {
@@ -141,9 +133,10 @@ impl VirtualSystem {
             raised: Vec::new(),
             current: None,
             planned: None,
-            listeners: HashMap::new(),
-            sockets: HashMap::new(),
-            next_socket: 1,
+            net: SocketTable::new(SocketLimits {
+                local_buffer: 64 * 1024,
+                client_buffer: 64 * 1024,
+            }),
         }
     }
 
@@ -158,63 +151,27 @@ impl VirtualSystem {
 
     /// A test client connects to `port`: its socket id, `None` when nothing listens.
     pub fn connect(&mut self, port: u16) -> Option<i32> {
-        let backlog = self.listeners.get_mut(&port)?;
-        let client = self.next_socket;
-        let server = self.next_socket + 1;
-        self.next_socket += 2;
-        backlog.push_back(server);
-        self.sockets.insert(
-            client,
-            Sock {
-                peer: Some(server),
-                ..Sock::default()
-            },
-        );
-        self.sockets.insert(
-            server,
-            Sock {
-                peer: Some(client),
-                ..Sock::default()
-            },
-        );
-        Some(client)
+        self.net.connect_local(port)
     }
 
     /// A test client sends bytes (`false` when its socket is gone or the peer closed).
     pub fn send(&mut self, client: i32, bytes: &[u8]) -> bool {
-        let Some(peer) = self.sockets.get(&client).and_then(|s| s.peer) else {
-            return false;
-        };
-        match self.sockets.get_mut(&peer) {
-            Some(p) => {
-                p.inbox.extend(bytes);
-                true
-            }
-            None => false,
-        }
+        self.net.peer_send(client, bytes)
     }
 
     /// Everything a test client has received so far.
     pub fn recv(&mut self, client: i32) -> Vec<u8> {
-        self.sockets
-            .get_mut(&client)
-            .map(|s| s.inbox.drain(..).collect())
-            .unwrap_or_default()
+        self.net.take_inbox(client)
     }
 
     /// `true` when the program closed the other end of a test client's connection.
     pub fn peer_closed(&self, client: i32) -> bool {
-        self.sockets.get(&client).is_none_or(|s| s.peer_closed)
+        self.net.peer_closed(client)
     }
 
     /// A test client closes its connection.
     pub fn close(&mut self, client: i32) {
-        if let Some(s) = self.sockets.remove(&client) {
-            if let Some(p) = s.peer.and_then(|p| self.sockets.get_mut(&p)) {
-                p.peer_closed = true;
-                p.peer = None;
-            }
-        }
+        self.net.close(client);
     }
 
     /// The joint angles now.
@@ -224,7 +181,7 @@ impl VirtualSystem {
 
     /// `true` while `port` listens.
     pub fn listening(&self, port: u16) -> bool {
-        self.listeners.contains_key(&port)
+        self.net.listening(port)
     }
 
     fn settle(&mut self, t: Duration) {
@@ -447,87 +404,40 @@ impl System for VirtualSystem {
     }
 
     fn tcp_listen(&mut self, port: u16) -> i32 {
-        if self.listeners.contains_key(&port) {
-            return -34055;
-        }
-        self.listeners.insert(port, VecDeque::new());
-        0
+        self.net.listen(port)
     }
 
     fn tcp_end_listen(&mut self, port: u16) -> i32 {
-        match self.listeners.remove(&port) {
-            Some(backlog) => {
-                // Connections never accepted are reset.
-                for s in backlog {
-                    self.tcp_close(s);
-                }
-                0
-            }
-            None => -34056,
-        }
+        self.net.end_listen(port)
     }
 
     fn tcp_accept(&mut self, port: u16) -> SockPoll<(i32, [u8; 4])> {
-        match self.listeners.get_mut(&port) {
-            None => SockPoll::Ready(Err(-34056)),
-            Some(b) => match b.pop_front() {
-                Some(s) => SockPoll::Ready(Ok((s, [127, 0, 0, 1]))),
-                None => SockPoll::Pending,
-            },
-        }
+        self.net.accept(port)
     }
 
     fn tcp_connect(&mut self, _ip: [u8; 4], port: u16) -> SockPoll<i32> {
-        match self.connect(port) {
+        match self.net.connect_local(port) {
             Some(id) => SockPoll::Ready(Ok(id)),
-            None => SockPoll::Ready(Err(-34025)),
+            None => SockPoll::Ready(Err(TcpCode::Broken.code())),
         }
     }
 
     fn tcp_recv(&mut self, sock: i32, max: usize) -> SockPoll<Vec<u8>> {
-        let Some(s) = self.sockets.get_mut(&sock) else {
-            return SockPoll::Ready(Err(-34057));
-        };
-        if s.inbox.is_empty() {
-            return if s.peer_closed {
-                SockPoll::Ready(Err(-34025))
-            } else {
-                SockPoll::Pending
-            };
-        }
-        let n = s.inbox.len().min(max);
-        SockPoll::Ready(Ok(s.inbox.drain(..n).collect()))
+        self.net.recv(sock, max)
     }
 
     fn tcp_send(&mut self, sock: i32, data: &[u8]) -> SockPoll<()> {
-        let Some(s) = self.sockets.get(&sock) else {
-            return SockPoll::Ready(Err(-34057));
+        // `socket_capacity` is public: a test may change it at any time.
+        let limits = SocketLimits {
+            local_buffer: self.socket_capacity,
+            ..self.net.limits()
         };
-        let Some(peer) = s.peer.filter(|_| !s.peer_closed) else {
-            return SockPoll::Ready(Err(-34025));
-        };
-        let cap = self.socket_capacity;
-        match self.sockets.get_mut(&peer) {
-            Some(p) if p.inbox.len() + data.len() <= cap => {
-                p.inbox.extend(data);
-                SockPoll::Ready(Ok(()))
-            }
-            Some(_) => SockPoll::Pending,
-            None => SockPoll::Ready(Err(-34025)),
-        }
+        self.net.set_limits(limits);
+        self.net.send(sock, data, self.now, || Delivery::Now)
     }
 
     fn tcp_close(&mut self, sock: i32) -> i32 {
-        match self.sockets.remove(&sock) {
-            Some(s) => {
-                if let Some(p) = s.peer.and_then(|p| self.sockets.get_mut(&p)) {
-                    p.peer_closed = true;
-                    p.peer = None;
-                }
-                0
-            }
-            None => -34057,
-        }
+        self.net.close(sock)
     }
 
     fn terminal(&mut self, task: TaskId, line: &str) {

@@ -1,0 +1,70 @@
+//! The interpreter's settings: [`Config`] and the [`CostModel`].
+
+use std::time::Duration;
+
+use serde::Serialize;
+
+/// How long statements take (see docs/AS.md, "Cost model").
+///
+/// Every executed step costs [`CostModel::statement`]; `PRINT`/`TYPE` add
+/// [`CostModel::print`] plus [`CostModel::print_per_byte`] for each byte printed (the terminal
+/// line is the slowest thing an AS loop usually does: 100 µs per byte is a serial console at
+/// about 115 200 baud). With these defaults the protocol-1040 server's motion loop has the
+/// 4 ms loop overhead the native emulator assumes, and a request takes its communication task
+/// about 1–3 ms. Tasks run concurrently, each on its own
+/// timeline: a busy loop advances its own task's time, never freezes the clock, and does not
+/// slow the other tasks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct CostModel {
+    /// One program step (at least 1 µs).
+    pub statement: Duration,
+    /// Extra time of a PRINT/TYPE.
+    pub print: Duration,
+    /// Extra time per byte printed.
+    pub print_per_byte: Duration,
+}
+
+impl Default for CostModel {
+    fn default() -> Self {
+        CostModel {
+            statement: Duration::from_micros(20),
+            print: Duration::from_millis(1),
+            print_per_byte: Duration::from_micros(100),
+        }
+    }
+}
+
+/// Interpreter settings.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Config {
+    /// Statement costs.
+    pub cost: CostModel,
+    /// How often waiting conditions (`WAIT`, a planned motion, `BREAK`, HOLD) are checked; the
+    /// controller's cycle. Default 2 ms.
+    pub poll_period: Duration,
+    /// How long a signal must stay in its new state before `ON`/`ONI` fires (50 ms on the
+    /// controller).
+    pub signal_debounce: Duration,
+    /// Deepest `CALL` nesting before E0109.
+    pub max_call_depth: usize,
+    /// Terminal lines kept for [`Interpreter::terminal`].
+    pub terminal_lines: usize,
+    /// `false` (default): a program's dot-locals are created for each execution and each
+    /// `CALL` and start undefined. `true`: they belong to the program in its task and keep
+    /// their values across calls and new executions (the controller's behaviour is not
+    /// documented; see docs/AS.md).
+    pub persistent_locals: bool,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            cost: CostModel::default(),
+            poll_period: Duration::from_millis(2),
+            signal_debounce: Duration::from_millis(50),
+            max_call_depth: 32,
+            terminal_lines: 1000,
+            persistent_locals: false,
+        }
+    }
+}

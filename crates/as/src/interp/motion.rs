@@ -1,0 +1,265 @@
+//! Motion statements: location assignments, `HERE`, `DECOMPOSE`, `JMOVE`/`LMOVE`, `HOME`,
+//! `DELAY`, `BREAK`, the motion parameters, and the motion request handed to the system.
+
+use crate::ast::SpeedUnit;
+use crate::compile::{JExpr, LRef, Loc, RExpr, TExpr, Ty};
+use crate::error::RuntimeError;
+use crate::system::{Issued, MotionKind, MotionRequest, Speed, System, Target};
+use crate::value::MAX_INDEX;
+
+use super::arith::R;
+use super::task::{Flow, LocVal, TaskSlot, Wait};
+use super::Interpreter;
+
+impl Interpreter {
+    /// `#p = …`: a joint-displacement assignment.
+    #[inline(always)]
+    pub(super) fn assign_joints(
+        &mut self,
+        i: TaskSlot,
+        l: &LRef,
+        e: &JExpr,
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        let v = self.eval_j(i, e, sys)?;
+        self.write_loc_var(i, l, Ty::Joint, v, sys)?;
+        Ok(Flow::Next)
+    }
+
+    /// `p = …`: a transformation assignment.
+    #[inline(always)]
+    pub(super) fn assign_trans(
+        &mut self,
+        i: TaskSlot,
+        l: &LRef,
+        e: &TExpr,
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        let v = self.eval_t(i, e, sys)?;
+        self.write_loc_var(i, l, Ty::Trans, v, sys)?;
+        Ok(Flow::Next)
+    }
+
+    /// `DECOMPOSE x[i] = location`: its six values into a real array.
+    #[inline(always)]
+    pub(super) fn decompose(
+        &mut self,
+        i: TaskSlot,
+        target: &LRef,
+        l: &Loc,
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        let v = match self.eval_loc(i, l, sys)? {
+            LocVal::J(v) | LocVal::T(v) => v,
+        };
+        let n = target.idx.len().min(3);
+        let idx = self.indices(i, target, sys)?;
+        let dims = n.max(1);
+        for (k, x) in v.iter().enumerate() {
+            let mut at = idx;
+            at[0] = idx[0] + k as i32;
+            if at[0] > MAX_INDEX {
+                return Err(Box::new(RuntimeError::IndexRange(format!(
+                    "DECOMPOSE beyond index {MAX_INDEX}"
+                ))));
+            }
+            self.write_r_at(i, target.var, &at[..dims], *x)?;
+        }
+        Ok(Flow::Next)
+    }
+
+    /// `HERE p`: the current pose.
+    #[inline(always)]
+    pub(super) fn here_trans(&mut self, i: TaskSlot, l: &LRef, sys: &mut dyn System) -> R<Flow> {
+        let Some(p) = sys.pose() else {
+            return Err(Box::new(RuntimeError::IllegalValue(
+                "HERE: this controller has no kinematics".into(),
+            )));
+        };
+        self.write_loc_var(i, l, Ty::Trans, p.map(|x| x as f32), sys)?;
+        Ok(Flow::Next)
+    }
+
+    /// `JMOVE`/`LMOVE location`.
+    #[inline(always)]
+    pub(super) fn move_to(
+        &mut self,
+        i: TaskSlot,
+        linear: &bool,
+        l: &Loc,
+        sys: &mut dyn System,
+        robot: bool,
+    ) -> R<Flow> {
+        self.require_robot(robot, "JMOVE/LMOVE")?;
+        let target = match self.eval_loc(i, l, sys)? {
+            LocVal::J(v) => Target::Joints(v.map(f64::from)),
+            LocVal::T(v) => Target::Pose(v.map(f64::from)),
+        };
+        let kind = if *linear {
+            MotionKind::Linear
+        } else {
+            MotionKind::Joint
+        };
+        self.motion(i, kind, target, 0.0, sys)
+    }
+
+    /// `HOME`.
+    #[inline(always)]
+    pub(super) fn home(&mut self, i: TaskSlot, sys: &mut dyn System, robot: bool) -> R<Flow> {
+        self.require_robot(robot, "HOME")?;
+        let home = sys.home();
+        self.motion(i, MotionKind::Joint, Target::Joints(home), 0.0, sys)
+    }
+
+    /// `DELAY t`: a motion that stands still.
+    #[inline(always)]
+    pub(super) fn delay(
+        &mut self,
+        i: TaskSlot,
+        e: &RExpr,
+        sys: &mut dyn System,
+        robot: bool,
+    ) -> R<Flow> {
+        self.require_robot(robot, "DELAY")?;
+        let d = self.eval_r(i, e, sys)?;
+        if !(d.is_finite() && d >= 0.0) {
+            return Err(Box::new(RuntimeError::IllegalValue(format!("DELAY {d}"))));
+        }
+        let here = Target::Joints(sys.joints());
+        self.motion(i, MotionKind::Delay, here, f64::from(d), sys)
+    }
+
+    /// `BREAK`: waits until the motion is done.
+    #[inline(always)]
+    pub(super) fn break_motion(&mut self, sys: &mut dyn System, robot: bool) -> R<Flow> {
+        self.require_robot(robot, "BREAK")?;
+        Ok(if sys.motion_in_progress() {
+            Flow::Wait(Box::new(Wait::MotionDone))
+        } else {
+            Flow::Next
+        })
+    }
+
+    /// `SPEED v [unit] [ALWAYS]`.
+    #[inline(always)]
+    pub(super) fn speed(
+        &mut self,
+        i: TaskSlot,
+        e: &RExpr,
+        unit: &SpeedUnit,
+        always: &bool,
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        let v = self.eval_r(i, e, sys)?;
+        let v = f64::from(v);
+        let speed = match unit {
+            SpeedUnit::Percent => Speed::Percent(v.clamp(0.01, 100.0)),
+            other => {
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(Box::new(RuntimeError::IllegalValue(format!("SPEED {v}"))));
+                }
+                match other {
+                    SpeedUnit::MmPerS => Speed::MmPerS(v),
+                    SpeedUnit::MmPerMin => Speed::MmPerS(v / 60.0),
+                    _ => Speed::Seconds(v),
+                }
+            }
+        };
+        let m = &mut self.tasks[i].motion;
+        if *always {
+            m.speed = speed;
+            m.speed_once = None;
+        } else {
+            m.speed_once = Some(speed);
+        }
+        Ok(Flow::Next)
+    }
+
+    /// `ACCURACY d [FINE] [ALWAYS]`.
+    #[inline(always)]
+    pub(super) fn accuracy(
+        &mut self,
+        i: TaskSlot,
+        e: &RExpr,
+        fine: &bool,
+        always: &bool,
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        let v = f64::from(self.eval_r(i, e, sys)?);
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(Box::new(RuntimeError::IllegalValue(format!(
+                "ACCURACY {v}"
+            ))));
+        }
+        let m = &mut self.tasks[i].motion;
+        if *always {
+            m.accuracy = (v, *fine);
+            m.accuracy_once = None;
+        } else {
+            m.accuracy_once = Some((v, *fine));
+        }
+        Ok(Flow::Next)
+    }
+
+    /// `ACCEL`/`DECEL p [ALWAYS]`.
+    #[inline(always)]
+    pub(super) fn accel_decel(
+        &mut self,
+        i: TaskSlot,
+        decel: &bool,
+        e: &RExpr,
+        always: &bool,
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        let v = f64::from(self.eval_r(i, e, sys)?).clamp(0.01, 100.0);
+        let m = &mut self.tasks[i].motion;
+        match (decel, always) {
+            (false, true) => {
+                m.accel = v;
+                m.accel_once = None;
+            }
+            (false, false) => m.accel_once = Some(v),
+            (true, true) => {
+                m.decel = v;
+                m.decel_once = None;
+            }
+            (true, false) => m.decel_once = Some(v),
+        }
+        Ok(Flow::Next)
+    }
+
+    /// Issues a motion with the task's motion parameters (the one-shot ones are used up).
+    pub(super) fn motion(
+        &mut self,
+        i: TaskSlot,
+        kind: MotionKind,
+        target: Target,
+        delay_s: f64,
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        let cp = self.switch_on("cp");
+        let abs_speed = self.switch_on("abs.speed");
+        let m = &mut self.tasks[i].motion;
+        let speed = m.speed_once.take().unwrap_or(m.speed);
+        let (accuracy_mm, fine) = m.accuracy_once.take().unwrap_or(m.accuracy);
+        let accel_percent = m.accel_once.take().unwrap_or(m.accel);
+        let decel_percent = m.decel_once.take().unwrap_or(m.decel);
+        let req = MotionRequest {
+            kind,
+            target,
+            speed,
+            delay_s,
+            accuracy_mm,
+            fine,
+            accel_percent,
+            decel_percent,
+            cp,
+            abs_speed,
+        };
+        match sys.issue_motion(&req) {
+            Ok(Issued::Started) => Ok(Flow::Next),
+            Ok(Issued::Planned) => Ok(Flow::Wait(Box::new(Wait::MotionPlanned))),
+            Err(code) => Err(Box::new(RuntimeError::System(code))),
+        }
+    }
+}

@@ -1,0 +1,264 @@
+//! A task's state: frames, what it waits for, interrupts, motion parameters.
+
+use crate::compile::{Ty, VarRef};
+use crate::system::{Speed, TaskId};
+use crate::value::{Bytes, Store};
+
+use super::arith::Ns;
+
+#[derive(Debug, Clone)]
+pub(super) struct ByRef {
+    pub(super) ty: Ty,
+    pub(super) param: u32,
+    pub(super) var: VarRef,
+    pub(super) idx: Vec<i32>,
+    /// The caller's frame (index in the task's stack) for a local variable.
+    pub(super) frame: usize,
+}
+
+#[derive(Debug, Clone)]
+pub(super) struct Frame {
+    pub(super) prog: usize,
+    pub(super) pc: usize,
+    pub(super) locals: Store,
+    pub(super) byref: Vec<ByRef>,
+}
+
+#[derive(Debug, Clone)]
+pub(super) enum Wait {
+    Until(Ns),
+    Cond,
+    MotionPlanned,
+    MotionDone,
+    Held,
+    Paused,
+    Accept {
+        port: u16,
+        deadline: Ns,
+    },
+    Connect {
+        ip: [u8; 4],
+        port: u16,
+        deadline: Ns,
+    },
+    Recv {
+        sock: i32,
+        max: usize,
+        deadline: Ns,
+    },
+    Send {
+        sock: i32,
+        data: Vec<u8>,
+        deadline: Ns,
+    },
+}
+
+impl Wait {
+    pub(super) fn polled(&self) -> bool {
+        matches!(
+            self,
+            Wait::Cond | Wait::MotionPlanned | Wait::MotionDone | Wait::Held
+        )
+    }
+
+    pub(super) fn socket(&self) -> bool {
+        matches!(
+            self,
+            Wait::Accept { .. } | Wait::Connect { .. } | Wait::Recv { .. } | Wait::Send { .. }
+        )
+    }
+
+    pub(super) fn describe(&self) -> String {
+        match self {
+            Wait::Until(_) => "TWAIT".into(),
+            Wait::Cond => "WAIT condition".into(),
+            Wait::MotionPlanned => {
+                "motion: waiting for the current motion to come within ACCURACY".into()
+            }
+            Wait::MotionDone => "BREAK: waiting for the motion to finish".into(),
+            Wait::Held => "HOLD".into(),
+            Wait::Paused => "PAUSE (MC CONTINUE resumes)".into(),
+            Wait::Accept { port, .. } => format!("TCP_ACCEPT on port {port}"),
+            Wait::Connect { port, .. } => format!("TCP_CONNECT to port {port}"),
+            Wait::Recv { sock, .. } => format!("TCP_RECV on socket {sock}"),
+            Wait::Send { sock, .. } => format!("TCP_SEND on socket {sock}"),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Interrupt {
+    pub(super) signal: i32,
+    pub(super) immediate: bool,
+    pub(super) goto: Option<usize>,
+    pub(super) call: Option<usize>,
+    pub(super) depth: usize,
+    pub(super) armed_at: Ns,
+}
+
+#[derive(Debug, Clone, Copy)]
+pub(super) struct MotionParams {
+    pub(super) speed: Speed,
+    pub(super) speed_once: Option<Speed>,
+    pub(super) accuracy: (f64, bool),
+    pub(super) accuracy_once: Option<(f64, bool)>,
+    pub(super) accel: f64,
+    pub(super) accel_once: Option<f64>,
+    pub(super) decel: f64,
+    pub(super) decel_once: Option<f64>,
+}
+
+impl Default for MotionParams {
+    fn default() -> Self {
+        MotionParams {
+            speed: Speed::Percent(100.0),
+            speed_once: None,
+            accuracy: (1.0, false),
+            accuracy_once: None,
+            accel: 100.0,
+            accel_once: None,
+            decel: 100.0,
+            decel_once: None,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Run {
+    Idle,
+    Running,
+    /// Robot task: the program ended, the motion is finishing (TASK = 3).
+    Ending,
+}
+
+#[derive(Debug, Clone)]
+pub(super) struct Task {
+    pub(super) id: TaskId,
+    pub(super) run: Run,
+    pub(super) frames: Vec<Frame>,
+    pub(super) ready_at: Ns,
+    pub(super) wait: Option<Wait>,
+    /// Re-check a socket wait now (another task used a socket).
+    pub(super) kick: bool,
+    /// Next poll of a polled wait (a grid point of the poll period).
+    pub(super) poll_at: Ns,
+    pub(super) cycles_left: i64,
+    pub(super) motion: MotionParams,
+    pub(super) interrupts: Vec<Interrupt>,
+    pub(super) pending_on: Option<Interrupt>,
+    pub(super) last_error: Option<String>,
+    pub(super) steps: u64,
+    pub(super) line_buf: String,
+}
+
+impl Task {
+    pub(super) fn new(id: TaskId) -> Task {
+        Task {
+            id,
+            run: Run::Idle,
+            frames: Vec::new(),
+            ready_at: 0,
+            wait: None,
+            kick: false,
+            poll_at: 0,
+            cycles_left: 0,
+            motion: MotionParams::default(),
+            interrupts: Vec::new(),
+            pending_on: None,
+            last_error: None,
+            steps: 0,
+            line_buf: String::new(),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+pub(super) struct SignalState {
+    pub(super) on: bool,
+    pub(super) changed: Ns,
+}
+
+/// Flow after one step.
+pub(super) enum Flow {
+    /// Go on (pc already set).
+    Next,
+    /// The task waits (pc already set to where it resumes). Boxed: a step's result stays
+    /// two words.
+    Wait(Box<Wait>),
+    /// The step may have changed other tasks (sockets, signals, monitor commands).
+    Shared,
+}
+
+/// Evaluated location.
+#[derive(Debug, Clone, Copy)]
+pub(super) enum LocVal {
+    J([f32; 6]),
+    T([f32; 6]),
+}
+
+#[derive(Debug, Clone)]
+pub(super) enum ArgVal {
+    R(f32),
+    S(Bytes),
+    J([f32; 6]),
+    T([f32; 6]),
+}
+
+/// Where a by-reference argument goes back.
+#[derive(Debug, Clone)]
+pub(super) struct ByRefTarget {
+    pub(super) var: VarRef,
+    pub(super) idx: Vec<i32>,
+    pub(super) frame: usize,
+}
+
+/// A task's place in the interpreter's task table: 0 for the robot task, 1–5 for PC tasks
+/// 1–5 (what [`TaskId`] names, as an index). One byte: it measured faster than a `usize`
+/// in the loop of pure computation (the register allocator keeps the program there).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub(super) struct TaskSlot(u8);
+
+impl TaskSlot {
+    /// The robot task's slot.
+    pub(super) const ROBOT: TaskSlot = TaskSlot(0);
+
+    /// The slot of a task.
+    #[inline]
+    pub(super) fn of(id: TaskId) -> TaskSlot {
+        TaskSlot(id.index() as u8)
+    }
+
+    /// The slot at `index` of the task table (callers pass 0–5: the table has six tasks).
+    #[inline]
+    pub(super) fn at(index: usize) -> TaskSlot {
+        TaskSlot(index as u8)
+    }
+
+    /// The index in the task table.
+    #[inline(always)]
+    pub(super) fn index(self) -> usize {
+        usize::from(self.0)
+    }
+
+    /// `true` for the robot task.
+    #[inline(always)]
+    pub(super) fn is_robot(self) -> bool {
+        self.0 == 0
+    }
+}
+
+impl std::ops::Index<TaskSlot> for Vec<Task> {
+    type Output = Task;
+
+    #[inline(always)]
+    fn index(&self, slot: TaskSlot) -> &Task {
+        &self[usize::from(slot.0)]
+    }
+}
+
+impl std::ops::IndexMut<TaskSlot> for Vec<Task> {
+    #[inline(always)]
+    fn index_mut(&mut self, slot: TaskSlot) -> &mut Task {
+        &mut self[usize::from(slot.0)]
+    }
+}

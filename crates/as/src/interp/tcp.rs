@@ -1,0 +1,355 @@
+//! TCP statements: `TCP_LISTEN` … `TCP_CLOSE`, their ports, timeouts and results.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use crate::compile::{LRef, Op, RExpr, Ty};
+use crate::error::RuntimeError;
+use crate::sockets::TcpCode;
+use crate::system::{SockPoll, System};
+use crate::value::{Bytes, MAX_INDEX};
+
+use super::arith::{ns, Ns, R};
+use super::task::{Flow, TaskSlot, Wait};
+use super::Interpreter;
+use super::MAX_TRANSFER;
+
+impl Interpreter {
+    /// `TCP_LISTEN ret, port`.
+    #[inline(always)]
+    pub(super) fn tcp_listen(
+        &mut self,
+        i: TaskSlot,
+        ret: &LRef,
+        port: &RExpr,
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        let port = self.port(i, port, sys)?;
+        let r = sys.tcp_listen(port);
+        self.write_r(i, ret, r as f32, sys)?;
+        Ok(Flow::Shared)
+    }
+
+    /// `TCP_END_LISTEN ret, port`.
+    #[inline(always)]
+    pub(super) fn tcp_end_listen(
+        &mut self,
+        i: TaskSlot,
+        ret: &LRef,
+        port: &RExpr,
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        let port = self.port(i, port, sys)?;
+        let r = sys.tcp_end_listen(port);
+        self.write_r(i, ret, r as f32, sys)?;
+        Ok(Flow::Shared)
+    }
+
+    /// `TCP_ACCEPT ret, port, timeout[, ip]`: waits for a connection.
+    #[inline(always)]
+    pub(super) fn tcp_accept(
+        &mut self,
+        i: TaskSlot,
+        port: &RExpr,
+        timeout: &Option<RExpr>,
+        sys: &mut dyn System,
+        pc: usize,
+        now: Ns,
+    ) -> R<Flow> {
+        let port = self.port(i, port, sys)?;
+        let deadline = now.saturating_add(ns(self.timeout(i, timeout.as_ref(), sys)?));
+        self.set_pc(i, pc);
+        Ok(match sys.tcp_accept(port) {
+            SockPoll::Ready(r) => {
+                self.finish_accept(i, r, sys)?;
+                Flow::Shared
+            }
+            SockPoll::Pending => Flow::Wait(Box::new(Wait::Accept { port, deadline })),
+        })
+    }
+
+    /// `TCP_CONNECT ret, port, ip[i], timeout`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(super) fn tcp_connect(
+        &mut self,
+        i: TaskSlot,
+        port: &RExpr,
+        ip: &LRef,
+        timeout: &Option<RExpr>,
+        sys: &mut dyn System,
+        pc: usize,
+        now: Ns,
+    ) -> R<Flow> {
+        let port = self.port(i, port, sys)?;
+        let deadline = now.saturating_add(ns(self.timeout(i, timeout.as_ref(), sys)?));
+        let mut addr = [0u8; 4];
+        let n = ip.idx.len().min(3);
+        let base = self.indices(i, ip, sys)?;
+        for (k, b) in addr.iter_mut().enumerate() {
+            let mut at = base;
+            at[0] += k as i32;
+            let v = match self
+                .store(i, ip.var.global)
+                .reals
+                .get(ip.var.slot as usize)
+                .and_then(|x| x.get(&at[..n.max(1)]))
+            {
+                Some(v) => *v,
+                None => return Err(self.undefined(i, ip, Ty::Real, &at[..n.max(1)])),
+            };
+            if !(0.0..=255.0).contains(&v) {
+                return Err(Box::new(RuntimeError::IllegalValue(format!(
+                    "IP address byte {v}"
+                ))));
+            }
+            *b = v as u8;
+        }
+        self.set_pc(i, pc);
+        Ok(match sys.tcp_connect(addr, port) {
+            SockPoll::Ready(r) => {
+                self.finish_ret(i, r.unwrap_or_else(|e| e) as f32, sys)?;
+                Flow::Shared
+            }
+            SockPoll::Pending => Flow::Wait(Box::new(Wait::Connect {
+                ip: addr,
+                port,
+                deadline,
+            })),
+        })
+    }
+
+    /// `TCP_RECV ret, sock, $buf[i], n, timeout[, max]`: waits for bytes.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(super) fn tcp_recv(
+        &mut self,
+        i: TaskSlot,
+        sock: &RExpr,
+        timeout: &Option<RExpr>,
+        max: &Option<RExpr>,
+        sys: &mut dyn System,
+        pc: usize,
+        now: Ns,
+    ) -> R<Flow> {
+        let sock = self.eval_r(i, sock, sys)?.trunc() as i32;
+        let deadline = now.saturating_add(ns(self.timeout(i, timeout.as_ref(), sys)?));
+        let max = match max {
+            Some(m) => {
+                let m = self.eval_r(i, m, sys)?.trunc();
+                if !(1.0..=255.0).contains(&m) {
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
+                        "TCP_RECV element size {m} (1 to 255)"
+                    ))));
+                }
+                m as usize
+            }
+            None => 255,
+        };
+        self.set_pc(i, pc);
+        Ok(match sys.tcp_recv(sock, MAX_TRANSFER) {
+            SockPoll::Ready(r) => {
+                self.finish_recv(i, r, max, sys)?;
+                Flow::Shared
+            }
+            SockPoll::Pending => Flow::Wait(Box::new(Wait::Recv {
+                sock,
+                max,
+                deadline,
+            })),
+        })
+    }
+
+    /// `TCP_CLOSE ret, sock`.
+    #[inline(always)]
+    pub(super) fn tcp_close(
+        &mut self,
+        i: TaskSlot,
+        ret: &LRef,
+        sock: &RExpr,
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        let sock = self.eval_r(i, sock, sys)?.trunc() as i32;
+        let r = sys.tcp_close(sock);
+        self.write_r(i, ret, r as f32, sys)?;
+        Ok(Flow::Shared)
+    }
+
+    pub(super) fn port(&mut self, i: TaskSlot, e: &RExpr, sys: &mut dyn System) -> R<u16> {
+        let p = self.eval_r(i, e, sys)?.trunc();
+        if !(8192.0..=65535.0).contains(&p) {
+            return Err(Box::new(RuntimeError::IllegalValue(format!(
+                "port {p} (8192 to 65535)"
+            ))));
+        }
+        Ok(p as u16)
+    }
+
+    pub(super) fn timeout(
+        &mut self,
+        i: TaskSlot,
+        e: Option<&RExpr>,
+        sys: &mut dyn System,
+    ) -> R<Duration> {
+        let v = match e {
+            Some(e) => self.eval_r(i, e, sys)?,
+            None => 1.0,
+        };
+        if !(0.0..=60.0).contains(&v) {
+            return Err(Box::new(RuntimeError::IllegalValue(format!(
+                "timeout {v} s (0 to 60)"
+            ))));
+        }
+        Ok(Duration::from_secs_f64(f64::from(v)))
+    }
+
+    /// Writes a socket instruction's result to its `ret` variable and goes on.
+    pub(super) fn finish_ret(&mut self, i: TaskSlot, v: f32, sys: &mut dyn System) -> R<()> {
+        let code = Arc::clone(&self.code);
+        let op = self.tasks[i]
+            .frames
+            .last()
+            .and_then(|f| code.programs.get(f.prog)?.ops.get(f.pc));
+        let ret = match op {
+            Some(
+                Op::TcpConnect { ret, .. }
+                | Op::TcpSend { ret, .. }
+                | Op::TcpAccept { ret, .. }
+                | Op::TcpRecv { ret, .. },
+            ) => ret,
+            _ => return Ok(()),
+        };
+        self.write_r(i, ret, v, sys)?;
+        self.advance_pc(i);
+        Ok(())
+    }
+
+    pub(super) fn finish_accept(
+        &mut self,
+        i: TaskSlot,
+        r: Result<(i32, [u8; 4]), i32>,
+        sys: &mut dyn System,
+    ) -> R<()> {
+        let ip = match self.current_op(i) {
+            Some(Op::TcpAccept { ip, .. }) => ip.clone(),
+            _ => None,
+        };
+        if let (Ok((_, addr)), Some(ip)) = (&r, ip) {
+            let n = ip.idx.len().clamp(1, 3);
+            let base = self.indices(i, &ip, sys)?;
+            for (k, b) in addr.iter().enumerate() {
+                let mut at = base;
+                at[0] += k as i32;
+                self.write_r_at(i, ip.var, &at[..n], f32::from(*b))?;
+            }
+        }
+        let v = match r {
+            Ok((id, _)) => id as f32,
+            Err(e) => e as f32,
+        };
+        self.finish_ret(i, v, sys)
+    }
+
+    pub(super) fn finish_recv(
+        &mut self,
+        i: TaskSlot,
+        r: Result<Vec<u8>, i32>,
+        max: usize,
+        sys: &mut dyn System,
+    ) -> R<()> {
+        // A handle on the code (not a copy of the op's variables) while the variables change.
+        let code = Arc::clone(&self.code);
+        let op = self.tasks[i]
+            .frames
+            .last()
+            .and_then(|f| code.programs.get(f.prog)?.ops.get(f.pc));
+        let (buf, count) = match op {
+            Some(Op::TcpRecv { buf, count, .. }) => (buf, count),
+            _ => return Ok(()),
+        };
+        match r {
+            Ok(bytes) => {
+                let dims = buf.idx.len().clamp(1, 3);
+                let base = self.indices(i, buf, sys)?;
+                let mut n = 0;
+                for (k, chunk) in bytes.chunks(max.max(1)).take(MAX_TRANSFER).enumerate() {
+                    let mut at = base;
+                    at[0] += k as i32;
+                    if at[0] > MAX_INDEX {
+                        break;
+                    }
+                    self.write_s_at(i, buf.var, &at[..dims], Bytes::from(chunk))?;
+                    n += 1;
+                }
+                self.write_r(i, count, n as f32, sys)?;
+                self.finish_ret(i, 0.0, sys)
+            }
+            Err(e) => {
+                self.write_r(i, count, 0.0, sys)?;
+                self.finish_ret(i, e as f32, sys)
+            }
+        }
+    }
+
+    /// `TCP_SEND ret, sock, $buf[i], n, timeout`: waits until the peer takes the bytes.
+    /// `None`: refused at once for its size (`ret` = −34022), and the step takes no time.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(super) fn tcp_send(
+        &mut self,
+        i: TaskSlot,
+        ret: &LRef,
+        sock: &RExpr,
+        buf: &LRef,
+        n: &RExpr,
+        timeout: &Option<RExpr>,
+        sys: &mut dyn System,
+        pc: usize,
+        now: Ns,
+    ) -> R<Option<Flow>> {
+        let sock = self.eval_r(i, sock, sys)?.trunc() as i32;
+        let deadline = now.saturating_add(ns(self.timeout(i, timeout.as_ref(), sys)?));
+        let count = self.eval_r(i, n, sys)?.trunc();
+        if !(0.0..=MAX_INDEX as f32).contains(&count) {
+            return Err(Box::new(RuntimeError::IllegalValue(format!(
+                "TCP_SEND element count {count}"
+            ))));
+        }
+        let dims = buf.idx.len().clamp(1, 3);
+        let base = self.indices(i, buf, sys)?;
+        let mut data = Vec::new();
+        for k in 0..count as i32 {
+            let mut at = base;
+            at[0] += k;
+            let v = match self
+                .store(i, buf.var.global)
+                .strs
+                .get(buf.var.slot as usize)
+                .and_then(|x| x.get(&at[..dims]))
+            {
+                Some(v) => v.clone(),
+                None => return Err(self.undefined(i, buf, Ty::Str, &at[..dims])),
+            };
+            data.extend_from_slice(&v);
+            if data.len() > MAX_TRANSFER {
+                break;
+            }
+        }
+        if data.len() > MAX_TRANSFER {
+            self.write_r(i, ret, TcpCode::TooLong.code() as f32, sys)?;
+            return Ok(None);
+        }
+        self.set_pc(i, pc);
+        Ok(Some(match sys.tcp_send(sock, &data) {
+            SockPoll::Ready(r) => {
+                self.finish_ret(i, r.map_or_else(|e| e as f32, |()| 0.0), sys)?;
+                Flow::Shared
+            }
+            SockPoll::Pending => Flow::Wait(Box::new(Wait::Send {
+                sock,
+                data,
+                deadline,
+            })),
+        }))
+    }
+}
