@@ -27,17 +27,33 @@
   ;   ros_cmd[r,1]     its COUNT_OF_ARGS (at most 128)
   ;   ros_cmd[r,1+k]   its argument k
   ;   ros_speed_limit  written on accept and by command 3, never read
+  ;   ros_print        1: ros_move prints a line per pass (the emulator's trace); 0: quiet,
+  ;                    for a real controller's terminal. Set it here.
+  ;
+  ; Written for real controllers: names of at most 15 characters, ASCII only, no GOTO out
+  ; of a WHILE, every TCP result checked.
   ;
   .port = 10050
   .version = 1040
+  ros_print = 1
   ros_srv_run = 1
   ros_move_run = 0
+  ; A listening socket left by an earlier run that was aborted would make TCP_LISTEN fail
+  ; (E4055): end it first (an error here only means there was none).
+  TCP_END_LISTEN .ret, .port
   WHILE ros_srv_run == 1 DO
     ; 1. Stop the motion program, listen, accept within 3 s, stop listening.
     SIGNAL 2007
+    .sock = -1
     TCP_LISTEN .ret, .port
-    TCP_ACCEPT .sock, .port, 3
-    TCP_END_LISTEN .ret, .port
+    IF .ret < 0 THEN
+      ; The port cannot be opened (in use, or no TCP/IP option): say so, try again in 1 s.
+      PRINT "autostart.pc: TCP_LISTEN on port ", .port, " failed (", .ret, ")"
+      TWAIT 1
+    ELSE
+      TCP_ACCEPT .sock, .port, 3
+      TCP_END_LISTEN .ret, .port
+    END
     IF .sock >= 0 THEN
       ; 2. A client: clear the ring (newest = row 0 holding command 0), restart the clock.
       ros_cmd_ind = 0
@@ -50,83 +66,90 @@
       WHILE .loop == 1 DO
         ; 3. One request: whatever one receive returns (up to 4096 bytes, in 255-byte
         ;    elements); only the first element is parsed.
+        .n = 0
         TCP_RECV .ret, .sock, .$buf[1], .n, 5
-        IF .ret < 0 GOTO closing
-        .$data = .$buf[1]
-        ; Tokens: cut before the next blank (mode 0), then cut the run of blanks (mode 1).
-        ; A leading blank makes the version token empty: VAL("") = 0, a mismatch.
-        .$tok = $DECODE(.$data, " ", 0)
-        .ver = VAL(.$tok)
-        .$tok = $DECODE(.$data, " ", 1)
-        .$tok = $DECODE(.$data, " ", 0)
-        .cmd = VAL(.$tok)
-        .$tok = $DECODE(.$data, " ", 1)
-        .$tok = $DECODE(.$data, " ", 0)
-        .cnt = VAL(.$tok)
-        IF .ver == .version THEN
-          IF .cnt > 128 THEN
-            .cnt = 128
-          END
-          ; Store the request in the ring row after the newest.
-          .row = ros_cmd_ind + 1
-          IF .row > 15 THEN
-            .row = 0
-          END
-          ros_cmd[.row,0] = .cmd
-          ros_cmd[.row,1] = .cnt
-          .arg1 = 0
-          FOR .i = 1 TO .cnt
-            .$tok = $DECODE(.$data, " ", 1)
-            .$tok = $DECODE(.$data, " ", 0)
-            ros_cmd[.row,.i+1] = VAL(.$tok)
-            IF .i == 1 THEN
-              .arg1 = ros_cmd[.row,2]
-            END
-          END
-          ; Act.
-          CASE .cmd OF
-            VALUE 1:
-              ; Start ros_move: the server's own test, then MC EXECUTE (which the
-              ; controller may still refuse, e.g. while ros_move is paused or finishing).
-              IF SWITCH(POWER) AND SWITCH(RUN) AND SWITCH(REPEAT) AND NOT SWITCH(TEACH_LOCK) THEN
-                IF TASK(1) <> 1 AND ERROR == 0 THEN
-                  ros_move_run = 1
-                  MC EXECUTE ros_move
-                END
-              END
-            VALUE 2:
-              ; Stop ros_move: the loop ends at its next pass (the motion in progress
-              ; finishes: TASK(1) = 3), and its ONI on signal 2007 stops the robot once the
-              ; signal has been on for 50 ms.
-              SIGNAL 2007
-              ros_move_run = 0
-            VALUE 3:
-              ; Monitor speed, and speed = min(program, monitor) from now on.
-              ros_speed_limit = .arg1/100
-              MC SPEED .arg1
-              ABS.SPEED ON
-            VALUE 5:
-              ; Cancel the current motion, unless the newest request is already a 5:
-              ; publish this one first, then BRAKE.
-              IF ros_cmd[ros_cmd_ind,0] <> 5 THEN
-                ros_cmd_ind = .row
-                BRAKE
-              END
-            VALUE 255:
-              ; End the session after the reply.
-              .loop = 0
-          END
-          ; Publish the request as the newest.
-          ros_cmd_ind = .row
+        IF .ret < 0 THEN
+          ; Timeout or a lost connection: the session ends.
+          .loop = 0
         END
-        ; The reply: status, TIMER(1) and the joints from the encoders.
-        DECOMPOSE .jt[1] = #HERE
-        .$data = $ENCODE(.version, ERROR, SWITCH(RUN), SWITCH(REPEAT), SWITCH(TEACH_LOCK), SWITCH(POWER), TASK(1) == 1)
-        .$buf[1] = .$data+$ENCODE(/F10.3, TIMER(1), .jt[1], .jt[2], .jt[3], .jt[4], .jt[5], .jt[6])+" "
-        TCP_SEND .ret, .sock, .$buf[1], 1, 2
-        IF .ret < 0 GOTO closing
+        IF .loop == 1 THEN
+          .$data = .$buf[1]
+          ; Tokens: cut before the next blank (mode 0), then cut the run of blanks (mode 1).
+          ; A leading blank makes the version token empty: VAL("") = 0, a mismatch.
+          .$tok = $DECODE(.$data, " ", 0)
+          .ver = VAL(.$tok)
+          .$tok = $DECODE(.$data, " ", 1)
+          .$tok = $DECODE(.$data, " ", 0)
+          .cmd = VAL(.$tok)
+          .$tok = $DECODE(.$data, " ", 1)
+          .$tok = $DECODE(.$data, " ", 0)
+          .cnt = VAL(.$tok)
+          IF .ver == .version THEN
+            IF .cnt > 128 THEN
+              .cnt = 128
+            END
+            ; Store the request in the ring row after the newest.
+            .row = ros_cmd_ind + 1
+            IF .row > 15 THEN
+              .row = 0
+            END
+            ros_cmd[.row,0] = .cmd
+            ros_cmd[.row,1] = .cnt
+            .arg1 = 0
+            FOR .i = 1 TO .cnt
+              .$tok = $DECODE(.$data, " ", 1)
+              .$tok = $DECODE(.$data, " ", 0)
+              ros_cmd[.row,.i+1] = VAL(.$tok)
+              IF .i == 1 THEN
+                .arg1 = ros_cmd[.row,2]
+              END
+            END
+            ; Act.
+            CASE .cmd OF
+              VALUE 1:
+                ; Start ros_move: the server's own test, then MC EXECUTE (which the
+                ; controller may still refuse, e.g. while ros_move is paused or finishing).
+                IF SWITCH(POWER) AND SWITCH(RUN) AND SWITCH(REPEAT) AND NOT SWITCH(TEACH_LOCK) THEN
+                  IF TASK(1) <> 1 AND ERROR == 0 THEN
+                    ros_move_run = 1
+                    MC EXECUTE ros_move
+                  END
+                END
+              VALUE 2:
+                ; Stop ros_move: the loop ends at its next pass (the motion in progress
+                ; finishes: TASK(1) = 3), and its ONI on signal 2007 stops the robot once the
+                ; signal has been on for 50 ms.
+                SIGNAL 2007
+                ros_move_run = 0
+              VALUE 3:
+                ; Monitor speed, and speed = min(program, monitor) from now on.
+                ros_speed_limit = .arg1/100
+                MC SPEED .arg1
+                ABS.SPEED ON
+              VALUE 5:
+                ; Cancel the current motion, unless the newest request is already a 5:
+                ; publish this one first, then BRAKE.
+                IF ros_cmd[ros_cmd_ind,0] <> 5 THEN
+                  ros_cmd_ind = .row
+                  BRAKE
+                END
+              VALUE 255:
+                ; End the session after the reply.
+                .loop = 0
+            END
+            ; Publish the request as the newest.
+            ros_cmd_ind = .row
+          END
+          ; The reply: status, TIMER(1) and the joints from the encoders.
+          DECOMPOSE .jt[1] = #HERE
+          .$data = $ENCODE(.version, ERROR, SWITCH(RUN), SWITCH(REPEAT), SWITCH(TEACH_LOCK), SWITCH(POWER), TASK(1) == 1)
+          .$buf[1] = .$data+$ENCODE(/F10.3, TIMER(1), .jt[1], .jt[2], .jt[3], .jt[4], .jt[5], .jt[6])+" "
+          TCP_SEND .ret, .sock, .$buf[1], 1, 2
+          IF .ret < 0 THEN
+            .loop = 0
+          END
+        END
       END
-closing:
       ; 5. Stop the motion program (its ONI stops the robot at once), close, listen again.
       SIGNAL 2007
       TCP_CLOSE .ret, .sock
@@ -199,7 +222,9 @@ closing:
     ; time from the end of the previous pass to the start of this one (the loop overhead).
     .step = 0.9*.step+0.1*(.tm-.last_tm)
     .last_tm = TIMER(2)
-    PRINT "ros_move: cmd ", /I3, .cmd, " step ", /F6.4, .step
+    IF ros_print == 1 THEN
+      PRINT "ros_move: cmd ", /I3, .cmd, " step ", /F6.4, .step
+    END
   END
 stopped:
   ; The ONI stopped the robot at once; the program ends.

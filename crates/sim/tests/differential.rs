@@ -161,8 +161,9 @@ fn matched_costs() -> Config {
         cost: CostModel {
             statement: Duration::from_micros(1),
             // The loop overhead from `.last_tm = TIMER(2)` to the next `.tm = TIMER(2)`: the
-            // assignment, the PRINT, the END and the WHILE test = the native 4 ms pass.
-            print: Duration::from_micros(4000 - 3),
+            // assignment, the `IF ros_print` test, the PRINT, the END and the WHILE test =
+            // the native 4 ms pass.
+            print: Duration::from_micros(4000 - 4),
             print_per_byte: Duration::ZERO,
         },
         ..Config::default()
@@ -727,8 +728,10 @@ fn default_costs_answer_later_but_the_same() {
         assert!(d.lag_max_ms <= 10.0, "{name}: {d:?}");
         assert!(d.timer_beyond_lag_ms <= 0.0, "{name}: {d:?}");
         // Where a HOLD or a brake stops the arm depends on when the motion began: the
-        // program issues it a few milliseconds later than the native server.
-        assert!(d.joints_still_max_deg < 0.5, "{name}: {d:?}");
+        // program issues it a few milliseconds later than the native server (the server
+        // text hardened for real controllers checks its results and its print switch: a
+        // few statements more per request and per pass, 0.57° at most in these scenarios).
+        assert!(d.joints_still_max_deg < 0.6, "{name}: {d:?}");
         assert!(d.joints_max_deg < 3.0, "{name}: {d:?}");
     }
 }
