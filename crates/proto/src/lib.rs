@@ -40,7 +40,7 @@ pub use decoder::{ReplyDecoder, ReplyFrame, MAX_BUFFERED};
 pub use error::{DecodeError, EncodeError};
 pub use error_code::{ErrorClass, ErrorCode};
 pub use joints::{JointsDeg, JointsRad, JOINT_COUNT};
-pub use reply::{Status, Timer, REPLY_FIELDS};
+pub use reply::{Status, Timer, REPLY_FIELDS, TIMER_COARSE_AFTER_S, TIMER_WIRE_STEP_S};
 pub use request::{Command, Request, StreamSample};
 pub use session::PROTOCOL_VERSION;
 

@@ -27,6 +27,26 @@ pub const F10_WIDTH: usize = 10;
 /// What `/F10.3` prints when a value does not fit in 10 characters.
 pub const F10_OVERFLOW: &str = "**********";
 
+/// The step between neighbouring 32-bit AS reals at the magnitude of `x`: the precision the
+/// controller keeps of a value (`TIMER`, a variable). 0 for 0; infinite beyond the range.
+///
+/// ```
+/// use fs020n_proto::number::as_real_step;
+/// assert_eq!(as_real_step(1.0), 1.0 / 8_388_608.0);
+/// assert_eq!(as_real_step(16_384.0), 1.0 / 512.0);
+/// ```
+pub fn as_real_step(x: f64) -> f64 {
+    let f = x.abs() as f32;
+    if f == 0.0 {
+        return 0.0;
+    }
+    if !f.is_finite() {
+        return f64::INFINITY;
+    }
+    let next = f32::from_bits(f.to_bits() + 1);
+    f64::from(next) - f64::from(f)
+}
+
 /// Converts text to a number exactly as the AS `VAL` function does.
 ///
 /// Leading blanks are skipped; the number ends at the first character that cannot continue it

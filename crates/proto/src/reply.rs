@@ -28,6 +28,14 @@ pub enum Timer {
     Overflow,
 }
 
+/// The wire's own step of TIMER(1): three decimals.
+pub const TIMER_WIRE_STEP_S: f64 = 0.001;
+
+/// The age of a session (TIMER(1), seconds) from which its 32-bit AS real steps by more than
+/// the wire's millisecond: 2¹⁴ s, about 4.6 hours. Command 7's time stamps, which the
+/// controller reads into the same kind of real, lose accuracy with it.
+pub const TIMER_COARSE_AFTER_S: f64 = 16_384.0;
+
 impl Timer {
     /// The seconds, or `None` on overflow.
     pub fn seconds(self) -> Option<f64> {
@@ -35,6 +43,22 @@ impl Timer {
             Timer::Seconds(s) => Some(s),
             Timer::Overflow => None,
         }
+    }
+
+    /// The step between the values TIMER(1) can take at this age: it is a 32-bit AS real, so
+    /// its step doubles with each doubling of the session's age — 1.95 ms after 4.6 h, 7.8 ms
+    /// after 18.2 h, 62.5 ms after 6 days — and is never finer than the wire's 1 ms. This is
+    /// also the accuracy of command 7's time stamps at that age. `None` on overflow.
+    ///
+    /// ```
+    /// use fs020n_proto::Timer;
+    /// assert_eq!(Timer::Seconds(10.0).step_s(), Some(0.001));
+    /// assert_eq!(Timer::Seconds(20_000.0).step_s(), Some(1.0 / 512.0));
+    /// assert_eq!(Timer::Seconds(70_000.0).step_s(), Some(1.0 / 128.0));
+    /// ```
+    pub fn step_s(self) -> Option<f64> {
+        let s = self.seconds()?;
+        Some(crate::number::as_real_step(s).max(TIMER_WIRE_STEP_S))
     }
 }
 

@@ -36,6 +36,11 @@ pub struct Timing {
     /// Length of one listen window (`TCP_ACCEPT` timeout: 3 s). Only tests that must see a
     /// listen gap over real TCP quickly should shorten it.
     pub accept_window: Duration,
+    /// What TIMER(1) and TIMER(2) read when a session is accepted (0 on a controller). An
+    /// aged start shows what a long session does to them: they are 32-bit AS reals, whose
+    /// step grows with their value (1.95 ms after 4.6 h, 7.8 ms after 18.2 h). Native server
+    /// only (an AS program sets its timers itself).
+    pub session_timer_start: Duration,
 }
 
 /// Controller tick: motion is integrated every 2 ms.
@@ -56,6 +61,7 @@ impl Default for Timing {
             signal_edge: SIGNAL_EDGE,
             listen_gap: LISTEN_GAP,
             accept_window: ACCEPT_WINDOW,
+            session_timer_start: Duration::ZERO,
         }
     }
 }

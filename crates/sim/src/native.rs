@@ -128,11 +128,16 @@ pub(crate) struct NativeServer {
     newest: usize,
     /// When TIMER(1) and TIMER(2) were last reset (the latest accept).
     timer_epoch: Duration,
+    /// What the timers read at the accept ([`crate::Timing::session_timer_start`]).
+    timer_start: Duration,
     listen_since: Duration,
     next_session: u64,
     last_session_end: Option<(SessionId, SessionEnd)>,
     last_pass: Option<PassInfo>,
 }
+
+/// Below this many seconds a 32-bit AS real holds every millisecond of a timer.
+const AS_REAL_HOLDS_MS_UNTIL_S: f64 = 8_192.0;
 
 fn as_seconds_ms(d: Duration) -> f64 {
     // TIMER has a 1 ms resolution.
@@ -150,6 +155,7 @@ impl NativeServer {
             ring: vec![RingRow::default(); COMMAND_RING_LEN],
             newest: 0,
             timer_epoch: Duration::ZERO,
+            timer_start: Duration::ZERO,
             listen_since: Duration::ZERO,
             next_session: 1,
             last_session_end: None,
@@ -205,10 +211,18 @@ impl NativeServer {
         }
     }
 
-    /// TIMER(1)/TIMER(2) at controller time `t`: seconds since the latest accept, 1 ms
-    /// resolution (they keep counting after the session ends).
+    /// TIMER(1)/TIMER(2) at controller time `t`: seconds since the latest accept (plus the
+    /// configured start), 1 ms resolution (they keep counting after the session ends). From
+    /// 2¹³ s on, the value is rounded to a 32-bit AS real as the controller holds it, whose step
+    /// is then a millisecond or more; below, every millisecond is kept exactly (a 32-bit real
+    /// holds it to better than 0.25 ms, which neither the wire nor the motion program sees).
     fn timer_s(&self, t: Duration) -> f64 {
-        as_seconds_ms(t.saturating_sub(self.timer_epoch))
+        let s = as_seconds_ms(self.timer_start + t.saturating_sub(self.timer_epoch));
+        if s >= AS_REAL_HOLDS_MS_UNTIL_S {
+            f64::from(s as f32)
+        } else {
+            s
+        }
     }
 
     /// The newest command of the ring as the motion program reads it, while a session is open.
@@ -399,6 +413,7 @@ impl NativeServer {
         self.ring[0].number = 0.0;
         // TIMER(1) = 0, TIMER(2) = 0.
         self.timer_epoch = m.now();
+        self.timer_start = m.timing().session_timer_start;
         tracing::info!(session = id.0, "session accepted");
         Ok(id)
     }
