@@ -287,6 +287,8 @@ pub(crate) enum Op {
         ip: LRef,
         timeout: Option<RExpr>,
     },
+    /// An instruction that loads but is not emulated: the task stops with E0111 naming it.
+    NotEmulated(Box<str>),
     /// The end of the program (`.END`).
     End,
 }
@@ -372,6 +374,8 @@ pub(crate) fn compile(modules: &[crate::ast::Module]) -> Result<Code, LoadError>
         labels: HashMap::new(),
         fixups: Vec::new(),
         hidden: 0,
+        not_emulated_fn: None,
+        warnings: Vec::new(),
     };
     // Program names first (CALL may name a program defined later or in another file).
     let mut order = Vec::new();
@@ -424,7 +428,11 @@ pub(crate) fn compile(modules: &[crate::ast::Module]) -> Result<Code, LoadError>
         global_index: c.global_index,
         data,
         lines: modules.iter().map(|m| Arc::from(m.lines.clone())).collect(),
-        warnings: modules.iter().flat_map(|m| m.warnings.clone()).collect(),
+        warnings: {
+            let mut w: Vec<ParseError> = modules.iter().flat_map(|m| m.warnings.clone()).collect();
+            w.append(&mut c.warnings);
+            w
+        },
     })
 }
 
@@ -443,6 +451,11 @@ struct Compiler {
     /// (op index, label) of jumps to resolve.
     fixups: Vec<(usize, Label)>,
     hidden: u32,
+    /// Set when an expression calls a function the emulator does not compute: the statement
+    /// then loads as not emulated.
+    not_emulated_fn: Option<String>,
+    /// Statements loaded as not emulated because of such a function.
+    warnings: Vec<ParseError>,
 }
 
 type CResult<T> = Result<T, ParseError>;
@@ -551,7 +564,14 @@ impl Compiler {
 
     fn block(&mut self, stmts: &[Stmt]) {
         for s in stmts {
+            self.not_emulated_fn = None;
             if let Err(e) = self.stmt(s) {
+                if let Some(f) = self.not_emulated_fn.take() {
+                    let instruction = format!("the function {f}");
+                    self.emit(Op::NotEmulated(instruction.as_str().into()), s.span.line);
+                    self.warnings.push(ParseError::new(&self.file, e.span, format!("{instruction} loads but is not emulated: a task that reaches this line stops with E0111")));
+                    continue;
+                }
                 if self.errors.len() < MAX_REPORTED {
                     self.errors.push(e);
                 }
@@ -583,6 +603,17 @@ impl Compiler {
             }
         }
         match &s.kind {
+            StmtKind::NotEmulated {
+                instruction,
+                stubbed,
+            } => {
+                let op = if *stubbed {
+                    Op::Nop
+                } else {
+                    Op::NotEmulated(instruction.as_str().into())
+                };
+                self.emit(op, line);
+            }
             StmtKind::Empty => {
                 if s.label.is_some() {
                     self.emit(Op::Nop, line);
@@ -1460,6 +1491,10 @@ impl Compiler {
                     None => RExpr::Const(0.0),
                 };
                 Ok(CExpr::S(SExpr::Decode(l, Box::new(delims), Box::new(mode))))
+            }
+            _ if keywords::UNSUPPORTED_FUNCTIONS.contains(&name.text.as_str()) => {
+                self.not_emulated_fn = Some(name.text.to_ascii_uppercase());
+                Err(self.err(span, format!("{} is not emulated", display_fn(name))))
             }
             _ => Err(self.err(span, format!("unknown function {}", display_fn(name)))),
         }

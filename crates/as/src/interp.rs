@@ -2839,6 +2839,9 @@ impl Interpreter {
         let robot = i == 0;
         let flow = match op {
             Op::Nop => Flow::Next,
+            Op::NotEmulated(instr) => {
+                return Err(Box::new(RuntimeError::NotEmulated(instr.to_string())))
+            }
             Op::AssignR(..)
             | Op::AssignS(..)
             | Op::Jump(_)
