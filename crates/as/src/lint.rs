@@ -210,35 +210,24 @@ pub fn lint(bytes: &[u8], module: &Module, controller: Option<Controller>) -> Ve
                     break;
                 }
             }
-            // Names: on the .PROGRAM line, those after the directive.
-            let code = if n == s.first_line {
-                match code.iter().position(|b| *b == b'.') {
-                    Some(k) => {
-                        let from = k
-                            + 1
-                            + code[k + 1..]
-                                .iter()
-                                .position(|b| !b.is_ascii_alphanumeric() && *b != b'_')
-                                .unwrap_or(code.len() - k - 1);
-                        if s.reads == SectionUse::Program {
-                            &code[from..]
-                        } else {
-                            &[][..]
-                        }
-                    }
-                    None => code,
+            // Names: on the first line of a program, those after `.PROGRAM` and before a
+            // step marker; none on the first line of a data section.
+            let (from, to) = if n == s.first_line {
+                if s.reads != SectionUse::Program {
+                    continue;
                 }
+                let dot = code.iter().position(|b| *b == b'.').unwrap_or(0);
+                let from = (dot + 1..code.len())
+                    .find(|&k| !(code[k].is_ascii_alphanumeric() || code[k] == b'_'))
+                    .unwrap_or(code.len());
+                let to = (from..code.len())
+                    .find(|&k| code[k] == b'#' && code.get(k + 1).is_some_and(u8::is_ascii_digit))
+                    .unwrap_or(code.len());
+                (from, to)
             } else {
-                code
+                (0, code.len())
             };
-            let offset = code.as_ptr() as usize - line.as_ptr() as usize;
-            let code = match code
-                .windows(2)
-                .position(|w| w[0] == b'#' && w[1].is_ascii_digit())
-            {
-                Some(k) if n == s.first_line => &code[..k],
-                _ => code,
-            };
+            let (code, offset) = (&code[from..to], from);
             let Ok(toks) = tokenize_bytes(&module.file, n, code, &cols[offset..]) else {
                 continue;
             };

@@ -396,7 +396,13 @@ impl<'a> FileParser<'a> {
             let msg = if stubbed {
                 format!("{instr} is stubbed: it loads and does nothing{times}")
             } else {
-                format!("{instr} loads but is not emulated{times}: a task that reaches it stops with E0111 (--stub {} makes it a no-op)", instr.split(' ').next().unwrap_or(&instr))
+                let word = instr.split(' ').next().unwrap_or(&instr);
+                let stub = if word == "CALL" {
+                    String::new()
+                } else {
+                    format!(" (--stub {word} makes it a no-op)")
+                };
+                format!("{instr} loads but is not emulated{times}: a task that reaches it stops with E0111{stub}")
             };
             self.warnings.push(ParseError::new(self.file, span, msg));
         }

@@ -2,6 +2,7 @@
 #![forbid(unsafe_code)]
 
 mod args;
+mod as_check;
 mod demo;
 mod error;
 mod fleet;
@@ -156,6 +157,7 @@ fn run(cli: Cli, robot_typed: bool) -> CliResult {
             Cmd::Fk { .. } => Some("fk"),
             Cmd::Ik { .. } => Some("ik"),
             Cmd::Completions { .. } => Some("completions"),
+            Cmd::As(_) => Some("as"),
             Cmd::Sim(_) => Some("sim"),
             Cmd::Plot(_) => Some("plot"),
             Cmd::Replay(_) => Some("replay"),
@@ -172,6 +174,7 @@ fn run(cli: Cli, robot_typed: bool) -> CliResult {
         Cmd::Decode(args) => offline::decode(args, cli.json),
         Cmd::Fk { joints } => offline::fk(&model, joints, cli.json),
         Cmd::Ik { pose, near } => offline::ik(&model, pose, near.as_deref(), cli.json),
+        Cmd::As(args::AsCmd::Check(args)) => as_check::check(args, cli.json),
         Cmd::Completions { shell } => {
             clap_complete::generate(*shell, &mut command(), "fs020n", &mut std::io::stdout());
             Ok(())
