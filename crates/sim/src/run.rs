@@ -233,14 +233,16 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
             (emulator, robot)
         }
         Some(path) => {
-            let stubs = (opts.program_stubs.iter()).fold(fs020n_as::LoadOptions::new(), |o, s| o.stub(s));
-            let program = crate::as_host::ServerProgram::from_file_with(path, &stubs).map_err(|e| {
-                let kind = match &e {
-                    crate::as_host::ProgramError::Read { source, .. } => source.kind(),
-                    crate::as_host::ProgramError::Load(_) => io::ErrorKind::InvalidData,
-                };
-                io::Error::new(kind, e.to_string())
-            })?;
+            let stubs =
+                (opts.program_stubs.iter()).fold(fs020n_as::LoadOptions::new(), |o, s| o.stub(s));
+            let program =
+                crate::as_host::ServerProgram::from_file_with(path, &stubs).map_err(|e| {
+                    let kind = match &e {
+                        crate::as_host::ProgramError::Read { source, .. } => source.kind(),
+                        crate::as_host::ProgramError::Load(_) => io::ErrorKind::InvalidData,
+                    };
+                    io::Error::new(kind, e.to_string())
+                })?;
             let emulator = Emulator::with_program(config, program);
             let robot = emulator.serve_program_tcp(opts.listen).await;
             (emulator, robot)
