@@ -300,11 +300,11 @@ fn find_end(lines: &[&[u8]], from: usize) -> usize {
 /// or `(the line before the next known section, false)` when that comes first, or
 /// `(the last line, false)`.
 fn section_end(lines: &[&[u8]], from: usize) -> (usize, bool) {
-    for k in from..lines.len() {
-        if is_end_line(lines[k]) {
+    for (k, line) in lines.iter().enumerate().skip(from) {
+        if is_end_line(line) {
             return (k, true);
         }
-        let (t, _) = trim_blanks(strip_comment_bytes(lines[k]));
+        let (t, _) = trim_blanks(strip_comment_bytes(line));
         if directive(t).is_some_and(|(w, _)| w != "end" && section(&w).is_some()) {
             return (k - 1, false);
         }

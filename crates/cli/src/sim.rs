@@ -81,7 +81,7 @@ pub(crate) fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOp
             joints,
             error,
             program: args.as_program.clone(),
-            program_stubs: args.stubs.clone(),
+            program_load: (args.stubs.iter()).fold(fs020n_as::LoadOptions::new(), |o, s| o.stub(s)),
         });
     }
     Ok(out)

@@ -41,8 +41,8 @@ pub struct SimOptions {
     /// An AS program file to run instead of the native server (`None`: the native server).
     /// The first port it listens on is served at [`SimOptions::listen`].
     pub program: Option<PathBuf>,
-    /// Instructions of [`SimOptions::program`] declared no-ops (`--stub`).
-    pub program_stubs: Vec<String>,
+    /// How [`SimOptions::program`] is loaded (instructions declared no-ops, `--stub`).
+    pub program_load: fs020n_as::LoadOptions,
 }
 
 impl Default for SimOptions {
@@ -58,7 +58,7 @@ impl Default for SimOptions {
             joints: None,
             error: ErrorCode::NONE,
             program: None,
-            program_stubs: Vec::new(),
+            program_load: fs020n_as::LoadOptions::new(),
         }
     }
 }
@@ -233,10 +233,9 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
             (emulator, robot)
         }
         Some(path) => {
-            let stubs =
-                (opts.program_stubs.iter()).fold(fs020n_as::LoadOptions::new(), |o, s| o.stub(s));
+            let load = &opts.program_load;
             let program =
-                crate::as_host::ServerProgram::from_file_with(path, &stubs).map_err(|e| {
+                crate::as_host::ServerProgram::from_file_with(path, load).map_err(|e| {
                     let kind = match &e {
                         crate::as_host::ProgramError::Read { source, .. } => source.kind(),
                         crate::as_host::ProgramError::Load(_) => io::ErrorKind::InvalidData,
