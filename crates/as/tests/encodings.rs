@@ -120,3 +120,51 @@ fn text_and_bytes_entry_points_agree() {
     assert_eq!(a, b);
     assert_eq!(a.data[0].value, DataValue::Str("ä".as_bytes().to_vec()));
 }
+
+mod no_panic_on_bytes {
+    use fs020n_as::lint::Controller;
+    use fs020n_as::{check, parse_bytes, LoadOptions};
+    use proptest::prelude::*;
+
+    /// Pieces of backups and programs, with bytes of several code pages, to splice together.
+    const PIECES: &[&[u8]] = &[
+        b".PROGRAM a() #0\r\n",
+        b".program b (.$d[], .x)\n",
+        b".END\r\n",
+        b"   .END  \n",
+        b".NETCONF 1.2.3.4\n",
+        b".SIG_COMMENT\n",
+        b".SYSDATA\nSWITCH AUTOSTART.PC ON\n",
+        b".REALS\nx = ^H10\n",
+        b".STRINGS\n$s = \"\x83\x65\"\n",
+        b"JOINT SPEED9 #[0,1]\n",
+        b"1 TOOL t\n",
+        b"  IF a != 1 | b THEN\n",
+        b"  END\n",
+        b"  CALL b(.$d[], 1)\n",
+        b"  TCP_RECV .r, .s, .$b[1], .n, 0.5, 9\n",
+        b"  very_long_variable_name_1 = 2\n",
+        b"; \xbb\xfa \xff\xfe\n",
+        b"\xef\xbb\xbf\xe3\x80\x80\xc2\xa0\r",
+        b".*\n",
+        b".UNKNOWN 1\n",
+    ];
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(300))]
+
+        #[test]
+        fn arbitrary_bytes_never_panic_the_loader_or_the_check(bytes in proptest::collection::vec(any::<u8>(), 0..400)) {
+            let _ = parse_bytes("f.as", &bytes, &LoadOptions::new().stub("tool"));
+            let _ = check("f.as", &bytes, &LoadOptions::new(), Some(Controller::D));
+        }
+
+        #[test]
+        fn spliced_backups_never_panic_the_loader_or_the_check(picks in proptest::collection::vec(0..PIECES.len(), 0..30)) {
+            let bytes: Vec<u8> = picks.iter().flat_map(|&k| PIECES[k].iter().copied()).collect();
+            let _ = parse_bytes("f.as", &bytes, &LoadOptions::new());
+            let r = check("f.as", &bytes, &LoadOptions::new(), None);
+            prop_assert!(r.loaded || !r.errors.is_empty());
+        }
+    }
+}
