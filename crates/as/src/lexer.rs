@@ -1,11 +1,13 @@
 //! Tokens of one AS source line.
 //!
 //! AS is line-oriented: a statement never spans lines, so the lexer works on one line at a
-//! time (the line ending, `\n` or `\r\n`, already removed). A `;` outside a string starts a
-//! comment that runs to the end of the line. Names are case-insensitive and kept in lower
-//! case; they may contain letters, digits, `_` and `.` (`autostart.pc`, `abs.speed`), and carry
-//! a type sigil (`$` string, `#` joint point) and a leading `.` for program-local variables
-//! (`.$buf`, `.#p`, `.count`).
+//! time (the line ending, `\n` or `\r\n`, already removed). A line is **bytes** in whatever
+//! code page the file was saved in ([`tokenize_bytes`]; [`tokenize`] takes text): names,
+//! numbers and operators are ASCII, string literals keep their bytes as written. A `;` outside
+//! a string starts a comment that runs to the end of the line. Names are case-insensitive and
+//! kept in lower case; they may contain letters, digits, `_` and `.` (`autostart.pc`,
+//! `abs.speed`), and carry a type sigil (`$` string, `#` joint point) and a leading `.` for
+//! program-local variables (`.$buf`, `.#p`, `.count`). `!=` is read as `<>`, `|` as `OR`.
 
 use crate::error::ParseError;
 use crate::span::Span;
@@ -145,8 +147,8 @@ pub struct Token {
     pub span: Span,
 }
 
-/// Longest name accepted (the controller allows 15 characters; saved files from other tools
-/// may carry longer ones, which are kept).
+/// Longest name accepted (the controller keeps 15 characters; files from other tools may
+/// carry longer ones, which load and are linted: [`crate::lint`]).
 pub const MAX_NAME: usize = 64;
 
 /// Longest string literal, bytes (an AS string holds at most 255 characters).

@@ -25,15 +25,18 @@ fn finding(f: &Finding) -> Value {
     })
 }
 
-/// The JSON line of one file.
-fn to_json(file: &str, r: &CheckReport) -> Value {
-    json!({
-        "file": file,
-        "loaded": r.loaded,
-        "errors": r.errors.iter().map(position).collect::<Vec<_>>(),
-        "warnings": r.warnings.iter().map(position).collect::<Vec<_>>(),
-        "lint": r.lint.iter().map(finding).collect::<Vec<_>>(),
-    })
+/// The JSON line of one file, its keys in the documented order (`file`, `loaded`, `errors`,
+/// `warnings`, `lint`).
+fn to_json(file: &str, r: &CheckReport) -> String {
+    let list = |v: Vec<Value>| Value::Array(v).to_string();
+    format!(
+        "{{\"file\":{},\"loaded\":{},\"errors\":{},\"warnings\":{},\"lint\":{}}}",
+        Value::from(file),
+        r.loaded,
+        list(r.errors.iter().map(position).collect()),
+        list(r.warnings.iter().map(position).collect()),
+        list(r.lint.iter().map(finding).collect()),
+    )
 }
 
 /// The text of one file: one line per error, warning and finding (file:line:column), then a

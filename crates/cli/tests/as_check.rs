@@ -63,6 +63,17 @@ fn json_gives_one_object_per_file_per_line() {
         .map(|l| serde_json::from_str(l).expect("one JSON object per line"))
         .collect();
     assert_eq!(lines.len(), 2);
+    // The keys come in the documented order.
+    let first = text.lines().next().unwrap_or_default();
+    let at = |k: &str| first.find(&format!("\"{k}\":")).unwrap_or(usize::MAX);
+    assert!(
+        at("file") < at("loaded")
+            && at("loaded") < at("errors")
+            && at("errors") < at("warnings")
+            && at("warnings") < at("lint")
+            && at("lint") < first.len(),
+        "{first}"
+    );
     assert_eq!(lines[0]["file"], good.display().to_string());
     assert_eq!(lines[0]["loaded"], true);
     assert_eq!(lines[0]["errors"], serde_json::json!([]));
