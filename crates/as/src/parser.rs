@@ -131,10 +131,7 @@ pub fn parse_bytes(file: &str, bytes: &[u8], opts: &LoadOptions) -> Result<Modul
         // The last line of the section, and whether it is an `.END` line.
         let (last, closed) = match kind {
             Some(k) if k.end == SectionEnd::OneLine => (i, true),
-            Some(k) if k.reads == SectionUse::Program => {
-                let end = find_end(&lines, i + 1);
-                (end, end < lines.len())
-            }
+            Some(k) if k.reads == SectionUse::Program => program_end(&lines, i + 1),
             _ => section_end(&lines, i + 1),
         };
         // Lines of the section's content.
@@ -146,7 +143,9 @@ pub fn parse_bytes(file: &str, bytes: &[u8], opts: &LoadOptions) -> Result<Modul
         let body = i + 1..body_end.min(lines.len());
         match reads {
             SectionUse::Program => {
-                if let Some(prog) = p.program(&lines, i, last, rest, span) {
+                // The body ends before `.END`, or after `last` when there is none.
+                let end = if closed { last } else { last + 1 };
+                if let Some(prog) = p.program(&lines, i, end, rest, span) {
                     if let Some(prev) = programs.iter().find(|q| q.name == prog.name) {
                         p.error(
                             span,
@@ -160,13 +159,18 @@ pub fn parse_bytes(file: &str, bytes: &[u8], opts: &LoadOptions) -> Result<Modul
                     }
                 }
                 if !closed {
-                    p.error(
-                        span,
+                    let msg = if last + 1 < lines.len() {
+                        format!(
+                            "expected .END to close this .PROGRAM before the next .PROGRAM at line {}",
+                            last + 2
+                        )
+                    } else {
                         format!(
                             "expected .END to close this .PROGRAM (the file ends at line {})",
                             lines.len()
-                        ),
-                    );
+                        )
+                    };
+                    p.error(span, msg);
                 }
             }
             SectionUse::Data => {
@@ -289,11 +293,23 @@ fn is_end_line(line: &[u8]) -> bool {
         .eq_ignore_ascii_case(b".end")
 }
 
-/// Index of the `.END` line at or after `from` (`lines.len()` when there is none).
-fn find_end(lines: &[&[u8]], from: usize) -> usize {
-    (from..lines.len())
-        .find(|&k| is_end_line(lines[k]))
-        .unwrap_or(lines.len())
+/// The end of a program, searching from `from`: `(its .END line, true)`, or `(the line before
+/// the next .PROGRAM line, false)` when that comes first (a body line starting with `.` is a
+/// local variable; `.PROGRAM` followed by a name is not), or `(the last line, false)`.
+fn program_end(lines: &[&[u8]], from: usize) -> (usize, bool) {
+    for (k, line) in lines.iter().enumerate().skip(from) {
+        if is_end_line(line) {
+            return (k, true);
+        }
+        let (t, _) = trim_blanks(strip_comment_bytes(line));
+        if let Some((w, rest)) = directive(t) {
+            let (rest, _) = trim_blanks(rest);
+            if w == "program" && rest.first().is_some_and(u8::is_ascii_alphabetic) {
+                return (k - 1, false);
+            }
+        }
+    }
+    (lines.len(), false)
 }
 
 /// The end of a section that is not a program, searching from `from`: `(its .END line, true)`,

@@ -171,3 +171,48 @@ fn sim_reports_the_same_warnings_as_check() {
     let _ = child.wait();
     assert_eq!(seen, warnings);
 }
+
+#[cfg(unix)]
+#[test]
+fn sim_takes_stub_too() {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    let dir = tempfile::tempdir().expect("tempdir");
+    let f = write(
+        &dir,
+        "weld.as",
+        b".PROGRAM autostart.pc()\n  GUNON 1\n  TWAIT 1\n.END\n",
+    );
+    let out = Command::new(bin())
+        .args(["sim", "--listen", "127.0.0.1:0", "--as-program"])
+        .arg(&f)
+        .output()
+        .expect("runs");
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown instruction \"GUNON\""));
+    let mut child = Command::new(bin())
+        .args([
+            "sim",
+            "--listen",
+            "127.0.0.1:0",
+            "--stub",
+            "gunon",
+            "--as-program",
+        ])
+        .arg(&f)
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("spawn");
+    let stderr = child.stderr.take().expect("stderr");
+    let first = BufReader::new(stderr).lines().map_while(Result::ok).next();
+    let _ = child.kill();
+    let _ = child.wait();
+    assert_eq!(
+        first,
+        Some(format!(
+            "warning: {}:2:3: GUNON is stubbed: it loads and does nothing",
+            f.display()
+        ))
+    );
+}
