@@ -428,11 +428,16 @@ pub(crate) fn compile(modules: &[crate::ast::Module]) -> Result<Code, LoadError>
         global_index: c.global_index,
         data,
         lines: modules.iter().map(|m| Arc::from(m.lines.clone())).collect(),
-        warnings: {
-            let mut w: Vec<ParseError> = modules.iter().flat_map(|m| m.warnings.clone()).collect();
-            w.append(&mut c.warnings);
-            w
-        },
+        // Per file, in line order: the parser's and the compiler's together.
+        warnings: modules
+            .iter()
+            .flat_map(|m| {
+                let mut w = m.warnings.clone();
+                w.extend(c.warnings.iter().filter(|x| x.file == m.file).cloned());
+                w.sort_by_key(|x| x.span);
+                w
+            })
+            .collect(),
     })
 }
 
@@ -1416,6 +1421,19 @@ impl Compiler {
                     }
                     _ => None,
                 };
+                if let (None, Some(Arg::Expr(a))) = (&sw, args.first()) {
+                    if let ExprKind::Var(lv) = &a.kind {
+                        // A switch the controller has but the emulator does not keep
+                        // (`SWITCH(EMERGENCY)`): the statement loads as not emulated.
+                        if !lv.name.local
+                            && lv.name.sigil == Sigil::None
+                            && keywords::UNSUPPORTED_SWITCHES.contains(&lv.name.text.as_str())
+                        {
+                            self.not_emulated_fn =
+                                Some(format!("SWITCH({})", lv.name.text.to_ascii_uppercase()));
+                        }
+                    }
+                }
                 match sw {
                     Some(s) => Ok(CExpr::R(RExpr::Switch(s))),
                     None => Err(self.err(

@@ -84,6 +84,7 @@ pub const UNSUPPORTED: &[&str] = &[
     "depart",
     "dlysig",
     "draw",
+    "drive",
     "dwrist",
     "extcall",
     "hmove",
@@ -113,9 +114,10 @@ pub const UNSUPPORTED: &[&str] = &[
     "xmove",
 ];
 
-/// Families of application instructions (multi-robot `L3…` forms, `RTC_…`, `UDP_…`), by
+/// Families of application instructions (multi-robot `L3…` forms, `RTC_…`, `UDP_…`, the
+/// interface panel's `IFPW…`), by
 /// prefix: they load as not emulated like [`UNSUPPORTED`].
-pub const UNSUPPORTED_PREFIXES: &[&str] = &["l3", "rtc_", "udp_"];
+pub const UNSUPPORTED_PREFIXES: &[&str] = &["l3", "rtc_", "udp_", "ifpw"];
 
 /// First words of a block-teaching step (`JOINT SPEED9 ACCU1 … #[…]`): loaded as not
 /// emulated when the line is a step (its second word starts with `SPEED`, or it holds `#[`).
@@ -131,7 +133,22 @@ pub const BLOCK_TEACHING: &[&str] = &[
 
 /// Functions the controller has but the emulator does not compute: a statement that uses
 /// one loads as not emulated.
-pub const UNSUPPORTED_FUNCTIONS: &[&str] = &["bits", "bits32", "distance", "dx", "dy", "dz"];
+pub const UNSUPPORTED_FUNCTIONS: &[&str] = &[
+    "bits",
+    "bits32",
+    "distance",
+    "dx",
+    "dy",
+    "dz",
+    "existchar",
+    "existjoint",
+    "existprogram",
+    "existreal",
+    "existtrans",
+    "frame",
+    "round",
+    "strtopos",
+];
 
 /// Whether `word` (lower case, at the start of a statement) is an instruction that loads as
 /// not emulated: in [`UNSUPPORTED`] or one of the [`UNSUPPORTED_PREFIXES`] families, and not
@@ -183,11 +200,17 @@ pub const MONITOR_UNSUPPORTED: &[&str] = &[
 /// remembered and reported.
 pub const SYSTEM_SWITCHES: &[(&str, bool)] = &[
     ("abs.speed", false),
+    ("autostart.pc", false),
+    ("autostart2.pc", false),
+    ("autostart3.pc", false),
+    ("autostart4.pc", false),
+    ("autostart5.pc", false),
     ("auto_start", false),
     ("check.hold", false),
     ("cp", true),
     ("cyc.stop", false),
     ("error", false),
+    ("errstart.pc", false),
     ("message", true),
     ("prefetch.sigins", false),
     ("qtool", false),
@@ -196,6 +219,10 @@ pub const SYSTEM_SWITCHES: &[(&str, bool)] = &[
     ("screen", true),
     ("stepone", false),
 ];
+
+/// Switches the controller has but the emulator does not keep: `SWITCH(name)` of one loads
+/// as not emulated.
+pub const UNSUPPORTED_SWITCHES: &[&str] = &["emergency", "safety_fence"];
 
 /// Panel switches read by `SWITCH(name)`.
 pub const PANEL_SWITCHES: &[&str] = &["power", "run", "repeat", "teach_lock", "cs", "error"];

@@ -1272,10 +1272,10 @@ impl<'a> Cur<'a> {
             }
             "return" => LineKind::Stmt(StmtKind::Return),
             "print" | "type" => {
-                // An optional device number: `PRINT 2: …`.
+                // An optional device: `PRINT 2: …`, `PRINT tyterm: …` (the terminal, here).
                 if matches!(
                     (self.peek(), self.peek_at(1)),
-                    (Some(Tok::Num(_)), Some(Tok::Colon))
+                    (Some(Tok::Num(_) | Tok::Name(_)), Some(Tok::Colon))
                 ) {
                     self.pos += 2;
                 }
@@ -1327,6 +1327,14 @@ impl<'a> Cur<'a> {
                     }
                 };
                 let Some(cmd) = keywords::monitor(&word) else {
+                    // A monitor command the emulator does not run (`MC ZPOWER ON`): loads as
+                    // not emulated; a word that is no monitor command is still an error.
+                    if keywords::MONITOR_UNSUPPORTED.contains(&word.as_str()) {
+                        return Ok(LineKind::Stmt(StmtKind::NotEmulated {
+                            instruction: format!("MC {}", word.to_uppercase()),
+                            stubbed: false,
+                        }));
+                    }
                     return Err(ParseError::new(
                         self.file,
                         span,

@@ -209,3 +209,79 @@ fn repeated_uses_give_one_warning_with_the_count() {
         "t.as:2:3: TOOL loads but is not emulated (3 lines, the first here): a task that reaches it stops with E0111 (--stub TOOL makes it a no-op)"
     );
 }
+
+#[test]
+fn forms_from_pc_programs_load_as_not_emulated() {
+    // Interface-panel output, DRIVE, a monitor command the emulator does not run, functions
+    // and switches it does not keep: each loads, the program around them runs.
+    let src = concat!(
+        ".PROGRAM autostart.pc()\n",
+        "  IF NOT EXISTREAL (\"tyterm\") THEN\n",
+        "    tyterm = 1\n",
+        "  END\n",
+        "  IFPWPRINT 1 = \"ready\"\n",
+        "  IFPWOVERWRITE 1, 2 = \"x\"\n",
+        "  DRIVE 6, 90\n",
+        "  MC ZPOWER ON\n",
+        "  IF SWITCH(EMERGENCY) THEN\n",
+        "    x = 1\n",
+        "  END\n",
+        "  .v = ROUND(2.5)\n",
+        "  POINT p = FRAME(a, b, c, d)\n",
+        "  DECOMPOSE .d[0] = STRTOPOS(\"#home\")\n",
+        ".END\n"
+    );
+    let loaded = Loaded::from_bytes(
+        "t.as",
+        src.as_bytes(),
+        &LoadOptions::new(),
+        Config::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let w: Vec<String> = loaded
+        .interpreter
+        .warnings()
+        .iter()
+        .map(|w| {
+            format!(
+                "{}: {}",
+                w.span.line,
+                w.message.split(" loads").next().unwrap_or("")
+            )
+        })
+        .collect();
+    assert_eq!(
+        w,
+        [
+            "2: the function EXISTREAL",
+            "5: IFPWPRINT",
+            "6: IFPWOVERWRITE",
+            "7: DRIVE",
+            "8: MC ZPOWER",
+            "9: the function SWITCH(EMERGENCY)",
+            "12: the function ROUND",
+            "13: the function FRAME",
+            "14: the function STRTOPOS",
+        ]
+    );
+}
+
+#[test]
+fn print_to_a_device_named_by_a_variable_prints_to_the_terminal() {
+    let (_, s) = run(
+        ".PROGRAM autostart.pc()\n  tyterm = 1\n  PRINT tyterm: \"hello\", 2\n.END\n",
+        &LoadOptions::new(),
+    );
+    assert_eq!(printed(&s), vec!["hello 2"]);
+}
+
+#[test]
+fn autostart_and_errstart_switches_are_set_by_name() {
+    let (i, _) = run(
+        ".PROGRAM autostart.pc()\n  errstart.pc ON\n  AUTOSTART2.PC ON\n.END\n",
+        &LoadOptions::new(),
+    );
+    assert_eq!(i.system_switch("errstart.pc"), Some(true));
+    assert_eq!(i.system_switch("autostart2.pc"), Some(true));
+    assert_eq!(i.system_switch("autostart3.pc"), Some(false));
+}
