@@ -220,9 +220,7 @@ pub fn lint(bytes: &[u8], module: &Module, controller: Option<Controller>) -> Ve
                 let from = (dot + 1..code.len())
                     .find(|&k| !(code[k].is_ascii_alphanumeric() || code[k] == b'_'))
                     .unwrap_or(code.len());
-                let to = (from..code.len())
-                    .find(|&k| code[k] == b'#' && code.get(k + 1).is_some_and(u8::is_ascii_digit))
-                    .unwrap_or(code.len());
+                let to = crate::parser::header_end(&code[from..]).map_or(code.len(), |k| from + k);
                 (from, to)
             } else {
                 (0, code.len())

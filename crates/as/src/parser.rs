@@ -249,6 +249,26 @@ pub fn parse_bytes(file: &str, bytes: &[u8], opts: &LoadOptions) -> Result<Modul
     })
 }
 
+/// Where the saved decorations after a `.PROGRAM` header start: a `@` (edit time) or a `#`
+/// followed by a digit (step-number marker). Parameters never hold either.
+pub(crate) fn header_end(rest: &[u8]) -> Option<usize> {
+    (0..rest.len()).find(|&k| {
+        rest[k] == b'@' || (rest[k] == b'#' && rest.get(k + 1).is_some_and(u8::is_ascii_digit))
+    })
+}
+
+/// `true` when the tokens hold a whole array: `[` then `]`, or `[` then only commas then `]`
+/// (`.$data[]`, `.&p.rel[,]`).
+fn whole_array_at(toks: &[Token]) -> bool {
+    toks.iter().enumerate().any(|(k, t)| {
+        t.tok == Tok::LBracket && {
+            let rest = &toks[k + 1..];
+            let commas = rest.iter().take_while(|t| t.tok == Tok::Comma).count();
+            rest.get(commas).is_some_and(|t| t.tok == Tok::RBracket)
+        }
+    })
+}
+
 /// A `SWITCH name [=] ON|OFF` line of `.SYSDATA`.
 fn sysdata_switch(line_no: u32, line: &[u8]) -> Option<SwitchSetting> {
     let code = strip_comment_bytes(line);
@@ -452,11 +472,10 @@ impl<'a> FileParser<'a> {
             .saturating_sub(line.as_ptr() as usize)
             .min(line.len());
         let rest = strip_comment_bytes(rest);
-        // A step-number marker after the header (`.PROGRAM name() #0`), as controllers save.
-        let rest = match rest
-            .windows(2)
-            .position(|w| w[0] == b'#' && w[1].is_ascii_digit())
-        {
+        // What controllers save after the header: a step-number marker
+        // (`.PROGRAM name() #0`) and the time of the last edit (`.PROGRAM name()@25/10/31
+        // 16:24 #0`).
+        let rest = match header_end(rest) {
             Some(k) => &rest[..k],
             None => rest,
         };
@@ -502,11 +521,17 @@ impl<'a> FileParser<'a> {
                             return Err(c.err_at(Some(pspan), format!("parameter {name} must be a local variable (start it with a dot: .{name})")));
                         }
                         by_ref |= c.eat(&Tok::Amp);
-                        // `.$data[]`: a whole array.
-                        let array = c.peek() == Some(&Tok::LBracket)
-                            && c.peek_at(1) == Some(&Tok::RBracket);
+                        // `.$data[]`, `.p[,]`: a whole array.
+                        let array = c.peek() == Some(&Tok::LBracket) && {
+                            let commas = (1..)
+                                .take_while(|&k| c.peek_at(k) == Some(&Tok::Comma))
+                                .count();
+                            c.peek_at(commas + 1) == Some(&Tok::RBracket)
+                        };
                         if array {
-                            c.pos += 2;
+                            c.eat(&Tok::LBracket);
+                            while c.eat(&Tok::Comma) {}
+                            c.eat(&Tok::RBracket);
                         }
                         params.push(Param {
                             name,
@@ -1257,10 +1282,7 @@ impl<'a> Cur<'a> {
             "goto" => LineKind::Stmt(StmtKind::Goto(self.label_ref("GOTO")?)),
             "call" => {
                 // `CALL p(.$data[], 1)`: a whole array as an argument.
-                if self.toks[self.pos..]
-                    .windows(2)
-                    .any(|w| w[0].tok == Tok::LBracket && w[1].tok == Tok::RBracket)
-                {
+                if whole_array_at(&self.toks[self.pos..]) {
                     return Ok(LineKind::Stmt(StmtKind::NotEmulated {
                         instruction: "CALL (a whole array as an argument)".into(),
                         stubbed: false,

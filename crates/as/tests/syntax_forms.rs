@@ -24,6 +24,8 @@ fn a_step_number_marker_after_the_program_line_is_accepted() {
         ".PROGRAM main() #9744",
         ".PROGRAM main() #0; #0; #0; comment",
         ".PROGRAM main(.a, .$b) #12 ;comment",
+        ".PROGRAM main()@25/10/31 16:24 #0",
+        ".PROGRAM main () @24/01/02 08:00 #281; the edit time and step, as saved",
     ] {
         let m = loads(&format!("{header}\r\n  x = 1\r\n.END\r\n"));
         assert_eq!(m.programs[0].name, "main", "{header}");
@@ -60,8 +62,10 @@ fn a_block_teaching_step_loads_as_not_emulated() {
         ".PROGRAM weld1() #0\n",
         "JOINT SPEED9 ACCU1 TIMER0 TOOL1 WORK0 CLAMP1 (OFF,0,0,O) 2 (0,0,0) 0 #[0,-50,-60,0,-80,0,40] ;home\n",
         "  5 LINEAR SPEED3 ACCU0 TIMER1 TOOL1 WORK0 CLAMP1 (ON,0,0,O) 2 (0,0,0) 0 #[10,-40,-60,0,-80,0,40]\n",
+        "\tLINEAR 30.0 ACCU1 TIMER0 TOOL1 WORK0 CLAMP OX= WX= #[-1.5,9.6,-122.9,38.1,56.5,-11.7] ;\n",
         ".END\n"
     ));
+    assert_eq!(m.programs[0].body.len(), 3);
     let body = &m.programs[0].body;
     assert!(matches!(
         &body[0].kind,
@@ -105,6 +109,17 @@ fn a_whole_array_argument_loads_and_stops_the_task_when_reached() {
         info[1].last_error.as_deref(),
         Some("(E0111) CALL (a whole array as an argument) is not emulated (fs020n as check lists these; --stub makes one a no-op) (autostart.pc line 3)")
     );
+}
+
+#[test]
+fn a_whole_two_dimensional_array_by_reference_loads_as_not_emulated() {
+    let m = loads(
+        ".PROGRAM a()\n  CALL trace.part(.&p.rel[,])\n.END\n.PROGRAM trace.part(.&p[,])\n.END\n",
+    );
+    assert!(
+        matches!(&m.programs[0].body[0].kind, StmtKind::NotEmulated { instruction, .. } if instruction.starts_with("CALL"))
+    );
+    assert!(m.programs[1].params[0].array && m.programs[1].params[0].by_ref);
 }
 
 #[test]
