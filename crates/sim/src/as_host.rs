@@ -127,7 +127,8 @@ impl ServerProgram {
         &self.name
     }
 
-    /// Things skipped while loading (unknown sections), as messages.
+    /// What loaded but is worth knowing (instructions not emulated, sections kept opaque), as
+    /// messages: the warnings `fs020n as check` prints.
     pub fn warnings(&self) -> Vec<String> {
         self.interp
             .warnings()
