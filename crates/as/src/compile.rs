@@ -572,7 +572,11 @@ impl Compiler {
             self.not_emulated_fn = None;
             if let Err(e) = self.stmt(s) {
                 if let Some(f) = self.not_emulated_fn.take() {
-                    let instruction = format!("the function {f}");
+                    let instruction = if f.starts_with("POINT") {
+                        f
+                    } else {
+                        format!("the function {f}")
+                    };
                     self.emit(Op::NotEmulated(instruction.as_str().into()), s.span.line);
                     self.warnings.push(ParseError::new(&self.file, e.span, format!("{instruction} loads but is not emulated: a task that reaches this line stops with E0111")));
                     continue;
@@ -914,14 +918,24 @@ impl Compiler {
                         let t = self.lref(target, Ty::Joint)?;
                         match self.loc(value)? {
                             Loc::J(j) => Op::AssignJ(t, j),
-                            Loc::T(_) => return Err(self.err(value.span, "POINT #name needs a joint point on the right (converting a transformation to joint values is not supported)")),
+                            Loc::T(_) => {
+                                // Converting a transformation to joint values (inverse
+                                // kinematics): loads as not emulated.
+                                self.not_emulated_fn = Some("POINT #name = transformation".into());
+                                return Err(self.err(value.span, "POINT #name needs a joint point on the right (converting a transformation to joint values is not emulated)"));
+                            }
                         }
                     }
                     Sigil::None => {
                         let t = self.lref(target, Ty::Trans)?;
                         match self.loc(value)? {
                             Loc::T(x) => Op::AssignT(t, x),
-                            Loc::J(_) => return Err(self.err(value.span, "POINT name needs a transformation on the right (converting joint values to a transformation is not supported; use HERE)")),
+                            Loc::J(_) => {
+                                // Converting joint values to a transformation (forward
+                                // kinematics): loads as not emulated.
+                                self.not_emulated_fn = Some("POINT name = joint point".into());
+                                return Err(self.err(value.span, "POINT name needs a transformation on the right (converting joint values to a transformation is not emulated; use HERE)"));
+                            }
                         }
                     }
                     Sigil::Dollar => {

@@ -148,6 +148,7 @@ pub const UNSUPPORTED_FUNCTIONS: &[&str] = &[
     "frame",
     "round",
     "strtopos",
+    "time",
 ];
 
 /// Whether `word` (lower case, at the start of a statement) is an instruction that loads as
@@ -209,11 +210,15 @@ pub const SYSTEM_SWITCHES: &[(&str, bool)] = &[
     ("check.hold", false),
     ("cp", true),
     ("cyc.stop", false),
+    ("disp.exestep", false),
     ("error", false),
     ("errstart.pc", false),
+    ("hold.step", false),
     ("message", true),
     ("prefetch.sigins", false),
+    ("prog.date", false),
     ("qtool", false),
+    ("rep_once", false),
     ("repeatonce", false),
     ("rps", false),
     ("screen", true),
@@ -222,7 +227,8 @@ pub const SYSTEM_SWITCHES: &[(&str, bool)] = &[
 
 /// Switches the controller has but the emulator does not keep: `SWITCH(name)` of one loads
 /// as not emulated.
-pub const UNSUPPORTED_SWITCHES: &[&str] = &["emergency", "safety_fence"];
+pub const UNSUPPORTED_SWITCHES: &[&str] =
+    &["emergency", "safety_fence", "tp_emg", "op_emg", "ex_emg"];
 
 /// Panel switches read by `SWITCH(name)`.
 pub const PANEL_SWITCHES: &[&str] = &["power", "run", "repeat", "teach_lock", "cs", "error"];

@@ -912,6 +912,10 @@ impl<'a> FileParser<'a> {
         if (after.starts_with(b"=") && !after.starts_with(b"==")) || after.starts_with(b"[") {
             return None;
         }
+        // `PREFETCH.SIGINS OFF`: a system switch the interpreter keeps, not an instruction.
+        if keywords::system_switch_default(&word).is_some() {
+            return None;
+        }
         let span = Span::new(line_no, col(i));
         let make = |instruction: String, stubbed: bool| {
             Some(LineItem {
@@ -945,6 +949,14 @@ impl<'a> FileParser<'a> {
         }
         if keywords::not_emulated(&word) {
             return make(upper, false);
+        }
+        // `NAME ON|OFF` with a name the interpreter does not know: a system switch of a
+        // controller generation the emulator does not keep.
+        let value = trim_blanks(after).0;
+        if keywords::statement(&word).is_none()
+            && (value.eq_ignore_ascii_case(b"on") || value.eq_ignore_ascii_case(b"off"))
+        {
+            return make(format!("{upper} (a system switch)"), false);
         }
         None
     }

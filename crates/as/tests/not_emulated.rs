@@ -285,3 +285,63 @@ fn autostart_and_errstart_switches_are_set_by_name() {
     assert_eq!(i.system_switch("autostart2.pc"), Some(true));
     assert_eq!(i.system_switch("autostart3.pc"), Some(false));
 }
+
+#[test]
+fn system_switch_lines_of_an_autostart_program_load() {
+    let (i, s) = run(
+        concat!(
+            ".PROGRAM autostart.pc()\n",
+            "  CP ON\n",
+            "  PREFETCH.SIGINS ON\n",
+            "  QTOOL OFF\n",
+            "  REP_ONCE ON\n",
+            "  HOLD.STEP ON\n",
+            "  DISP.EXESTEP ON\n",
+            "  PROG.DATE ON\n",
+            "  autostart.pc ON\n",
+            "  errstart.pc ON ;\n",
+            "  PRINT \"set\"\n",
+            ".END\n"
+        ),
+        &LoadOptions::new(),
+    );
+    assert_eq!(printed(&s), vec!["set"]);
+    assert!(i.warnings().is_empty(), "{:?}", i.warnings());
+    for sw in [
+        "prefetch.sigins",
+        "rep_once",
+        "hold.step",
+        "prog.date",
+        "autostart.pc",
+    ] {
+        assert_eq!(i.system_switch(sw), Some(true), "{sw}");
+    }
+    // A switch name nobody knows loads as not emulated.
+    let (i, s) = run(
+        ".PROGRAM autostart.pc()\n  NO.SUCH.SWITCH ON\n.END\n",
+        &LoadOptions::new(),
+    );
+    assert!(
+        i.tasks(&s)[1].last_error.as_deref().is_some_and(
+            |e| e.starts_with("(E0111) NO.SUCH.SWITCH (a system switch) is not emulated")
+        )
+    );
+}
+
+#[test]
+fn point_between_joints_and_transformations_loads_as_not_emulated() {
+    let src = ".PROGRAM autostart.pc()\n  POINT .t = #home\n  POINT #j = pick\n.END\n.JOINTS\n#home 0 0 -90 0 -90 0\n.END\n.TRANS\npick 850 0 1153 0 180 0\n.END\n";
+    let (i, s) = run(src, &LoadOptions::new());
+    let w: Vec<&str> = i.warnings().iter().map(|w| w.message.as_str()).collect();
+    assert_eq!(
+        w,
+        [
+            "POINT name = joint point loads but is not emulated: a task that reaches this line stops with E0111",
+            "POINT #name = transformation loads but is not emulated: a task that reaches this line stops with E0111"
+        ]
+    );
+    assert!(i.tasks(&s)[1]
+        .last_error
+        .as_deref()
+        .is_some_and(|e| e.ends_with("(autostart.pc line 2)")));
+}
