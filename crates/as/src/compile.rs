@@ -1293,6 +1293,14 @@ impl Compiler {
                 (Sigil::None, "error") => return Ok(CExpr::R(RExpr::Error)),
                 (Sigil::None, "here") => return Ok(CExpr::T(TExpr::Here)),
                 (Sigil::Hash, "here") => return Ok(CExpr::J(JExpr::Here)),
+                // `$TIME`, `$DATE`: the controller's clock as text; not emulated.
+                (Sigil::Dollar, "time" | "date") => {
+                    self.not_emulated_fn = Some(format!("${}", n.text.to_ascii_uppercase()));
+                    return Err(self.err(
+                        lv.span,
+                        format!("${} is not emulated", n.text.to_ascii_uppercase()),
+                    ));
+                }
                 _ => {}
             }
         }

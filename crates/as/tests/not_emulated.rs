@@ -229,6 +229,7 @@ fn forms_from_pc_programs_load_as_not_emulated() {
         "  .v = ROUND(2.5)\n",
         "  POINT p = FRAME(a, b, c, d)\n",
         "  DECOMPOSE .d[0] = STRTOPOS(\"#home\")\n",
+        "  $log = $TIME + \" started\"\n",
         ".END\n"
     );
     let loaded = Loaded::from_bytes(
@@ -262,6 +263,7 @@ fn forms_from_pc_programs_load_as_not_emulated() {
             "12: the function ROUND",
             "13: the function FRAME",
             "14: the function STRTOPOS",
+            "15: the function $TIME",
         ]
     );
 }
