@@ -1,4 +1,5 @@
-//! AS program text (fs020n-as) on arbitrary bytes: the parser and the loader never panic, and
+//! AS program files (fs020n-as) as raw bytes, in any encoding: the byte loader, the check and
+//! its lint never panic, the text entry point agrees with the byte loader on UTF-8, and
 //! a program that loads runs for 100 ms of virtual time on the test system — with a client
 //! sending the tail of the input as requests — without panicking. Interpreter time only moves
 //! forward and every task reports a valid state.
@@ -6,8 +7,9 @@
 
 use std::time::Duration;
 
+use fs020n_as::lint::Controller;
 use fs020n_as::testing::VirtualSystem;
-use fs020n_as::{Config, Interpreter};
+use fs020n_as::{Config, Interpreter, LoadOptions};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
@@ -16,8 +18,15 @@ fuzz_target!(|data: &[u8]| {
         Some(k) => (&data[..k], &data[k + 1..]),
         None => (data, &[][..]),
     };
-    let text = String::from_utf8_lossy(program);
-    let Ok(module) = fs020n_as::parse("fuzz.as", &text) else {
+    let opts = LoadOptions::new().stub("tool");
+    let _ = fs020n_as::check("fuzz.as", program, &opts, Some(Controller::D));
+    if let Ok(text) = std::str::from_utf8(program) {
+        assert_eq!(
+            fs020n_as::parse("fuzz.as", text),
+            fs020n_as::parse_bytes("fuzz.as", program, &LoadOptions::new())
+        );
+    }
+    let Ok(module) = fs020n_as::parse_bytes("fuzz.as", program, &opts) else {
         return;
     };
     let Ok(mut interp) = Interpreter::new(&[module], Config::default()) else {

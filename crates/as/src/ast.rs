@@ -18,8 +18,70 @@ pub struct Module {
     pub programs: Vec<Program>,
     /// Values of the data sections (`.REALS`, `.STRINGS`, `.JOINTS`, `.TRANS`), in file order.
     pub data: Vec<DataItem>,
-    /// Things skipped but worth knowing (unknown sections such as `.AUXDATA`).
+    /// Things loaded but worth knowing: instructions loaded but not emulated, sections kept
+    /// opaque, a section without its `.END`.
     pub warnings: Vec<ParseError>,
+    /// Every section of the file, in file order (programs and data sections too), with its
+    /// line range: what was read and what was kept opaque.
+    pub sections: Vec<Section>,
+    /// The system switches a `.SYSDATA` section sets (`SWITCH AUTOSTART.PC ON`), in file order.
+    pub switches: Vec<SwitchSetting>,
+}
+
+impl Module {
+    /// The state a `.SYSDATA` section of this file gives the system switch `name` (any case,
+    /// e.g. `"AUTOSTART.PC"`; the last setting wins); `None` when the file does not set it.
+    pub fn switch(&self, name: &str) -> Option<bool> {
+        let name = name.to_ascii_lowercase();
+        self.switches
+            .iter()
+            .rev()
+            .find(|s| s.name == name)
+            .map(|s| s.on)
+    }
+
+    /// The AUTOSTART switches this file sets: `(n, on)` for `AUTOSTART.PC` (n = 1) to
+    /// `AUTOSTART5.PC` (n = 5), in that order. At power-on the controller starts PC program
+    /// `autostartN.pc` in PC task n when its switch is ON.
+    pub fn autostart(&self) -> Vec<(u8, bool)> {
+        (1..=5u8)
+            .filter_map(|n| {
+                let name = if n == 1 {
+                    "autostart.pc".to_owned()
+                } else {
+                    format!("autostart{n}.pc")
+                };
+                self.switch(&name).map(|on| (n, on))
+            })
+            .collect()
+    }
+}
+
+/// One section of a file: `.PROGRAM`, `.REALS`, `.SYSDATA`, `.NETCONF`, …
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+pub struct Section {
+    /// The name as written after the dot, in upper case (`SYSDATA`, `PROGRAM`).
+    pub name: String,
+    /// The first line (the `.NAME` line).
+    pub first_line: u32,
+    /// The last line (its `.END`, or the line before the next section when it has none, or
+    /// the first line of a one-line section).
+    pub last_line: u32,
+    /// What the loader did with it.
+    pub reads: crate::sections::SectionUse,
+    /// Whether the name is in [`crate::sections::SECTIONS`].
+    pub known: bool,
+}
+
+/// A `SWITCH name ON|OFF` line of `.SYSDATA`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SwitchSetting {
+    /// The switch, lower case (`autostart.pc`).
+    pub name: String,
+    /// ON.
+    pub on: bool,
+    /// Where it stands.
+    pub span: Span,
 }
 
 /// `.PROGRAM name(params)` … `.END`.
@@ -44,6 +106,8 @@ pub struct Param {
     pub name: Name,
     /// Passed by reference: the caller's variable receives the final value on `RETURN`.
     pub by_ref: bool,
+    /// Declared as a whole array (`.$data[]`).
+    pub array: bool,
     /// Where it stands.
     pub span: Span,
 }
@@ -261,6 +325,15 @@ pub enum StmtKind {
     Cp(bool),
     /// A `TCP_…` instruction.
     Tcp(TcpStmt),
+    /// An instruction that loads but is not emulated (`TOOL`, `JAPPRO`, a block-teaching
+    /// step, …): a task that reaches it stops with E0111 naming it — unless it is stubbed,
+    /// when it does nothing. Modelling one is local: the parser gives it its own statement.
+    NotEmulated {
+        /// The instruction as the warnings and the error name it (`JAPPRO`, `JOINT`).
+        instruction: String,
+        /// Declared a no-op by the user ([`crate::LoadOptions::stub`]).
+        stubbed: bool,
+    },
 }
 
 /// One `VALUE …:` or `ANY:` arm of a CASE.

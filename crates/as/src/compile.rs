@@ -287,6 +287,8 @@ pub(crate) enum Op {
         ip: LRef,
         timeout: Option<RExpr>,
     },
+    /// An instruction that loads but is not emulated: the task stops with E0111 naming it.
+    NotEmulated(Box<str>),
     /// The end of the program (`.END`).
     End,
 }
@@ -372,6 +374,8 @@ pub(crate) fn compile(modules: &[crate::ast::Module]) -> Result<Code, LoadError>
         labels: HashMap::new(),
         fixups: Vec::new(),
         hidden: 0,
+        not_emulated_fn: None,
+        warnings: Vec::new(),
     };
     // Program names first (CALL may name a program defined later or in another file).
     let mut order = Vec::new();
@@ -424,7 +428,16 @@ pub(crate) fn compile(modules: &[crate::ast::Module]) -> Result<Code, LoadError>
         global_index: c.global_index,
         data,
         lines: modules.iter().map(|m| Arc::from(m.lines.clone())).collect(),
-        warnings: modules.iter().flat_map(|m| m.warnings.clone()).collect(),
+        // Per file, in line order: the parser's and the compiler's together.
+        warnings: modules
+            .iter()
+            .flat_map(|m| {
+                let mut w = m.warnings.clone();
+                w.extend(c.warnings.iter().filter(|x| x.file == m.file).cloned());
+                w.sort_by_key(|x| x.span);
+                w
+            })
+            .collect(),
     })
 }
 
@@ -443,6 +456,11 @@ struct Compiler {
     /// (op index, label) of jumps to resolve.
     fixups: Vec<(usize, Label)>,
     hidden: u32,
+    /// Set when an expression calls a function the emulator does not compute: the statement
+    /// then loads as not emulated.
+    not_emulated_fn: Option<String>,
+    /// Statements loaded as not emulated because of such a function.
+    warnings: Vec<ParseError>,
 }
 
 type CResult<T> = Result<T, ParseError>;
@@ -551,7 +569,18 @@ impl Compiler {
 
     fn block(&mut self, stmts: &[Stmt]) {
         for s in stmts {
+            self.not_emulated_fn = None;
             if let Err(e) = self.stmt(s) {
+                if let Some(f) = self.not_emulated_fn.take() {
+                    let instruction = if f.starts_with("POINT") {
+                        f
+                    } else {
+                        format!("the function {f}")
+                    };
+                    self.emit(Op::NotEmulated(instruction.as_str().into()), s.span.line);
+                    self.warnings.push(ParseError::new(&self.file, e.span, format!("{instruction} loads but is not emulated: a task that reaches this line stops with E0111")));
+                    continue;
+                }
                 if self.errors.len() < MAX_REPORTED {
                     self.errors.push(e);
                 }
@@ -583,6 +612,17 @@ impl Compiler {
             }
         }
         match &s.kind {
+            StmtKind::NotEmulated {
+                instruction,
+                stubbed,
+            } => {
+                let op = if *stubbed {
+                    Op::Nop
+                } else {
+                    Op::NotEmulated(instruction.as_str().into())
+                };
+                self.emit(op, line);
+            }
             StmtKind::Empty => {
                 if s.label.is_some() {
                     self.emit(Op::Nop, line);
@@ -878,14 +918,24 @@ impl Compiler {
                         let t = self.lref(target, Ty::Joint)?;
                         match self.loc(value)? {
                             Loc::J(j) => Op::AssignJ(t, j),
-                            Loc::T(_) => return Err(self.err(value.span, "POINT #name needs a joint point on the right (converting a transformation to joint values is not supported)")),
+                            Loc::T(_) => {
+                                // Converting a transformation to joint values (inverse
+                                // kinematics): loads as not emulated.
+                                self.not_emulated_fn = Some("POINT #name = transformation".into());
+                                return Err(self.err(value.span, "POINT #name needs a joint point on the right (converting a transformation to joint values is not emulated)"));
+                            }
                         }
                     }
                     Sigil::None => {
                         let t = self.lref(target, Ty::Trans)?;
                         match self.loc(value)? {
                             Loc::T(x) => Op::AssignT(t, x),
-                            Loc::J(_) => return Err(self.err(value.span, "POINT name needs a transformation on the right (converting joint values to a transformation is not supported; use HERE)")),
+                            Loc::J(_) => {
+                                // Converting joint values to a transformation (forward
+                                // kinematics): loads as not emulated.
+                                self.not_emulated_fn = Some("POINT name = joint point".into());
+                                return Err(self.err(value.span, "POINT name needs a transformation on the right (converting joint values to a transformation is not emulated; use HERE)"));
+                            }
                         }
                     }
                     Sigil::Dollar => {
@@ -1243,6 +1293,14 @@ impl Compiler {
                 (Sigil::None, "error") => return Ok(CExpr::R(RExpr::Error)),
                 (Sigil::None, "here") => return Ok(CExpr::T(TExpr::Here)),
                 (Sigil::Hash, "here") => return Ok(CExpr::J(JExpr::Here)),
+                // `$TIME`, `$DATE`: the controller's clock as text; not emulated.
+                (Sigil::Dollar, "time" | "date") => {
+                    self.not_emulated_fn = Some(format!("${}", n.text.to_ascii_uppercase()));
+                    return Err(self.err(
+                        lv.span,
+                        format!("${} is not emulated", n.text.to_ascii_uppercase()),
+                    ));
+                }
                 _ => {}
             }
         }
@@ -1385,6 +1443,19 @@ impl Compiler {
                     }
                     _ => None,
                 };
+                if let (None, Some(Arg::Expr(a))) = (&sw, args.first()) {
+                    if let ExprKind::Var(lv) = &a.kind {
+                        // A switch the controller has but the emulator does not keep
+                        // (`SWITCH(EMERGENCY)`): the statement loads as not emulated.
+                        if !lv.name.local
+                            && lv.name.sigil == Sigil::None
+                            && keywords::UNSUPPORTED_SWITCHES.contains(&lv.name.text.as_str())
+                        {
+                            self.not_emulated_fn =
+                                Some(format!("SWITCH({})", lv.name.text.to_ascii_uppercase()));
+                        }
+                    }
+                }
                 match sw {
                     Some(s) => Ok(CExpr::R(RExpr::Switch(s))),
                     None => Err(self.err(
@@ -1460,6 +1531,10 @@ impl Compiler {
                     None => RExpr::Const(0.0),
                 };
                 Ok(CExpr::S(SExpr::Decode(l, Box::new(delims), Box::new(mode))))
+            }
+            _ if keywords::UNSUPPORTED_FUNCTIONS.contains(&name.text.as_str()) => {
+                self.not_emulated_fn = Some(name.text.to_ascii_uppercase());
+                Err(self.err(span, format!("{} is not emulated", display_fn(name))))
             }
             _ => Err(self.err(span, format!("unknown function {}", display_fn(name)))),
         }

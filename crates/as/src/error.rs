@@ -99,6 +99,10 @@ pub enum RuntimeError {
     /// More array elements or variables than the interpreter's memory holds.
     #[error("(E0110) variable memory full (at most {0} array elements)")]
     MemoryFull(usize),
+    /// An instruction that loads but is not emulated was reached (the emulator's own code:
+    /// the controller would run it).
+    #[error("(E0111) {0} is not emulated (fs020n as check lists these; --stub makes one a no-op)")]
+    NotEmulated(String),
     /// A controller error raised by the system (a motion refused, e.g. E1088).
     #[error("{}", describe(*.0))]
     System(ErrorCode),
@@ -124,6 +128,7 @@ impl RuntimeError {
             RuntimeError::WrongTask(_) => ErrorCode(-30108),
             RuntimeError::CallDepth(_) => ErrorCode(-30109),
             RuntimeError::MemoryFull(_) => ErrorCode(-30110),
+            RuntimeError::NotEmulated(_) => ErrorCode(-30111),
             RuntimeError::System(c) => *c,
         }
     }
@@ -142,6 +147,7 @@ pub fn error_message(code: i32) -> Option<&'static str> {
         -30108 => Some("Instruction not allowed in this task"),
         -30109 => Some("Too many nested CALLs"),
         -30110 => Some("Variable memory full"),
+        -30111 => Some("Instruction not emulated"),
         other => match TcpCode::from_code(other) {
             Some(tcp) => Some(tcp.message()),
             None => ErrorCode(other).message(),

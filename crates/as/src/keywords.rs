@@ -44,9 +44,11 @@ pub const STATEMENTS: &[(&str, usize)] = &[
     ("point", 3),
     ("print", 3),
     ("return", 3),
+    ("scase", 3),
     ("signal", 3),
     ("speed", 2),
     ("stop", 3),
+    ("svalue", 3),
     ("tcp_accept", 10),
     ("tcp_close", 9),
     ("tcp_connect", 11),
@@ -63,12 +65,16 @@ pub const STATEMENTS: &[(&str, usize)] = &[
     ("while", 3),
 ];
 
-/// AS instructions that exist on the controller but not in this interpreter: named in errors
-/// instead of "unknown statement", and they keep abbreviations honest.
+/// AS instructions that exist on the controller but that the emulator does not model: a
+/// program that uses them loads (each is listed as a warning), and a task that reaches one
+/// stops with E0111 naming it (or goes on, when the user stubs it). They also keep
+/// abbreviations honest (`L` is not taken for `LMOVE` when the controller knows `LAPPRO`).
 pub const UNSUPPORTED: &[&str] = &[
+    "above",
     "align",
     "appro",
     "base",
+    "below",
     "bits",
     "bits32",
     "c1move",
@@ -78,15 +84,18 @@ pub const UNSUPPORTED: &[&str] = &[
     "depart",
     "dlysig",
     "draw",
+    "drive",
     "dwrist",
     "extcall",
     "hmove",
+    "intfchk",
     "japro",
     "jappro",
     "jdepart",
     "lappro",
     "ldepart",
     "lefty",
+    "one",
     "open",
     "openi",
     "prefetch.sigins",
@@ -96,16 +105,64 @@ pub const UNSUPPORTED: &[&str] = &[
     "righty",
     "runmask",
     "swait",
+    "tcp_status",
     "tdraw",
     "tool",
     "udp_recvfrom",
     "udp_sendto",
     "uwrist",
     "xmove",
-    "above",
-    "below",
-    "tcp_status",
 ];
+
+/// Families of application instructions (multi-robot `L3…` forms, `RTC_…`, `UDP_…`, the
+/// interface panel's `IFPW…`), by
+/// prefix: they load as not emulated like [`UNSUPPORTED`].
+pub const UNSUPPORTED_PREFIXES: &[&str] = &["l3", "rtc_", "udp_", "ifpw"];
+
+/// First words of a block-teaching step (`JOINT SPEED9 ACCU1 … #[…]`): loaded as not
+/// emulated when the line is a step (its second word starts with `SPEED`, or it holds `#[`).
+pub const BLOCK_TEACHING: &[&str] = &[
+    "joint",
+    "linear",
+    "linear2",
+    "circular",
+    "circular2",
+    "xlinear",
+    "fine",
+];
+
+/// Functions the controller has but the emulator does not compute: a statement that uses
+/// one loads as not emulated.
+pub const UNSUPPORTED_FUNCTIONS: &[&str] = &[
+    "bits",
+    "bits32",
+    "distance",
+    "dx",
+    "dy",
+    "dz",
+    "existchar",
+    "existjoint",
+    "existprogram",
+    "existreal",
+    "existtrans",
+    "frame",
+    "round",
+    "strtopos",
+    "time",
+];
+
+/// Whether `word` (lower case, at the start of a statement) is an instruction that loads as
+/// not emulated: in [`UNSUPPORTED`] or one of the [`UNSUPPORTED_PREFIXES`] families, and not
+/// an instruction the interpreter runs.
+pub fn not_emulated(word: &str) -> bool {
+    if statement(word).is_some() {
+        return false;
+    }
+    UNSUPPORTED.contains(&word)
+        || (UNSUPPORTED_PREFIXES
+            .iter()
+            .any(|p| word.starts_with(p) && word.len() > p.len()))
+}
 
 /// Monitor commands accepted after `MC`: (keyword, shortest accepted form).
 pub const MONITOR: &[(&str, usize)] = &[
@@ -144,19 +201,34 @@ pub const MONITOR_UNSUPPORTED: &[&str] = &[
 /// remembered and reported.
 pub const SYSTEM_SWITCHES: &[(&str, bool)] = &[
     ("abs.speed", false),
+    ("autostart.pc", false),
+    ("autostart2.pc", false),
+    ("autostart3.pc", false),
+    ("autostart4.pc", false),
+    ("autostart5.pc", false),
     ("auto_start", false),
     ("check.hold", false),
     ("cp", true),
     ("cyc.stop", false),
+    ("disp.exestep", false),
     ("error", false),
+    ("errstart.pc", false),
+    ("hold.step", false),
     ("message", true),
     ("prefetch.sigins", false),
+    ("prog.date", false),
     ("qtool", false),
+    ("rep_once", false),
     ("repeatonce", false),
     ("rps", false),
     ("screen", true),
     ("stepone", false),
 ];
+
+/// Switches the controller has but the emulator does not keep: `SWITCH(name)` of one loads
+/// as not emulated.
+pub const UNSUPPORTED_SWITCHES: &[&str] =
+    &["emergency", "safety_fence", "tp_emg", "op_emg", "ex_emg"];
 
 /// Panel switches read by `SWITCH(name)`.
 pub const PANEL_SWITCHES: &[&str] = &["power", "run", "repeat", "teach_lock", "cs", "error"];
@@ -226,6 +298,11 @@ mod tests {
         assert_eq!(statement("tw"), Some("twait"));
         assert_eq!(statement("tcp_recv"), Some("tcp_recv"));
         assert_eq!(statement("jappro"), None);
+        assert!(not_emulated("jappro"));
+        assert!(not_emulated("l3jmove"));
+        assert!(!not_emulated("jmove"));
+        assert!(!not_emulated("tcp_send"));
+        assert_eq!(statement("sca"), Some("scase"));
         assert_eq!(statement("pr"), None);
         assert_eq!(statement("pri"), Some("print"));
         assert_eq!(statement("en"), None);

@@ -1,11 +1,13 @@
 //! Tokens of one AS source line.
 //!
 //! AS is line-oriented: a statement never spans lines, so the lexer works on one line at a
-//! time (the line ending, `\n` or `\r\n`, already removed). A `;` outside a string starts a
-//! comment that runs to the end of the line. Names are case-insensitive and kept in lower
-//! case; they may contain letters, digits, `_` and `.` (`autostart.pc`, `abs.speed`), and carry
-//! a type sigil (`$` string, `#` joint point) and a leading `.` for program-local variables
-//! (`.$buf`, `.#p`, `.count`).
+//! time (the line ending, `\n` or `\r\n`, already removed). A line is **bytes** in whatever
+//! code page the file was saved in ([`tokenize_bytes`]; [`tokenize`] takes text): names,
+//! numbers and operators are ASCII, string literals keep their bytes as written. A `;` outside
+//! a string starts a comment that runs to the end of the line. Names are case-insensitive and
+//! kept in lower case; they may contain letters, digits, `_` and `.` (`autostart.pc`,
+//! `abs.speed`), and carry a type sigil (`$` string, `#` joint point) and a leading `.` for
+//! program-local variables (`.$buf`, `.#p`, `.count`). `!=` is read as `<>`, `|` as `OR`.
 
 use crate::error::ParseError;
 use crate::span::Span;
@@ -93,6 +95,8 @@ pub enum Tok {
     Caret,
     /// `&`
     Amp,
+    /// `|` (logical OR, as some editors write it).
+    Bar,
 }
 
 impl Tok {
@@ -121,6 +125,7 @@ impl Tok {
             Tok::Slash => "\"/\"".into(),
             Tok::Caret => "\"^\"".into(),
             Tok::Amp => "\"&\"".into(),
+            Tok::Bar => "\"|\"".into(),
         }
     }
 
@@ -133,7 +138,7 @@ impl Tok {
     }
 }
 
-/// A token with the column (1-based, in characters) where it starts.
+/// A token with the column where it starts (1-based; see [`columns`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Token {
     /// The token.
@@ -142,58 +147,115 @@ pub struct Token {
     pub span: Span,
 }
 
-/// Longest name accepted (the controller allows 15 characters; saved files from other tools
-/// may carry longer ones, which are kept).
+/// Longest name accepted (the controller keeps 15 characters; files from other tools may
+/// carry longer ones, which load and are linted: [`crate::lint`]).
 pub const MAX_NAME: usize = 64;
 
 /// Longest string literal, bytes (an AS string holds at most 255 characters).
 pub const MAX_STRING: usize = 255;
 
-fn is_name_char(c: char) -> bool {
-    c.is_ascii_alphanumeric() || c == '_' || c == '.'
+fn is_name_byte(c: u8) -> bool {
+    c.is_ascii_alphanumeric() || c == b'_' || c == b'.'
 }
 
 /// Splits off the comment: returns the code part of a line (a `;` inside a string does not
 /// start a comment).
 pub fn strip_comment(line: &str) -> &str {
+    let code = strip_comment_bytes(line.as_bytes());
+    // `;` and `"` are ASCII, so the cut falls on a character boundary.
+    line.get(..code.len()).unwrap_or(line)
+}
+
+/// [`strip_comment`] on the bytes of a line, in any encoding: `"` and `;` are never the
+/// second byte of a Shift-JIS or GBK character, so the cut is right for those code pages too.
+pub fn strip_comment_bytes(line: &[u8]) -> &[u8] {
     let mut in_str = false;
-    for (i, c) in line.char_indices() {
+    for (i, &c) in line.iter().enumerate() {
         match c {
-            '"' => in_str = !in_str,
-            ';' if !in_str => return &line[..i],
+            b'"' => in_str = !in_str,
+            b';' if !in_str => return &line[..i],
             _ => {}
         }
     }
     line
 }
 
+/// Columns of a line: the 1-based column of each byte offset (and of the end). A line that is
+/// valid UTF-8 counts characters; a line in another code page counts bytes (a Shift-JIS or GBK
+/// character takes two columns, as wide as an editor shows it).
+pub fn columns(line: &[u8]) -> Vec<u32> {
+    let utf8 = std::str::from_utf8(line).is_ok();
+    let mut out = Vec::with_capacity(line.len() + 1);
+    let mut col = 1u32;
+    for &b in line {
+        out.push(col);
+        if !(utf8 && (0x80..0xC0).contains(&b)) {
+            col = col.saturating_add(1);
+        }
+    }
+    // A continuation byte shares its character's column.
+    if utf8 {
+        for k in 0..line.len() {
+            if (0x80..0xC0).contains(&line[k]) && k > 0 {
+                out[k] = out[k - 1];
+            }
+        }
+    }
+    out.push(col);
+    out
+}
+
+/// Blanks between tokens: space, tab, a byte-order mark, and the no-break and ideographic
+/// spaces an editor may leave (these two are linted: the controller takes only ASCII).
+fn blank_len(code: &[u8], i: usize) -> usize {
+    match code[i] {
+        b' ' | b'\t' | b'\x0c' | b'\x1a' => 1,
+        0xEF if code.get(i + 1..i + 3) == Some(&[0xBB, 0xBF]) => 3,
+        0xE3 if code.get(i + 1..i + 3) == Some(&[0x80, 0x80]) => 3,
+        0xC2 if code.get(i + 1) == Some(&0xA0) => 2,
+        _ => 0,
+    }
+}
+
 /// Tokenizes the code part of one line (`line_no` is 1-based). `file` names the source in
 /// errors.
 pub fn tokenize(file: &str, line_no: u32, code: &str) -> Result<Vec<Token>, ParseError> {
-    let chars: Vec<char> = code.chars().collect();
+    tokenize_bytes(file, line_no, code.as_bytes(), &columns(code.as_bytes()))
+}
+
+/// Tokenizes the code part of one line given as bytes; `cols` are the line's [`columns`] (a
+/// table at least one longer than `code`). String literals keep their bytes as written.
+pub fn tokenize_bytes(
+    file: &str,
+    line_no: u32,
+    code: &[u8],
+    cols: &[u32],
+) -> Result<Vec<Token>, ParseError> {
+    let chars = code;
+    let col = |i: usize| cols.get(i).or(cols.last()).copied().unwrap_or(1);
     let mut out: Vec<Token> = Vec::new();
     let mut i = 0;
-    let err =
-        |col: usize, msg: String| ParseError::new(file, Span::new(line_no, col as u32 + 1), msg);
+    let err = |at: usize, msg: String| ParseError::new(file, Span::new(line_no, col(at)), msg);
     while i < chars.len() {
         let c = chars[i];
         let start = i;
-        let span = Span::new(line_no, i as u32 + 1);
-        if c == ' ' || c == '\t' || c == '\u{feff}' {
-            i += 1;
+        let span = Span::new(line_no, col(i));
+        let blank = blank_len(chars, i);
+        if blank > 0 {
+            i += blank;
             continue;
         }
         let prev_operand = out.last().is_some_and(|t| t.tok.ends_operand());
         let tok = match c {
-            '"' => {
+            b'"' => {
                 let mut j = i + 1;
-                while j < chars.len() && chars[j] != '"' {
+                while j < chars.len() && chars[j] != b'"' {
                     j += 1;
                 }
                 if j >= chars.len() {
                     return Err(err(start, "expected a closing \" to end the string".into()));
                 }
-                let s: String = chars[i + 1..j].iter().collect();
+                let s = chars[i + 1..j].to_vec();
                 if s.len() > MAX_STRING {
                     return Err(err(
                         start,
@@ -204,23 +266,23 @@ pub fn tokenize(file: &str, line_no: u32, code: &str) -> Result<Vec<Token>, Pars
                     ));
                 }
                 i = j + 1;
-                Tok::Str(s.into_bytes())
+                Tok::Str(s)
             }
-            '0'..='9' => {
+            b'0'..=b'9' => {
                 let (v, len) = lex_number(&chars[i..]);
                 i += len;
                 Tok::Num(v)
             }
-            '.' if chars.get(i + 1).is_some_and(|d| d.is_ascii_digit()) => {
+            b'.' if chars.get(i + 1).is_some_and(|d| d.is_ascii_digit()) => {
                 let (v, len) = lex_number(&chars[i..]);
                 i += len;
                 Tok::Num(v)
             }
-            '^' if !prev_operand
-                && matches!(chars.get(i + 1), Some('H' | 'h' | 'B' | 'b'))
+            b'^' if !prev_operand
+                && matches!(chars.get(i + 1), Some(b'H' | b'h' | b'B' | b'b'))
                 && chars.get(i + 2).is_some_and(|d| d.is_ascii_hexdigit()) =>
             {
-                let radix = if matches!(chars[i + 1], 'H' | 'h') {
+                let radix = if matches!(chars[i + 1], b'H' | b'h') {
                     16
                 } else {
                     2
@@ -229,13 +291,13 @@ pub fn tokenize(file: &str, line_no: u32, code: &str) -> Result<Vec<Token>, Pars
                 while j < chars.len() && chars[j].is_ascii_alphanumeric() {
                     j += 1;
                 }
-                let digits: String = chars[i + 2..j].iter().collect();
+                let digits = String::from_utf8_lossy(&chars[i + 2..j]).into_owned();
                 let v = u64::from_str_radix(&digits, radix).map_err(|_| {
                     err(
                         start,
                         format!(
                             "\"^{}{digits}\" is not a {} number",
-                            chars[i + 1],
+                            chars[i + 1] as char,
                             if radix == 16 { "hexadecimal" } else { "binary" }
                         ),
                     )
@@ -243,14 +305,14 @@ pub fn tokenize(file: &str, line_no: u32, code: &str) -> Result<Vec<Token>, Pars
                 i = j;
                 Tok::Num(v as f64)
             }
-            '.' | '$' | '#' | 'a'..='z' | 'A'..='Z' | '_' => {
+            b'.' | b'$' | b'#' | b'a'..=b'z' | b'A'..=b'Z' | b'_' => {
                 let mut j = i;
                 let mut local = false;
-                if chars[j] == '.' {
+                if chars[j] == b'.' {
                     local = true;
                     j += 1;
                     // `.&name`: a by-reference parameter.
-                    if chars.get(j) == Some(&'&') {
+                    if chars.get(j) == Some(&b'&') {
                         out.push(Token {
                             tok: Tok::Amp,
                             span,
@@ -259,11 +321,11 @@ pub fn tokenize(file: &str, line_no: u32, code: &str) -> Result<Vec<Token>, Pars
                     }
                 }
                 let sigil = match chars.get(j) {
-                    Some('$') => {
+                    Some(b'$') => {
                         j += 1;
                         Sigil::Dollar
                     }
-                    Some('#') => {
+                    Some(b'#') => {
                         j += 1;
                         Sigil::Hash
                     }
@@ -271,7 +333,7 @@ pub fn tokenize(file: &str, line_no: u32, code: &str) -> Result<Vec<Token>, Pars
                 };
                 if !chars
                     .get(j)
-                    .is_some_and(|c| c.is_ascii_alphabetic() || *c == '_')
+                    .is_some_and(|c| c.is_ascii_alphabetic() || *c == b'_')
                 {
                     return Err(err(
                         j.min(chars.len()),
@@ -279,17 +341,15 @@ pub fn tokenize(file: &str, line_no: u32, code: &str) -> Result<Vec<Token>, Pars
                     ));
                 }
                 let name_start = j;
-                while j < chars.len() && is_name_char(chars[j]) {
+                while j < chars.len() && is_name_byte(chars[j]) {
                     j += 1;
                 }
                 // A name does not end with a dot (`a.` then something else).
-                while j > name_start + 1 && chars[j - 1] == '.' {
+                while j > name_start + 1 && chars[j - 1] == b'.' {
                     j -= 1;
                 }
-                let text: String = chars[name_start..j]
-                    .iter()
-                    .collect::<String>()
-                    .to_lowercase();
+                // ASCII only, so the bytes are text.
+                let text = String::from_utf8_lossy(&chars[name_start..j]).to_ascii_lowercase();
                 if text.len() > MAX_NAME {
                     return Err(err(
                         start,
@@ -302,62 +362,70 @@ pub fn tokenize(file: &str, line_no: u32, code: &str) -> Result<Vec<Token>, Pars
                 i = j;
                 Tok::Name(Name { local, sigil, text })
             }
-            '(' => {
+            b'(' => {
                 i += 1;
                 Tok::LParen
             }
-            ')' => {
+            b')' => {
                 i += 1;
                 Tok::RParen
             }
-            '[' => {
+            b'[' => {
                 i += 1;
                 Tok::LBracket
             }
-            ']' => {
+            b']' => {
                 i += 1;
                 Tok::RBracket
             }
-            ',' => {
+            b',' => {
                 i += 1;
                 Tok::Comma
             }
-            ':' => {
+            b':' => {
                 i += 1;
                 Tok::Colon
             }
-            '+' => {
+            b'+' => {
                 i += 1;
                 Tok::Plus
             }
-            '-' => {
+            b'-' => {
                 i += 1;
                 Tok::Minus
             }
-            '*' => {
+            b'*' => {
                 i += 1;
                 Tok::Star
             }
-            '/' => {
+            b'/' => {
                 i += 1;
                 Tok::Slash
             }
-            '^' => {
+            b'^' => {
                 i += 1;
                 Tok::Caret
             }
-            '&' => {
+            b'&' => {
                 i += 1;
                 Tok::Amp
             }
-            '=' => {
-                if chars.get(i + 1) == Some(&'=') {
+            b'|' => {
+                i += 1;
+                Tok::Bar
+            }
+            b'!' if chars.get(i + 1) == Some(&b'=') => {
+                i += 2;
+                Tok::Ne
+            }
+            b'=' => {
+                if chars.get(i + 1) == Some(&b'=') {
                     i += 2;
                     Tok::Eq
-                } else if chars.get(i + 1) == Some(&'<') {
+                } else if chars.get(i + 1) == Some(&b'<') {
                     i += 2;
                     Tok::Le
-                } else if chars.get(i + 1) == Some(&'>') {
+                } else if chars.get(i + 1) == Some(&b'>') {
                     i += 2;
                     Tok::Ge
                 } else {
@@ -365,12 +433,12 @@ pub fn tokenize(file: &str, line_no: u32, code: &str) -> Result<Vec<Token>, Pars
                     Tok::Assign
                 }
             }
-            '<' => match chars.get(i + 1) {
-                Some('>') => {
+            b'<' => match chars.get(i + 1) {
+                Some(b'>') => {
                     i += 2;
                     Tok::Ne
                 }
-                Some('=') => {
+                Some(b'=') => {
                     i += 2;
                     Tok::Le
                 }
@@ -379,8 +447,8 @@ pub fn tokenize(file: &str, line_no: u32, code: &str) -> Result<Vec<Token>, Pars
                     Tok::Lt
                 }
             },
-            '>' => {
-                if chars.get(i + 1) == Some(&'=') {
+            b'>' => {
+                if chars.get(i + 1) == Some(&b'=') {
                     i += 2;
                     Tok::Ge
                 } else {
@@ -389,10 +457,24 @@ pub fn tokenize(file: &str, line_no: u32, code: &str) -> Result<Vec<Token>, Pars
                 }
             }
             other => {
+                let shown = match std::str::from_utf8(&chars[i..]) {
+                    Ok(s) => s.chars().next().map(|c| format!("{c:?}")),
+                    Err(e) if e.valid_up_to() > 0 => {
+                        std::str::from_utf8(&chars[i..i + e.valid_up_to()])
+                            .ok()
+                            .and_then(|s| s.chars().next())
+                            .map(|c| format!("{c:?}"))
+                    }
+                    Err(_) => None,
+                };
+                let shown = match shown {
+                    Some(s) if other.is_ascii() || other >= 0xC0 => s,
+                    _ => format!("byte 0x{other:02X}"),
+                };
                 return Err(err(
                     start,
-                    format!("unexpected character {other:?} (outside a string or a comment)"),
-                ))
+                    format!("unexpected character {shown} (outside a string or a comment)"),
+                ));
             }
         };
         out.push(Token { tok, span });
@@ -401,27 +483,27 @@ pub fn tokenize(file: &str, line_no: u32, code: &str) -> Result<Vec<Token>, Pars
 }
 
 /// A decimal number at the start of `chars` (digits, optional fraction, optional exponent
-/// with at least one digit): its value and length in characters.
-fn lex_number(chars: &[char]) -> (f64, usize) {
+/// with at least one digit): its value and length in bytes.
+fn lex_number(chars: &[u8]) -> (f64, usize) {
     let mut j = 0;
     while j < chars.len() && chars[j].is_ascii_digit() {
         j += 1;
     }
-    if j < chars.len() && chars[j] == '.' && chars.get(j + 1).is_some_and(|c| c.is_ascii_digit()) {
+    if j < chars.len() && chars[j] == b'.' && chars.get(j + 1).is_some_and(|c| c.is_ascii_digit()) {
         j += 1;
         while j < chars.len() && chars[j].is_ascii_digit() {
             j += 1;
         }
     } else if j < chars.len()
-        && chars[j] == '.'
-        && !chars.get(j + 1).is_some_and(|c| is_name_char(*c))
+        && chars[j] == b'.'
+        && !chars.get(j + 1).is_some_and(|c| is_name_byte(*c))
     {
         // "5." — a trailing point.
         j += 1;
     }
-    if j < chars.len() && matches!(chars[j], 'e' | 'E') {
+    if j < chars.len() && matches!(chars[j], b'e' | b'E') {
         let mut k = j + 1;
-        if k < chars.len() && matches!(chars[k], '+' | '-') {
+        if k < chars.len() && matches!(chars[k], b'+' | b'-') {
             k += 1;
         }
         let digits = k;
@@ -432,7 +514,7 @@ fn lex_number(chars: &[char]) -> (f64, usize) {
             j = k;
         }
     }
-    let text: String = chars[..j].iter().collect();
+    let text = String::from_utf8_lossy(&chars[..j]);
     let v = text.trim_end_matches('.').parse::<f64>().unwrap_or(0.0);
     (if v.is_finite() { v } else { f64::MAX }, j)
 }

@@ -4,9 +4,14 @@
 //! several tasks concurrently on a clock it is given — so that an AS program (the
 //! protocol-1040 server, or your own) runs offline, deterministically, in tests and CI.
 //!
-//! - [`parse`]: a program file (`.PROGRAM` … `.END` blocks and `.REALS`, `.STRINGS`,
-//!   `.JOINTS`, `.TRANS` data sections, CRLF or LF, UTF-8 comments, abbreviated keywords) into
-//!   a syntax tree with spans ([`ast`]); errors say file:line:column and what was expected.
+//! - [`parse_bytes`] (and [`parse`] for text): a program file as bytes in any code page —
+//!   `.PROGRAM` … `.END` blocks, the `.REALS`, `.STRINGS`, `.JOINTS`, `.TRANS` data sections
+//!   and every other section of a controller backup ([`sections`]), controller-saved syntax,
+//!   abbreviated keywords — into a syntax tree with spans ([`ast`]); errors say
+//!   file:line:column and what was expected. Instructions the emulator does not model load
+//!   and are listed as warnings; [`LoadOptions`] stubs them.
+//! - [`check`]: loads a file exactly as the emulator does and lints it against the real
+//!   controller's limits ([`lint`]) — what `fs020n as check` prints.
 //! - [`Interpreter`]: robot task 1 and PC tasks 1–5, globals shared and dot-locals per program,
 //!   a documented [`CostModel`] (statements take time, so tasks interleave and a busy loop never
 //!   freezes the clock), motion look-ahead as the controller does it, `ON`/`ONI` interrupts,
@@ -45,7 +50,11 @@ pub mod error;
 mod interp;
 pub mod keywords;
 pub mod lexer;
+pub mod lint;
+mod load;
+mod options;
 pub mod parser;
+pub mod sections;
 pub mod sockets;
 pub mod span;
 pub mod system;
@@ -58,7 +67,9 @@ pub use interp::{
     Config, CostModel, Interpreter, Refusal, TaskInfo, TaskState, TerminalLine, TraceLine,
     MAX_STRING, MAX_TRANSFER,
 };
-pub use parser::parse;
+pub use load::{check, CheckReport, Loaded};
+pub use options::LoadOptions;
+pub use parser::{parse, parse_bytes};
 pub use span::Span;
 pub use system::{
     Issued, Joints, MotionKind, MotionRequest, PanelState, SockPoll, Speed, System, Target, TaskId,

@@ -1,10 +1,16 @@
 //! The parser: AS program files into a [`Module`].
 //!
-//! A file holds `.PROGRAM name(params)` … `.END` blocks and data sections (`.REALS`,
-//! `.STRINGS`, `.JOINTS`, `.TRANS`, each ending with `.END`), in any order, as the controller
-//! saves them. Other sections a controller backup carries (`.AUXDATA`, `.INTER_PANEL_D`, …) are
-//! skipped with a warning; `.*` lines are comments. Lines end with `\n` or `\r\n`; comments
-//! (`;`) may hold any UTF-8 text.
+//! A file is **bytes**: programs saved by a controller or an editor come in its code page
+//! (Shift-JIS, GBK, Windows-1250, UTF-8, sometimes mixed or damaged), so no file is refused
+//! for its encoding. Comments may hold any bytes; string literals keep their bytes as written
+//! (AS strings are bytes). Names, numbers and operators are ASCII. Lines end with `\n`,
+//! `\r\n`, or `\r` in a file that has no `\n`.
+//!
+//! A file holds `.PROGRAM name(params)` … `.END` blocks, data sections (`.REALS`, `.STRINGS`,
+//! `.JOINTS`, `.TRANS`) and the other sections of a controller backup, in any order
+//! ([`crate::sections`]: which are read, which are kept opaque, where each ends); `.*` lines
+//! are comments. Instructions the emulator does not model load as
+//! [`StmtKind::NotEmulated`] and are listed as warnings.
 //!
 //! Every error names the file, line and column and what was expected; parsing goes on after an
 //! error so that one load reports up to [`MAX_REPORTED`] of them.
@@ -12,13 +18,16 @@
 use crate::ast::*;
 use crate::error::{LoadError, ParseError, MAX_REPORTED};
 use crate::keywords;
-use crate::lexer::{strip_comment, tokenize, Name, Sigil, Tok, Token};
+use crate::lexer::{columns, strip_comment_bytes, tokenize_bytes, Name, Sigil, Tok, Token};
+use crate::options::LoadOptions;
+use crate::sections::{directive, section, SectionEnd, SectionUse};
 use crate::span::Span;
 
 /// Deepest nesting of blocks (IF, WHILE, …) and of parentheses accepted.
 pub const MAX_NESTING: usize = 48;
 
-/// Parses one AS file. `file` names it in messages.
+/// Parses one AS file given as text. `file` names it in messages. The same as
+/// [`parse_bytes`] on the text's bytes with default options.
 ///
 /// ```
 /// let m = fs020n_as::parse("demo.as", ".PROGRAM hello()\r\n  PRINT \"hi\" ; größer\r\n.END\r\n").unwrap();
@@ -27,36 +36,115 @@ pub const MAX_NESTING: usize = 48;
 /// assert_eq!(e.to_string(), "bad.as:2:3: expected END to close this IF before .END");
 /// ```
 pub fn parse(file: &str, text: &str) -> Result<Module, LoadError> {
-    let lines: Vec<String> = text
-        .split('\n')
-        .map(|l| l.strip_suffix('\r').unwrap_or(l).to_owned())
-        .collect();
+    parse_bytes(file, text.as_bytes(), &LoadOptions::default())
+}
+
+/// Splits a file into lines (without their endings).
+pub fn split_lines(bytes: &[u8]) -> Vec<&[u8]> {
+    if !bytes.contains(&b'\n') && bytes.contains(&b'\r') {
+        return bytes.split(|&b| b == b'\r').collect();
+    }
+    bytes
+        .split(|&b| b == b'\n')
+        .map(|l| l.strip_suffix(b"\r").unwrap_or(l))
+        .collect()
+}
+
+/// Bytes of blank at the start of `code` (blanks, tabs, a byte-order mark, the end-of-file
+/// byte 0x1A some editors leave).
+fn leading_blank(code: &[u8]) -> usize {
+    let mut i = 0;
+    loop {
+        match code.get(i..) {
+            Some([b' ' | b'\t' | b'\x0c' | b'\x1a', ..]) => i += 1,
+            Some([0xEF, 0xBB, 0xBF, ..]) => i += 3,
+            _ => return i,
+        }
+    }
+}
+
+/// `code` without blanks around it, and the offset where it starts.
+fn trim_blanks(code: &[u8]) -> (&[u8], usize) {
+    let start = leading_blank(code);
+    let mut end = code.len();
+    while end > start && matches!(code[end - 1], b' ' | b'\t' | b'\x0c' | b'\x1a') {
+        end -= 1;
+    }
+    (&code[start..end], start)
+}
+
+/// Parses one AS file given as bytes, in any encoding. `file` names it in messages; `opts`
+/// says which instructions are stubbed.
+///
+/// ```
+/// use fs020n_as::LoadOptions;
+/// // A Shift-JIS comment and string: the string's bytes survive as written.
+/// let text = b".PROGRAM p() #0\r\n  $s = \"\x83\x65\x83\x58\x83\x67\" ; \x83\x52\x83\x81\r\n.END\r\n";
+/// let m = fs020n_as::parse_bytes("p.as", text, &LoadOptions::default()).unwrap();
+/// assert_eq!(m.programs[0].name, "p");
+/// ```
+pub fn parse_bytes(file: &str, bytes: &[u8], opts: &LoadOptions) -> Result<Module, LoadError> {
+    let lines = split_lines(bytes);
     let mut p = FileParser {
         file,
+        opts,
         errors: Vec::new(),
         warnings: Vec::new(),
+        not_emulated: Vec::new(),
     };
     let mut programs: Vec<Program> = Vec::new();
     let mut data = Vec::new();
+    let mut sections = Vec::new();
+    let mut switches = Vec::new();
     let mut i = 0;
     while i < lines.len() {
         let line_no = i as u32 + 1;
-        let code = strip_comment(&lines[i]);
-        let trimmed = code.trim_start_matches([' ', '\t', '\u{feff}']).trim_end();
-        if trimmed.is_empty() || trimmed.starts_with(".*") {
+        let code = strip_comment_bytes(lines[i]);
+        let (trimmed, offset) = trim_blanks(code);
+        if trimmed.is_empty() || trimmed.starts_with(b".*") {
             i += 1;
             continue;
         }
-        let col = (code.chars().count()
-            - code
-                .trim_start_matches([' ', '\t', '\u{feff}'])
-                .chars()
-                .count()) as u32
-            + 1;
-        let span = Span::new(line_no, col);
-        match directive(trimmed) {
-            Some((word, rest)) if word == "program" => {
-                let end = find_end(&lines, i + 1);
+        let span = Span::new(line_no, columns(lines[i])[offset]);
+        let Some((word, rest)) = directive(trimmed) else {
+            p.error(
+                span,
+                format!(
+                    "expected .PROGRAM or a data section (.REALS, .STRINGS, .JOINTS, .TRANS), found {:?}",
+                    truncate(&String::from_utf8_lossy(trimmed), 40)
+                ),
+            );
+            i += 1;
+            if p.errors.len() >= MAX_REPORTED {
+                break;
+            }
+            continue;
+        };
+        if word == "end" {
+            p.error(span, ".END without a .PROGRAM or a data section to close");
+            i += 1;
+            continue;
+        }
+        let kind = section(&word);
+        let upper = word.to_ascii_uppercase();
+        let reads = kind.map_or(SectionUse::Opaque, |k| k.reads);
+        // The last line of the section, and whether it is an `.END` line.
+        let (last, closed) = match kind {
+            Some(k) if k.end == SectionEnd::OneLine => (i, true),
+            Some(k) if k.reads == SectionUse::Program => program_end(&lines, i + 1),
+            _ => section_end(&lines, i + 1),
+        };
+        // Lines of the section's content.
+        let body_end = if closed && kind.is_none_or(|k| k.end == SectionEnd::EndLine) {
+            last
+        } else {
+            last + 1
+        };
+        let body = i + 1..body_end.min(lines.len());
+        match reads {
+            SectionUse::Program => {
+                // The body ends before `.END`, or after `last` when there is none.
+                let end = if closed { last } else { last + 1 };
                 if let Some(prog) = p.program(&lines, i, end, rest, span) {
                     if let Some(prev) = programs.iter().find(|q| q.name == prog.name) {
                         p.error(
@@ -70,76 +158,142 @@ pub fn parse(file: &str, text: &str) -> Result<Module, LoadError> {
                         programs.push(prog);
                     }
                 }
-                if end >= lines.len() {
-                    p.error(
-                        span,
+                if !closed {
+                    let msg = if last + 1 < lines.len() {
+                        format!(
+                            "expected .END to close this .PROGRAM before the next .PROGRAM at line {}",
+                            last + 2
+                        )
+                    } else {
                         format!(
                             "expected .END to close this .PROGRAM (the file ends at line {})",
                             lines.len()
-                        ),
-                    );
+                        )
+                    };
+                    p.error(span, msg);
                 }
-                i = end + 1;
             }
-            Some((word, _))
-                if matches!(word.as_str(), "reals" | "strings" | "joints" | "trans") =>
-            {
-                let end = find_end(&lines, i + 1);
-                for (k, line) in lines.iter().enumerate().take(end).skip(i + 1) {
-                    if let Some(item) = p.data_line(&word, k as u32 + 1, line) {
+            SectionUse::Data => {
+                for k in body {
+                    if let Some(item) = p.data_line(&word, k as u32 + 1, lines[k]) {
                         data.push(item);
                     }
                 }
-                if end >= lines.len() {
+                if !closed {
                     p.error(
                         span,
-                        format!(
-                            "expected .END to close this .{} section",
-                            word.to_uppercase()
-                        ),
+                        format!("expected .END to close this .{upper} section"),
                     );
                 }
-                i = end + 1;
             }
-            Some((word, _)) if word == "end" => {
-                p.error(span, ".END without a .PROGRAM or a data section to close");
-                i += 1;
-            }
-            Some((word, _)) => {
-                let end = find_end(&lines, i + 1);
-                p.warnings.push(ParseError::new(
-                    file,
-                    span,
-                    format!("section .{} skipped (this interpreter reads .PROGRAM, .REALS, .STRINGS, .JOINTS and .TRANS)", word.to_uppercase()),
-                ));
-                i = end + 1;
-            }
-            None => {
-                p.error(
-                    span,
-                    format!(
-                        "expected .PROGRAM or a data section (.REALS, .STRINGS, .JOINTS, .TRANS), found {:?}",
-                        truncate(trimmed, 40)
+            SectionUse::SysData | SectionUse::Opaque => {
+                if reads == SectionUse::SysData {
+                    for k in body {
+                        if let Some(s) = sysdata_switch(k as u32 + 1, lines[k]) {
+                            switches.push(s);
+                        }
+                    }
+                }
+                let last_line = last.min(lines.len().saturating_sub(1)) as u32 + 1;
+                let range = if last_line == line_no {
+                    format!("line {line_no}")
+                } else {
+                    format!("lines {line_no}–{last_line}")
+                };
+                let what = match (kind, reads) {
+                    (None, _) => format!("unknown section .{upper} ({range}) is kept as it is"),
+                    (_, SectionUse::SysData) => format!(
+                        "section .{upper} ({range}): its SWITCH lines are read, the rest is kept as it is"
                     ),
-                );
-                i += 1;
+                    _ => format!("section .{upper} ({range}) is kept as it is: the emulator does not use it"),
+                };
+                let what = if closed {
+                    what
+                } else if last + 1 < lines.len() {
+                    format!("{what}; it has no .END and ends before line {}, where the next section begins", last_line + 1)
+                } else {
+                    format!("{what}; it has no .END and runs to the end of the file")
+                };
+                p.warnings.push(ParseError::new(file, span, what));
             }
         }
+        sections.push(Section {
+            name: upper,
+            first_line: line_no,
+            last_line: last.min(lines.len().saturating_sub(1)) as u32 + 1,
+            reads,
+            known: kind.is_some(),
+        });
+        i = last + 1;
         if p.errors.len() >= MAX_REPORTED {
             break;
         }
     }
+    p.warn_not_emulated();
     if !p.errors.is_empty() {
         p.errors.truncate(MAX_REPORTED);
         return Err(LoadError { errors: p.errors });
     }
+    p.warnings.sort_by_key(|w| w.span);
     Ok(Module {
         file: file.into(),
-        lines,
+        lines: lines
+            .iter()
+            .map(|l| String::from_utf8_lossy(l).into_owned())
+            .collect(),
         programs,
         data,
         warnings: p.warnings,
+        sections,
+        switches,
     })
+}
+
+/// Where the saved decorations after a `.PROGRAM` header start: a `@` (edit time) or a `#`
+/// followed by a digit (step-number marker). Parameters never hold either.
+pub(crate) fn header_end(rest: &[u8]) -> Option<usize> {
+    (0..rest.len()).find(|&k| {
+        rest[k] == b'@' || (rest[k] == b'#' && rest.get(k + 1).is_some_and(u8::is_ascii_digit))
+    })
+}
+
+/// `true` when the tokens hold a whole array: `[` then `]`, or `[` then only commas then `]`
+/// (`.$data[]`, `.&p.rel[,]`).
+fn whole_array_at(toks: &[Token]) -> bool {
+    toks.iter().enumerate().any(|(k, t)| {
+        t.tok == Tok::LBracket && {
+            let rest = &toks[k + 1..];
+            let commas = rest.iter().take_while(|t| t.tok == Tok::Comma).count();
+            rest.get(commas).is_some_and(|t| t.tok == Tok::RBracket)
+        }
+    })
+}
+
+/// A `SWITCH name [=] ON|OFF` line of `.SYSDATA`.
+fn sysdata_switch(line_no: u32, line: &[u8]) -> Option<SwitchSetting> {
+    let code = strip_comment_bytes(line);
+    let (trimmed, offset) = trim_blanks(code);
+    let words: Vec<&[u8]> = trimmed
+        .split(|b| b.is_ascii_whitespace() || *b == b'=')
+        .filter(|w| !w.is_empty())
+        .collect();
+    match words.as_slice() {
+        [kw, name, value] if kw.eq_ignore_ascii_case(b"switch") => {
+            let on = if value.eq_ignore_ascii_case(b"on") {
+                true
+            } else if value.eq_ignore_ascii_case(b"off") {
+                false
+            } else {
+                return None;
+            };
+            Some(SwitchSetting {
+                name: String::from_utf8_lossy(name).to_ascii_lowercase(),
+                on,
+                span: Span::new(line_no, offset as u32 + 1),
+            })
+        }
+        _ => None,
+    }
 }
 
 fn truncate(s: &str, n: usize) -> String {
@@ -152,35 +306,58 @@ fn truncate(s: &str, n: usize) -> String {
     }
 }
 
-/// `.WORD rest` → (word in lower case, rest).
-fn directive(trimmed: &str) -> Option<(String, &str)> {
-    let rest = trimmed.strip_prefix('.')?;
-    let end = rest
-        .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
-        .unwrap_or(rest.len());
-    if end == 0 || !rest.as_bytes()[0].is_ascii_alphabetic() {
-        return None;
+/// `true` when the line is exactly `.END` (any case, blanks and a comment allowed).
+fn is_end_line(line: &[u8]) -> bool {
+    trim_blanks(strip_comment_bytes(line))
+        .0
+        .eq_ignore_ascii_case(b".end")
+}
+
+/// The end of a program, searching from `from`: `(its .END line, true)`, or `(the line before
+/// the next .PROGRAM line, false)` when that comes first (a body line starting with `.` is a
+/// local variable; `.PROGRAM` followed by a name is not), or `(the last line, false)`.
+fn program_end(lines: &[&[u8]], from: usize) -> (usize, bool) {
+    for (k, line) in lines.iter().enumerate().skip(from) {
+        if is_end_line(line) {
+            return (k, true);
+        }
+        let (t, _) = trim_blanks(strip_comment_bytes(line));
+        if let Some((w, rest)) = directive(t) {
+            let (rest, _) = trim_blanks(rest);
+            if w == "program" && rest.first().is_some_and(u8::is_ascii_alphabetic) {
+                return (k - 1, false);
+            }
+        }
     }
-    Some((rest[..end].to_ascii_lowercase(), &rest[end..]))
+    (lines.len(), false)
 }
 
-/// `true` when the line is exactly `.END` (any case, comment allowed).
-fn is_end_line(line: &str) -> bool {
-    let t = strip_comment(line).trim_matches([' ', '\t', '\u{feff}']);
-    t.eq_ignore_ascii_case(".end")
-}
-
-/// Index of the `.END` line at or after `from` (`lines.len()` when there is none).
-fn find_end(lines: &[String], from: usize) -> usize {
-    (from..lines.len())
-        .find(|&k| is_end_line(&lines[k]))
-        .unwrap_or(lines.len())
+/// The end of a section that is not a program, searching from `from`: `(its .END line, true)`,
+/// or `(the line before the next known section, false)` when that comes first, or
+/// `(the last line, false)`.
+fn section_end(lines: &[&[u8]], from: usize) -> (usize, bool) {
+    for (k, line) in lines.iter().enumerate().skip(from) {
+        if is_end_line(line) {
+            return (k, true);
+        }
+        let (t, _) = trim_blanks(strip_comment_bytes(line));
+        if directive(t).is_some_and(|(w, _)| w != "end" && section(&w).is_some()) {
+            return (k - 1, false);
+        }
+    }
+    (
+        lines.len().saturating_sub(1).max(from.saturating_sub(1)),
+        false,
+    )
 }
 
 struct FileParser<'a> {
     file: &'a str,
+    opts: &'a LoadOptions,
     errors: Vec<ParseError>,
     warnings: Vec<ParseError>,
+    /// Not-emulated instructions met: (instruction, first place, count, stubbed).
+    not_emulated: Vec<(String, Span, usize, bool)>,
 }
 
 /// One line of a program before the blocks are assembled.
@@ -234,8 +411,8 @@ impl<'a> FileParser<'a> {
         self.errors.push(ParseError::new(self.file, span, msg));
     }
 
-    fn tokens(&mut self, line_no: u32, code: &str) -> Option<Vec<Token>> {
-        match tokenize(self.file, line_no, code) {
+    fn tokens(&mut self, line_no: u32, code: &[u8], cols: &[u32]) -> Option<Vec<Token>> {
+        match tokenize_bytes(self.file, line_no, code, cols) {
             Ok(t) => Some(t),
             Err(e) => {
                 self.errors.push(e);
@@ -244,31 +421,65 @@ impl<'a> FileParser<'a> {
         }
     }
 
+    /// One warning per not-emulated instruction (where it is first used, how often).
+    fn warn_not_emulated(&mut self) {
+        for (instr, span, count, stubbed) in std::mem::take(&mut self.not_emulated) {
+            let times = if count == 1 {
+                String::new()
+            } else {
+                format!(" ({count} lines, the first here)")
+            };
+            let msg = if stubbed {
+                format!("{instr} is stubbed: it loads and does nothing{times}")
+            } else {
+                let word = instr.split(' ').next().unwrap_or(&instr);
+                let stub = if word == "CALL" {
+                    String::new()
+                } else {
+                    format!(" (--stub {word} makes it a no-op)")
+                };
+                format!("{instr} loads but is not emulated{times}: a task that reaches it stops with E0111{stub}")
+            };
+            self.warnings.push(ParseError::new(self.file, span, msg));
+        }
+    }
+
+    fn note_not_emulated(&mut self, instr: &str, span: Span, stubbed: bool) {
+        match self
+            .not_emulated
+            .iter_mut()
+            .find(|(i, _, _, s)| i == instr && *s == stubbed)
+        {
+            Some(e) => e.2 += 1,
+            None => self.not_emulated.push((instr.to_owned(), span, 1, stubbed)),
+        }
+    }
+
     /// Parses `.PROGRAM` at `start` (header text `rest`) with its body up to `end`.
     fn program(
         &mut self,
-        lines: &[String],
+        lines: &[&[u8]],
         start: usize,
         end: usize,
-        rest: &str,
+        rest: &[u8],
         span: Span,
     ) -> Option<Program> {
         let line_no = start as u32 + 1;
-        // Columns of the header tokens: `rest` is a slice of the line; count the characters
-        // before it.
-        let line = lines[start].as_str();
-        let byte_offset = (rest.as_ptr() as usize)
+        let line = lines[start];
+        let cols = columns(line);
+        // `rest` is a slice of the line: its columns start at its offset.
+        let offset = (rest.as_ptr() as usize)
             .saturating_sub(line.as_ptr() as usize)
             .min(line.len());
-        let offset = line.get(..byte_offset).map_or(0, |s| s.chars().count());
-        let toks = self.tokens(line_no, rest)?;
-        let toks: Vec<Token> = toks
-            .into_iter()
-            .map(|mut t| {
-                t.span.col += offset as u32;
-                t
-            })
-            .collect();
+        let rest = strip_comment_bytes(rest);
+        // What controllers save after the header: a step-number marker
+        // (`.PROGRAM name() #0`) and the time of the last edit (`.PROGRAM name()@25/10/31
+        // 16:24 #0`).
+        let rest = match header_end(rest) {
+            Some(k) => &rest[..k],
+            None => rest,
+        };
+        let toks = self.tokens(line_no, rest, &cols[offset..])?;
         let mut c = Cur::new(self.file, &toks, line_no);
         let header = (|| {
             let name = match c.next() {
@@ -310,9 +521,22 @@ impl<'a> FileParser<'a> {
                             return Err(c.err_at(Some(pspan), format!("parameter {name} must be a local variable (start it with a dot: .{name})")));
                         }
                         by_ref |= c.eat(&Tok::Amp);
+                        // `.$data[]`, `.p[,]`: a whole array.
+                        let array = c.peek() == Some(&Tok::LBracket) && {
+                            let commas = (1..)
+                                .take_while(|&k| c.peek_at(k) == Some(&Tok::Comma))
+                                .count();
+                            c.peek_at(commas + 1) == Some(&Tok::RBracket)
+                        };
+                        if array {
+                            c.eat(&Tok::LBracket);
+                            while c.eat(&Tok::Comma) {}
+                            c.eat(&Tok::RBracket);
+                        }
                         params.push(Param {
                             name,
                             by_ref,
+                            array,
                             span: pspan,
                         });
                         if c.eat(&Tok::RParen) {
@@ -543,9 +767,21 @@ impl<'a> FileParser<'a> {
     }
 
     /// One program line (`None`: empty, or an error was recorded).
-    fn line(&mut self, line_no: u32, text: &str) -> Option<LineItem> {
-        let code = strip_comment(text);
-        let toks = self.tokens(line_no, code)?;
+    fn line(&mut self, line_no: u32, text: &[u8]) -> Option<LineItem> {
+        let code = strip_comment_bytes(text);
+        let cols = columns(text);
+        if let Some(item) = self.not_emulated_line(line_no, code, &cols) {
+            if let LineKind::Stmt(StmtKind::NotEmulated {
+                instruction,
+                stubbed,
+            }) = &item.kind
+            {
+                let (i, s) = (instruction.clone(), *stubbed);
+                self.note_not_emulated(&i, item.span, s);
+            }
+            return Some(item);
+        }
+        let toks = self.tokens(line_no, code, &cols)?;
         if toks.is_empty() {
             return None;
         }
@@ -560,7 +796,13 @@ impl<'a> FileParser<'a> {
             });
         }
         match c.statement() {
-            Ok(kind) => Some(LineItem { label, kind, span }),
+            Ok(kind) => {
+                if let LineKind::Stmt(StmtKind::NotEmulated { instruction, .. }) = &kind {
+                    let i = instruction.clone();
+                    self.note_not_emulated(&i, span, false);
+                }
+                Some(LineItem { label, kind, span })
+            }
             Err(e) => {
                 self.errors.push(e);
                 // Keep the block structure of a line that opens a block, so that its END
@@ -595,7 +837,7 @@ impl<'a> FileParser<'a> {
                         to: dummy(),
                         step: None,
                     },
-                    Some("case") => LineKind::Case(dummy()),
+                    Some("case" | "scase") => LineKind::Case(dummy()),
                     Some("do") => LineKind::Do,
                     _ => return None,
                 };
@@ -608,13 +850,125 @@ impl<'a> FileParser<'a> {
         }
     }
 
-    /// One data-section line.
-    fn data_line(&mut self, section: &str, line_no: u32, text: &str) -> Option<DataItem> {
-        let code = strip_comment(text);
-        if code.trim().is_empty() {
+    /// A line whose instruction loads without being parsed: one the emulator does not model
+    /// (its arguments may use forms this parser does not read, such as `#[…]`), a
+    /// block-teaching step, or a stubbed instruction. `None` for every other line.
+    fn not_emulated_line(&self, line_no: u32, code: &[u8], cols: &[u32]) -> Option<LineItem> {
+        let col = |k: usize| cols.get(k).copied().unwrap_or(1);
+        let mut i = leading_blank(code);
+        let mut label = None;
+        // A step number or a `name:` label first.
+        let word_at = |i: usize| {
+            let mut j = i;
+            while j < code.len()
+                && (code[j].is_ascii_alphanumeric() || code[j] == b'_' || code[j] == b'.')
+            {
+                j += 1;
+            }
+            j
+        };
+        if code.get(i).is_some_and(|b| b.is_ascii_digit()) {
+            let j = word_at(i);
+            if !code[i..j].iter().all(|b| b.is_ascii_digit()) || j - i > 9 {
+                return None;
+            }
+            label = Some(Label {
+                name: String::from_utf8_lossy(&code[i..j])
+                    .trim_start_matches('0')
+                    .to_owned(),
+                span: Span::new(line_no, col(i)),
+            });
+            i = j + leading_blank(&code[j..]);
+            if code.get(i) == Some(&b':') {
+                i += 1;
+                i += leading_blank(&code[i..]);
+            }
+        } else if code.get(i).is_some_and(|b| b.is_ascii_alphabetic()) {
+            let j = word_at(i);
+            let k = j + leading_blank(&code[j..]);
+            if code.get(k) == Some(&b':') {
+                let name = String::from_utf8_lossy(&code[i..j]).to_ascii_lowercase();
+                if name != "any" && name != "value" && name != "svalue" {
+                    label = Some(Label {
+                        name,
+                        span: Span::new(line_no, col(i)),
+                    });
+                    i = k + 1 + leading_blank(&code[k + 1..]);
+                }
+            }
+        }
+        if let Some(l) = &mut label {
+            if l.name.is_empty() {
+                l.name.push('0');
+            }
+        }
+        if !code.get(i).is_some_and(|b| b.is_ascii_alphabetic()) {
             return None;
         }
-        let toks = self.tokens(line_no, code)?;
+        let j = word_at(i);
+        let word = String::from_utf8_lossy(&code[i..j]).to_ascii_lowercase();
+        let after = &code[j + leading_blank(&code[j..])..];
+        // `tool = 1`, `tool[1] = 2`: an assignment, not an instruction.
+        if (after.starts_with(b"=") && !after.starts_with(b"==")) || after.starts_with(b"[") {
+            return None;
+        }
+        // `PREFETCH.SIGINS OFF`: a system switch the interpreter keeps, not an instruction.
+        if keywords::system_switch_default(&word).is_some() {
+            return None;
+        }
+        let span = Span::new(line_no, col(i));
+        let make = |instruction: String, stubbed: bool| {
+            Some(LineItem {
+                label: label.clone(),
+                kind: LineKind::Stmt(StmtKind::NotEmulated {
+                    instruction,
+                    stubbed,
+                }),
+                span,
+            })
+        };
+        let block_step = keywords::BLOCK_TEACHING.contains(&word.as_str()) && {
+            let next = &after[..after
+                .iter()
+                .position(|b| !b.is_ascii_alphanumeric())
+                .unwrap_or(after.len())];
+            next.len() >= 5 && next[..5].eq_ignore_ascii_case(b"speed")
+                || after.windows(2).any(|w| w == b"#[")
+        };
+        let upper = word.to_ascii_uppercase();
+        if self.opts.is_stubbed(&word) {
+            let instruction = if block_step {
+                format!("{upper} (block-teaching step)")
+            } else {
+                upper
+            };
+            return make(instruction, true);
+        }
+        if block_step {
+            return make(format!("{upper} (block-teaching step)"), false);
+        }
+        if keywords::not_emulated(&word) {
+            return make(upper, false);
+        }
+        // `NAME ON|OFF` with a name the interpreter does not know: a system switch of a
+        // controller generation the emulator does not keep.
+        let value = trim_blanks(after).0;
+        if keywords::statement(&word).is_none()
+            && (value.eq_ignore_ascii_case(b"on") || value.eq_ignore_ascii_case(b"off"))
+        {
+            return make(format!("{upper} (a system switch)"), false);
+        }
+        None
+    }
+
+    /// One data-section line.
+    fn data_line(&mut self, section: &str, line_no: u32, text: &[u8]) -> Option<DataItem> {
+        let code = strip_comment_bytes(text);
+        if trim_blanks(code).0.is_empty() {
+            return None;
+        }
+        let cols = columns(text);
+        let toks = self.tokens(line_no, code, &cols)?;
         let mut c = Cur::new(self.file, &toks, line_no);
         match c.data_item(section) {
             Ok(item) => Some(item),
@@ -920,12 +1274,12 @@ impl<'a> Cur<'a> {
                     step,
                 }
             }
-            "case" => {
+            "case" | "scase" => {
                 let e = self.expr()?;
                 self.expect_word("of", "OF after the CASE value")?;
                 LineKind::Case(e)
             }
-            "value" => {
+            "value" | "svalue" => {
                 let mut v = vec![self.expr()?];
                 while self.eat(&Tok::Comma) {
                     v.push(self.expr()?);
@@ -939,16 +1293,23 @@ impl<'a> Cur<'a> {
             }
             "goto" => LineKind::Stmt(StmtKind::Goto(self.label_ref("GOTO")?)),
             "call" => {
+                // `CALL p(.$data[], 1)`: a whole array as an argument.
+                if whole_array_at(&self.toks[self.pos..]) {
+                    return Ok(LineKind::Stmt(StmtKind::NotEmulated {
+                        instruction: "CALL (a whole array as an argument)".into(),
+                        stubbed: false,
+                    }));
+                }
                 let program = self.program_name("CALL")?;
                 let args = self.call_args()?;
                 LineKind::Stmt(StmtKind::Call { program, args })
             }
             "return" => LineKind::Stmt(StmtKind::Return),
             "print" | "type" => {
-                // An optional device number: `PRINT 2: …`.
+                // An optional device: `PRINT 2: …`, `PRINT tyterm: …` (the terminal, here).
                 if matches!(
                     (self.peek(), self.peek_at(1)),
-                    (Some(Tok::Num(_)), Some(Tok::Colon))
+                    (Some(Tok::Num(_) | Tok::Name(_)), Some(Tok::Colon))
                 ) {
                     self.pos += 2;
                 }
@@ -1000,6 +1361,14 @@ impl<'a> Cur<'a> {
                     }
                 };
                 let Some(cmd) = keywords::monitor(&word) else {
+                    // A monitor command the emulator does not run (`MC ZPOWER ON`): loads as
+                    // not emulated; a word that is no monitor command is still an error.
+                    if keywords::MONITOR_UNSUPPORTED.contains(&word.as_str()) {
+                        return Ok(LineKind::Stmt(StmtKind::NotEmulated {
+                            instruction: format!("MC {}", word.to_uppercase()),
+                            stubbed: false,
+                        }));
+                    }
                     return Err(ParseError::new(
                         self.file,
                         span,
@@ -1472,7 +1841,7 @@ impl<'a> Cur<'a> {
     fn or_expr(&mut self) -> PResult<Expr> {
         self.binary_level(
             &[("or", BinOp::Or), ("xor", BinOp::Xor)],
-            &[],
+            &[(Tok::Bar, BinOp::Or)],
             Self::and_expr,
         )
     }
@@ -1957,7 +2326,10 @@ mod tests {
             err(".PROGRAM p()\n  END\n.END\n"),
             "t.as:2:3: END without an open block"
         );
-        assert_eq!(err(".PROGRAM p()\n  JAPPRO a, 10\n.END\n"), "t.as:2:3: JAPPRO is an AS instruction this interpreter does not support (docs/AS.md lists what it runs)");
+        assert_eq!(
+            err(".PROGRAM p()\n  JAPPRX a, 10\n.END\n"),
+            "t.as:2:3: unknown instruction \"JAPPRX\""
+        );
         assert_eq!(err(".PROGRAM p()\n  MC FOO\n.END\n"), "t.as:2:6: MC FOO is not a monitor command this interpreter runs (EXECUTE, ABORT, HOLD, CONTINUE, SPEED, ERESET, PCEXECUTE, PCABORT)");
         assert_eq!(err(".PROGRAM p()\n  PRINT /Q3, a\n.END\n"), "t.as:2:9: /Q3 is not a format code (D, L, S, Fm.n, Em.n, Gm.n, Im, Km, Hm, Jm, Xn, Cn)");
         assert_eq!(
@@ -2005,7 +2377,10 @@ mod tests {
         let m = ok(".*=== header ===\n.AUXDATA\nwhatever 1 2\n.END\n.PROGRAM q() ;c\n.END\n");
         assert_eq!(m.programs.len(), 1);
         assert_eq!(m.warnings.len(), 1);
-        assert!(m.warnings[0].to_string().contains(".AUXDATA skipped"));
+        assert_eq!(
+            m.warnings[0].to_string(),
+            "t.as:2:1: section .AUXDATA (lines 2–4) is kept as it is: the emulator does not use it"
+        );
     }
 
     #[test]

@@ -153,11 +153,39 @@ pub(crate) enum Cmd {
     /// diagnostics) on the robot until Ctrl-C. See docs/ROS2.md.
     #[cfg(feature = "ros2")]
     Ros2(Ros2Args),
+    /// AS program files: `as check` loads each as the emulator would and lints it against
+    /// the controller's limits (docs/AS.md).
+    #[command(subcommand)]
+    As(AsCmd),
     /// Print shell completions.
     Completions {
         /// The shell.
         shell: clap_complete::Shell,
     },
+}
+
+/// `as` subcommands.
+#[derive(Debug, Subcommand)]
+pub(crate) enum AsCmd {
+    /// Load each file exactly as the emulator would and report errors, warnings and a lint
+    /// against the real controller's limits (exit 0: all load and no lint error; 1: a file
+    /// does not load or is linted as an error; 2: usage).
+    Check(AsCheckArgs),
+}
+
+/// `as check` arguments.
+#[derive(Debug, Args)]
+pub(crate) struct AsCheckArgs {
+    /// The controller generation to lint for (default: the rules of every generation, the
+    /// strictest ranges).
+    #[arg(long, value_name = "GEN", value_parser = ["c", "d", "e", "f"], ignore_case = true)]
+    pub controller: Option<String>,
+    /// Declare an instruction a no-op (repeatable): it loads and does nothing.
+    #[arg(long = "stub", value_name = "INSTR")]
+    pub stubs: Vec<String>,
+    /// AS files (a program, a controller backup).
+    #[arg(required = true, value_name = "FILE")]
+    pub files: Vec<PathBuf>,
 }
 
 /// `record` arguments.
@@ -406,6 +434,9 @@ pub(crate) struct SimArgs {
     /// With --as-program: print every executed program line (time, task, program:line, text).
     #[arg(long, requires = "as_program")]
     pub trace: bool,
+    /// With --as-program: declare an instruction a no-op (repeatable), as `as check --stub`.
+    #[arg(long = "stub", value_name = "INSTR", requires = "as_program")]
+    pub stubs: Vec<String>,
 }
 
 /// `hub` arguments (the controller is `--robot`).

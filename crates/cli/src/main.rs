@@ -147,6 +147,7 @@ fn run(cli: Cli, robot_typed: bool) -> CliResult {
             Cmd::Fk { .. } => Some("fk"),
             Cmd::Ik { .. } => Some("ik"),
             Cmd::Completions { .. } => Some("completions"),
+            Cmd::As(_) => Some("as"),
             Cmd::Sim(_) => Some("sim"),
             Cmd::Plot(_) => Some("plot"),
             Cmd::Replay(_) => Some("replay"),
@@ -163,6 +164,7 @@ fn run(cli: Cli, robot_typed: bool) -> CliResult {
         Cmd::Decode(args) => cmd::decode::decode(args, cli.json),
         Cmd::Fk { joints } => cmd::fk::fk(&model, joints, cli.json),
         Cmd::Ik { pose, near } => cmd::ik::ik(&model, pose, near.as_deref(), cli.json),
+        Cmd::As(args::AsCmd::Check(args)) => cmd::as_check::check(args, cli.json),
         Cmd::Completions { shell } => {
             clap_complete::generate(*shell, &mut command(), "fs020n", &mut std::io::stdout());
             Ok(())

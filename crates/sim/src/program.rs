@@ -88,15 +88,25 @@ impl ServerProgram {
 
     /// Loads a program file.
     pub fn from_file(path: &Path) -> Result<ServerProgram, ProgramError> {
-        let text = std::fs::read(path).map_err(|source| ProgramError::Read {
+        ServerProgram::from_file_with(path, &fs020n_as::LoadOptions::default())
+    }
+
+    /// Loads a program file (its bytes, in any encoding) with load options (stubbed
+    /// instructions), through the same loader as `fs020n as check`.
+    pub fn from_file_with(
+        path: &Path,
+        opts: &fs020n_as::LoadOptions,
+    ) -> Result<ServerProgram, ProgramError> {
+        let bytes = std::fs::read(path).map_err(|source| ProgramError::Read {
             path: path.display().to_string(),
             source,
         })?;
         let name = path.display().to_string();
-        Ok(ServerProgram::from_source(
-            &name,
-            &String::from_utf8_lossy(&text),
-        )?)
+        let loaded = fs020n_as::Loaded::from_bytes(&name, &bytes, opts, Config::default())?;
+        Ok(ServerProgram {
+            interp: loaded.interpreter,
+            name,
+        })
     }
 
     /// This project's AS text of the protocol-1040 server ([`fs020n_as::SERVER_1040`]).
@@ -109,7 +119,8 @@ impl ServerProgram {
         &self.name
     }
 
-    /// Things skipped while loading (unknown sections), as messages.
+    /// What loaded but is worth knowing (instructions not emulated, sections kept opaque), as
+    /// messages: the warnings `fs020n as check` prints.
     pub fn warnings(&self) -> Vec<String> {
         self.interp
             .warnings()

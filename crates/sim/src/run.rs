@@ -41,6 +41,8 @@ pub struct SimOptions {
     /// An AS program file to run instead of the native server (`None`: the native server).
     /// The first port it listens on is served at [`SimOptions::listen`].
     pub program: Option<PathBuf>,
+    /// How [`SimOptions::program`] is loaded (instructions declared no-ops, `--stub`).
+    pub program_load: fs020n_as::LoadOptions,
 }
 
 impl Default for SimOptions {
@@ -56,6 +58,7 @@ impl Default for SimOptions {
             joints: None,
             error: ErrorCode::NONE,
             program: None,
+            program_load: fs020n_as::LoadOptions::new(),
         }
     }
 }
@@ -230,13 +233,15 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
             (emulator, robot)
         }
         Some(path) => {
-            let program = crate::program::ServerProgram::from_file(path).map_err(|e| {
-                let kind = match &e {
-                    crate::program::ProgramError::Read { source, .. } => source.kind(),
-                    crate::program::ProgramError::Load(_) => io::ErrorKind::InvalidData,
-                };
-                io::Error::new(kind, e.to_string())
-            })?;
+            let load = &opts.program_load;
+            let program =
+                crate::program::ServerProgram::from_file_with(path, load).map_err(|e| {
+                    let kind = match &e {
+                        crate::program::ProgramError::Read { source, .. } => source.kind(),
+                        crate::program::ProgramError::Load(_) => io::ErrorKind::InvalidData,
+                    };
+                    io::Error::new(kind, e.to_string())
+                })?;
             let emulator = Emulator::with_program(config, program);
             let robot = emulator.serve_program_tcp(opts.listen).await;
             (emulator, robot)

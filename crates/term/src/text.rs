@@ -303,19 +303,26 @@ mod tests {
     fn a_switch_reads_its_last_on_or_off() {
         assert_eq!(parse_switch("AUTOSTART.PC        ON"), Some(true));
         assert_eq!(parse_switch("AUTOSTART.PC OFF"), Some(false));
-        assert_eq!(parse_switch("(P0117)Invalid variable (or program) name."), None);
+        assert_eq!(
+            parse_switch("(P0117)Invalid variable (or program) name."),
+            None
+        );
     }
 
     #[test]
     fn the_as_version_is_read_after_its_heading_or_as_a_token() {
         assert_eq!(
-            parse_as_version("Robot name: FS020N\n[Software version]\nASE_FS020N_EMU 1.0\n").as_deref(),
+            parse_as_version("Robot name: FS020N\n[Software version]\nASE_FS020N_EMU 1.0\n")
+                .as_deref(),
             Some("ASE_FS020N_EMU 1.0")
         );
         assert_eq!(
             parse_as_version("AS version ASE_K80000W48").as_deref(),
             Some("ASE_K80000W48")
         );
-        assert_eq!(monitor_error_code("(P2076)SAVE/LOAD in progress."), Some(2076));
+        assert_eq!(
+            monitor_error_code("(P2076)SAVE/LOAD in progress."),
+            Some(2076)
+        );
     }
 }

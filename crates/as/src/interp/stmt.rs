@@ -256,6 +256,9 @@ impl Interpreter {
         let robot = i.is_robot();
         let flow = match op {
             Op::Nop => Flow::Next,
+            Op::NotEmulated(instr) => {
+                return Err(Box::new(RuntimeError::NotEmulated(instr.to_string())))
+            }
             Op::AssignR(..)
             | Op::AssignS(..)
             | Op::Jump(_)

@@ -1,6 +1,7 @@
 //! The commands, one file each, and what the robot commands share: a session that always
 //! ends cleanly, Ctrl-C, progress bars and the hold notice.
 
+pub(crate) mod as_check;
 pub(crate) mod bench;
 pub(crate) mod decode;
 pub(crate) mod demo;

@@ -81,6 +81,7 @@ pub(crate) fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOp
             joints,
             error,
             program: args.as_program.clone(),
+            program_load: (args.stubs.iter()).fold(fs020n_as::LoadOptions::new(), |o, s| o.stub(s)),
         });
     }
     Ok(out)
@@ -92,7 +93,8 @@ fn check_program(args: &SimArgs) -> CliResult<Option<String>> {
     let Some(path) = &args.as_program else {
         return Ok(None);
     };
-    let program = fs020n_sim::ServerProgram::from_file(path)
+    let stubs = (args.stubs.iter()).fold(fs020n_as::LoadOptions::new(), |o, s| o.stub(s));
+    let program = fs020n_sim::ServerProgram::from_file_with(path, &stubs)
         .map_err(|e| CliError::input(format!("--as-program: {e}")))?;
     for w in program.warnings() {
         eprintln!("warning: {w}");

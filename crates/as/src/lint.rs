@@ -1,0 +1,371 @@
+//! A lint against the real controller's limits: what loads in the emulator but would not load,
+//! or would behave differently, on a Kawasaki controller. Every rule is in [`RULES`] with its
+//! source; `fs020n as check` prints the findings.
+
+use std::collections::HashMap;
+
+use crate::ast::{Expr, ExprKind, Module, Stmt, StmtKind, TcpStmt, UnOp};
+use crate::lexer::{columns, strip_comment_bytes, tokenize_bytes, Tok};
+use crate::parser::split_lines;
+use crate::sections::SectionUse;
+use crate::span::Span;
+
+/// A controller generation (`--controller c|d|e|f`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+pub enum Controller {
+    /// C series.
+    C,
+    /// D series.
+    D,
+    /// E series.
+    E,
+    /// F series.
+    F,
+}
+
+impl std::str::FromStr for Controller {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Controller, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "c" => Ok(Controller::C),
+            "d" => Ok(Controller::D),
+            "e" => Ok(Controller::E),
+            "f" => Ok(Controller::F),
+            other => Err(format!(
+                "{other:?} is not a controller generation (c, d, e or f)"
+            )),
+        }
+    }
+}
+
+/// How serious a finding is: an error means the controller would refuse the program or run it
+/// differently from the emulator (`fs020n as check` exits 1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Severity {
+    /// The controller would refuse it, or it changes what the program does.
+    Error,
+    /// Likely a problem on the controller.
+    Warning,
+}
+
+/// One lint rule.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Rule {
+    /// Its name in the findings (`name-length`).
+    pub id: &'static str,
+    /// How serious its findings are.
+    pub severity: Severity,
+    /// The generations it applies to (empty: all, and when no generation is given).
+    pub controllers: &'static [Controller],
+    /// What it checks.
+    pub checks: &'static str,
+    /// Where the limit comes from.
+    pub source: &'static str,
+}
+
+/// The longest name the controller keeps, characters.
+pub const CONTROLLER_NAME_LIMIT: usize = 15;
+
+/// The longest program line checked, bytes (a choice: no manual found states a limit for a
+/// program step; the terminal takes commands of at most 128 characters).
+pub const LINE_LIMIT: usize = 128;
+
+/// Every lint rule, with its source.
+pub const RULES: &[Rule] = &[
+    Rule {
+        id: "name-length",
+        severity: Severity::Warning,
+        controllers: &[],
+        checks: "a variable, program or label name longer than 15 characters",
+        source: "AS manuals: names of up to 15 characters; a controller SAVE keeps the first 15",
+    },
+    Rule {
+        id: "name-collision",
+        severity: Severity::Error,
+        controllers: &[],
+        checks: "two different names that share their first 15 characters (one variable on the controller)",
+        source: "follows from name-length: the controller keeps 15 characters",
+    },
+    Rule {
+        id: "non-ascii-code",
+        severity: Severity::Error,
+        controllers: &[],
+        checks: "a byte outside ASCII outside comments and strings (a no-break or ideographic space the emulator reads as a blank)",
+        source: "AS names, numbers and operators are ASCII (AS manuals); comments and strings may hold any bytes",
+    },
+    Rule {
+        id: "line-length",
+        severity: Severity::Warning,
+        controllers: &[],
+        checks: "a program or data line longer than 128 bytes",
+        source: "chosen: no limit found for a step; the terminal takes commands of at most 128 characters (research: anchors.md, kawasaki-robots-rest-api)",
+    },
+    Rule {
+        id: "tcp-timeout-range",
+        severity: Severity::Warning,
+        controllers: &[],
+        checks: "a constant TCP_ACCEPT/RECV/SEND/CONNECT timeout outside 1–60 s (0–60 s on E)",
+        source: "TCP/IP Communication Manuals E and F: timeout range 0–60 s (E), 1–60 s (F) (research: as-language.md §3)",
+    },
+    Rule {
+        id: "tcp-port-range",
+        severity: Severity::Error,
+        controllers: &[],
+        checks: "a constant TCP_LISTEN/ACCEPT/END_LISTEN port outside 8192–65535",
+        source: "TCP/IP Communication Manual E: TCP_LISTEN port 8192–65535, else an error (research: as-language.md §3)",
+    },
+    Rule {
+        id: "d-tcp-recv-arguments",
+        severity: Severity::Error,
+        controllers: &[Controller::D],
+        checks: "TCP_RECV with its optional timeout or max-bytes arguments on a D controller",
+        source: "D-series TCP_RECV takes no optional arguments (low confidence: one third-party D program; research: as-language.md, generation caveat)",
+    },
+    Rule {
+        id: "d-integer-timeout",
+        severity: Severity::Warning,
+        controllers: &[Controller::D],
+        checks: "a constant TCP timeout that is not a whole number of seconds on a D controller",
+        source: "D-series timeouts are whole seconds (low confidence; research: as-language.md, generation caveat)",
+    },
+];
+
+/// The rule called `id`.
+pub fn rule(id: &str) -> Option<&'static Rule> {
+    RULES.iter().find(|r| r.id == id)
+}
+
+/// One finding of the lint.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Finding {
+    /// The rule ([`RULES`]).
+    pub rule: &'static str,
+    /// How serious.
+    pub severity: Severity,
+    /// Line (from 1).
+    pub line: u32,
+    /// Column (from 1).
+    pub column: u32,
+    /// What is wrong and what to do.
+    pub message: String,
+}
+
+/// Lints a parsed file (`bytes` are its bytes, `module` what [`crate::parse_bytes`] made of
+/// them) for `controller` (`None`: rules for every generation, the strictest ranges).
+pub fn lint(bytes: &[u8], module: &Module, controller: Option<Controller>) -> Vec<Finding> {
+    let mut out = Vec::new();
+    let mut add = |id: &'static str, span: Span, message: String| {
+        let Some(r) = rule(id) else { return };
+        if !r.controllers.is_empty() && !controller.is_some_and(|c| r.controllers.contains(&c)) {
+            return;
+        }
+        out.push(Finding {
+            rule: id,
+            severity: r.severity,
+            line: span.line,
+            column: span.col,
+            message,
+        });
+    };
+    let lines = split_lines(bytes);
+    // Names seen: (scope, sigil, first 15 characters) → (full name, where first seen).
+    let mut names: HashMap<(String, u8, String), Vec<(String, Span)>> = HashMap::new();
+    for s in &module.sections {
+        if !matches!(s.reads, SectionUse::Program | SectionUse::Data) {
+            continue;
+        }
+        let scope = module
+            .programs
+            .iter()
+            .find(|p| p.span.line == s.first_line)
+            .map(|p| p.name.clone())
+            .unwrap_or_default();
+        for n in s.first_line..=s.last_line {
+            let Some(line) = lines.get(n as usize - 1) else {
+                break;
+            };
+            let cols = columns(line);
+            if line.len() > LINE_LIMIT {
+                add(
+                    "line-length",
+                    Span::new(n, cols[LINE_LIMIT]),
+                    format!(
+                        "this line has {} bytes; keep program lines to {LINE_LIMIT}",
+                        line.len()
+                    ),
+                );
+            }
+            let code = strip_comment_bytes(line);
+            let mut in_str = false;
+            for (k, &b) in code.iter().enumerate() {
+                if b == b'"' {
+                    in_str = !in_str;
+                } else if b >= 0x80 && !in_str {
+                    add(
+                        "non-ascii-code",
+                        Span::new(n, cols[k]),
+                        format!("byte 0x{b:02X} outside a comment or a string: the controller reads only ASCII here (retype the blank or the name)"),
+                    );
+                    break;
+                }
+            }
+            // Names: on the first line of a program, those after `.PROGRAM` and before a
+            // step marker; none on the first line of a data section.
+            let (from, to) = if n == s.first_line {
+                if s.reads != SectionUse::Program {
+                    continue;
+                }
+                let dot = code.iter().position(|b| *b == b'.').unwrap_or(0);
+                let from = (dot + 1..code.len())
+                    .find(|&k| !(code[k].is_ascii_alphanumeric() || code[k] == b'_'))
+                    .unwrap_or(code.len());
+                let to = crate::parser::header_end(&code[from..]).map_or(code.len(), |k| from + k);
+                (from, to)
+            } else {
+                (0, code.len())
+            };
+            let (code, offset) = (&code[from..to], from);
+            let Ok(toks) = tokenize_bytes(&module.file, n, code, &cols[offset..]) else {
+                continue;
+            };
+            for t in toks {
+                let Tok::Name(name) = t.tok else { continue };
+                if name.text.chars().count() <= CONTROLLER_NAME_LIMIT {
+                    continue;
+                }
+                let shown = name.to_string();
+                add(
+                    "name-length",
+                    t.span,
+                    format!(
+                        "{shown} has {} characters; the controller keeps {CONTROLLER_NAME_LIMIT} ({})",
+                        name.text.chars().count(),
+                        &name.text[..CONTROLLER_NAME_LIMIT]
+                    ),
+                );
+                let key = (
+                    if name.local {
+                        scope.clone()
+                    } else {
+                        String::new()
+                    },
+                    name.sigil as u8,
+                    name.text[..CONTROLLER_NAME_LIMIT].to_owned(),
+                );
+                let seen = names.entry(key).or_default();
+                if !seen.iter().any(|(t, _)| *t == name.text) {
+                    if let Some((other, at)) = seen.first() {
+                        add(
+                            "name-collision",
+                            t.span,
+                            format!(
+                                "{shown} and {other} (line {}) share their first {CONTROLLER_NAME_LIMIT} characters: on the controller they are one variable — rename one",
+                                at.line
+                            ),
+                        );
+                    }
+                    seen.push((name.text.clone(), t.span));
+                }
+            }
+        }
+    }
+    for p in &module.programs {
+        walk(&p.body, &mut |s| tcp_lint(s, controller, &mut add));
+    }
+    out.sort_by_key(|f| (f.line, f.column));
+    out
+}
+
+fn walk(stmts: &[Stmt], f: &mut dyn FnMut(&Stmt)) {
+    for s in stmts {
+        f(s);
+        match &s.kind {
+            StmtKind::If {
+                then, otherwise, ..
+            } => {
+                walk(then, f);
+                walk(otherwise, f);
+            }
+            StmtKind::While { body, .. }
+            | StmtKind::DoUntil { body, .. }
+            | StmtKind::For { body, .. } => walk(body, f),
+            StmtKind::Case { arms, .. } => {
+                for a in arms {
+                    walk(&a.body, f);
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// The value of a constant expression (`5`, `-1`).
+fn constant(e: &Expr) -> Option<f64> {
+    match &e.kind {
+        ExprKind::Num(v) => Some(*v),
+        ExprKind::Unary(UnOp::Neg, inner) => constant(inner).map(|v| -v),
+        _ => None,
+    }
+}
+
+fn tcp_lint(
+    s: &Stmt,
+    controller: Option<Controller>,
+    add: &mut dyn FnMut(&'static str, Span, String),
+) {
+    let StmtKind::Tcp(t) = &s.kind else { return };
+    let (name, port, timeout) = match t {
+        TcpStmt::Listen { port, .. } => ("TCP_LISTEN", Some(port), None),
+        TcpStmt::EndListen { port, .. } => ("TCP_END_LISTEN", Some(port), None),
+        TcpStmt::Accept { port, timeout, .. } => ("TCP_ACCEPT", Some(port), timeout.as_ref()),
+        TcpStmt::Recv { timeout, max, .. } => {
+            if let Some(e) = timeout.as_ref().or(max.as_ref()) {
+                add(
+                    "d-tcp-recv-arguments",
+                    e.span,
+                    "a D controller's TCP_RECV takes no timeout or max-bytes argument: drop them"
+                        .into(),
+                );
+            }
+            ("TCP_RECV", None, timeout.as_ref())
+        }
+        TcpStmt::Send { timeout, .. } => ("TCP_SEND", None, timeout.as_ref()),
+        TcpStmt::Connect { timeout, .. } => ("TCP_CONNECT", None, timeout.as_ref()),
+        TcpStmt::Close { .. } => return,
+    };
+    if let Some(p) = port {
+        if let Some(v) = constant(p) {
+            if !(8192.0..=65535.0).contains(&v) {
+                add(
+                    "tcp-port-range",
+                    p.span,
+                    format!("{name} port {v}: the controller listens on ports 8192–65535 only"),
+                );
+            }
+        }
+    }
+    if let Some(e) = timeout {
+        if let Some(v) = constant(e) {
+            let low = if controller == Some(Controller::E) {
+                0.0
+            } else {
+                1.0
+            };
+            if !(low..=60.0).contains(&v) {
+                add(
+                    "tcp-timeout-range",
+                    e.span,
+                    format!("{name} timeout {v} s: the controller takes {low}–60 s"),
+                );
+            }
+            if v.fract() != 0.0 {
+                add(
+                    "d-integer-timeout",
+                    e.span,
+                    format!("{name} timeout {v} s: a D controller takes whole seconds"),
+                );
+            }
+        }
+    }
+}
