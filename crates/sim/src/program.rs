@@ -1,6 +1,7 @@
 //! The AS program server: an AS program run instead of the native server, its interpreter
 //! driving the [`Machine`] as its [`fs020n_as::System`] (`program/host.rs`) and its `TCP_…`
-//! instructions served by an in-controller TCP stack (`program/net.rs`).
+//! instructions served by the controller's socket table ([`fs020n_as::sockets::SocketTable`],
+//! set up in `program/net.rs`).
 //!
 //! [`crate::Controller::with_program`] loads a program (e.g. this project's protocol-1040
 //! server text, [`ServerProgram::server_1040`], or a user's modified copy): the interpreter runs
@@ -31,6 +32,7 @@ mod net;
 use std::path::Path;
 use std::time::Duration;
 
+use fs020n_as::sockets::SocketTable;
 use fs020n_as::{Config, Interpreter, LoadError, MotionRequest, TaskId, TerminalLine, TraceLine};
 use fs020n_proto::server::ServerRequest;
 use fs020n_proto::{JointsDeg, Status, PROTOCOL_VERSION};
@@ -39,7 +41,7 @@ use crate::machine::{Machine, ServerPicture};
 use crate::snapshot::{CommandInfo, ProgramInfo, Refused, SessionInfo, Snapshot, TaskState};
 pub use host::MAX_TOOL_SPEED_MM_S;
 use host::{panel_of, Host, MotionLink};
-use net::Net;
+use net::socket_table;
 pub use net::{ClientId, ClientRead, CLIENT_BUFFER};
 
 /// Terminal lines shown in the snapshot.
@@ -136,7 +138,7 @@ impl ServerProgram {
 pub(crate) struct ProgramServer {
     interp: Interpreter,
     name: String,
-    net: Net,
+    net: SocketTable,
     /// The planned motion (re-planned after a BRAKE when the behaviour is to execute it).
     planned: Option<(MotionRequest, JointsDeg)>,
     link: MotionLink,
@@ -151,7 +153,7 @@ impl ProgramServer {
         let mut p = ProgramServer {
             interp: program.interp,
             name: program.name,
-            net: Net::new(),
+            net: socket_table(),
             planned: None,
             link: MotionLink::default(),
             task: TaskState::NotRunning,
@@ -233,7 +235,11 @@ impl ProgramServer {
     /// The session part of the snapshot: a client of the served port, and the newest request
     /// when the program keeps the protocol-1040 ring (`ros_cmd_ind`, `ros_cmd[…]`).
     fn session_info(&self, m: &Machine) -> SessionInfo {
-        let client = self.net.served_client();
+        // An accepted client of the served port (not one still waiting in a backlog).
+        let client = self
+            .net
+            .served_port()
+            .and_then(|p| self.net.accepted_client_on(p));
         let open = client.is_some();
         let newest = self.interp.real("ros_cmd_ind").and_then(|ind| {
             let ind = ind as i32;
@@ -274,7 +280,7 @@ impl ProgramServer {
             timer1_s: open.then(|| f64::from(self.interp.timer(1))),
             newest_index: newest.as_ref().filter(|_| open).map(|(i, _)| *i as usize),
             newest_command: newest.filter(|_| open).map(|(_, c)| c),
-            listening: self.net.listening(None),
+            listening: self.listening(None),
             reading_paused: m.reading_paused_until().is_some(),
             last_end: None,
         }
@@ -322,13 +328,14 @@ impl ProgramServer {
 
     /// `true` while the program listens on `port` (`None`: the served port).
     pub(crate) fn listening(&self, port: Option<u16>) -> bool {
-        self.net.listening(port)
+        port.or(self.net.served_port())
+            .is_some_and(|p| self.net.listening(p))
     }
 
     /// Breaks every client connection (fault injection: the program sees the connection
     /// broken on its next receive or send).
     pub(crate) fn close_clients(&mut self) {
-        self.net.close_clients();
+        self.net.break_clients();
     }
 
     /// A client connects to `port` (`None`: the served port) from `ip`, refused (and counted)
@@ -339,24 +346,27 @@ impl ProgramServer {
         port: Option<u16>,
         ip: [u8; 4],
     ) -> Result<ClientId, Refused> {
-        self.net.connect_client(port, ip).ok_or_else(|| {
-            m.counters_mut().refused += 1;
-            Refused::ListenGap
-        })
+        port.or(self.net.served_port())
+            .and_then(|port| self.net.client_connect(port, ip))
+            .map(ClientId)
+            .ok_or_else(|| {
+                m.counters_mut().refused += 1;
+                Refused::ListenGap
+            })
     }
 
     /// A client sends bytes; `false` when its connection is gone (closed by the program).
     pub(crate) fn send(&mut self, client: ClientId, bytes: &[u8]) -> bool {
-        self.net.client_send(client, bytes)
+        self.net.client_send(client.0, bytes)
     }
 
     /// What a client reads at `now`.
     pub(crate) fn recv(&mut self, now: Duration, client: ClientId) -> ClientRead {
-        self.net.client_recv(now, client)
+        self.net.client_read(client.0, now)
     }
 
     /// The client closes its connection (the program's next receive reports it broken).
     pub(crate) fn close(&mut self, client: ClientId) {
-        self.net.client_close(client);
+        self.net.client_close(client.0);
     }
 }

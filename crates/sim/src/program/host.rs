@@ -1,11 +1,12 @@
 //! The machine as an AS interpreter's [`System`], for one `run_until`: motions go to the
 //! machine's planner (the same joint moves, straight lines, blending, braking and limits as the
 //! native server), `SWITCH(…)`, `ERROR` and `MC …` read and operate its panel, and the
-//! `TCP_…` instructions use the program's [`Net`].
+//! `TCP_…` instructions use the program's [`SocketTable`] (the emulator keeps only its fault
+//! hooks: reply faults, paused reading, counting sessions).
 
-use std::collections::VecDeque;
 use std::time::Duration;
 
+use fs020n_as::sockets::{SocketTable, TcpCode};
 use fs020n_as::{
     Issued, Joints, MotionKind, MotionRequest, PanelState, SockPoll, Speed, System, Target, TaskId,
     Trans,
@@ -13,8 +14,7 @@ use fs020n_as::{
 use fs020n_kin::{JointMove, Pose, Xyzoat};
 use fs020n_proto::{ErrorCode, JointsDeg};
 
-use super::net::{close_socket, Chunk, Net, Peer, Sock, CLIENT_BUFFER};
-use crate::fault::ReplyFault;
+use super::net::delivery_of;
 use crate::machine::{Machine, OnTick, PlannedAfterBrake};
 use crate::motion::{LinearPath, Motion, Shape};
 
@@ -71,7 +71,7 @@ pub(crate) fn panel_of(m: &Machine) -> PanelState {
 /// The controller as the interpreter's system, for one `run_until`.
 pub(crate) struct Host<'a> {
     pub(crate) m: &'a mut Machine,
-    pub(crate) net: &'a mut Net,
+    pub(crate) net: &'a mut SocketTable,
     pub(crate) planned: &'a mut Option<(MotionRequest, JointsDeg)>,
     pub(crate) link: &'a mut MotionLink,
 }
@@ -199,10 +199,6 @@ impl Host<'_> {
             req.accuracy_mm
         }
     }
-
-    fn sock(&mut self, id: i32) -> Option<&mut Sock> {
-        self.net.sockets.get_mut(&id).filter(|s| !s.program_closed)
-    }
 }
 
 impl System for Host<'_> {
@@ -312,147 +308,53 @@ impl System for Host<'_> {
     }
 
     fn tcp_listen(&mut self, port: u16) -> i32 {
-        if self.net.listeners.contains_key(&port) {
-            return -34055;
-        }
-        self.net.listeners.insert(port, VecDeque::new());
-        self.net.served_port.get_or_insert(port);
-        self.net.generation += 1;
-        0
+        self.net.listen(port)
     }
 
     fn tcp_end_listen(&mut self, port: u16) -> i32 {
-        match self.net.listeners.remove(&port) {
-            Some(backlog) => {
-                // Connections never accepted are reset.
-                for id in backlog {
-                    close_socket(self.net, id);
-                }
-                self.net.generation += 1;
-                0
-            }
-            None => -34056,
-        }
+        self.net.end_listen(port)
     }
 
     fn tcp_accept(&mut self, port: u16) -> SockPoll<(i32, [u8; 4])> {
-        let Some(backlog) = self.net.listeners.get_mut(&port) else {
-            return SockPoll::Ready(Err(-34056));
-        };
-        match backlog.pop_front() {
-            Some(id) => {
-                let ip = self.net.sockets.get(&id).map_or([0; 4], |s| s.ip);
-                if self.net.served_port == Some(port) {
-                    self.m.counters_mut().sessions += 1;
-                }
-                tracing::info!(port, socket = id, "AS program accepted a connection");
-                SockPoll::Ready(Ok((id, ip)))
+        let accepted = self.net.accept(port);
+        if let SockPoll::Ready(Ok((id, _))) = accepted {
+            // Session counting: a client of the served port is a session.
+            if self.net.served_port() == Some(port) {
+                self.m.counters_mut().sessions += 1;
             }
-            None => SockPoll::Pending,
+            tracing::info!(port, socket = id, "AS program accepted a connection");
         }
+        accepted
     }
 
     fn tcp_connect(&mut self, _ip: [u8; 4], port: u16) -> SockPoll<i32> {
         // The program's own listeners (a controller talking to itself); nothing else is
         // reachable from the emulator.
-        if !self.net.listeners.contains_key(&port) {
-            return SockPoll::Ready(Err(-34025));
+        match self.net.connect_local(port) {
+            Some(id) => SockPoll::Ready(Ok(id)),
+            None => SockPoll::Ready(Err(TcpCode::Broken.code())),
         }
-        let a = self.net.next_id;
-        let b = a + 1;
-        self.net.next_id += 2;
-        self.net
-            .sockets
-            .insert(a, Sock::new(Peer::Socket(b), 0, [127, 0, 0, 1]));
-        self.net
-            .sockets
-            .insert(b, Sock::new(Peer::Socket(a), port, [127, 0, 0, 1]));
-        if let Some(backlog) = self.net.listeners.get_mut(&port) {
-            backlog.push_back(b);
-        }
-        SockPoll::Ready(Ok(a))
     }
 
     fn tcp_recv(&mut self, sock: i32, max: usize) -> SockPoll<Vec<u8>> {
-        let paused = self.m.reading_paused_until().is_some();
-        let Some(s) = self.sock(sock) else {
-            return SockPoll::Ready(Err(-34057));
-        };
-        if matches!(s.peer, Peer::Client) && paused {
+        // Fault hook: `stop_reading` holds a client's bytes back.
+        if self.m.reading_paused_until().is_some() && self.net.is_client(sock) {
             return SockPoll::Pending;
         }
-        if s.inbox.is_empty() {
-            return if s.peer_closed {
-                SockPoll::Ready(Err(-34025))
-            } else {
-                SockPoll::Pending
-            };
-        }
-        let n = s.inbox.len().min(max);
-        // Copied slice by slice (the ring's two halves), not byte by byte.
-        let mut out = Vec::with_capacity(n);
-        let (a, b) = s.inbox.as_slices();
-        let from_a = a.len().min(n);
-        out.extend_from_slice(&a[..from_a]);
-        out.extend_from_slice(&b[..(n - from_a).min(b.len())]);
-        s.inbox.drain(..n);
-        SockPoll::Ready(Ok(out))
+        self.net.recv(sock, max)
     }
 
     fn tcp_send(&mut self, sock: i32, data: &[u8]) -> SockPoll<()> {
         let now = self.m.now();
-        let Some(s) = self.sock(sock) else {
-            return SockPoll::Ready(Err(-34057));
-        };
-        if s.peer_closed {
-            return SockPoll::Ready(Err(-34025));
-        }
-        match s.peer.clone() {
-            Peer::Socket(p) => match self.net.sockets.get_mut(&p) {
-                Some(peer) if peer.inbox.len() + data.len() <= CLIENT_BUFFER * 16 => {
-                    peer.inbox.extend(data);
-                    SockPoll::Ready(Ok(()))
-                }
-                Some(_) => SockPoll::Pending,
-                None => SockPoll::Ready(Err(-34025)),
-            },
-            Peer::Client => {
-                if s.outbox_bytes > 0 && s.outbox_bytes + data.len() > CLIENT_BUFFER {
-                    return SockPoll::Pending;
-                }
-                let fault = self.m.next_reply_fault();
-                let Some(s) = self.sock(sock) else {
-                    return SockPoll::Ready(Err(-34057));
-                };
-                let mut push = |at: Duration, bytes: Vec<u8>| {
-                    s.outbox_bytes += bytes.len();
-                    s.outbox.push_back(Chunk { at, bytes });
-                };
-                match fault {
-                    None => push(now, data.to_vec()),
-                    Some(ReplyFault::Withhold) => {}
-                    Some(ReplyFault::Garbage(b)) => push(now, b),
-                    Some(ReplyFault::Delay(d)) => push(now + d, data.to_vec()),
-                    Some(ReplyFault::Split { parts, gap }) => {
-                        let size = data.len().div_ceil(parts.max(1)).max(1);
-                        for (k, piece) in data.chunks(size).enumerate() {
-                            push(now + gap * k as u32, piece.to_vec());
-                        }
-                    }
-                }
-                self.net.generation += 1;
-                SockPoll::Ready(Ok(()))
-            }
-        }
+        let m = &mut *self.m;
+        // Fault hook: the next reply fault shapes what a client receives (asked only when
+        // the send is taken).
+        self.net
+            .send(sock, data, now, || delivery_of(m.next_reply_fault()))
     }
 
     fn tcp_close(&mut self, sock: i32) -> i32 {
-        if self.sock(sock).is_none() {
-            return -34057;
-        }
-        close_socket(self.net, sock);
-        self.net.generation += 1;
-        0
+        self.net.close(sock)
     }
 
     fn terminal(&mut self, task: TaskId, line: &str) {
