@@ -131,6 +131,13 @@ pub(crate) enum Cmd {
     /// Hold the one session with a controller and share it: web page, protocol-1040 face,
     /// safety fence, Foxglove bridge, recording (docs/HUB.md).
     Hub(HubArgs),
+    /// Put an AS program on a real controller over its terminal: check, stop an older copy
+    /// (--replace), LOAD, AUTOSTART (--autostart), PCEXECUTE, verify (docs/DEPLOY.md).
+    Deploy(DeployArgs),
+    /// Walk a bring-up in order and stop at the first broken link, with its remedy: terminal
+    /// and protocol ports, controller ID, the server program, AUTOSTART, a poll, the
+    /// preflight, TIMER (docs/DEPLOY.md).
+    Doctor(DoctorArgs),
     /// The full tour on the embedded emulator: preflight, speed, moves, a stream, a report.
     Demo {
         /// Speed percent for the joint moves, 1–100.
@@ -437,6 +444,53 @@ pub(crate) struct SimArgs {
     /// With --as-program: declare an instruction a no-op (repeatable), as `as check --stub`.
     #[arg(long = "stub", value_name = "INSTR", requires = "as_program")]
     pub stubs: Vec<String>,
+}
+
+/// `deploy` arguments (the protocol port is `--robot`).
+#[derive(Debug, Args)]
+pub(crate) struct DeployArgs {
+    /// The AS file to load (default: this project's protocol-1040 server text).
+    pub file: Option<std::path::PathBuf>,
+    /// The controller's terminal, HOST:PORT (default: the host of --robot, port 23).
+    #[arg(long)]
+    pub terminal: Option<String>,
+    /// Stop, kill and replace programs of the same names that are loaded or running.
+    #[arg(long)]
+    pub replace: bool,
+    /// Turn the AUTOSTART.PC switch ON, so the controller starts the program at power-on.
+    #[arg(long)]
+    pub autostart: bool,
+    /// Show the plan (after reading the controller's state) and change nothing.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// Save the whole terminal conversation to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub transcript: Option<std::path::PathBuf>,
+    /// The controller's generation for the check (c, d, e or f; default d, the strictest
+    /// known).
+    #[arg(long, default_value = "d")]
+    pub controller: String,
+    /// The PC program to start (default: autostart.pc when the file has it, else its first
+    /// program).
+    #[arg(long)]
+    pub program: Option<String>,
+    /// The PC task to start it in, 1–5.
+    #[arg(long, default_value_t = 1)]
+    pub task: u8,
+    /// Bytes per block of the LOAD (486 is the smallest any client uses on a D controller).
+    #[arg(long, default_value_t = 480)]
+    pub block_bytes: usize,
+}
+
+/// `doctor` arguments (the protocol port is `--robot`).
+#[derive(Debug, Args)]
+pub(crate) struct DoctorArgs {
+    /// The controller's terminal, HOST:PORT (default: the host of --robot, port 23).
+    #[arg(long)]
+    pub terminal: Option<String>,
+    /// The server program expected to run.
+    #[arg(long, default_value = "autostart.pc")]
+    pub program: String,
 }
 
 /// `hub` arguments (the controller is `--robot`).

@@ -2,6 +2,7 @@
 #![forbid(unsafe_code)]
 
 mod args;
+mod bringup;
 mod cmd;
 mod context;
 mod error;
@@ -212,5 +213,7 @@ fn run(cli: Cli, robot_typed: bool) -> CliResult {
         #[cfg(feature = "ros2")]
         Cmd::Ros2(args) => cmd::ros2::ros2(&ctx(&cli, model), args),
         Cmd::Hub(args) => cmd::hub::hub(args, &ctx(&cli, model), cli.json),
+        Cmd::Deploy(args) => cmd::deploy::deploy(&ctx(&cli, model), args),
+        Cmd::Doctor(args) => cmd::doctor::doctor(&ctx(&cli, model), args),
     }
 }

@@ -4,7 +4,7 @@ use std::time::Duration;
 
 use fs020n_client::RttStats;
 use fs020n_kin::{RobotModel, Xyzoat};
-use fs020n_proto::{JointsDeg, Status, Timer};
+use fs020n_proto::{JointsDeg, Status, Timer, TIMER_WIRE_STEP_S};
 use serde_json::{json, Value};
 
 /// Joint angles as a JSON array.
@@ -24,6 +24,8 @@ pub(crate) fn status_json(s: &Status) -> Value {
         "power": s.power,
         "task_running": s.task_running,
         "timer_s": match s.timer { Timer::Seconds(t) => json!(t), Timer::Overflow => Value::Null },
+        // The step of TIMER(1) at this session's age, and of command 7's time stamps.
+        "timer_step_s": s.timer.step_s(),
         "joints_deg": joints_json(&s.joints),
     })
 }
@@ -75,9 +77,14 @@ pub(crate) fn status_table(s: &Status) -> String {
             None => format!("{} ({})", s.error, s.error.raw()),
         }
     };
-    let timer = match s.timer {
-        Timer::Seconds(t) => format!("{t:.3} s"),
-        Timer::Overflow => "overflow (**********)".to_owned(),
+    let timer = match (s.timer, s.timer.step_s()) {
+        (Timer::Seconds(t), Some(step)) if step > TIMER_WIRE_STEP_S => format!(
+            "{t:.3} s — a long session: TIMER(1) steps by {:.1} ms, and so do command 7's time \
+             stamps (reconnect to start anew)",
+            step * 1e3
+        ),
+        (Timer::Seconds(t), _) => format!("{t:.3} s"),
+        (Timer::Overflow, _) => "overflow (**********)".to_owned(),
     };
     let mut out = String::new();
     out.push_str(&format!("  version        {}\n", s.version));

@@ -37,6 +37,7 @@ fn decode_reply_json_has_exactly_the_documented_keys() {
             "task_running",
             "teach_lock",
             "timer_s",
+            "timer_step_s",
             "version"
         ]
     );
@@ -47,6 +48,7 @@ fn decode_reply_json_has_exactly_the_documented_keys() {
     assert_eq!(v["teach_lock"], false);
     assert_eq!(v["task_running"], false);
     assert_eq!(v["timer_s"], 1.5);
+    assert_eq!(v["timer_step_s"], 0.001);
     assert_eq!(
         v["joints_deg"],
         serde_json::json!([10.0, 0.0, -90.0, 0.0, -90.0, 0.0])
@@ -213,4 +215,17 @@ fn bad_model_file_is_reported() {
         .assert()
         .code(2)
         .stderr(predicate::str::contains("robot model"));
+}
+
+#[test]
+fn a_long_sessions_timer_says_how_coarse_it_and_command_7s_stamps_have_become() {
+    let aged = " 1040 0 -1 -1 0 -1 0 70000.000    10.000     0.000   -90.000     0.000   -90.000     0.000 ";
+    let out = fs020n().args(["decode", aged]).output().unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("steps by 7.8 ms"), "{text}");
+    let out = fs020n().args(["--json", "decode", aged]).output().unwrap();
+    assert_eq!(json_of(&out.stdout)["timer_step_s"], 1.0 / 128.0);
+    let young = fs020n().args(["decode", REPLY]).output().unwrap();
+    assert!(!String::from_utf8_lossy(&young.stdout).contains("long session"));
 }

@@ -5,6 +5,8 @@ pub(crate) mod as_check;
 pub(crate) mod bench;
 pub(crate) mod decode;
 pub(crate) mod demo;
+pub(crate) mod deploy;
+pub(crate) mod doctor;
 pub(crate) mod fk;
 pub(crate) mod hub;
 pub(crate) mod ik;
