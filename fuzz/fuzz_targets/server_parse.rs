@@ -2,8 +2,8 @@
 //! reads only AS reals, and ignores everything after byte 255.
 #![no_main]
 
-use fs020n_proto::server::{ServerRequest, MAX_ARGS};
-use fs020n_proto::session::MAX_REQUEST_BYTES;
+use fs020n_proto::{ServerRequest, MAX_ARGS};
+use fs020n_proto::MAX_REQUEST_BYTES;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

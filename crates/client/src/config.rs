@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use fs020n_kin::RobotModel;
-use fs020n_proto::session::{RECEIVE_TIMEOUT, SEND_TIMEOUT};
+use fs020n_proto::{RECEIVE_TIMEOUT, SEND_TIMEOUT};
 
 use crate::error::ClientError;
 

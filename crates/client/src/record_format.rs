@@ -262,7 +262,7 @@ impl RecordingInfo {
 /// assert!(commanded_joints("0 0 0").is_none());
 /// ```
 pub fn commanded_joints(request: &str) -> Option<([f64; 6], Option<[f64; 6]>)> {
-    let r = fs020n_proto::server::ServerRequest::parse(request.as_bytes());
+    let r = fs020n_proto::ServerRequest::parse(request.as_bytes());
     if !r.version_matches() {
         return None;
     }

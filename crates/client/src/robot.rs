@@ -5,8 +5,8 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use fs020n_kin::{Pose, RobotModel};
-use fs020n_proto::server::ServerRequest;
-use fs020n_proto::session::MAX_REQUEST_BYTES;
+use fs020n_proto::ServerRequest;
+use fs020n_proto::MAX_REQUEST_BYTES;
 use fs020n_proto::{Command, JointsDeg, ReplyFrame, Request, Status};
 use tokio::sync::watch;
 use tokio::time::Instant;

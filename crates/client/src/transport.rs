@@ -7,7 +7,7 @@ use std::io;
 use std::net::{IpAddr, SocketAddr};
 use std::pin::Pin;
 
-use fs020n_proto::session::DEFAULT_PORT;
+use fs020n_proto::DEFAULT_PORT;
 use tokio::io::{AsyncRead, AsyncWrite};
 use tokio::net::TcpStream;
 

@@ -1,7 +1,7 @@
 //! Encoding and decoding speed of the protocol core.
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
-use fs020n_proto::server::ServerRequest;
+use fs020n_proto::ServerRequest;
 use fs020n_proto::{Command, JointsDeg, ReplyDecoder, Request, Status, StreamSample, Timer};
 
 fn status() -> Status {

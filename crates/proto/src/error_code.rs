@@ -152,7 +152,7 @@ impl FromStr for ErrorCode {
 
 /// Messages of the error codes named in the protocol reference (from Kawasaki's AS manuals,
 /// E series; the FS020N's D controller may word them differently).
-pub const ERROR_MESSAGES: &[(i32, &str)] = &[
+pub(crate) const ERROR_MESSAGES: &[(i32, &str)] = &[
     (-11000, "Motor power OFF, cannot execute program"),
     (-11001, "Cannot execute program in TEACH mode"),
     (-11002, "Teach lock ON, cannot execute program"),

@@ -7,10 +7,15 @@
 //! * [`Request`] / [`Command`] — what the PC sends, encoded exactly ([`Request::encode`]).
 //! * [`Status`] — the reply, encoded as the controller formats it and decoded tolerantly;
 //!   [`ReplyDecoder`] decodes a byte stream split anywhere.
-//! * [`server::ServerRequest`] — how the controller parses a request (`VAL` semantics).
+//! * [`ServerRequest`] — how the controller parses a request (`VAL` semantics).
 //! * [`ErrorCode`] — AS error numbers (−31088 ↔ `E1088`) with messages.
-//! * [`session`] — the timing and size rules as constants.
+//! * The session's timing and size rules as constants ([`RECEIVE_TIMEOUT`], [`ACCEPT_WINDOW`],
+//!   [`MAX_REQUEST_BYTES`], …).
 //! * [`format`](mod@format) — every AS print format (`/D`, `/Fm.n`, `/Em.n`, …) for `PRINT`/`$ENCODE`.
+//! * [`number`] — AS numbers: `VAL`, request numbers, the reply's `/F10.3`.
+//!
+//! The modules are private but for the two namespaces `format` and `number`: every other item
+//! is exported once, here.
 //! * [`JointsDeg`] / [`JointsRad`] — joint vectors with the unit in the type.
 //!
 //! ```
@@ -25,16 +30,16 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-pub mod decoder;
-pub mod error;
-pub mod error_code;
+mod decoder;
+mod error;
+mod error_code;
 pub mod format;
-pub mod joints;
+mod joints;
 pub mod number;
-pub mod reply;
-pub mod request;
-pub mod server;
-pub mod session;
+mod reply;
+mod request;
+mod rules;
+mod server;
 
 pub use decoder::{ReplyDecoder, ReplyFrame, MAX_BUFFERED};
 pub use error::{DecodeError, EncodeError};
@@ -42,7 +47,12 @@ pub use error_code::{ErrorClass, ErrorCode};
 pub use joints::{JointsDeg, JointsRad, JOINT_COUNT};
 pub use reply::{Status, Timer, REPLY_FIELDS, TIMER_COARSE_AFTER_S, TIMER_WIRE_STEP_S};
 pub use request::{Command, Request, StreamSample};
-pub use session::PROTOCOL_VERSION;
+pub use rules::{
+    ACCEPT_WINDOW, ACCURACY_MM, AS_FALSE, AS_TRUE, COMMAND_RING_LEN, DEFAULT_PORT,
+    MAX_REQUEST_BYTES, PROTOCOL_VERSION, RECEIVE_TIMEOUT, SEND_TIMEOUT,
+    SINGULAR_JMOVE_SPEED_PERCENT, SINGULAR_ZONE_DEG, STEP_AVERAGE_WEIGHT, STREAM_LMOVE_TIME_S,
+};
+pub use server::{server_tokens, ServerRequest, MAX_ARGS};
 
 /// The README's examples, compiled as doctests.
 #[cfg(doctest)]

@@ -9,7 +9,7 @@ use crate::joints::{JointsDeg, JOINT_COUNT};
 use crate::number::{
     f10_3_field, parse_field, put_default_int, DEFAULT_INT_MAX, F10_OVERFLOW, F10_WIDTH,
 };
-use crate::session::{AS_FALSE, AS_TRUE, PROTOCOL_VERSION};
+use crate::rules::{AS_FALSE, AS_TRUE, PROTOCOL_VERSION};
 
 /// Number of fields in a reply.
 pub const REPLY_FIELDS: usize = 14;

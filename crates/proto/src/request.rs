@@ -8,7 +8,7 @@ use std::fmt::Write as _;
 use crate::error::EncodeError;
 use crate::joints::{JointsDeg, JOINT_COUNT};
 use crate::number::{format_request_number, push_request_number};
-use crate::session::{MAX_REQUEST_BYTES, PROTOCOL_VERSION};
+use crate::rules::{MAX_REQUEST_BYTES, PROTOCOL_VERSION};
 
 /// One command-7 sample: where the trajectory is at server time `t0_s`, and how it moves.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -8,7 +8,7 @@
 //! COUNT_OF_ARGS is trusted (missing arguments read 0, extra ones are ignored).
 //!
 //! ```
-//! use fs020n_proto::server::ServerRequest;
+//! use fs020n_proto::ServerRequest;
 //! use fs020n_proto::Command;
 //! let r = ServerRequest::parse(b"1040 3 1 50abc");
 //! assert!(r.version_matches());
@@ -21,7 +21,7 @@
 use crate::joints::{JointsDeg, JOINT_COUNT};
 use crate::number::{general_val, short_decimal_at};
 use crate::request::{Command, StreamSample};
-use crate::session::{MAX_REQUEST_BYTES, PROTOCOL_VERSION};
+use crate::rules::{MAX_REQUEST_BYTES, PROTOCOL_VERSION};
 
 /// Most arguments kept: no command reads more than 21, and 255 bytes cannot hold more than 128
 /// tokens.
@@ -121,7 +121,7 @@ impl ServerRequest {
 /// separates; a tab is part of a token.
 ///
 /// ```
-/// use fs020n_proto::server::server_tokens;
+/// use fs020n_proto::server_tokens;
 /// assert_eq!(server_tokens("1040  3 1 50 ").collect::<Vec<_>>(), ["1040", "3", "1", "50"]);
 /// assert_eq!(server_tokens(" 1040 3").collect::<Vec<_>>(), ["", "1040", "3"]);
 /// ```

@@ -4,8 +4,8 @@
 mod common;
 
 use common::*;
-use fs020n_proto::server::ServerRequest;
-use fs020n_proto::session::{self, MAX_REQUEST_BYTES};
+use fs020n_proto::ServerRequest;
+use fs020n_proto::MAX_REQUEST_BYTES;
 use fs020n_proto::{Command, EncodeError, JointsDeg, Request, StreamSample, PROTOCOL_VERSION};
 
 fn sample() -> StreamSample {
@@ -389,16 +389,16 @@ fn the_255_byte_limit() {
 #[test]
 fn session_constants_match_the_spec() {
     assert_eq!(PROTOCOL_VERSION, 1040);
-    assert_eq!(session::DEFAULT_PORT, 10050);
-    assert_eq!(session::MAX_REQUEST_BYTES, 255);
-    assert_eq!(session::ACCEPT_WINDOW.as_secs(), 3);
-    assert_eq!(session::RECEIVE_TIMEOUT.as_secs(), 5);
-    assert_eq!(session::SEND_TIMEOUT.as_secs(), 2);
-    assert_eq!(session::COMMAND_RING_LEN, 16);
-    assert_eq!(session::SINGULAR_ZONE_DEG, 5.0);
-    assert_eq!(session::SINGULAR_JMOVE_SPEED_PERCENT, 30.0);
-    assert_eq!(session::STREAM_LMOVE_TIME_S, 0.1);
-    assert_eq!(session::ACCURACY_MM, 10.0);
-    assert_eq!(session::STEP_AVERAGE_WEIGHT, 0.1);
-    assert_eq!((session::AS_TRUE, session::AS_FALSE), (-1, 0));
+    assert_eq!(fs020n_proto::DEFAULT_PORT, 10050);
+    assert_eq!(fs020n_proto::MAX_REQUEST_BYTES, 255);
+    assert_eq!(fs020n_proto::ACCEPT_WINDOW.as_secs(), 3);
+    assert_eq!(fs020n_proto::RECEIVE_TIMEOUT.as_secs(), 5);
+    assert_eq!(fs020n_proto::SEND_TIMEOUT.as_secs(), 2);
+    assert_eq!(fs020n_proto::COMMAND_RING_LEN, 16);
+    assert_eq!(fs020n_proto::SINGULAR_ZONE_DEG, 5.0);
+    assert_eq!(fs020n_proto::SINGULAR_JMOVE_SPEED_PERCENT, 30.0);
+    assert_eq!(fs020n_proto::STREAM_LMOVE_TIME_S, 0.1);
+    assert_eq!(fs020n_proto::ACCURACY_MM, 10.0);
+    assert_eq!(fs020n_proto::STEP_AVERAGE_WEIGHT, 0.1);
+    assert_eq!((fs020n_proto::AS_TRUE, fs020n_proto::AS_FALSE), (-1, 0));
 }

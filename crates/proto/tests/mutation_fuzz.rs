@@ -9,7 +9,7 @@
 mod common;
 
 use common::*;
-use fs020n_proto::server::ServerRequest;
+use fs020n_proto::ServerRequest;
 use fs020n_proto::{
     Command, DecodeError, ReplyDecoder, Request, Status, StreamSample, Timer, MAX_BUFFERED,
 };

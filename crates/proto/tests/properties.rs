@@ -4,12 +4,12 @@
 mod common;
 
 use common::*;
-use fs020n_proto::server::{ServerRequest, MAX_ARGS};
-use fs020n_proto::session::MAX_REQUEST_BYTES;
+use fs020n_proto::MAX_REQUEST_BYTES;
 use fs020n_proto::{
     number::as_val, Command, DecodeError, EncodeError, JointsDeg, ReplyDecoder, Request, Status,
     StreamSample, Timer, MAX_BUFFERED,
 };
+use fs020n_proto::{ServerRequest, MAX_ARGS};
 use proptest::prelude::*;
 use proptest::sample::Index;
 

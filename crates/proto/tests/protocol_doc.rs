@@ -6,7 +6,7 @@ mod common;
 
 use common::*;
 use fs020n_proto::number::{as_val, format_request_number};
-use fs020n_proto::server::ServerRequest;
+use fs020n_proto::ServerRequest;
 use fs020n_proto::{
     Command, ErrorCode, JointsDeg, Request, Status, StreamSample, Timer, PROTOCOL_VERSION,
 };

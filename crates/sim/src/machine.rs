@@ -8,7 +8,7 @@
 use std::time::Duration;
 
 use fs020n_kin::RobotModel;
-use fs020n_proto::session::ACCEPT_WINDOW;
+use fs020n_proto::ACCEPT_WINDOW;
 use fs020n_proto::{ErrorCode, JointsDeg, Status, Timer, PROTOCOL_VERSION};
 use serde::Serialize;
 

@@ -6,13 +6,13 @@
 use std::time::Duration;
 
 use fs020n_kin::JointMove;
-use fs020n_proto::server::ServerRequest;
-use fs020n_proto::session::{
-    COMMAND_RING_LEN, RECEIVE_TIMEOUT, SINGULAR_JMOVE_SPEED_PERCENT, SINGULAR_ZONE_DEG,
-    STEP_AVERAGE_WEIGHT, STREAM_LMOVE_TIME_S,
-};
+use fs020n_proto::ServerRequest;
 use fs020n_proto::{
     Command, ErrorCode, JointsDeg, Status, StreamSample, JOINT_COUNT, PROTOCOL_VERSION,
+};
+use fs020n_proto::{
+    COMMAND_RING_LEN, RECEIVE_TIMEOUT, SINGULAR_JMOVE_SPEED_PERCENT, SINGULAR_ZONE_DEG,
+    STEP_AVERAGE_WEIGHT, STREAM_LMOVE_TIME_S,
 };
 use serde::Serialize;
 

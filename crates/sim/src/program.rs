@@ -34,7 +34,7 @@ use std::time::Duration;
 
 use fs020n_as::sockets::SocketTable;
 use fs020n_as::{Config, Interpreter, LoadError, MotionRequest, TaskId, TerminalLine, TraceLine};
-use fs020n_proto::server::ServerRequest;
+use fs020n_proto::ServerRequest;
 use fs020n_proto::{JointsDeg, Status, PROTOCOL_VERSION};
 
 use crate::machine::{Machine, ServerPicture};

@@ -6,7 +6,7 @@ use std::net::SocketAddr;
 use std::path::PathBuf;
 
 use fs020n_kin::RobotModel;
-use fs020n_proto::session::DEFAULT_PORT;
+use fs020n_proto::DEFAULT_PORT;
 use fs020n_proto::{ErrorCode, JointsDeg};
 
 use crate::machine::ControllerConfig;

@@ -1,6 +1,6 @@
 //! `decode`: a reply (or a request with `--request`) read as the controller and the client read it.
 
-use fs020n_proto::server::ServerRequest;
+use fs020n_proto::ServerRequest;
 use fs020n_proto::{Command, DecodeError, Status};
 use serde_json::{json, Value};
 
@@ -90,7 +90,7 @@ fn decode_request(text: &str) -> CliResult<(ServerRequest, Vec<String>)> {
     if text.starts_with(' ') {
         warnings.push("a leading blank makes the version token empty: the controller reads version 0 and ignores the request".to_owned());
     }
-    if text.len() > fs020n_proto::session::MAX_REQUEST_BYTES {
+    if text.len() > fs020n_proto::MAX_REQUEST_BYTES {
         warnings.push(format!(
             "{} bytes: the controller reads only the first 255",
             text.len()

@@ -25,9 +25,9 @@ use std::io;
 use std::net::SocketAddr;
 
 use fs020n_client::ClientError;
-use fs020n_proto::server::ServerRequest;
-use fs020n_proto::session::{MAX_REQUEST_BYTES, RECEIVE_TIMEOUT, SEND_TIMEOUT};
 use fs020n_proto::Command;
+use fs020n_proto::ServerRequest;
+use fs020n_proto::{MAX_REQUEST_BYTES, RECEIVE_TIMEOUT, SEND_TIMEOUT};
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use tokio::net::TcpListener;
 use tokio::task::JoinHandle;
