@@ -12,7 +12,7 @@ use fs020n_client::{
 };
 use fs020n_kin::RobotModel;
 use fs020n_proto::{Command, ErrorCode, JointsDeg};
-use fs020n_sim::{Fault, SessionEnd, TaskState};
+use fs020n_sim::{Fault, MotionTaskState, SessionEnd};
 
 // ------------------------------------------------------------------ connection and session
 
@@ -134,7 +134,7 @@ async fn a_withheld_reply_is_a_typed_timeout_and_the_session_ends() {
     sleep_ms(10).await;
     assert_eq!(emu.with(|c| c.session()), None);
     sleep_ms(60).await;
-    assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
+    assert_eq!(emu.with(|c| c.task()), MotionTaskState::NotRunning);
 }
 
 #[tokio::test(start_paused = true)]
@@ -196,7 +196,7 @@ async fn close_sends_255_and_waits_for_the_server() {
     let end = emu.with(|c| c.last_session_end());
     assert_eq!(end.map(|e| e.1), Some(SessionEnd::EndCommand));
     sleep_ms(60).await; // signal 2007's edge
-    assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
+    assert_eq!(emu.with(|c| c.task()), MotionTaskState::NotRunning);
     assert_eq!(robot.poll().await.unwrap_err(), ClientError::Closed);
     assert!(robot.close().await.is_ok(), "closing twice is harmless");
 }
@@ -415,7 +415,7 @@ async fn start_confirms_the_program_runs() {
     let emu = emulator();
     let robot = connect(&emu).await;
     robot.start().await.expect("start");
-    assert_eq!(emu.with(|c| c.task()), TaskState::Running);
+    assert_eq!(emu.with(|c| c.task()), MotionTaskState::Running);
     assert!(robot.status().status.task_running);
     // Already running: no second command 1 (it would make the robot pause).
     let before = effective(&emu);
@@ -423,7 +423,7 @@ async fn start_confirms_the_program_runs() {
     assert_eq!(effective(&emu), before);
     robot.stop_program().await.expect("stop");
     sleep_ms(60).await; // signal 2007's edge
-    assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
+    assert_eq!(emu.with(|c| c.task()), MotionTaskState::NotRunning);
     // A start right after a stop waits for the old program to end, then starts anew.
     robot.start().await.expect("start after stop");
     robot.stop_program().await.expect("stop");
@@ -431,7 +431,7 @@ async fn start_confirms_the_program_runs() {
     sleep_ms(200).await;
     assert_eq!(
         emu.with(|c| c.task()),
-        TaskState::Running,
+        MotionTaskState::Running,
         "not ended by the old signal"
     );
 }
@@ -446,12 +446,12 @@ async fn start_in_a_new_session_does_not_trust_the_old_sessions_program() {
     robot.close().await.expect("close");
     let robot = connect(&emu).await;
     assert!(
-        emu.with(|c| c.task()) == TaskState::Running,
+        emu.with(|c| c.task()) == MotionTaskState::Running,
         "still on its way out"
     );
     robot.start().await.expect("start");
     sleep_ms(500).await;
-    assert_eq!(emu.with(|c| c.task()), TaskState::Running);
+    assert_eq!(emu.with(|c| c.task()), MotionTaskState::Running);
     assert!(robot.poll().await.unwrap().task_running);
 }
 
@@ -876,7 +876,7 @@ async fn after_an_emulator_restart_reconnect_works_and_motion_is_not_resumed() {
     sleep_ms(3000).await;
     // Nothing but polls reached the new controller; its program is not running, nothing moved.
     assert_eq!(effective(&fresh), 0);
-    assert_eq!(fresh.with(|c| c.task()), TaskState::NotRunning);
+    assert_eq!(fresh.with(|c| c.task()), MotionTaskState::NotRunning);
     assert_eq!(fresh.with(|c| c.joints()), home());
     let s = robot.status().status;
     assert!(!s.task_running);
@@ -901,7 +901,7 @@ async fn raw_requests_are_sent_as_typed() {
     robot.send_raw("1040 3 1 25", false).await.unwrap();
     assert_eq!(emu.with(|c| c.monitor_speed()), 25.0);
     robot.send_raw("1040 1 0", false).await.unwrap();
-    assert_eq!(emu.with(|c| c.task()), TaskState::Running);
+    assert_eq!(emu.with(|c| c.task()), MotionTaskState::Running);
     robot
         .send_raw("1040 6 9 0 0 0 1 0 -90 0 -90 0", true)
         .await

@@ -11,7 +11,7 @@ use fs020n_client::{
     ServoSample, TrajectoryError, WatchdogAction,
 };
 use fs020n_proto::Command;
-use fs020n_sim::{Emulator, Fault, TaskState};
+use fs020n_sim::{Emulator, Fault, MotionTaskState};
 
 /// JT1 position and velocity of a smooth move from 0 to `amp` degrees over `secs`.
 fn cosine(amp: f64, secs: f64, t: f64) -> (f64, f64) {
@@ -86,7 +86,7 @@ async fn pushed_samples_are_followed_and_stop_halts() {
     // The stop braked and ended the program (5 then 2): a sure stop.
     assert_eq!(newest(&emu), Some(Command::StopProgram));
     sleep_ms(100).await; // signal 2007 acts once stable for 50 ms
-    assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
+    assert_eq!(emu.with(|c| c.task()), MotionTaskState::NotRunning);
     assert_eq!(robot.stats().stream_samples, s.sent);
     // The motion channel is free again.
     robot.start().await.unwrap();
@@ -179,7 +179,7 @@ async fn the_watchdog_stops_the_program_when_the_pushes_stop() {
     let report = servo.wait().await.unwrap();
     assert_eq!(report.outcome, ServoOutcome::Watchdog);
     assert_eq!(newest(&emu), Some(Command::StopProgram));
-    assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
+    assert_eq!(emu.with(|c| c.task()), MotionTaskState::NotRunning);
     // Stopped soon after the last sample: at most the watchdog's 0.2 s plus the look-ahead
     // of extrapolation at 10 deg/s beyond the last pushed position.
     let j = emu.with(|c| c.joints())[0];
@@ -213,7 +213,7 @@ async fn the_watchdog_can_brake_instead() {
     let report = servo.wait().await.unwrap();
     assert_eq!(report.outcome, ServoOutcome::Watchdog);
     assert_eq!(newest(&emu), Some(Command::CancelMotion));
-    assert_eq!(emu.with(|c| c.task()), TaskState::Running);
+    assert_eq!(emu.with(|c| c.task()), MotionTaskState::Running);
 }
 
 #[tokio::test(start_paused = true)]
@@ -223,7 +223,7 @@ async fn no_watchdog_before_the_first_push() {
     let servo = robot.servo(ServoOptions::default()).await.unwrap();
     sleep_ms(2000).await;
     assert!(!servo.is_finished());
-    assert_eq!(emu.with(|c| c.task()), TaskState::Running);
+    assert_eq!(emu.with(|c| c.task()), MotionTaskState::Running);
     servo.push(home()).unwrap();
     servo.finish().await.unwrap();
 }

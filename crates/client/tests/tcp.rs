@@ -6,7 +6,7 @@ use std::time::Duration;
 use fs020n_client::{blocking, ClientConfig, ClientError, Completion, Robot, StreamOptions};
 use fs020n_client::{Trajectory, TrajectoryPoint};
 use fs020n_proto::JointsDeg;
-use fs020n_sim::{ControllerConfig, Emulator, SessionEnd, TaskState};
+use fs020n_sim::{ControllerConfig, Emulator, MotionTaskState, SessionEnd};
 
 fn home() -> JointsDeg {
     JointsDeg::new([0.0, 0.0, -90.0, 0.0, -90.0, 0.0])
@@ -113,7 +113,7 @@ fn the_blocking_api_over_loopback() {
     robot.preflight().unwrap();
     robot.set_speed(100.0).unwrap();
     robot.start().unwrap();
-    assert_eq!(served.emu.with(|c| c.task()), TaskState::Running);
+    assert_eq!(served.emu.with(|c| c.task()), MotionTaskState::Running);
     let mv = robot.move_joints(with_jt1(-2.0)).unwrap();
     let report = mv.wait(Completion::default()).unwrap();
     assert!(report.error_deg <= 0.1);
@@ -175,7 +175,7 @@ fn the_blocking_robot_inside_an_async_runtime_refuses_and_still_closes_on_drop()
     );
     // The program ends once signal 2007 has been stable for 50 ms.
     let mut waited = 0;
-    while served.emu.with(|c| c.task()) != TaskState::NotRunning {
+    while served.emu.with(|c| c.task()) != MotionTaskState::NotRunning {
         assert!(waited < 200, "the program did not end");
         std::thread::sleep(std::time::Duration::from_millis(10));
         waited += 1;

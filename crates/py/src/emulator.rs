@@ -233,7 +233,7 @@ impl Emulator {
     /// reply field 7).
     #[getter]
     fn program_running(&self) -> bool {
-        self.with(|c| c.task()) == fs020n_sim::TaskState::Running
+        self.with(|c| c.task()) == fs020n_sim::MotionTaskState::Running
     }
 
     /// `True` while a client holds the session.

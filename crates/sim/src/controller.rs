@@ -10,11 +10,11 @@ use fs020n_proto::{Command, ErrorCode, JointsDeg, Status};
 
 use crate::fault::Fault;
 use crate::machine::{Behaviour, ControllerConfig, Machine, PanelChange, PanelError, Timing};
-use crate::motion::{MotionPhase, Robot};
+use crate::motion::{Arm, MotionPhase};
 use crate::native::{Handled, NativeServer, SessionGone, SessionId};
 use crate::panel::Panel;
 use crate::program::{ClientId, ClientRead, ProgramServer, ServerProgram};
-use crate::snapshot::{Counters, PassInfo, Refused, SessionEnd, Snapshot, TaskState};
+use crate::snapshot::{Counters, MotionTaskState, PassInfo, Refused, SessionEnd, Snapshot};
 
 /// The emulated FS020N controller: a machine (clock, arm, panel, error, monitor speed,
 /// faults, counters) and the server program that runs on it — the native protocol-1040 server
@@ -34,7 +34,7 @@ use crate::snapshot::{Counters, PassInfo, Refused, SessionEnd, Snapshot, TaskSta
 ///   [`panel`](Controller::panel), [`error`](Controller::error),
 ///   [`monitor_speed`](Controller::monitor_speed), [`abs_speed`](Controller::abs_speed),
 ///   [`joints`](Controller::joints), [`velocity`](Controller::velocity),
-///   [`robot`](Controller::robot), [`motion_phase`](Controller::motion_phase),
+///   [`arm`](Controller::arm), [`motion_phase`](Controller::motion_phase),
 ///   [`task`](Controller::task), [`stop_signal`](Controller::stop_signal),
 ///   [`step_s`](Controller::step_s), [`last_pass`](Controller::last_pass),
 ///   [`counters`](Controller::counters), [`pending_faults`](Controller::pending_faults),
@@ -195,17 +195,17 @@ impl Controller {
 
     /// Joint angles, degrees.
     pub fn joints(&self) -> JointsDeg {
-        self.machine.robot().joints()
+        self.machine.arm().joints()
     }
 
     /// Joint velocities, deg/s.
     pub fn velocity(&self) -> JointsDeg {
-        self.machine.robot().velocity()
+        self.machine.arm().velocity()
     }
 
     /// The robot's motion state.
-    pub fn robot(&self) -> &Robot {
-        self.machine.robot()
+    pub fn arm(&self) -> &Arm {
+        self.machine.arm()
     }
 
     /// What the robot is doing.
@@ -214,7 +214,7 @@ impl Controller {
     }
 
     /// State of the motion program (robot task 1).
-    pub fn task(&self) -> TaskState {
+    pub fn task(&self) -> MotionTaskState {
         match &self.server {
             Server::Native(n) => n.task(&self.machine),
             Server::Program(p) => p.task(),

@@ -49,7 +49,7 @@ pub use machine::{
     PASS_TIME, SIGNAL_EDGE, TICK,
 };
 pub use motion::{
-    LinearPath, Motion, MotionPhase, Robot, Shape, HOLD_RAMP_S, LINEAR_MAX_JOINT_STEP_DEG,
+    Arm, LinearPath, Motion, MotionPhase, Shape, HOLD_RAMP_S, LINEAR_MAX_JOINT_STEP_DEG,
     LINEAR_SAMPLE_DEG, LINEAR_SAMPLE_MM,
 };
 pub use native::{Handled, SessionGone, SessionId};
@@ -63,8 +63,8 @@ pub use program::{
 pub use run::{run_robot, RunningRobot, SimOptions};
 pub use server::{Emulator, TcpServer, PIPE_CAPACITY, RECEIVE_BUFFER, SEND_BUFFER};
 pub use snapshot::{
-    CommandInfo, Counters, ErrorInfo, LastEnd, MoveKind, PassInfo, PassMotion, ProgramInfo,
-    Refused, SessionEnd, SessionInfo, Snapshot, TaskState,
+    CommandInfo, Counters, ErrorInfo, LastEnd, MotionTaskState, MoveKind, PassInfo, PassMotion,
+    ProgramInfo, Refused, SessionEnd, SessionInfo, Snapshot,
 };
 
 /// The README's examples, compiled as doctests.

@@ -13,9 +13,9 @@ use fs020n_proto::{ErrorCode, JointsDeg, Status, Timer, PROTOCOL_VERSION};
 use serde::Serialize;
 
 use crate::fault::{Fault, FaultQueue, ReplyFault};
-use crate::motion::{Motion, MotionPhase, Robot};
+use crate::motion::{Arm, Motion, MotionPhase};
 use crate::panel::Panel;
-use crate::snapshot::{Counters, PassInfo, ProgramInfo, SessionInfo, Snapshot, TaskState};
+use crate::snapshot::{Counters, MotionTaskState, PassInfo, ProgramInfo, SessionInfo, Snapshot};
 
 /// Timing choices of the emulator (see docs/EMULATOR.md for the reasoning behind each).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -182,7 +182,7 @@ pub(crate) trait OnTick {
 
 /// The parts of a [`Snapshot`] that the server program knows.
 pub(crate) struct ServerPicture {
-    pub(crate) task: TaskState,
+    pub(crate) task: MotionTaskState,
     pub(crate) abs_speed: bool,
     pub(crate) step_s: f64,
     pub(crate) last_pass: Option<PassInfo>,
@@ -207,7 +207,7 @@ pub(crate) struct Machine {
     monitor_speed: f64,
     /// The ABS.SPEED system switch (command 3 switches it on).
     abs_speed: bool,
-    robot: Robot,
+    robot: Arm,
     stop_reading_until: Option<Duration>,
     faults: FaultQueue,
     counters: Counters,
@@ -235,7 +235,7 @@ impl Machine {
             config.error
         };
         Machine {
-            robot: Robot::new(config.joints),
+            robot: Arm::new(config.joints),
             model: config.model,
             timing: config.timing,
             behaviour: config.behaviour,
@@ -291,7 +291,7 @@ impl Machine {
         self.abs_speed
     }
 
-    pub(crate) fn robot(&self) -> &Robot {
+    pub(crate) fn arm(&self) -> &Arm {
         &self.robot
     }
 

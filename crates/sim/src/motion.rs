@@ -582,7 +582,7 @@ pub enum MotionPhase {
 
 /// The robot arm's motion state, advanced tick by tick.
 #[derive(Debug, Clone)]
-pub struct Robot {
+pub struct Arm {
     joints: JointsDeg,
     velocity: JointsDeg,
     /// Position the finished segments have reached; the in-progress ones add to it.
@@ -618,10 +618,10 @@ const BLEND_MARGIN_M: f64 = 1e-9;
 /// Time for HOLD to bring the motion to a pause (and for RUN to resume it), seconds.
 pub const HOLD_RAMP_S: f64 = 0.2;
 
-impl Robot {
+impl Arm {
     /// A robot standing at `joints`.
-    pub fn new(joints: JointsDeg) -> Robot {
-        Robot {
+    pub fn new(joints: JointsDeg) -> Arm {
+        Arm {
             joints,
             velocity: JointsDeg::ZERO,
             anchor: joints,
@@ -993,7 +993,7 @@ mod tests {
     #[test]
     fn summed_lines_match_their_separate_evaluation() {
         let model = RobotModel::fs020n();
-        let mut robot = Robot::new(JointsDeg::new([0.0, 10.0, -80.0, 0.0, -80.0, 0.0]));
+        let mut robot = Arm::new(JointsDeg::new([0.0, 10.0, -80.0, 0.0, -80.0, 0.0]));
         let dt = 0.002;
         let mut worst: f64 = 0.0;
         let mut summed = 0;
@@ -1046,7 +1046,7 @@ mod tests {
     #[test]
     fn blending_test_matches_the_exact_test() {
         let model = RobotModel::fs020n();
-        let mut robot = Robot::new(JointsDeg::new([0.0, 10.0, -80.0, 0.0, -80.0, 0.0]));
+        let mut robot = Arm::new(JointsDeg::new([0.0, 10.0, -80.0, 0.0, -80.0, 0.0]));
         let dt = 0.002;
         let accuracies = [0.0, 0.5, 1.0, 10.0, 50.0, 300.0];
         let (mut tests, mut ready, mut exact_runs) = (0u32, 0u32, 0u32);

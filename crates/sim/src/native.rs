@@ -20,8 +20,8 @@ use crate::fault::ReplyFault;
 use crate::machine::{Machine, OnTick, PlannedAfterBrake, ServerPicture};
 use crate::motion::{LinearPath, Motion, Shape};
 use crate::snapshot::{
-    CommandInfo, LastEnd, MoveKind, PassInfo, PassMotion, Refused, SessionEnd, SessionInfo,
-    Snapshot, TaskState,
+    CommandInfo, LastEnd, MotionTaskState, MoveKind, PassInfo, PassMotion, Refused, SessionEnd,
+    SessionInfo, Snapshot,
 };
 
 /// Identifies one session (one accepted connection).
@@ -166,12 +166,12 @@ impl NativeServer {
     // ----------------------------------------------------------------- observers
 
     /// State of the motion program.
-    pub(crate) fn task(&self, m: &Machine) -> TaskState {
+    pub(crate) fn task(&self, m: &Machine) -> MotionTaskState {
         match &self.program {
-            None => TaskState::NotRunning,
-            Some(run) if run.finishing => TaskState::Finishing,
-            Some(_) if !m.panel().run => TaskState::Paused,
-            Some(_) => TaskState::Running,
+            None => MotionTaskState::NotRunning,
+            Some(run) if run.finishing => MotionTaskState::Finishing,
+            Some(_) if !m.panel().run => MotionTaskState::Paused,
+            Some(_) => MotionTaskState::Running,
         }
     }
 
@@ -248,7 +248,7 @@ impl NativeServer {
 
     /// The status reply as it would be sent now.
     pub(crate) fn status(&self, m: &Machine) -> Status {
-        m.status(self.task(m) == TaskState::Running, self.timer1_s(m))
+        m.status(self.task(m) == MotionTaskState::Running, self.timer1_s(m))
     }
 
     /// `true` while connections are accepted now.
@@ -313,7 +313,7 @@ impl NativeServer {
     fn start_program(&mut self, m: &mut Machine) {
         let panel = m.panel();
         let switches = panel.power && panel.run && panel.repeat && !panel.teach_lock;
-        if !switches || self.task(m) == TaskState::Running || !m.error().is_none() {
+        if !switches || self.task(m) == MotionTaskState::Running || !m.error().is_none() {
             m.counters_mut().starts_ignored += 1;
             let blockers = m.start_blockers(self.program_executes());
             tracing::info!(?blockers, "command 1 ignored");
@@ -340,7 +340,7 @@ impl NativeServer {
             last_tm_s: self.timer_s(m.now()),
             // "Remember the current joints": a first 7 whose point is where the robot stands
             // issues no motion.
-            prev_pt: Some(m.robot().joints().0.map(|v| v as f32)),
+            prev_pt: Some(m.arm().joints().0.map(|v| v as f32)),
             args,
             run_flag: true,
             finishing: false,
@@ -525,7 +525,7 @@ impl NativeServer {
                 self.finish_pass(blocked.tm_s, t, m.timing().pass);
             }
             PlannedAfterBrake::Execute => {
-                let from = m.robot().target();
+                let from = m.arm().target();
                 if let Some(motion) = self.plan_motion(m, from, blocked.target, blocked.kind) {
                     // Starts when the brake has stopped the arm; the pass stays blocked.
                     m.plan_motion(motion);
@@ -668,7 +668,7 @@ impl NativeServer {
             self.finish_pass(tm, t, pass);
             return;
         };
-        let from = m.robot().target();
+        let from = m.arm().target();
         let Some(motion) = self.plan_motion(m, from, target, kind) else {
             return;
         };
@@ -706,8 +706,8 @@ impl NativeServer {
         let shape = match kind {
             Kind::Joint(f) => Shape::Joint(JointMove::plan(model, from, target, f)),
             Kind::Linear(d) => {
-                let from_pose = if crate::motion::same_bits(&from, &m.robot().target()) {
-                    m.robot().target_pose(model)
+                let from_pose = if crate::motion::same_bits(&from, &m.arm().target()) {
+                    m.arm().target_pose(model)
                 } else {
                     model.forward(&from.to_rad())
                 };
@@ -779,7 +779,7 @@ impl OnTick for NativeServer {
     fn after_motion(&mut self, m: &mut Machine) {
         // TASK(1) = 3 ends when the last motion has: in the tick the arm comes to rest (as
         // the interpreter's finishing task sees it on its poll at this instant).
-        if self.program.as_ref().is_some_and(|r| r.finishing) && m.robot().is_still() {
+        if self.program.as_ref().is_some_and(|r| r.finishing) && m.arm().is_still() {
             self.end_program();
         }
     }

@@ -38,7 +38,7 @@ use fs020n_proto::ServerRequest;
 use fs020n_proto::{JointsDeg, Status, PROTOCOL_VERSION};
 
 use crate::machine::{Machine, ServerPicture};
-use crate::snapshot::{CommandInfo, ProgramInfo, Refused, SessionInfo, Snapshot, TaskState};
+use crate::snapshot::{CommandInfo, MotionTaskState, ProgramInfo, Refused, SessionInfo, Snapshot};
 pub use host::MAX_TOOL_SPEED_MM_S;
 use host::{panel_of, Host, MotionLink};
 use net::socket_table;
@@ -143,7 +143,7 @@ pub(crate) struct ProgramServer {
     planned: Option<(MotionRequest, JointsDeg)>,
     link: MotionLink,
     /// The robot task's state after the latest step.
-    task: TaskState,
+    task: MotionTaskState,
 }
 
 impl ProgramServer {
@@ -156,7 +156,7 @@ impl ProgramServer {
             net: socket_table(),
             planned: None,
             link: MotionLink::default(),
-            task: TaskState::NotRunning,
+            task: MotionTaskState::NotRunning,
         };
         let mut host = Host {
             m,
@@ -179,17 +179,17 @@ impl ProgramServer {
         self.interp.run_until(&mut host, t);
         let task = self.interp.task_state(TaskId::Robot, &host);
         self.task = match task {
-            fs020n_as::TaskState::Idle => TaskState::NotRunning,
-            fs020n_as::TaskState::Running => TaskState::Running,
-            fs020n_as::TaskState::Paused => TaskState::Paused,
-            fs020n_as::TaskState::WaitingMotion => TaskState::Finishing,
+            fs020n_as::TaskState::Idle => MotionTaskState::NotRunning,
+            fs020n_as::TaskState::Running => MotionTaskState::Running,
+            fs020n_as::TaskState::Paused => MotionTaskState::Paused,
+            fs020n_as::TaskState::WaitingMotion => MotionTaskState::Finishing,
         };
     }
 
     // ----------------------------------------------------------------- observers
 
     /// The robot task's state after the latest step.
-    pub(crate) fn task(&self) -> TaskState {
+    pub(crate) fn task(&self) -> MotionTaskState {
         self.task
     }
 
@@ -204,11 +204,11 @@ impl ProgramServer {
 
     /// The status reply as the native server would send it now (a program builds its own).
     pub(crate) fn status(&self, m: &Machine) -> Status {
-        m.status(self.task == TaskState::Running, 0.0)
+        m.status(self.task == MotionTaskState::Running, 0.0)
     }
 
     pub(crate) fn info(&self, m: &Machine) -> ProgramInfo {
-        let moving = !m.robot().is_still();
+        let moving = !m.arm().is_still();
         let terminal: Vec<TerminalLine> = self.interp.terminal().cloned().collect();
         let skip = terminal.len().saturating_sub(SNAPSHOT_TERMINAL_LINES);
         ProgramInfo {

@@ -38,10 +38,12 @@ pub enum Refused {
     SessionOpen,
 }
 
-/// State of the motion program (robot task 1).
+/// State of the motion program (robot task 1), as the protocol's field 7 and `TASK(1)` see
+/// it. (An AS program's tasks report `fs020n_as::TaskState`, the same four values under the
+/// interpreter's names.)
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
-pub enum TaskState {
+pub enum MotionTaskState {
     /// Not executing.
     NotRunning,
     /// Running.
@@ -53,15 +55,15 @@ pub enum TaskState {
     Finishing,
 }
 
-impl TaskState {
+impl MotionTaskState {
     /// The value of AS `TASK(1)`: 0 not executing, 1 running, 2 paused, 3 steps done and
     /// waiting for the last motion.
     pub fn as_task_value(self) -> i32 {
         match self {
-            TaskState::NotRunning => 0,
-            TaskState::Running => 1,
-            TaskState::Paused => 2,
-            TaskState::Finishing => 3,
+            MotionTaskState::NotRunning => 0,
+            MotionTaskState::Running => 1,
+            MotionTaskState::Paused => 2,
+            MotionTaskState::Finishing => 3,
         }
     }
 }
@@ -156,7 +158,7 @@ pub struct Snapshot {
     /// Flange pose in the base frame, as the pendant shows it.
     pub tool: Xyzoat,
     /// State of the motion program `ros_move` (robot task 1).
-    pub task: TaskState,
+    pub task: MotionTaskState,
     /// What the arm is doing.
     pub motion: MotionPhase,
     /// `true` while a motion waits to blend in (the look-ahead of one motion).

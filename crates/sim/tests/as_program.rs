@@ -63,7 +63,7 @@ async fn the_interpreted_server_serves_in_memory_clients() {
     tokio::time::sleep(Duration::from_secs(6)).await;
     let mut buf = [0u8; 16];
     assert_eq!(s.read(&mut buf).await.unwrap(), 0, "closed by the server");
-    assert_eq!(emu.snapshot().task, fs020n_sim::TaskState::NotRunning);
+    assert_eq!(emu.snapshot().task, fs020n_sim::MotionTaskState::NotRunning);
     // And it listens again.
     tokio::time::sleep(Duration::from_millis(10)).await;
     let mut s2 = emu.connect_program().expect("listening again");

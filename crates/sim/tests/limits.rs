@@ -6,7 +6,7 @@ mod common;
 use common::*;
 use fs020n_kin::RobotModel;
 use fs020n_proto::{Command, JointsDeg};
-use fs020n_sim::{Controller, ControllerConfig, TaskState};
+use fs020n_sim::{Controller, ControllerConfig, MotionTaskState};
 
 /// A small deterministic generator (SplitMix64).
 struct Rng(u64);
@@ -123,7 +123,7 @@ fn run(seed: u64, seconds: f64) -> (u64, u64) {
             check_tick(&model, prev, &c, seed);
             prev = c.joints();
         }
-        if c.task() == TaskState::NotRunning {
+        if c.task() == MotionTaskState::NotRunning {
             // E1088 (no straight-line path): reset, restart, resume from where the robot is
             if !c.error().is_none() {
                 errors += 1;

@@ -11,8 +11,8 @@ use common::*;
 use fs020n_kin::RobotModel;
 use fs020n_proto::{Command, ErrorCode, JointsDeg};
 use fs020n_sim::{
-    Behaviour, Controller, ControllerConfig, MotionPhase, MoveKind, Panel, PlannedAfterBrake,
-    TaskState,
+    Behaviour, Controller, ControllerConfig, MotionPhase, MotionTaskState, MoveKind, Panel,
+    PlannedAfterBrake,
 };
 
 // ------------------------------------------------------------------ command 1 conditions
@@ -23,7 +23,7 @@ fn start_refused_with(setup: impl FnOnce(&mut Controller), blocker: &str) {
     let id = c.try_accept().unwrap();
     let s = raw(&mut c, id, "1040 1 0");
     assert!(!s.task_running, "{blocker}: started anyway");
-    assert_eq!(c.task(), TaskState::NotRunning);
+    assert_eq!(c.task(), MotionTaskState::NotRunning);
     assert!(
         s.error.is_none() || blocker.contains("error"),
         "no error raised by 1"
@@ -155,7 +155,7 @@ fn out_of_range_target_raises_e1088_stops_the_program_and_stays_until_reset() {
     c.advance_by(ms(20));
     assert_eq!(c.error(), ErrorCode::DESTINATION_OUT_OF_RANGE);
     assert_eq!(c.error().raw(), -31088);
-    assert_eq!(c.task(), TaskState::NotRunning);
+    assert_eq!(c.task(), MotionTaskState::NotRunning);
     until(&mut c, ms(2000), is_still);
     let s = raw(&mut c, id, "1040 1 0");
     assert_eq!(s.error.raw(), -31088);
@@ -185,7 +185,7 @@ fn a_straight_line_with_no_ik_path_raises_e1088() {
         MoveKind::Linear
     );
     assert_eq!(c.error(), ErrorCode::DESTINATION_OUT_OF_RANGE);
-    assert_eq!(c.task(), TaskState::NotRunning);
+    assert_eq!(c.task(), MotionTaskState::NotRunning);
 }
 
 // ------------------------------------------------------------------ BRAKE
@@ -249,7 +249,7 @@ fn command_5_stops_within_the_braking_distance_and_the_program_goes_on() {
     c.advance_by(ms(1000));
     assert_eq!(c.joints(), q1);
     // the program waits for the next 6/7
-    assert_eq!(c.task(), TaskState::Running);
+    assert_eq!(c.task(), MotionTaskState::Running);
     jmove(&mut c, id, [0.0, 0.0, -90.0, 0.0, -90.0, 0.0]);
     until(&mut c, Duration::from_secs(10), |c| c.joints() == HOME);
 }
@@ -289,8 +289,8 @@ fn brake_with_a_planned_motion(behaviour: Behaviour) -> (Controller, fs020n_sim:
     c.advance_by(ms(50));
     jmove(&mut c, id, [90.0, 30.0, -90.0, 0.0, -90.0, 0.0]);
     c.advance_by(ms(20));
-    assert!(c.robot().has_planned(), "the look-ahead holds one motion");
-    assert_eq!(c.robot().target()[1], 0.0, "B is not read yet");
+    assert!(c.arm().has_planned(), "the look-ahead holds one motion");
+    assert_eq!(c.arm().target()[1], 0.0, "B is not read yet");
     let s = raw(&mut c, id, "1040 5 0");
     assert_eq!(c.motion_phase(), MotionPhase::Braking);
     assert!(s.task_running);
@@ -300,7 +300,7 @@ fn brake_with_a_planned_motion(behaviour: Behaviour) -> (Controller, fs020n_sim:
 #[test]
 fn brake_drops_the_planned_motion_when_so_configured() {
     let (mut c, _) = brake_with_a_planned_motion(DROP_PLANNED);
-    assert!(!c.robot().has_planned());
+    assert!(!c.arm().has_planned());
     until(&mut c, ms(3000), is_still);
     c.advance_by(ms(500));
     assert!(
@@ -317,10 +317,10 @@ fn by_default_the_planned_motion_runs_after_the_brake() {
     // on to A anyway. B, never read, never runs. (Why a client that must stop sends 2.)
     let (mut c, _) = brake_with_a_planned_motion(Behaviour::default());
     assert!(
-        c.robot().has_planned(),
+        c.arm().has_planned(),
         "kept, re-planned from where the brake stops"
     );
-    let rest = c.robot().target();
+    let rest = c.arm().target();
     assert!(rest[0] < 90.0 && rest[1] == 0.0);
     // it starts only once the arm has stopped, then goes to the planned target
     until(&mut c, ms(3000), |c| {
@@ -356,17 +356,17 @@ fn exactly_one_motion_is_planned_and_blends_within_accuracy() {
     // The program re-issues A every pass: the pass after the one that started A has planned a
     // (zero-length) JMOVE A and waits there until the tool is within ACCURACY of A. That is the
     // one motion of look-ahead; nothing else is queued.
-    assert!(c.robot().has_planned());
+    assert!(c.arm().has_planned());
     assert_eq!(c.last_pass().unwrap().motion.unwrap().target, a);
-    assert_eq!(c.robot().target(), a);
+    assert_eq!(c.arm().target(), a);
     let passes = c.counters().passes;
     jmove(&mut c, id, b.values());
     // B is read only when the blocked pass ends, i.e. within ACCURACY of A; it blends in
     let mut switch = None;
-    while c.robot().target() == a {
+    while c.arm().target() == a {
         let before = c.joints();
         c.advance_by(ms(2));
-        if c.robot().target() == b {
+        if c.arm().target() == b {
             switch = Some((tool_mm(&before, &a), c.velocity()));
         }
         assert!(c.now() < Duration::from_secs(5));
@@ -394,8 +394,8 @@ fn exactly_one_motion_is_planned_and_blends_within_accuracy() {
     assert!(min_speed > 1.0, "stopped in between: {min_speed}");
     // a newer target waits behind the blocked pass, then wins over B's re-issue
     jmove(&mut c, id, d.values());
-    assert_eq!(c.robot().target(), b);
-    until(&mut c, Duration::from_secs(5), |c| c.robot().target() == d);
+    assert_eq!(c.arm().target(), b);
+    until(&mut c, Duration::from_secs(5), |c| c.arm().target() == d);
     assert!(tool_mm(&c.joints(), &b) <= 10.0);
     until(&mut c, Duration::from_secs(5), |c| c.joints() == d);
 }
@@ -645,9 +645,11 @@ fn speed_is_a_product_before_command_3_and_a_minimum_after() {
     // the stop by signal 2007 takes its 50 ms edge; the program has ended but the arm brakes
     // (TASK(1) = 3) until it stands
     c.advance_by(ms(60));
-    assert_eq!(c.task(), TaskState::Finishing);
-    until(&mut c, ms(2000), |c| c.task() == TaskState::NotRunning);
-    assert!(c.robot().is_still());
+    assert_eq!(c.task(), MotionTaskState::Finishing);
+    until(&mut c, ms(2000), |c| {
+        c.task() == MotionTaskState::NotRunning
+    });
+    assert!(c.arm().is_still());
     raw(&mut c, id, "1040 1 0");
     let p2 = [1.0, 10.0, -3.0, 0.0, -80.0, 0.0];
     stream_to(&mut c, id, p2);
@@ -717,7 +719,7 @@ fn hold_pauses_and_run_resumes_to_the_target() {
         !s.run && !s.task_running,
         "field 3 and field 7 read 0 in HOLD"
     );
-    assert_eq!(c.task(), TaskState::Paused);
+    assert_eq!(c.task(), MotionTaskState::Paused);
     c.advance_by(ms(250)); // the HOLD ramp (0.2 s) has brought it to a pause
     let held = c.joints();
     assert!(c.velocity().iter().all(|v| v == 0.0));
@@ -772,7 +774,7 @@ fn estop_mid_move_cuts_power_raises_e3808_and_needs_release_and_reset() {
 fn switching_to_teach_stops_the_program() {
     let (mut c, id) = moving_fast();
     c.set_repeat(false);
-    assert_eq!(c.task(), TaskState::NotRunning);
+    assert_eq!(c.task(), MotionTaskState::NotRunning);
     until(&mut c, ms(3000), is_still);
     let s = raw(&mut c, id, "1040 1 0");
     assert!(!s.repeat && !s.task_running);
@@ -784,7 +786,7 @@ fn an_injected_error_stops_the_program_and_brakes() {
     c.inject(fs020n_sim::Fault::RaiseError {
         code: "E1130".parse().unwrap(),
     });
-    assert_eq!(c.task(), TaskState::NotRunning);
+    assert_eq!(c.task(), MotionTaskState::NotRunning);
     assert_eq!(c.motion_phase(), MotionPhase::Braking);
     let s = raw(&mut c, id, "0 0 0");
     assert_eq!(s.error.raw(), -31130);
@@ -910,7 +912,7 @@ fn an_argument_never_assigned_stops_the_program_with_e0102() {
     c.advance_by(ms(10));
     assert_eq!(c.error(), ErrorCode::VARIABLE_NOT_DEFINED);
     assert_eq!(c.error().to_string(), "E0102");
-    assert_eq!(c.task(), TaskState::NotRunning);
+    assert_eq!(c.task(), MotionTaskState::NotRunning);
     assert_eq!(c.counters().undefined_arguments, 1);
     let s = raw(&mut c, id, "0 0 0");
     assert_eq!(s.error.raw(), -30102);
@@ -941,7 +943,9 @@ fn locals_start_undefined_after_a_restart_unless_configured_to_survive() {
         raw(&mut c, id, "1040 2 0");
         // the ONI after 50 ms, then the brake (TASK(1) = 3 until the arm stands)
         c.advance_by(ms(60));
-        until(&mut c, ms(2000), |c| c.task() == TaskState::NotRunning);
+        until(&mut c, ms(2000), |c| {
+            c.task() == MotionTaskState::NotRunning
+        });
         raw(&mut c, id, "1040 1 0");
         raw(&mut c, id, "1040 6 6 0 0 0 2 0 -90");
         c.advance_by(ms(10));

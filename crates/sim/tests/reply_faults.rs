@@ -8,7 +8,7 @@ use std::time::Duration;
 use common::{jmove, ms, running};
 use fs020n_proto::{ReplyDecoder, Status};
 use fs020n_sim::MAX_FAULT_COUNT;
-use fs020n_sim::{ControllerConfig, Emulator, Fault, SessionEnd, TaskState};
+use fs020n_sim::{ControllerConfig, Emulator, Fault, MotionTaskState, SessionEnd};
 use tokio::io::{AsyncReadExt, AsyncWriteExt, DuplexStream};
 
 async fn request(s: &mut DuplexStream, text: &str) -> Option<Status> {
@@ -138,14 +138,14 @@ fn teach_lock_on_stops_a_running_program() {
     jmove(&mut c, id, [30.0, 0.0, -90.0, 0.0, -90.0, 0.0]);
     c.advance_by(ms(300));
     c.set_teach_lock(true);
-    assert_eq!(c.task(), TaskState::NotRunning);
+    assert_eq!(c.task(), MotionTaskState::NotRunning);
     let j = c.joints();
     c.advance_by(Duration::from_secs(2));
     assert!(
         c.joints()[0] - j[0] < 5.0,
         "braked, did not go on to the target"
     );
-    assert!(c.robot().is_still());
+    assert!(c.arm().is_still());
 }
 
 #[test]

@@ -4,7 +4,7 @@
 use std::time::Duration;
 
 use fs020n_proto::{ErrorCode, ReplyDecoder, Status};
-use fs020n_sim::{ControllerConfig, Emulator, Fault, SessionEnd, TaskState};
+use fs020n_sim::{ControllerConfig, Emulator, Fault, MotionTaskState, SessionEnd};
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use tokio::time::{sleep, timeout, Instant};
 
@@ -60,9 +60,9 @@ async fn silence_closes_the_session_and_stops_the_robot() {
     // program ends, the arm brakes (TASK(1) = 3 until it stands)
     assert!(emu.with(|c| c.stop_signal()));
     sleep(fs020n_sim::SIGNAL_EDGE + Duration::from_millis(2)).await;
-    assert_eq!(emu.snapshot().task, TaskState::Finishing);
+    assert_eq!(emu.snapshot().task, MotionTaskState::Finishing);
     sleep(Duration::from_secs(1)).await;
-    assert_eq!(emu.snapshot().task, TaskState::NotRunning);
+    assert_eq!(emu.snapshot().task, MotionTaskState::NotRunning);
     let stop = emu.with(|c| c.joints());
     sleep(Duration::from_secs(1)).await;
     assert_eq!(emu.with(|c| c.joints()), stop);
@@ -133,7 +133,7 @@ async fn send_timeout_ends_the_session_when_the_client_does_not_read() {
     let end = emu.with(|c| c.last_session_end()).expect("ended");
     assert_eq!(end.1, SessionEnd::SendTimeout);
     sleep(fs020n_sim::SIGNAL_EDGE + Duration::from_millis(2)).await;
-    assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
+    assert_eq!(emu.with(|c| c.task()), MotionTaskState::NotRunning);
 }
 
 #[tokio::test(start_paused = true)]
@@ -169,7 +169,7 @@ async fn fault_withhold_reply() {
     );
     assert_eq!(
         emu.with(|c| c.task()),
-        TaskState::Running,
+        MotionTaskState::Running,
         "the request took effect"
     );
     let st = roundtrip(&mut s, "0 0 0").await;
@@ -230,7 +230,7 @@ async fn fault_close_connection() {
     let snap = emu.snapshot();
     assert_eq!(snap.session.last_end.unwrap().reason, SessionEnd::Fault);
     sleep(fs020n_sim::SIGNAL_EDGE + Duration::from_millis(2)).await;
-    assert_eq!(emu.snapshot().task, TaskState::NotRunning);
+    assert_eq!(emu.snapshot().task, MotionTaskState::NotRunning);
     assert!(emu.connect().is_ok(), "listening again");
 }
 

@@ -30,13 +30,16 @@ async fn in_memory_session_times_out_after_5s_of_silence() {
     assert_eq!(st.version, 1040);
     tokio::time::sleep(Duration::from_millis(4900)).await;
     roundtrip(&mut s, "1040 1 0").await;
-    assert!(emu.with(|c| c.task()) == fs020n_sim::TaskState::Running);
+    assert!(emu.with(|c| c.task()) == fs020n_sim::MotionTaskState::Running);
     tokio::time::sleep(Duration::from_millis(5100)).await;
     let mut buf = [0u8; 16];
     assert_eq!(s.read(&mut buf).await.unwrap(), 0, "closed");
     let end = emu.with(|c| c.last_session_end());
     assert_eq!(end.map(|e| e.1), Some(SessionEnd::ReceiveTimeout));
-    assert_eq!(emu.with(|c| c.task()), fs020n_sim::TaskState::NotRunning);
+    assert_eq!(
+        emu.with(|c| c.task()),
+        fs020n_sim::MotionTaskState::NotRunning
+    );
 }
 
 #[tokio::test]

@@ -7,8 +7,8 @@ use std::time::Duration;
 
 use fs020n_proto::ErrorCode;
 use fs020n_sim::{
-    Controller, ControllerConfig, Fault, PanelError, Refused, ServerProgram, SessionGone,
-    SessionId, TaskState,
+    Controller, ControllerConfig, Fault, MotionTaskState, PanelError, Refused, ServerProgram,
+    SessionGone, SessionId,
 };
 
 fn native() -> Controller {
@@ -70,7 +70,7 @@ fn the_emergency_stop_acts_on_the_machine_under_either_server() {
         assert!(c.error().is_none());
         let s = c.snapshot();
         assert_eq!(s.counters.errors, 1, "runs_program: {}", c.runs_program());
-        assert_eq!(s.task, TaskState::NotRunning);
+        assert_eq!(s.task, MotionTaskState::NotRunning);
     }
 }
 

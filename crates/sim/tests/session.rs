@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use common::*;
 use fs020n_proto::{Command, ErrorCode, Status};
-use fs020n_sim::{Refused, SessionEnd, TaskState, SIGNAL_EDGE};
+use fs020n_sim::{MotionTaskState, Refused, SessionEnd, SIGNAL_EDGE};
 
 #[test]
 fn five_seconds_of_silence_end_the_session_and_stop_the_robot() {
@@ -27,7 +27,7 @@ fn five_seconds_of_silence_end_the_session_and_stop_the_robot() {
     // the communication task raises signal 2007; the program's ONI fires after the edge
     assert!(c.stop_signal());
     c.advance_by(SIGNAL_EDGE);
-    assert_eq!(c.task(), TaskState::NotRunning);
+    assert_eq!(c.task(), MotionTaskState::NotRunning);
     // the robot stops at once (braking), then stands
     until(&mut c, ms(2000), is_still);
     let here = c.joints();
@@ -143,7 +143,7 @@ fn version_mismatch_and_leading_blank_move_nothing() {
             "the reply carries the server's own version"
         );
     }
-    assert_eq!(c.task(), TaskState::NotRunning);
+    assert_eq!(c.task(), MotionTaskState::NotRunning);
     assert_eq!(c.newest_index(), Some(0));
     // a run of blanks between tokens is one separator ($DECODE mode 1 cuts the whole run):
     // the double blank after the version acts
@@ -236,11 +236,13 @@ fn command_255_replies_then_ends_the_session_and_the_program() {
     assert_eq!(c.last_session_end(), Some((id, SessionEnd::EndCommand)));
     // then `SIGNAL 2007`: the program ends once the signal has been stable for 50 ms; the arm
     // brakes, and until it stands the brake is the program's last motion (TASK(1) = 3)
-    assert_eq!(c.task(), TaskState::Running);
+    assert_eq!(c.task(), MotionTaskState::Running);
     c.advance_by(SIGNAL_EDGE);
-    assert_eq!(c.task(), TaskState::Finishing);
+    assert_eq!(c.task(), MotionTaskState::Finishing);
     assert_eq!(c.motion_phase(), fs020n_sim::MotionPhase::Braking);
-    until(&mut c, ms(2000), |c| c.task() == TaskState::NotRunning);
+    until(&mut c, ms(2000), |c| {
+        c.task() == MotionTaskState::NotRunning
+    });
     assert!(is_still(&c));
     assert!(
         c.joints()[0] < 59.0,
@@ -260,15 +262,17 @@ fn command_2_stops_after_the_signal_edge_and_the_session_stays() {
     let q = c.joints();
     c.advance_by(SIGNAL_EDGE - ms(2));
     assert!(c.joints()[0] > q[0], "still moving during the edge");
-    assert!(c.task() != TaskState::NotRunning);
+    assert!(c.task() != MotionTaskState::NotRunning);
     c.advance_by(ms(2));
     assert_eq!(
         c.task(),
-        TaskState::Finishing,
+        MotionTaskState::Finishing,
         "the ONI fired: the program ended, its last motion (the brake) runs"
     );
     assert_eq!(c.motion_phase(), fs020n_sim::MotionPhase::Braking);
-    until(&mut c, ms(2000), |c| c.task() == TaskState::NotRunning);
+    until(&mut c, ms(2000), |c| {
+        c.task() == MotionTaskState::NotRunning
+    });
     assert!(is_still(&c));
     let stop = c.joints();
     assert!(stop[0] < 59.0);
@@ -299,12 +303,14 @@ fn a_1_sent_right_after_a_2_is_lost() {
     c.advance_by(SIGNAL_EDGE);
     assert_eq!(
         c.task(),
-        TaskState::Finishing,
+        MotionTaskState::Finishing,
         "the ONI fired, the arm brakes"
     );
     assert!(!raw(&mut c, id, "0 0 0").task_running);
     // once the arm stands (TASK(1) = 0), a 1 starts it again
-    until(&mut c, ms(2000), |c| c.task() == TaskState::NotRunning);
+    until(&mut c, ms(2000), |c| {
+        c.task() == MotionTaskState::NotRunning
+    });
     assert!(raw(&mut c, id, "1040 1 0").task_running);
     assert!(
         !c.stop_signal(),
@@ -326,7 +332,7 @@ fn command_1_during_task_state_3_reaches_mc_execute_which_is_refused() {
     c.advance_by(ms(300));
     raw(&mut c, id, "1040 2 0");
     c.advance_by(ms(10));
-    assert_eq!(c.task(), TaskState::Finishing);
+    assert_eq!(c.task(), MotionTaskState::Finishing);
     assert_eq!(c.task().as_task_value(), 3);
     let s = raw(&mut c, id, "1040 1 0");
     assert!(!s.task_running, "field 7 is TASK(1) == 1: 0 in state 3");
@@ -334,10 +340,12 @@ fn command_1_during_task_state_3_reaches_mc_execute_which_is_refused() {
     // the ONI stops the arm; TASK(1) stays 3 while it brakes, so a 1 is still refused
     c.advance_by(SIGNAL_EDGE);
     assert_eq!(c.motion_phase(), fs020n_sim::MotionPhase::Braking);
-    assert_eq!(c.task(), TaskState::Finishing);
+    assert_eq!(c.task(), MotionTaskState::Finishing);
     assert!(!raw(&mut c, id, "1040 1 0").task_running);
     assert_eq!(c.counters().starts_refused, 2);
-    until(&mut c, ms(2000), |c| c.task() == TaskState::NotRunning);
+    until(&mut c, ms(2000), |c| {
+        c.task() == MotionTaskState::NotRunning
+    });
     assert!(is_still(&c));
     assert!(
         raw(&mut c, id, "1040 1 0").task_running,
@@ -381,7 +389,7 @@ fn a_1040_poll_stops_a_stream_after_its_current_motion_a_0_poll_does_not() {
     let stop = c.joints();
     c.advance_by(ms(1000));
     assert_eq!(c.joints(), stop);
-    assert_eq!(c.task(), TaskState::Running, "the program still runs");
+    assert_eq!(c.task(), MotionTaskState::Running, "the program still runs");
 }
 
 #[test]

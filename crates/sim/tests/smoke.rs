@@ -1,7 +1,7 @@
 use std::time::Duration;
 
 use fs020n_proto::{Command, JointsDeg, Request, Status};
-use fs020n_sim::{Controller, ControllerConfig, TaskState};
+use fs020n_sim::{Controller, ControllerConfig, MotionTaskState};
 
 fn send(c: &mut Controller, id: fs020n_sim::SessionId, cmd: Command) -> Status {
     let text = Request::new(cmd).encode().unwrap();
@@ -14,7 +14,7 @@ fn joint_move_reaches_target() {
     let mut c = Controller::new(ControllerConfig::default());
     let id = c.try_accept().unwrap();
     send(&mut c, id, Command::StartProgram);
-    assert_eq!(c.task(), TaskState::Running);
+    assert_eq!(c.task(), MotionTaskState::Running);
     let target = JointsDeg::new([30.0, 10.0, -80.0, 10.0, -60.0, 20.0]);
     send(&mut c, id, Command::JointMove { target });
     for _ in 0..40 {

@@ -8,7 +8,7 @@ use std::time::Duration;
 use fs020n_proto::{ReplyDecoder, Status};
 use fs020n_sim::Timing;
 use fs020n_sim::{
-    run_robot, serve_pendant, ControllerConfig, Emulator, Panel, SimOptions, TaskState,
+    run_robot, serve_pendant, ControllerConfig, Emulator, MotionTaskState, Panel, SimOptions,
 };
 use serde_json::Value;
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
@@ -140,7 +140,7 @@ async fn tcp_session_one_client_255_and_relisten() {
     // then signal 2007 ends the program once stable for 50 ms
     assert!(emu.with(|c| c.stop_signal()));
     let mut waited = 0;
-    while emu.with(|c| c.task()) != TaskState::NotRunning {
+    while emu.with(|c| c.task()) != MotionTaskState::NotRunning {
         assert!(waited < 200, "the program did not end");
         tokio::time::sleep(Duration::from_millis(10)).await;
         waited += 1;

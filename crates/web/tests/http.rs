@@ -8,7 +8,7 @@ use axum::body::Body;
 use axum::http::{header, Method, Request, StatusCode};
 use axum::Router;
 use common::*;
-use fs020n_sim::TaskState;
+use fs020n_sim::MotionTaskState;
 use fs020n_web::hub::hub_app;
 use fs020n_web::{emulator_app, HubConfig};
 use futures_util::StreamExt;
@@ -215,19 +215,19 @@ async fn the_hub_page_shows_the_robot_and_guards_its_buttons() {
     // The robot is running a program (started by a client of the face).
     let mut a = Raw::connect(&hub, "a");
     a.request("1040 1 0").await;
-    assert_eq!(emu.with(|c| c.task()), TaskState::Running);
+    assert_eq!(emu.with(|c| c.task()), MotionTaskState::Running);
     // Stop without the confirmation: refused.
     let (s, _) = json(&app, Method::POST, "/stop", Some("{}")).await;
     assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY);
     let (s, _) = json(&app, Method::POST, "/stop", Some(r#"{"confirm": false}"#)).await;
     assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY);
-    assert_eq!(emu.with(|c| c.task()), TaskState::Running);
+    assert_eq!(emu.with(|c| c.task()), MotionTaskState::Running);
     // Confirmed: command 2.
     let (s, v) = json(&app, Method::POST, "/stop", Some(r#"{"confirm": true}"#)).await;
     assert_eq!(s, StatusCode::OK, "{v}");
     // Signal 2007 ends the program once it has been stable for 50 ms.
     sleep_ms(100).await;
-    assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
+    assert_eq!(emu.with(|c| c.task()), MotionTaskState::NotRunning);
     assert_eq!(v["counters"]["page_actions"], 1);
     let (s, _) = json(&app, Method::POST, "/cancel", Some(r#"{"confirm": true}"#)).await;
     assert_eq!(s, StatusCode::OK);

@@ -9,7 +9,7 @@ use std::time::Duration;
 use common::*;
 use fs020n_kin::RobotModel;
 use fs020n_proto::Command;
-use fs020n_sim::{Fault, TaskState};
+use fs020n_sim::{Fault, MotionTaskState};
 use fs020n_web::hub::{Fence, Refusal};
 use fs020n_web::HubConfig;
 use tokio::time::Instant;
@@ -263,7 +263,7 @@ async fn a_killed_controlling_client_stops_the_arm_within_half_a_second() {
     let t = time_to_standstill(&emu).await;
     assert!(t <= Duration::from_millis(500), "stopped after {t:?}");
     assert_eq!(newest(&emu), Some(Command::StopProgram), "by command 2");
-    assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
+    assert_eq!(emu.with(|c| c.task()), MotionTaskState::NotRunning);
     assert_eq!(
         emu.with(|c| c.session()),
         session,
@@ -317,7 +317,7 @@ async fn end_command_stops_releases_control_and_keeps_the_session() {
     assert!(a.closed().await);
     // Signal 2007 ends the program once it has been stable for 50 ms.
     sleep_ms(100).await;
-    assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
+    assert_eq!(emu.with(|c| c.task()), MotionTaskState::NotRunning);
     assert_eq!(emu.with(|c| c.session()), session, "255 was not forwarded");
     assert_eq!(newest(&emu), Some(Command::StopProgram));
     assert_eq!(hub.controller(), None);
@@ -338,12 +338,12 @@ async fn the_page_buttons_stop_and_cancel_whoever_holds_control() {
     assert!(time_to_standstill(&emu).await <= Duration::from_millis(500));
     assert_eq!(
         emu.with(|c| c.task()),
-        TaskState::Running,
+        MotionTaskState::Running,
         "5 keeps the program"
     );
     hub.stop_robot("page").await.unwrap();
     sleep_ms(100).await;
-    assert_eq!(emu.with(|c| c.task()), TaskState::NotRunning);
+    assert_eq!(emu.with(|c| c.task()), MotionTaskState::NotRunning);
     let kinds: Vec<_> = hub.events().iter().map(|e| e.kind).collect();
     assert!(
         kinds.contains(&"cancel") && kinds.contains(&"stop"),

@@ -207,14 +207,14 @@ impl System for Host<'_> {
     }
 
     fn joints(&self) -> Joints {
-        self.m.robot().joints().0
+        self.m.arm().joints().0
     }
 
     fn pose(&self) -> Option<Trans> {
         let x = self
             .m
             .model()
-            .forward(&self.m.robot().joints().to_rad())
+            .forward(&self.m.arm().joints().to_rad())
             .to_xyzoat();
         Some([x.x_mm, x.y_mm, x.z_mm, x.o_deg, x.a_deg, x.t_deg])
     }
@@ -224,10 +224,10 @@ impl System for Host<'_> {
     }
 
     fn issue_motion(&mut self, req: &MotionRequest) -> Result<Issued, ErrorCode> {
-        let from = self.m.robot().target();
+        let from = self.m.arm().target();
         let (m, target) = self.build(req, from)?;
         let accuracy = Host::accuracy_of(req);
-        if !self.m.robot().has_planned() && self.m.ready_for_next(self.link.accuracy_mm) {
+        if !self.m.arm().has_planned() && self.m.ready_for_next(self.link.accuracy_mm) {
             self.link.accuracy_mm = accuracy;
             self.m.start_motion(m);
             *self.planned = None;
@@ -241,21 +241,21 @@ impl System for Host<'_> {
     }
 
     fn motion_planned(&self) -> bool {
-        self.m.robot().has_planned()
+        self.m.arm().has_planned()
     }
 
     fn motion_in_progress(&self) -> bool {
-        !self.m.robot().is_still()
+        !self.m.arm().is_still()
     }
 
     fn brake(&mut self) {
-        let had_planned = self.m.robot().has_planned();
+        let had_planned = self.m.arm().has_planned();
         self.m.brake();
         let planned = self.planned.take();
         if self.m.behaviour().planned_after_brake == PlannedAfterBrake::Execute && had_planned {
             // The planned motion starts from where the brake stops the arm.
             if let Some((req, _)) = planned {
-                let from = self.m.robot().target();
+                let from = self.m.arm().target();
                 match self.build(&req, from) {
                     Ok((m, target)) => {
                         self.m.plan_motion(m);
