@@ -39,8 +39,10 @@ mod program;
 mod run;
 mod server;
 mod snapshot;
+mod store;
+mod terminal;
 
-pub use controller::Controller;
+pub use controller::{Controller, LoadReport, PowerCycle};
 pub use fault::{Fault, ReplyFault, MAX_FAULT_BYTES, MAX_FAULT_COUNT, MAX_FAULT_MS};
 #[cfg(feature = "pendant")]
 pub use guard::{GuardRefusal, PendantAccess, RequestGuard};
@@ -66,6 +68,8 @@ pub use snapshot::{
     CommandInfo, Counters, ErrorInfo, LastEnd, MoveKind, PassInfo, PassMotion, ProgramInfo,
     Refused, SessionEnd, SessionInfo, Snapshot, TaskState,
 };
+pub use store::{AUTOSTART_SWITCHES, OVERWRITE_EXISTING};
+pub use terminal::TerminalLink;
 
 /// The README's examples, compiled as doctests.
 #[cfg(doctest)]

@@ -222,3 +222,16 @@ impl Net {
         }
     }
 }
+
+impl Net {
+    /// A controller restart: every socket and listener is gone (clients see their connection
+    /// closed), the served port is chosen anew; socket ids keep counting so that an old
+    /// client never meets a new socket.
+    pub(crate) fn restart(&mut self) {
+        *self = Net {
+            next_id: self.next_id,
+            generation: self.generation + 1,
+            ..Net::new()
+        };
+    }
+}
