@@ -406,6 +406,19 @@ pub(crate) struct SimArgs {
     /// With --as-program: print every executed program line (time, task, program:line, text).
     #[arg(long, requires = "as_program")]
     pub trace: bool,
+    /// Start a new controller with nothing loaded: no protocol port answers until a program is
+    /// loaded through the terminal (--terminal) and started; then the first port it listens
+    /// on is served at --listen.
+    #[arg(long, conflicts_with = "as_program")]
+    pub bare: bool,
+    /// Serve the controller's AS monitor terminal (telnet, login `as`) here, e.g.
+    /// 127.0.0.1:2323 (a real controller's is port 23). One robot only.
+    #[arg(long, value_name = "HOST:PORT")]
+    pub terminal: Option<String>,
+    /// Send the terminal's output in pieces of at most N bytes, as a real controller does
+    /// (default: whole replies).
+    #[arg(long, value_name = "N", requires = "terminal")]
+    pub terminal_piece: Option<usize>,
 }
 
 /// `hub` arguments (the controller is `--robot`).
