@@ -1,6 +1,8 @@
 //! The controller's terminal, command by command, on virtual time: the project's terminal
 //! client against a [`TerminalLink`] over the emulated controller, in memory.
 
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
+
 use std::time::Duration;
 
 use fs020n_as::TaskId;
