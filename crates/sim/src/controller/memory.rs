@@ -622,12 +622,14 @@ impl Controller {
 
     /// Takes the lines the programs printed since the last call into the terminal's list.
     fn pull_output(&mut self) {
-        let Some(p) = self.program() else { return };
+        let Some(interp) = self.interpreter() else {
+            return;
+        };
         let (seen_at, seen_n) = self.monitor.seen;
         let mut at_count = 0;
         let mut new = Vec::new();
         let mut newest = (seen_at, seen_n);
-        for l in p.terminal() {
+        for l in interp.terminal() {
             if l.at < seen_at {
                 continue;
             }

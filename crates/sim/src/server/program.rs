@@ -44,9 +44,11 @@ impl Emulator {
     ) -> std::io::Result<TcpServer> {
         let listener = super::bind_robot_port(addr)?;
         let local = listener.local_addr()?;
+        // Bound once to learn the port; kept only if the program listens already (a bare
+        // controller refuses connections from the start).
+        let listener = self.with(|c| c.program_listening(None)).then_some(listener);
         let this = self.clone();
-        let task =
-            tokio::spawn(async move { this.program_accept_loop(local, Some(listener)).await });
+        let task = tokio::spawn(async move { this.program_accept_loop(local, listener).await });
         Ok(TcpServer::new(local, task))
     }
 

@@ -12,7 +12,8 @@ use tokio::net::TcpListener;
 use super::TerminalLink;
 use crate::server::{Emulator, TcpServer};
 
-/// How often a session looks for program output when nothing else happens.
+/// How often a session looks for program output (not at every change of the controller: a
+/// client streaming at the protocol port changes it hundreds of times a second).
 const OUTPUT_POLL: Duration = Duration::from_millis(100);
 
 impl Emulator {
@@ -48,7 +49,6 @@ impl Emulator {
     {
         let (mut rd, mut wr) = tokio::io::split(stream);
         let mut link = self.with(|c| TerminalLink::open(c, config));
-        let mut changes = self.changes();
         let mut buf = vec![0u8; 4096];
         'session: loop {
             while let Some(piece) = link.poll_transmit() {
@@ -72,7 +72,6 @@ impl Emulator {
                     }
                     Ok(n) => self.with(|c| link.handle_input(c, &buf[..n])),
                 },
-                r = changes.changed() => if r.is_err() { break },
                 _ = tokio::time::sleep(OUTPUT_POLL) => {}
             }
             self.with(|c| link.print_output(c));
