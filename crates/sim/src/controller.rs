@@ -81,6 +81,25 @@ use crate::store::{ProgramStore, AUTOSTART_SWITCHES};
 ///   [`program_real`](Controller::program_real),
 ///   [`set_program_trace`](Controller::set_program_trace),
 ///   [`take_program_trace`](Controller::take_program_trace).
+/// - **Memory, tasks and power** (what the monitor terminal operates, `controller/memory.rs`):
+///   [`bare`](Controller::bare), [`loaded_programs`](Controller::loaded_programs),
+///   [`program_text`](Controller::program_text),
+///   [`data_sections`](Controller::data_sections),
+///   [`check_program_text`](Controller::check_program_text),
+///   [`load_program_text`](Controller::load_program_text),
+///   [`delete_program`](Controller::delete_program), [`pc_execute`](Controller::pc_execute),
+///   [`pc_abort`](Controller::pc_abort), [`kill_task`](Controller::kill_task),
+///   [`execute_program`](Controller::execute_program),
+///   [`abort_program`](Controller::abort_program),
+///   [`task_running`](Controller::task_running), [`task_program`](Controller::task_program),
+///   [`switch`](Controller::switch), [`set_switch`](Controller::set_switch),
+///   [`switches`](Controller::switches), [`power_cycle`](Controller::power_cycle); the
+///   terminal's sessions and transfer: [`open_terminal`](Controller::open_terminal),
+///   [`close_terminal`](Controller::close_terminal),
+///   [`transfer_open`](Controller::transfer_open),
+///   [`abandon_transfer`](Controller::abandon_transfer),
+///   [`terminal_output_since`](Controller::terminal_output_since),
+///   [`monitor_generation`](Controller::monitor_generation).
 #[derive(Debug, Clone)]
 pub struct Controller {
     machine: Machine,

@@ -18,10 +18,17 @@
 //!   the native server, on the same machine: motion planner, panel, pendant and faults
 //!   (docs/AS.md).
 //!
+//! - [`Controller::bare`] and the AS monitor terminal ([`TerminalLink`],
+//!   [`Emulator::serve_terminal`]): a new controller that programs are loaded into, started,
+//!   listed and saved through the terminal, and a power cycle ([`Controller::power_cycle`])
+//!   that runs the AUTOSTART programs (docs/EMULATOR.md, "The controller's terminal").
+//!
 //! Inside, the arrows run one way: `controller` (the façade) over `native` (the native
 //! protocol-1040 server) and `program` (the AS program server), both over `machine` (clock,
-//! arm, panel, error, faults, counters), over `motion`, `fault`, `panel` and `snapshot`; the
-//! tokio side (`server`, `pendant`, `run`) drives the controller from above.
+//! arm, panel, error, faults, counters), over `motion`, `fault`, `panel` and `snapshot`;
+//! `controller` also holds `store` (the program memory and switches); `terminal` (the monitor
+//! commands) drives the controller from above, as does the tokio side (`server`, `pendant`,
+//! `run`).
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
