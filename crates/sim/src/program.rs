@@ -264,6 +264,11 @@ impl ProgramServer {
         m.status(self.task == TaskState::Running, 0.0)
     }
 
+    /// The tasks now (program, line, state), without the terminal lines of [`Self::info`].
+    pub(crate) fn tasks(&self, m: &Machine) -> Vec<fs020n_as::TaskInfo> {
+        self.interp.tasks_at(panel_of(m), !m.robot().is_still())
+    }
+
     pub(crate) fn info(&self, m: &Machine) -> ProgramInfo {
         let moving = !m.robot().is_still();
         let terminal: Vec<TerminalLine> = self.interp.terminal().cloned().collect();

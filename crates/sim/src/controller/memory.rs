@@ -272,8 +272,8 @@ impl Controller {
 
     /// Whether task `i` runs (or is paused or finishing), and whether an error stopped it.
     fn task_facts(&self, i: usize) -> (bool, bool) {
-        self.program_tasks()
-            .and_then(|t| t.get(i).cloned())
+        self.program()
+            .and_then(|p| p.tasks(&self.machine).get(i).cloned())
             .map_or((false, false), |t| {
                 (
                     t.state != fs020n_as::TaskState::Idle,
