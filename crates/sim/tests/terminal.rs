@@ -425,6 +425,58 @@ fn print_output_of_a_program_reaches_the_terminal_unsolicited() {
 }
 
 #[test]
+fn a_pc_program_that_completes_is_announced_and_an_aborted_one_is_not() {
+    let mut t = Term::new(bare());
+    let p = ".PROGRAM short()\n  TWAIT 0.2\n.END\n.PROGRAM long()\n  TWAIT 100\n.END\n";
+    loaded_ok(&t.load("p.as", p));
+    t.cmd("PCEXECUTE 2: short", false);
+    t.cmd("PCEXECUTE 3: long", false);
+    let mut out = Vec::new();
+    let mut drain = |t: &mut Term| {
+        t.link.print_output(&mut t.c);
+        while let Some(b) = t.link.poll_transmit() {
+            out.extend(b);
+        }
+        String::from_utf8_lossy(&out).into_owned()
+    };
+    assert!(!drain(&mut t).contains("Program completed."));
+    t.advance(Duration::from_millis(500));
+    let text = drain(&mut t);
+    assert!(text.contains("Program completed.No = 2\r\n"), "{text}");
+    assert_eq!(t.cmd("PCABORT 3:", false), "PC program aborted.No = 3");
+    t.advance(Duration::from_millis(100));
+    assert!(!drain(&mut t).contains("Program completed.No = 3"));
+}
+
+#[test]
+fn a_load_while_a_task_runs_is_stored_and_starts_once_every_task_has_stopped() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("server1040.as", SERVER));
+    t.cmd("PCEXECUTE 1: autostart.pc", false);
+    t.advance(Duration::from_millis(100));
+    loaded_ok(&t.load("x.as", ".PROGRAM extra()\n  x = 5\n.END\n"));
+    assert!(t.cmd("DIRECTORY/P", false).contains("extra"));
+    assert!(t.cmd("PCEXECUTE 2: extra", false).starts_with("(P1014)"));
+    // The running server is untouched.
+    assert!(t.c.task_running(TaskId::Pc(1)));
+    assert_eq!(poll(&mut t.c).len(), 14);
+    t.cmd("PCABORT 1:", false);
+    assert_eq!(t.cmd("PCEXECUTE 2: extra", false), "");
+    t.advance(Duration::from_millis(100));
+    assert_eq!(t.cmd("TYPE x", false), "5");
+}
+
+#[test]
+fn a_power_cycle_keeps_the_system_switches() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("server1040.as", SERVER));
+    t.cmd("SWITCH CP = OFF", false);
+    t.c.power_cycle();
+    assert_eq!(t.cmd("SWITCH CP", false), "CP              OFF");
+    assert_eq!(t.c.switch("cp"), Some(false));
+}
+
+#[test]
 fn save_sends_the_programs_and_they_load_again_elsewhere() {
     let mut t = Term::new(bare());
     loaded_ok(&t.load("server1040.as", SERVER));

@@ -77,6 +77,8 @@ pub(crate) struct MonitorState {
     next_line: u64,
     /// The newest interpreter line taken: its time and how many lines had that time.
     seen: (Duration, usize),
+    /// The PC tasks that ran when the output was last taken (a completion is announced).
+    ran: [bool; 6],
     /// Bumped by every change the monitor makes (a network layer waits for it).
     generation: u64,
 }
@@ -336,6 +338,7 @@ impl Controller {
         }
         self.monitor.built = Some(self.memory.generation());
         self.monitor.seen = (Duration::ZERO, 0);
+        self.monitor.ran = [false; 6];
         self.bump();
         Ok(())
     }
@@ -620,8 +623,25 @@ impl Controller {
         }
     }
 
-    /// Takes the lines the programs printed since the last call into the terminal's list.
+    /// Takes the lines the programs printed since the last call into the terminal's list,
+    /// and announces the PC programs that completed since (`Program completed.No = n`).
     fn pull_output(&mut self) {
+        self.pull_printed();
+        let tasks = self.program().map(|p| p.tasks(&self.machine));
+        for n in 1..=5u8 {
+            let i = usize::from(n);
+            let info = tasks.as_ref().and_then(|t| t.get(i));
+            let running = info.is_some_and(|t| t.state != fs020n_as::TaskState::Idle);
+            let completed = info.is_some_and(|t| t.last_error.is_none());
+            if self.monitor.ran[i] && !running && completed && !self.monitor.kept[i] {
+                self.push_output(text::pc_completed(n));
+            }
+            self.monitor.ran[i] = running;
+        }
+    }
+
+    /// Takes the lines the programs printed since the last call.
+    fn pull_printed(&mut self) {
         let Some(interp) = self.interpreter() else {
             return;
         };
