@@ -239,6 +239,17 @@ impl SocketTable {
         }
     }
 
+    /// A controller restart: every socket and listener is gone (clients see their connection
+    /// closed), the served port is chosen anew; socket ids keep counting, so that an old
+    /// client never meets a new socket, and the generation moves on.
+    pub fn restart(&mut self) {
+        *self = SocketTable {
+            next_id: self.next_id,
+            generation: self.generation + 1,
+            ..SocketTable::new(self.limits)
+        };
+    }
+
     /// The buffer limits.
     pub fn limits(&self) -> SocketLimits {
         self.limits

@@ -444,6 +444,19 @@ pub(crate) struct SimArgs {
     /// With --as-program: declare an instruction a no-op (repeatable), as `as check --stub`.
     #[arg(long = "stub", value_name = "INSTR", requires = "as_program")]
     pub stubs: Vec<String>,
+    /// Start a new controller with nothing loaded: no protocol port answers until a program is
+    /// loaded through the terminal (--terminal) and started; then the first port it listens
+    /// on is served at --listen.
+    #[arg(long, conflicts_with = "as_program")]
+    pub bare: bool,
+    /// Serve the controller's AS monitor terminal (telnet, login `as`) here, e.g.
+    /// 127.0.0.1:2323 (a real controller's is port 23). One robot only.
+    #[arg(long, value_name = "HOST:PORT")]
+    pub terminal: Option<String>,
+    /// Send the terminal's output in pieces of at most N bytes, as a real controller does
+    /// (default: whole replies).
+    #[arg(long, value_name = "N", requires = "terminal")]
+    pub terminal_piece: Option<usize>,
 }
 
 /// `deploy` arguments (the protocol port is `--robot`).

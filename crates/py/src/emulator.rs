@@ -36,6 +36,7 @@ pub struct Emulator {
     emulator: fs020n_sim::Emulator,
     addr: SocketAddr,
     pendant: Option<SocketAddr>,
+    terminal: Option<SocketAddr>,
 }
 
 fn error_name(code: ErrorCode) -> Option<String> {
@@ -73,9 +74,12 @@ impl Emulator {
     /// Starts the emulator. `port=0` picks a free port (see `address`); `pendant=True` also
     /// serves the HTTP pendant API on another free loopback port (`pendant_address`). The
     /// panel switches, the joints (degrees), the monitor speed (%) and an initial error
-    /// (`"E1088"`) can be chosen.
+    /// (`"E1088"`) can be chosen. `terminal=True` serves the controller's AS monitor terminal
+    /// (telnet, login `as`) on another free loopback port (`terminal_address`); `bare=True`
+    /// starts a new controller with nothing loaded (no protocol port answers until a program
+    /// is loaded through the terminal and started).
     #[new]
-    #[pyo3(signature = (*, port=0, joints=None, monitor_speed=None, power=true, run=true, repeat=true, teach_lock=false, error=None, pendant=false))]
+    #[pyo3(signature = (*, port=0, joints=None, monitor_speed=None, power=true, run=true, repeat=true, teach_lock=false, error=None, pendant=false, terminal=false, bare=false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -88,6 +92,8 @@ impl Emulator {
         teach_lock: bool,
         error: Option<&Bound<'_, PyAny>>,
         pendant: bool,
+        terminal: bool,
+        bare: bool,
     ) -> PyResult<Emulator> {
         let loopback = |port| SocketAddr::from(([127, 0, 0, 1], port));
         let mut opts = SimOptions::default().listen(loopback(port)).panel(Panel {
@@ -99,6 +105,12 @@ impl Emulator {
         });
         if pendant {
             opts = opts.pendant(loopback(0));
+        }
+        if terminal {
+            opts = opts.terminal(loopback(0));
+        }
+        if bare {
+            opts = opts.bare();
         }
         if let Some(j) = joints {
             opts = opts.joints(JointsDeg::new(six(j, "joints")?));
@@ -115,6 +127,7 @@ impl Emulator {
             emulator: running.emulator().clone(),
             addr: running.robot_addr(),
             pendant: running.pendant_addr(),
+            terminal: running.terminal_addr(),
             running: Mutex::new(Some(running)),
         })
     }
@@ -135,6 +148,25 @@ impl Emulator {
     #[getter]
     fn pendant_address(&self) -> Option<String> {
         self.pendant.map(|a| a.to_string())
+    }
+
+    /// `"127.0.0.1:PORT"` of the AS monitor terminal, or `None` (start with `terminal=True`).
+    #[getter]
+    fn terminal_address(&self) -> Option<String> {
+        self.terminal.map(|a| a.to_string())
+    }
+
+    /// Switches the controller off and on: tasks stop, sockets close, the error is cleared,
+    /// motor power is off; loaded programs and switches stay, and `autostart.pc` (…) starts
+    /// when its AUTOSTART switch is ON. Returns the programs started as `(task, name)`.
+    fn power_cycle(&self) -> Vec<(u8, String)> {
+        self.with(|c| c.power_cycle()).started
+    }
+
+    /// The programs in the controller's memory (loaded through the terminal or given at start).
+    #[getter]
+    fn programs(&self) -> Vec<String> {
+        self.with(|c| c.loaded_programs())
     }
 
     /// The emulated encoders: six joint angles, degrees.

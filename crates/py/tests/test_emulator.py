@@ -71,3 +71,22 @@ def test_options_snapshot_counters_and_faults():
             emu.inject("delay_replies", count="many")
     with pytest.raises(fs020n.Error, match="cannot start the emulator"):
         fs020n.Emulator(joints=[500, 0, 0, 0, 0, 0])
+
+
+def test_a_bare_emulator_serves_its_terminal_and_nothing_else_until_a_program_runs():
+    import socket
+
+    with fs020n.Emulator(bare=True, terminal=True) as emu:
+        host, port = emu.terminal_address.rsplit(":", 1)
+        with socket.create_connection((host, int(port)), timeout=5) as s:
+            data = b""
+            while b"login:" not in data:
+                data += s.recv(1024)
+            s.sendall(b"as\r\n")
+            while not data.endswith(b">"):
+                data += s.recv(1024)
+            assert b'"AUX1"' in data
+        assert emu.programs == []
+        assert emu.power_cycle() == []
+        with pytest.raises(fs020n.ConnectError):
+            fs020n.Robot(emu.address, connect_timeout=0.3)

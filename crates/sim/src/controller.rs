@@ -8,13 +8,21 @@ use fs020n_as::{TaskInfo, TerminalLine, TraceLine};
 use fs020n_kin::RobotModel;
 use fs020n_proto::{Command, ErrorCode, JointsDeg, Status};
 
+mod memory;
+
+use memory::{Idle, MonitorState};
+pub use memory::{LoadReport, PowerCycle};
+
 use crate::fault::Fault;
-use crate::machine::{Behaviour, ControllerConfig, Machine, PanelChange, PanelError, Timing};
+use crate::machine::{
+    Behaviour, ControllerConfig, Machine, PanelChange, PanelError, ServerPicture, Timing,
+};
 use crate::motion::{Arm, MotionPhase};
 use crate::native::{Handled, NativeServer, SessionGone, SessionId};
 use crate::panel::Panel;
 use crate::program::{ClientId, ClientRead, ProgramServer, ServerProgram};
 use crate::snapshot::{Counters, MotionTaskState, PassInfo, Refused, SessionEnd, Snapshot};
+use crate::store::{ProgramStore, AUTOSTART_SWITCHES};
 
 /// The emulated FS020N controller: a machine (clock, arm, panel, error, monitor speed,
 /// faults, counters) and the server program that runs on it — the native protocol-1040 server
@@ -73,10 +81,33 @@ use crate::snapshot::{Counters, MotionTaskState, PassInfo, Refused, SessionEnd, 
 ///   [`program_real`](Controller::program_real),
 ///   [`set_program_trace`](Controller::set_program_trace),
 ///   [`take_program_trace`](Controller::take_program_trace).
+/// - **Memory, tasks and power** (what the monitor terminal operates, `controller/memory.rs`):
+///   [`bare`](Controller::bare), [`loaded_programs`](Controller::loaded_programs),
+///   [`program_text`](Controller::program_text),
+///   [`data_sections`](Controller::data_sections),
+///   [`check_program_text`](Controller::check_program_text),
+///   [`load_program_text`](Controller::load_program_text),
+///   [`delete_program`](Controller::delete_program), [`pc_execute`](Controller::pc_execute),
+///   [`pc_abort`](Controller::pc_abort), [`kill_task`](Controller::kill_task),
+///   [`execute_program`](Controller::execute_program),
+///   [`abort_program`](Controller::abort_program),
+///   [`task_running`](Controller::task_running), [`task_program`](Controller::task_program),
+///   [`switch`](Controller::switch), [`set_switch`](Controller::set_switch),
+///   [`switches`](Controller::switches), [`power_cycle`](Controller::power_cycle); the
+///   terminal's sessions and transfer: [`open_terminal`](Controller::open_terminal),
+///   [`close_terminal`](Controller::close_terminal),
+///   [`transfer_open`](Controller::transfer_open),
+///   [`abandon_transfer`](Controller::abandon_transfer),
+///   [`terminal_output_since`](Controller::terminal_output_since),
+///   [`monitor_generation`](Controller::monitor_generation).
 #[derive(Debug, Clone)]
 pub struct Controller {
     machine: Machine,
     server: Server,
+    /// The programs loaded, the AUTOSTART and system switches (`controller/memory.rs`).
+    memory: ProgramStore,
+    /// What the terminal and the task stacks need (`controller/memory.rs`).
+    monitor: MonitorState,
 }
 
 /// The server program that runs on the machine. One per controller, never moved in bulk: the
@@ -84,6 +115,8 @@ pub struct Controller {
 #[derive(Debug, Clone)]
 #[allow(clippy::large_enum_variant)]
 enum Server {
+    /// No server: a new controller (`--bare`) until a program is loaded and started.
+    Empty,
     /// The native protocol-1040 server.
     Native(NativeServer),
     /// An AS program.
@@ -96,37 +129,65 @@ impl Controller {
         Controller {
             machine: Machine::new(config),
             server: Server::Native(NativeServer::new()),
+            memory: ProgramStore::new(fs020n_as::Config::default()),
+            monitor: MonitorState::default(),
         }
     }
 
     /// A controller that runs `program` instead of the native server: its `autostart.pc`
     /// (… `autostart5.pc`) start at once, in PC tasks 1–5.
+    ///
+    /// Its programs are the controller's memory (the terminal lists, saves and replaces them)
+    /// and the AUTOSTART switches of the autostart programs it holds are ON, so that a power
+    /// cycle starts them again.
     pub fn with_program(config: ControllerConfig, program: ServerProgram) -> Controller {
         let mut machine = Machine::new(config);
+        let memory = ProgramStore::seeded(program.text(), program.config().clone());
+        let mut monitor = MonitorState::default();
+        for (_, name, task) in AUTOSTART_SWITCHES {
+            if memory.program(name).is_some() {
+                monitor.stacks[usize::from(task)] = Some(name.to_owned());
+            }
+        }
         let program = ProgramServer::start(program, &mut machine);
+        monitor.built = Some(memory.generation());
         Controller {
             machine,
             server: Server::Program(Box::new(program)),
+            memory,
+            monitor,
+        }
+    }
+
+    /// A new controller with nothing loaded and no server (`fs020n sim --bare`): no protocol
+    /// port answers until a program is loaded through the terminal and started; every
+    /// AUTOSTART switch is OFF.
+    pub fn bare(config: ControllerConfig) -> Controller {
+        Controller {
+            machine: Machine::new(config),
+            server: Server::Empty,
+            memory: ProgramStore::new(fs020n_as::Config::default()),
+            monitor: MonitorState::default(),
         }
     }
 
     fn native(&self) -> Option<&NativeServer> {
         match &self.server {
             Server::Native(n) => Some(n),
-            Server::Program(_) => None,
+            Server::Program(_) | Server::Empty => None,
         }
     }
 
     fn program(&self) -> Option<&ProgramServer> {
         match &self.server {
-            Server::Native(_) => None,
+            Server::Native(_) | Server::Empty => None,
             Server::Program(p) => Some(p),
         }
     }
 
     fn program_mut(&mut self) -> Option<&mut ProgramServer> {
         match &mut self.server {
-            Server::Native(_) => None,
+            Server::Native(_) | Server::Empty => None,
             Server::Program(p) => Some(p),
         }
     }
@@ -140,6 +201,7 @@ impl Controller {
         match &mut self.server {
             Server::Native(n) => self.machine.integrate_to(t, n),
             Server::Program(p) => p.run_until(&mut self.machine, t),
+            Server::Empty => self.machine.integrate_to(t, &mut Idle),
         }
     }
 
@@ -188,7 +250,7 @@ impl Controller {
     /// `true` once command 3 has switched ABS.SPEED on.
     pub fn abs_speed(&self) -> bool {
         match &self.server {
-            Server::Native(_) => self.machine.abs_speed(),
+            Server::Native(_) | Server::Empty => self.machine.abs_speed(),
             Server::Program(p) => p.abs_speed(),
         }
     }
@@ -218,6 +280,7 @@ impl Controller {
         match &self.server {
             Server::Native(n) => n.task(&self.machine),
             Server::Program(p) => p.task(),
+            Server::Empty => MotionTaskState::NotRunning,
         }
     }
 
@@ -251,6 +314,7 @@ impl Controller {
         match &self.server {
             Server::Native(n) => n.status(&self.machine),
             Server::Program(p) => p.status(&self.machine),
+            Server::Empty => self.machine.status(false, 0.0),
         }
     }
 
@@ -267,6 +331,15 @@ impl Controller {
         match &self.server {
             Server::Native(n) => n.snapshot(&self.machine),
             Server::Program(p) => p.snapshot(&self.machine),
+            Server::Empty => self.machine.snapshot(ServerPicture {
+                task: MotionTaskState::NotRunning,
+                abs_speed: self.machine.abs_speed(),
+                step_s: 0.0,
+                last_pass: None,
+                program_executes: false,
+                session: memory::no_session(),
+                program: None,
+            }),
         }
     }
 
@@ -376,7 +449,9 @@ impl Controller {
             }
             (Fault::CloseConnection, Server::Program(p)) => p.close_clients(),
             (Fault::RaiseError { code }, Server::Native(n)) => n.raise(&mut self.machine, *code),
-            (Fault::RaiseError { code }, Server::Program(_)) => self.machine.raise(*code),
+            (Fault::RaiseError { code }, Server::Program(_) | Server::Empty) => {
+                self.machine.raise(*code)
+            }
             _ => self.machine.inject(&fault),
         }
     }
@@ -389,7 +464,7 @@ impl Controller {
     pub fn try_accept(&mut self) -> Result<SessionId, Refused> {
         match &mut self.server {
             Server::Native(n) => n.try_accept(&mut self.machine),
-            Server::Program(_) => {
+            Server::Program(_) | Server::Empty => {
                 self.machine.counters_mut().refused += 1;
                 Err(Refused::ListenGap)
             }
@@ -401,7 +476,7 @@ impl Controller {
     pub fn handle_request(&mut self, id: SessionId, bytes: &[u8]) -> Result<Handled, SessionGone> {
         match &mut self.server {
             Server::Native(n) => n.handle_request(&mut self.machine, id, bytes),
-            Server::Program(_) => Err(SessionGone),
+            Server::Program(_) | Server::Empty => Err(SessionGone),
         }
     }
 
@@ -557,7 +632,7 @@ impl Controller {
     pub fn program_connect(&mut self, port: Option<u16>, ip: [u8; 4]) -> Result<ClientId, Refused> {
         match &mut self.server {
             Server::Program(p) => p.connect(&mut self.machine, port, ip),
-            Server::Native(_) => {
+            Server::Native(_) | Server::Empty => {
                 self.machine.counters_mut().refused += 1;
                 Err(Refused::ListenGap)
             }

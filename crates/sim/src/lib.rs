@@ -18,10 +18,17 @@
 //!   the native server, on the same machine: motion planner, panel, pendant and faults
 //!   (docs/AS.md).
 //!
+//! - [`Controller::bare`] and the AS monitor terminal ([`TerminalLink`],
+//!   [`Emulator::serve_terminal`]): a new controller that programs are loaded into, started,
+//!   listed and saved through the terminal, and a power cycle ([`Controller::power_cycle`])
+//!   that runs the AUTOSTART programs (docs/EMULATOR.md, "The controller's terminal").
+//!
 //! Inside, the arrows run one way: `controller` (the façade) over `native` (the native
 //! protocol-1040 server) and `program` (the AS program server), both over `machine` (clock,
-//! arm, panel, error, faults, counters), over `motion`, `fault`, `panel` and `snapshot`; the
-//! tokio side (`server`, `pendant`, `run`) drives the controller from above.
+//! arm, panel, error, faults, counters), over `motion`, `fault`, `panel` and `snapshot`;
+//! `controller` also holds `store` (the program memory and switches); `terminal` (the monitor
+//! commands) drives the controller from above, as does the tokio side (`server`, `pendant`,
+//! `run`).
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
@@ -39,8 +46,10 @@ mod program;
 mod run;
 mod server;
 mod snapshot;
+mod store;
+mod terminal;
 
-pub use controller::Controller;
+pub use controller::{Controller, LoadReport, PowerCycle};
 pub use fault::{Fault, ReplyFault, MAX_FAULT_BYTES, MAX_FAULT_COUNT, MAX_FAULT_MS};
 #[cfg(feature = "pendant")]
 pub use guard::{GuardRefusal, PendantAccess, RequestGuard};
@@ -66,6 +75,8 @@ pub use snapshot::{
     CommandInfo, Counters, ErrorInfo, LastEnd, MotionTaskState, MoveKind, PassInfo, PassMotion,
     ProgramInfo, Refused, SessionEnd, SessionInfo, Snapshot,
 };
+pub use store::{AUTOSTART_SWITCHES, OVERWRITE_EXISTING};
+pub use terminal::TerminalLink;
 
 /// The README's examples, compiled as doctests.
 #[cfg(doctest)]

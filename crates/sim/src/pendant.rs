@@ -116,6 +116,7 @@ pub fn pendant_router(emulator: Emulator, token: Option<String>, bound: SocketAd
         .route("/estop/press", post(estop_press))
         .route("/estop/release", post(estop_release))
         .route("/reset", post(reset))
+        .route("/power-cycle", post(power_cycle))
         .route("/speed", post(speed))
         .route("/faults", post(faults_post).delete(faults_delete))
         .route("/abs_speed", get(abs_speed_get).post(abs_speed_post))
@@ -184,7 +185,8 @@ async fn index() -> Json<Value> {
         "service": "fs020n emulator pendant API",
         "endpoints": [
             "GET /api", "GET /state", "GET /model", "GET /panel", "POST /panel",
-            "POST /estop/press", "POST /estop/release", "POST /reset", "POST /speed",
+            "POST /estop/press", "POST /estop/release", "POST /reset", "POST /power-cycle",
+            "POST /speed",
             "GET /abs_speed", "POST /abs_speed", "POST /faults", "DELETE /faults",
             "GET /tasks"
         ],
@@ -240,6 +242,13 @@ async fn estop_press(State(st): State<AppState>) -> Json<Snapshot> {
 
 async fn estop_release(State(st): State<AppState>) -> Json<Snapshot> {
     st.emulator.with(|c| c.release_estop());
+    Json(st.emulator.snapshot())
+}
+
+/// Switches the controller off and on (`Controller::power_cycle`): tasks stop, sockets
+/// close, programs and switches stay, the AUTOSTART programs start.
+async fn power_cycle(State(st): State<AppState>) -> Json<Snapshot> {
+    st.emulator.with(|c| c.power_cycle());
     Json(st.emulator.snapshot())
 }
 

@@ -52,6 +52,8 @@ pub const SNAPSHOT_TERMINAL_LINES: usize = 50;
 pub struct ServerProgram {
     interp: Interpreter,
     name: String,
+    /// The text it was loaded from (the controller's program store keeps it).
+    text: String,
 }
 
 /// Why a program file could not be loaded.
@@ -85,6 +87,7 @@ impl ServerProgram {
         Ok(ServerProgram {
             interp: Interpreter::from_source(name, text, config)?,
             name: name.to_owned(),
+            text: text.to_owned(),
         })
     }
 
@@ -108,6 +111,7 @@ impl ServerProgram {
         Ok(ServerProgram {
             interp: loaded.interpreter,
             name,
+            text: String::from_utf8_lossy(&bytes).into_owned(),
         })
     }
 
@@ -119,6 +123,16 @@ impl ServerProgram {
     /// The file name.
     pub fn name(&self) -> &str {
         &self.name
+    }
+
+    /// The interpreter settings it was loaded with.
+    pub(crate) fn config(&self) -> &Config {
+        self.interp.config()
+    }
+
+    /// The text it was loaded from.
+    pub fn text(&self) -> &str {
+        &self.text
     }
 
     /// What loaded but is worth knowing (instructions not emulated, sections kept opaque), as
@@ -168,6 +182,63 @@ impl ProgramServer {
         p
     }
 
+    /// A program server over `interp` whose tasks do not run yet (the controller's terminal
+    /// starts them), on a fresh TCP stack; its clock is brought to the machine's.
+    pub(crate) fn idle(interp: Interpreter, name: String, m: &mut Machine) -> ProgramServer {
+        let mut p = ProgramServer {
+            interp,
+            name,
+            net: socket_table(),
+            planned: None,
+            link: MotionLink::default(),
+            task: MotionTaskState::NotRunning,
+        };
+        p.run_until(m, m.now());
+        p
+    }
+
+    /// Replaces the programs (the terminal loaded or deleted some while every task was
+    /// idle): the sockets stay as they are, the new interpreter's clock is brought to the
+    /// machine's.
+    pub(crate) fn replace_interpreter(&mut self, interp: Interpreter, m: &mut Machine) {
+        self.interp = interp;
+        self.planned = None;
+        self.run_until(m, m.now());
+    }
+
+    /// A controller restart: every socket closes and `interp` replaces the programs.
+    pub(crate) fn restart(&mut self, interp: Interpreter, m: &mut Machine) {
+        self.net.restart();
+        self.link = MotionLink::default();
+        self.task = MotionTaskState::NotRunning;
+        self.replace_interpreter(interp, m);
+    }
+
+    /// The interpreter (the terminal's commands act on it).
+    pub(crate) fn interpreter(&self) -> &Interpreter {
+        &self.interp
+    }
+
+    /// The interpreter, to start and stop tasks.
+    pub(crate) fn interpreter_mut(&mut self) -> &mut Interpreter {
+        &mut self.interp
+    }
+
+    /// `EXECUTE program` in robot task 1, with the controller's checks.
+    pub(crate) fn execute(
+        &mut self,
+        m: &mut Machine,
+        program: &str,
+    ) -> Result<(), fs020n_as::Refusal> {
+        let mut host = Host {
+            m,
+            net: &mut self.net,
+            planned: &mut self.planned,
+            link: &mut self.link,
+        };
+        self.interp.execute(program, &mut host)
+    }
+
     /// Runs the program's tasks up to `t`; they advance the machine up to each of their steps.
     pub(crate) fn run_until(&mut self, m: &mut Machine, t: Duration) {
         let mut host = Host {
@@ -205,6 +276,11 @@ impl ProgramServer {
     /// The status reply as the native server would send it now (a program builds its own).
     pub(crate) fn status(&self, m: &Machine) -> Status {
         m.status(self.task == MotionTaskState::Running, 0.0)
+    }
+
+    /// The tasks now (program, line, state), without the terminal lines of [`Self::info`].
+    pub(crate) fn tasks(&self, m: &Machine) -> Vec<fs020n_as::TaskInfo> {
+        self.interp.tasks_at(panel_of(m), !m.arm().is_still())
     }
 
     pub(crate) fn info(&self, m: &Machine) -> ProgramInfo {

@@ -43,6 +43,15 @@ pub struct SimOptions {
     pub program: Option<PathBuf>,
     /// How [`SimOptions::program`] is loaded (instructions declared no-ops, `--stub`).
     pub program_load: fs020n_as::LoadOptions,
+    /// A new controller with nothing loaded (`--bare`): no protocol port until a program is
+    /// loaded through the terminal and started; then the first port it listens on is served at
+    /// [`SimOptions::listen`]. Excludes [`SimOptions::program`].
+    pub bare: bool,
+    /// The controller's AS monitor terminal address (`None`: no terminal).
+    pub terminal: Option<SocketAddr>,
+    /// Largest piece of the terminal's output sent at once (`None`: whole replies; a real
+    /// controller's text comes in pieces).
+    pub terminal_piece: Option<usize>,
 }
 
 impl Default for SimOptions {
@@ -59,6 +68,9 @@ impl Default for SimOptions {
             error: ErrorCode::NONE,
             program: None,
             program_load: fs020n_as::LoadOptions::new(),
+            bare: false,
+            terminal: None,
+            terminal_piece: None,
         }
     }
 }
@@ -67,6 +79,18 @@ impl SimOptions {
     /// Runs this AS program file instead of the native server.
     pub fn program(mut self, path: impl Into<PathBuf>) -> Self {
         self.program = Some(path.into());
+        self
+    }
+
+    /// Starts a new controller with nothing loaded (see [`SimOptions::bare`]).
+    pub fn bare(mut self) -> Self {
+        self.bare = true;
+        self
+    }
+
+    /// Serves the controller's AS monitor terminal on `addr`.
+    pub fn terminal(mut self, addr: SocketAddr) -> Self {
+        self.terminal = Some(addr);
         self
     }
 
@@ -170,6 +194,7 @@ impl SimOptions {
 pub struct RunningRobot {
     emulator: Emulator,
     robot: TcpServer,
+    terminal: Option<TcpServer>,
     #[cfg(feature = "pendant")]
     pendant: Option<PendantServer>,
 }
@@ -185,6 +210,11 @@ impl RunningRobot {
         self.robot.local_addr()
     }
 
+    /// The bound terminal address, if served.
+    pub fn terminal_addr(&self) -> Option<SocketAddr> {
+        self.terminal.as_ref().map(TcpServer::local_addr)
+    }
+
     /// The bound pendant API address, if served (always `None` without the `pendant` feature).
     pub fn pendant_addr(&self) -> Option<SocketAddr> {
         #[cfg(feature = "pendant")]
@@ -196,6 +226,9 @@ impl RunningRobot {
     /// Stops both servers (an open session is dropped).
     pub fn stop(self) {
         self.robot.stop();
+        if let Some(t) = self.terminal {
+            t.stop();
+        }
         #[cfg(feature = "pendant")]
         if let Some(p) = self.pendant {
             p.stop();
@@ -226,7 +259,19 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
             ));
         }
     }
+    if opts.bare && opts.program.is_some() {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            "--bare starts a controller with nothing loaded and --as-program one running a \
+             program: choose one",
+        ));
+    }
     let (emulator, robot) = match &opts.program {
+        None if opts.bare => {
+            let emulator = Emulator::bare(config);
+            let robot = emulator.serve_program_tcp(opts.listen).await;
+            (emulator, robot)
+        }
         None => {
             let emulator = Emulator::new(config);
             let robot = emulator.serve_tcp(opts.listen).await;
@@ -253,6 +298,25 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
             format!("cannot listen on robot port {}: {e}", opts.listen),
         )
     })?;
+    let terminal = match opts.terminal {
+        Some(addr) => {
+            let config = fs020n_term::SessionConfig {
+                max_piece: opts.terminal_piece.unwrap_or(usize::MAX).max(1),
+                ..fs020n_term::SessionConfig::default()
+            };
+            match emulator.serve_terminal(addr, config).await {
+                Ok(t) => Some(t),
+                Err(e) => {
+                    robot.stop();
+                    return Err(io::Error::new(
+                        e.kind(),
+                        format!("cannot serve the terminal on {addr}: {e}"),
+                    ));
+                }
+            }
+        }
+        None => None,
+    };
     #[cfg(feature = "pendant")]
     let pendant = match opts.pendant {
         Some(addr) => match serve_pendant(emulator.clone(), addr, opts.pendant_token.clone()).await
@@ -260,6 +324,9 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
             Ok(p) => Some(p),
             Err(e) => {
                 robot.stop();
+                if let Some(t) = terminal {
+                    t.stop();
+                }
                 return Err(io::Error::new(
                     e.kind(),
                     format!("cannot serve the pendant API on {addr}: {e}"),
@@ -277,9 +344,10 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
     let running = RunningRobot {
         emulator,
         robot,
+        terminal,
         #[cfg(feature = "pendant")]
         pendant,
     };
-    tracing::info!(robot = %running.robot_addr(), pendant = ?running.pendant_addr(), "emulated robot running");
+    tracing::info!(robot = %running.robot_addr(), pendant = ?running.pendant_addr(), terminal = ?running.terminal_addr(), "emulated robot running");
     Ok(running)
 }

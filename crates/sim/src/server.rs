@@ -126,6 +126,7 @@ impl Emulator {
                 c.session(),
                 c.reading_paused_until(),
                 c.program_io_generation(),
+                c.monitor_generation(),
             );
             c.advance_to(now);
             let r = f(&mut c);
@@ -133,6 +134,7 @@ impl Emulator {
                 c.session(),
                 c.reading_paused_until(),
                 c.program_io_generation(),
+                c.monitor_generation(),
             );
             (r, before != after)
         };

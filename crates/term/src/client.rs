@@ -416,6 +416,21 @@ impl TerminalClient {
     }
 
     fn on_quiet(&mut self, now: Duration) {
+        // Text a program prints (PRINT to every terminal) may follow the prompt already sent:
+        // the reply ends at the last prompt when only whole lines came after it, and those
+        // lines are not part of it.
+        if !self.text.ends_with(text::PROMPT) {
+            let start = self.acted.min(self.text.len());
+            if let Some(i) = self.text[start..]
+                .windows(text::PROMPT.len())
+                .rposition(|w| w == text::PROMPT)
+            {
+                let end = start + i + text::PROMPT.len();
+                if self.text[end..].ends_with(b"\r\n") {
+                    self.text.truncate(end);
+                }
+            }
+        }
         let tail = lossy(&self.text[self.acted..]);
         let trimmed = tail.trim_end();
         let at_prompt = self.text.ends_with(text::PROMPT);
@@ -597,11 +612,12 @@ fn completed_errors(s: &str) -> Option<usize> {
 fn strip_echo(all: &str, command: &str) -> String {
     let body = all.strip_suffix('>').unwrap_or(all);
     let mut lines: Vec<&str> = body.split('\n').map(|l| l.trim_end_matches('\r')).collect();
-    if lines
-        .first()
-        .is_some_and(|l| !command.is_empty() && l.trim().eq_ignore_ascii_case(command.trim()))
+    // The echo; lines before it were printed by a program while the command was on its way.
+    if let Some(i) = lines
+        .iter()
+        .position(|l| !command.is_empty() && l.trim().eq_ignore_ascii_case(command.trim()))
     {
-        lines.remove(0);
+        lines.drain(..=i);
     }
     while lines.last().is_some_and(|l| l.trim().is_empty()) {
         lines.pop();

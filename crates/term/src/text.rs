@@ -136,6 +136,22 @@ impl MonitorError {
     }
 }
 
+/// P1000: motor power is off (**L**: the code follows the P100x series of the manual's
+/// appendix; the text is the emulator's).
+pub const P1000_POWER_OFF: MonitorError = MonitorError {
+    code: 1000,
+    text: "Motor power OFF, cannot execute program.",
+};
+/// P1001: the controller is in TEACH mode (**L**, as P1000).
+pub const P1001_TEACH_MODE: MonitorError = MonitorError {
+    code: 1001,
+    text: "Cannot execute program in TEACH mode.",
+};
+/// P1002: the teach lock is on (**L**, as P1000).
+pub const P1002_TEACH_LOCK: MonitorError = MonitorError {
+    code: 1002,
+    text: "Teach lock ON, cannot execute program.",
+};
 /// P1009: the robot program runs already.
 pub const P1009_ALREADY_RUNNING: MonitorError = MonitorError {
     code: 1009,
@@ -190,6 +206,9 @@ pub const UNKNOWN_COMMAND: MonitorError = MonitorError {
 
 /// Every monitor error this crate knows, for matching a line back to its code.
 pub const MONITOR_ERRORS: &[MonitorError] = &[
+    P1000_POWER_OFF,
+    P1001_TEACH_MODE,
+    P1002_TEACH_LOCK,
     P1009_ALREADY_RUNNING,
     P1013_IN_ERROR,
     P1014_IN_USE,
@@ -326,3 +345,32 @@ mod tests {
         );
     }
 }
+
+/// The header line of `DIRECTORY/P` before the names (**L**: clients read only the line after
+/// it; the wording is the emulator's).
+pub const DIRECTORY_HEADER: &str = "Program list";
+
+/// The robot name `ID` reports on the emulator (**L**: the real controller's `ID` block is
+/// documented, not captured for an FS020N).
+pub const EMULATOR_ROBOT_NAME: &str = "FS020N";
+
+/// The AS version `ID` reports on the emulator: clearly not a Kawasaki build, so that no tool
+/// takes the emulator for a real controller.
+pub const EMULATOR_AS_VERSION: &str = "EMULATOR-FS020N-AS";
+
+/// The emulator's answer to a `LOAD` on a controller running its native protocol-1040 server,
+/// which is not an AS program the memory could hold beside others (emulator only).
+pub const EMULATOR_NATIVE_NO_LOAD: &str = "(emulator) this controller runs the native server: \
+     start it with --bare or --as-program to load AS programs";
+
+/// `PCSTATUS`'s cycle lines (**H** for the wording of the manual's example).
+pub fn cycle_lines(completed: u32, remaining: u32) -> [String; 2] {
+    [
+        format!("Completed cycles: {completed}"),
+        format!("Remaining cycles: {remaining}"),
+    ]
+}
+
+/// The emulator's answer to `ERESET` while the emergency stop is pressed (emulator only).
+pub const EMULATOR_ESTOP_PRESSED: &str =
+    "(emulator) the emergency stop is pressed: release it, then ERESET";

@@ -320,3 +320,40 @@ fn the_client_refuses_what_cannot_be_typed_or_framed() {
         Err(TerminalError::Busy)
     );
 }
+
+#[test]
+fn lines_printed_after_the_prompt_do_not_hold_up_the_reply() {
+    let mut link = Link::new(ClientConfig::default(), 4);
+    link.login();
+    link.client.command(link.now, "DIRECTORY/P", false).unwrap();
+    // The reply and its prompt reach the client, then a program prints before it is quiet.
+    while let Some(bytes) = link.client.poll_transmit() {
+        link.session.handle_input(&mut link.shelf, &bytes);
+    }
+    link.session.print_unsolicited("session closed ( 0)");
+    let events = link.settle();
+    assert_eq!(
+        events,
+        vec![Event::Reply {
+            command: "DIRECTORY/P".into(),
+            output: "Program list".into()
+        }]
+    );
+}
+
+#[test]
+fn lines_printed_before_the_echo_are_not_part_of_the_reply() {
+    let mut link = Link::new(ClientConfig::default(), 4);
+    link.login();
+    link.client.command(link.now, "DIRECTORY/P", false).unwrap();
+    // A program prints while the command is on its way to the controller.
+    link.session.print_unsolicited("session closed ( 0)");
+    let events = link.settle();
+    assert_eq!(
+        events,
+        vec![Event::Reply {
+            command: "DIRECTORY/P".into(),
+            output: "Program list".into()
+        }]
+    );
+}

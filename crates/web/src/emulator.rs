@@ -88,6 +88,11 @@ impl RobotWithPage {
         self.robot.robot_addr()
     }
 
+    /// The bound address of the controller's terminal, if served.
+    pub fn terminal_addr(&self) -> Option<SocketAddr> {
+        self.robot.terminal_addr()
+    }
+
     /// The bound pendant (page and API) address, if served.
     pub fn pendant_addr(&self) -> Option<SocketAddr> {
         self.page.as_ref().map(WebServer::local_addr)

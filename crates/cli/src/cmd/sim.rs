@@ -68,8 +68,19 @@ pub(crate) fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOp
     let pendant = (args.pendant.iter())
         .map(|p| resolve(p, "--pendant"))
         .collect::<CliResult<Vec<_>>>()?;
+    let terminal = args
+        .terminal
+        .as_deref()
+        .map(|t| resolve(t, "--terminal"))
+        .transpose()?;
     let mut out = Vec::new();
-    for (listen, pendant) in crate::fleet::expand(&listen, &pendant, args.robots)? {
+    let robots = crate::fleet::expand(&listen, &pendant, args.robots)?;
+    if terminal.is_some() && robots.len() > 1 {
+        return Err(CliError::input(
+            "--terminal serves one robot's terminal: start one robot with it",
+        ));
+    }
+    for (listen, pendant) in robots {
         out.push(SimOptions {
             listen,
             pendant,
@@ -82,6 +93,9 @@ pub(crate) fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOp
             error,
             program: args.as_program.clone(),
             program_load: (args.stubs.iter()).fold(fs020n_as::LoadOptions::new(), |o, s| o.stub(s)),
+            bare: args.bare,
+            terminal,
+            terminal_piece: args.terminal_piece,
         });
     }
     Ok(out)
@@ -162,9 +176,13 @@ pub(crate) fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResul
                         "robot": i + 1,
                         "listen": r.robot_addr().to_string(),
                         "pendant": r.pendant_addr().map(|a| format!("http://{a}")),
+                        "terminal": r.terminal_addr().map(|a| a.to_string()),
                     })
                 );
             } else {
+                if let Some(t) = r.terminal_addr() {
+                    println!("robot {}: AS terminal on {t} (login: as)", i + 1);
+                }
                 match r.pendant_addr() {
                     Some(p) => println!(
                         "robot {}: protocol 1040 on {}, pendant on http://{p}/ (API: /api)",
@@ -186,17 +204,26 @@ pub(crate) fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResul
             }
         }
         if !as_json {
-            match &program {
-                Some(p) => println!(
-                    "{} emulated {} running the AS program {p}; Ctrl-C to stop",
+            if args.bare {
+                println!(
+                    "{} emulated {} with nothing loaded (--bare): load and start a program \
+                     through the terminal; Ctrl-C to stop",
                     robots.len(),
                     model.name()
-                ),
-                None => println!(
-                    "{} emulated {} running; Ctrl-C to stop",
-                    robots.len(),
-                    model.name()
-                ),
+                );
+            } else {
+                match &program {
+                    Some(p) => println!(
+                        "{} emulated {} running the AS program {p}; Ctrl-C to stop",
+                        robots.len(),
+                        model.name()
+                    ),
+                    None => println!(
+                        "{} emulated {} running; Ctrl-C to stop",
+                        robots.len(),
+                        model.name()
+                    ),
+                }
             }
         }
         let tracer = args.trace.then(|| {

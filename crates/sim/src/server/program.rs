@@ -14,7 +14,20 @@ impl Emulator {
     /// now. Create it inside a tokio runtime: a background task advances the program at its
     /// own events (timeouts, polls, steps) even when nobody observes the controller.
     pub fn with_program(config: ControllerConfig, program: ServerProgram) -> Emulator {
-        let emu = Emulator::from_controller(Controller::with_program(config, program));
+        Emulator::driven(Controller::with_program(config, program))
+    }
+
+    /// An emulator of a new controller with nothing loaded ([`Controller::bare`]), started
+    /// now: no protocol port answers until a program is loaded through the terminal
+    /// ([`Emulator::serve_terminal`]) and started. Create it inside a tokio runtime.
+    pub fn bare(config: ControllerConfig) -> Emulator {
+        Emulator::driven(Controller::bare(config))
+    }
+
+    /// An emulator of `controller` whose AS programs a background task advances at their own
+    /// events (see [`Emulator::with_program`]).
+    pub fn driven(controller: Controller) -> Emulator {
+        let emu = Emulator::from_controller(controller);
         if let Ok(rt) = tokio::runtime::Handle::try_current() {
             rt.spawn(drive(emu.downgrade()));
         }
@@ -31,9 +44,11 @@ impl Emulator {
     ) -> std::io::Result<TcpServer> {
         let listener = super::bind_robot_port(addr)?;
         let local = listener.local_addr()?;
+        // Bound once to learn the port; kept only if the program listens already (a bare
+        // controller refuses connections from the start).
+        let listener = self.with(|c| c.program_listening(None)).then_some(listener);
         let this = self.clone();
-        let task =
-            tokio::spawn(async move { this.program_accept_loop(local, Some(listener)).await });
+        let task = tokio::spawn(async move { this.program_accept_loop(local, listener).await });
         Ok(TcpServer::new(local, task))
     }
 

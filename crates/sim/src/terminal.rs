@@ -1,0 +1,94 @@
+//! The controller's AS monitor terminal: [`TerminalLink`], one session of the terminal
+//! protocol ([`fs020n_term::TerminalSession`]) over the emulated [`Controller`], sans-IO; the
+//! monitor commands in `terminal/monitor.rs`; serving it over TCP in `terminal/serve.rs`
+//! ([`crate::Emulator::serve_terminal`]).
+//!
+//! The session plays the protocol (login, echo, prompts, the `LOAD`/`SAVE` block transfer);
+//! the commands act on the controller's memory, tasks and switches
+//! (`controller/memory.rs`). Text the programs print reaches every session as unsolicited
+//! lines ([`TerminalLink::print_output`]).
+
+mod monitor;
+mod serve;
+
+use fs020n_term::{SessionConfig, TerminalSession};
+
+use crate::controller::Controller;
+use monitor::{ControllerMonitor, Pending};
+
+/// One connection to the controller's terminal, as a state machine: feed the client's bytes
+/// with [`TerminalLink::handle_input`], send what [`TerminalLink::poll_transmit`] gives, and
+/// report the end of the connection with [`TerminalLink::handle_close`] (a transfer then in
+/// progress stays open on the controller: P2076 until a power cycle).
+#[derive(Debug)]
+pub struct TerminalLink {
+    session: TerminalSession,
+    /// The question this session asked (`Are you sure ?`) and what `1` does.
+    pending: Option<Pending>,
+    /// The next line of program output this session prints.
+    output_from: u64,
+}
+
+impl TerminalLink {
+    /// A new connection: the telnet opening, the banner and `login: ` are queued, or, when
+    /// AUX1–AUX3 are all in use, a refusal and the end of the session.
+    pub fn open(controller: &mut Controller, config: SessionConfig) -> TerminalLink {
+        let mut pending = None;
+        let session = TerminalSession::open(
+            &mut ControllerMonitor {
+                c: controller,
+                pending: &mut pending,
+            },
+            config,
+        );
+        TerminalLink {
+            session,
+            pending,
+            output_from: controller.terminal_output_next(),
+        }
+    }
+
+    /// The terminal's name (`AUX1`…), `None` when the session was refused.
+    pub fn terminal(&self) -> Option<&str> {
+        self.session.terminal()
+    }
+
+    /// Bytes from the client.
+    pub fn handle_input(&mut self, controller: &mut Controller, bytes: &[u8]) {
+        self.session.handle_input(
+            &mut ControllerMonitor {
+                c: controller,
+                pending: &mut self.pending,
+            },
+            bytes,
+        );
+    }
+
+    /// The connection ended.
+    pub fn handle_close(&mut self, controller: &mut Controller) {
+        self.session.handle_close(&mut ControllerMonitor {
+            c: controller,
+            pending: &mut self.pending,
+        });
+    }
+
+    /// Queues what the programs printed since this session last looked (after the prompt
+    /// already sent, as the controller does); nothing while a transfer or a question runs.
+    pub fn print_output(&mut self, controller: &mut Controller) {
+        let (lines, next) = controller.terminal_output_since(self.output_from);
+        self.output_from = next;
+        for l in lines {
+            self.session.print_unsolicited(&l);
+        }
+    }
+
+    /// The next bytes to send (at most the session's `max_piece`).
+    pub fn poll_transmit(&mut self) -> Option<Vec<u8>> {
+        self.session.poll_transmit()
+    }
+
+    /// `true` once the session has ended and its last bytes were taken.
+    pub fn is_closed(&self) -> bool {
+        self.session.is_closed()
+    }
+}

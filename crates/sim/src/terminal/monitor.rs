@@ -1,0 +1,499 @@
+//! The monitor commands on the emulated controller: the [`Monitor`] a terminal session runs
+//! its command lines, questions and transfers on. Keywords are case-insensitive and may be
+//! abbreviated down to the lengths in [`KEYWORDS`].
+
+use fs020n_as::TaskId;
+use fs020n_term::server::{is_abbreviation, split_word};
+use fs020n_term::text::{self, MonitorError};
+use fs020n_term::{LoadAnswer, Monitor, Reply, SyntaxError};
+
+use crate::controller::Controller;
+
+/// What `1` confirms.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) enum Pending {
+    /// `KILL` (robot task) or `PCKILL n:`.
+    Kill(TaskId),
+    /// `DELETE/P name`.
+    Delete(String),
+}
+
+/// The commands, each with the fewest letters that name it.
+const KEYWORDS: &[(&str, usize)] = &[
+    ("DIRECTORY", 2),
+    ("LIST", 2),
+    ("TYPE", 2),
+    ("KILL", 2),
+    ("PCKILL", 3),
+    ("DELETE", 2),
+    ("PCEXECUTE", 3),
+    ("PCABORT", 3),
+    ("PCSTATUS", 3),
+    ("STATUS", 2),
+    ("EXECUTE", 2),
+    ("ABORT", 2),
+    ("SWITCH", 2),
+    ("ID", 2),
+    ("ERESET", 2),
+    ("ZPOW", 4),
+];
+
+/// The controller seen by one session.
+pub(crate) struct ControllerMonitor<'a> {
+    pub(crate) c: &'a mut Controller,
+    pub(crate) pending: &'a mut Option<Pending>,
+}
+
+fn lines<I: IntoIterator<Item = S>, S: Into<String>>(l: I) -> Reply {
+    Reply::Lines(l.into_iter().map(Into::into).collect())
+}
+
+fn done(r: Result<(), MonitorError>) -> Reply {
+    match r {
+        Ok(()) => Reply::Lines(Vec::new()),
+        Err(e) => Reply::Error(e),
+    }
+}
+
+/// `n: rest` → (n, rest); without a task number, task 1.
+fn task_and_rest(rest: &str) -> Result<(u8, &str), MonitorError> {
+    let rest = rest.trim();
+    match rest.split_once(':') {
+        Some((n, tail)) if n.trim().chars().all(|c| c.is_ascii_digit()) => {
+            let n: u8 = n.trim().parse().unwrap_or(0);
+            if (1..=5).contains(&n) {
+                Ok((n, tail.trim()))
+            } else {
+                Err(text::P0117_INVALID_NAME)
+            }
+        }
+        _ => Ok((1, rest)),
+    }
+}
+
+/// A real as `TYPE` prints it.
+fn format_real(v: f32) -> String {
+    if v.fract() == 0.0 && v.abs() < 1.0e9 {
+        format!("{}", v as i64)
+    } else {
+        format!("{v}")
+    }
+}
+
+/// `NAME(n)` or `NAME (n)` → n.
+fn call_arg(expr: &str, name: &str) -> Option<i32> {
+    let upper = expr.to_ascii_uppercase();
+    let rest = upper.strip_prefix(name)?.trim_start();
+    let inner = rest.strip_prefix('(')?.strip_suffix(')')?;
+    inner.trim().parse::<f32>().ok().map(|v| v as i32)
+}
+
+impl ControllerMonitor<'_> {
+    fn command(&mut self, keyword: &str, options: &str, rest: &str) -> Reply {
+        match keyword {
+            "DIRECTORY" => self.directory(),
+            "LIST" => self.list(rest),
+            "TYPE" => self.type_expr(rest),
+            "KILL" => self.ask(Pending::Kill(TaskId::Robot)),
+            "PCKILL" => match task_and_rest(rest) {
+                Ok((n, _)) => self.ask(Pending::Kill(TaskId::Pc(n))),
+                Err(e) => Reply::Error(e),
+            },
+            "DELETE" if options.contains('P') || !rest.is_empty() => {
+                self.ask(Pending::Delete(rest.to_owned()))
+            }
+            "PCEXECUTE" => self.pc_execute(rest),
+            "PCABORT" => match task_and_rest(rest) {
+                Ok((n, _)) => {
+                    if self.c.pc_abort(n) {
+                        lines([text::pc_aborted(n)])
+                    } else {
+                        Reply::Lines(Vec::new())
+                    }
+                }
+                Err(e) => Reply::Error(e),
+            },
+            "PCSTATUS" => match task_and_rest(rest) {
+                Ok((n, _)) => self.pc_status(n),
+                Err(e) => Reply::Error(e),
+            },
+            "STATUS" => self.status(),
+            "EXECUTE" => {
+                let name = rest.split(',').next().unwrap_or("").trim();
+                done(self.c.execute_program(name))
+            }
+            "ABORT" => {
+                self.c.abort_program();
+                Reply::Lines(Vec::new())
+            }
+            "SWITCH" => self.switch(rest),
+            "ID" => self.id(),
+            "ERESET" => self.ereset(),
+            "ZPOW" => {
+                let on = rest.eq_ignore_ascii_case("ON");
+                let _ = self.c.set_power(on);
+                Reply::Lines(Vec::new())
+            }
+            _ => Reply::Error(text::UNKNOWN_COMMAND),
+        }
+    }
+
+    fn ask(&mut self, p: Pending) -> Reply {
+        *self.pending = Some(p);
+        Reply::AreYouSure
+    }
+
+    fn directory(&self) -> Reply {
+        lines([
+            text::DIRECTORY_HEADER.to_owned(),
+            self.c.loaded_programs().join(" "),
+        ])
+    }
+
+    fn list(&self, rest: &str) -> Reply {
+        let names: Vec<String> = if rest.is_empty() {
+            self.c.loaded_programs()
+        } else {
+            rest.split(',').map(|n| n.trim().to_owned()).collect()
+        };
+        let mut out = Vec::new();
+        for n in names {
+            match self.c.program_text(&n) {
+                Some(t) => out.extend(t.lines().map(str::to_owned)),
+                None => return Reply::Error(text::P1038_NO_PROGRAM),
+            }
+        }
+        Reply::Lines(out)
+    }
+
+    fn type_expr(&self, expr: &str) -> Reply {
+        let expr = expr.trim();
+        let interp = self.c.interpreter();
+        if let Some(n) = call_arg(expr, "TASK") {
+            let state = self
+                .c
+                .program_tasks()
+                .and_then(|tasks| {
+                    let i = match n {
+                        1 => 0,
+                        1001..=1005 => (n - 1000) as usize,
+                        _ => return None,
+                    };
+                    tasks.get(i).map(|t| t.state.number())
+                })
+                .unwrap_or(0.0);
+            return lines([format_real(state)]);
+        }
+        if let Some(n) = call_arg(expr, "TIMER") {
+            let v = interp.map_or(0.0, |i| i.timer(n.max(0) as usize));
+            return lines([format_real(v)]);
+        }
+        if let Some(n) = call_arg(expr, "SIG") {
+            let on = self.c.program_signal(n.abs()).unwrap_or(false) == (n > 0);
+            return lines([format_real(if on { -1.0 } else { 0.0 })]);
+        }
+        if let Ok(v) = expr.parse::<f32>() {
+            return lines([format_real(v)]);
+        }
+        let undefined = || lines([format!("(E0102) Variable not defined: {expr}")]);
+        let Some(interp) = interp else {
+            return undefined();
+        };
+        if let Some(name) = expr.strip_prefix('$') {
+            return match interp.string(name) {
+                Some(b) => lines([String::from_utf8_lossy(&b).into_owned()]),
+                None => undefined(),
+            };
+        }
+        let (name, idx) = match expr.split_once('[') {
+            Some((n, i)) => {
+                let idx: Option<Vec<i32>> = i
+                    .trim_end_matches(']')
+                    .split(',')
+                    .map(|x| x.trim().parse::<i32>().ok())
+                    .collect();
+                match idx {
+                    Some(idx) => (n.trim(), idx),
+                    None => return undefined(),
+                }
+            }
+            None => (expr, Vec::new()),
+        };
+        match interp.real_at(name, &idx) {
+            Some(v) => lines([format_real(v)]),
+            None => undefined(),
+        }
+    }
+
+    fn pc_execute(&mut self, rest: &str) -> Reply {
+        let (task, tail) = match task_and_rest(rest) {
+            Ok(t) => t,
+            Err(e) => return Reply::Error(e),
+        };
+        // `prog[,cycles]`: the emulator runs one cycle whatever is asked (docs/EMULATOR.md).
+        let name = tail.split(',').next().unwrap_or("").trim();
+        let name = name.split('(').next().unwrap_or("").trim();
+        if name.is_empty() {
+            return Reply::Error(text::P1038_NO_PROGRAM);
+        }
+        done(self.c.pc_execute(task, name))
+    }
+
+    /// The program line of `STATUS`/`PCSTATUS`: its name, priority 0 and step.
+    fn program_table(&self, task: TaskId) -> Vec<String> {
+        let Some(name) = self.c.task_program(task) else {
+            return vec![text::NO_PROGRAM_RUNNING.to_owned()];
+        };
+        let i = match task {
+            TaskId::Robot => 0,
+            TaskId::Pc(n) => usize::from(n),
+        };
+        let line = self
+            .c
+            .program_tasks()
+            .and_then(|t| t.get(i).and_then(|t| t.line))
+            .unwrap_or(0);
+        // The task's line is in the memory's whole text: the step counts from the program's
+        // `.PROGRAM` line.
+        let mut start = 1u32;
+        for p in self.c.stored_programs() {
+            if p.name == name {
+                break;
+            }
+            start += p.text.matches('\n').count() as u32;
+        }
+        let step = line.saturating_sub(start);
+        vec![
+            text::PROGRAM_TABLE_HEADER.to_owned(),
+            format!("{name:<14} {:>8} {step:>10}", 0),
+        ]
+    }
+
+    fn pc_status(&self, n: u8) -> Reply {
+        let running = self.c.task_running(TaskId::Pc(n));
+        let mut out = vec![text::pc_status_line(running).to_owned()];
+        out.extend(text::cycle_lines(0, u32::from(running)));
+        out.extend(self.program_table(TaskId::Pc(n)));
+        Reply::Lines(out)
+    }
+
+    fn status(&self) -> Reply {
+        let panel = self.c.panel();
+        let running = self.c.task_running(TaskId::Robot);
+        let mut out = vec!["Robot status:".to_owned()];
+        out.push(
+            if panel.power {
+                "  Motor power ON"
+            } else {
+                "  Motor power OFF"
+            }
+            .to_owned(),
+        );
+        out.push(
+            if panel.repeat {
+                "  REPEAT mode"
+            } else {
+                "  TEACH mode"
+            }
+            .to_owned(),
+        );
+        if running {
+            out.push("  CYCLE START ON".to_owned());
+        }
+        if !self.c.error().is_none() {
+            out.push("  During error condition".to_owned());
+        }
+        if !self.c.arm().is_still() {
+            out.push("  Now moving program".to_owned());
+        }
+        out.push("Environment:".to_owned());
+        out.push(format!(
+            "  Monitor speed(%) = {:.1}",
+            self.c.monitor_speed()
+        ));
+        out.push(format!(
+            "Stepper status: {}",
+            if running {
+                "Program is running."
+            } else {
+                "Program is not running."
+            }
+        ));
+        out.extend(text::cycle_lines(0, u32::from(running)));
+        out.extend(self.program_table(TaskId::Robot));
+        Reply::Lines(out)
+    }
+
+    fn switch(&mut self, rest: &str) -> Reply {
+        let rest = rest.trim();
+        if rest.is_empty() {
+            let all = self.c.switches();
+            let out = all
+                .chunks(2)
+                .map(|pair| {
+                    pair.iter()
+                        .map(|(n, v)| format!("{n:<16}{:<6}", if *v { "ON" } else { "OFF" }))
+                        .collect::<String>()
+                        .trim_end()
+                        .to_owned()
+                })
+                .collect::<Vec<_>>();
+            return Reply::Lines(out);
+        }
+        // `name`, `name = ON|OFF` (the manual's form) or `name ON|OFF` (accepted too).
+        let spaced = rest.replace('=', " = ");
+        let words: Vec<&str> = spaced.split_whitespace().filter(|w| *w != "=").collect();
+        let name = words.first().copied().unwrap_or("");
+        let state = match words.get(1).map(|w| w.to_ascii_uppercase()) {
+            None => None,
+            Some(w) if w == "ON" => Some(true),
+            Some(w) if w == "OFF" => Some(false),
+            Some(_) => return Reply::Error(text::P0117_INVALID_NAME),
+        };
+        match state {
+            Some(on) => {
+                if self.c.set_switch(name, on) {
+                    Reply::Lines(Vec::new())
+                } else {
+                    Reply::Error(text::P0117_INVALID_NAME)
+                }
+            }
+            None => match self.c.switch(name) {
+                Some(v) => lines([format!(
+                    "{:<16}{}",
+                    name.to_ascii_uppercase(),
+                    if v { "ON" } else { "OFF" }
+                )]),
+                None => Reply::Error(text::P0117_INVALID_NAME),
+            },
+        }
+    }
+
+    fn id(&self) -> Reply {
+        let axes = self.c.joints().0.len();
+        lines([
+            format!(
+                "Robot name: {} (emulator)   Num of axes: {axes}   Serial No. EMULATOR",
+                text::EMULATOR_ROBOT_NAME
+            ),
+            "[Software version]".to_owned(),
+            format!(
+                "AS: {} {}",
+                text::EMULATOR_AS_VERSION,
+                env!("CARGO_PKG_VERSION")
+            ),
+        ])
+    }
+
+    fn ereset(&mut self) -> Reply {
+        if self.c.error().is_none() {
+            return Reply::Lines(Vec::new());
+        }
+        match self.c.reset_error() {
+            Ok(()) => lines([text::CLEARED_ERROR]),
+            Err(_) => lines([text::EMULATOR_ESTOP_PRESSED]),
+        }
+    }
+
+    /// The file a `SAVE` spec asks for: `[/P] file[=prog,…]`; CR LF line ends.
+    fn save_file(&self, spec: &str) -> Result<Vec<u8>, MonitorError> {
+        let mut programs_only = false;
+        let mut target = "";
+        for w in spec.split_whitespace() {
+            if let Some(opts) = w.strip_prefix('/') {
+                programs_only |= opts.split('/').any(|o| o.eq_ignore_ascii_case("P"));
+            } else {
+                target = w;
+            }
+        }
+        let names: Vec<String> = match target.split_once('=') {
+            Some((_, list)) => list.split(',').map(|n| n.trim().to_owned()).collect(),
+            None => self.c.loaded_programs(),
+        };
+        let mut text = String::new();
+        for n in &names {
+            text.push_str(&self.c.program_text(n).ok_or(text::P1038_NO_PROGRAM)?);
+        }
+        if !programs_only {
+            for d in self.c.data_sections() {
+                text.push_str(&d);
+            }
+        }
+        Ok(text.replace('\n', "\r\n").into_bytes())
+    }
+}
+
+impl Monitor for ControllerMonitor<'_> {
+    fn open_session(&mut self) -> Option<String> {
+        self.c.open_terminal()
+    }
+
+    fn close_session(&mut self, terminal: &str) {
+        *self.pending = None;
+        self.c.close_terminal(terminal);
+    }
+
+    fn run(&mut self, line: &str) -> Reply {
+        *self.pending = None;
+        let (word, rest) = split_word(line);
+        let (word, options) = match word.find('/') {
+            Some(i) => (&word[..i], word[i..].to_ascii_uppercase()),
+            None => (word, String::new()),
+        };
+        let upper = word.to_ascii_uppercase();
+        match KEYWORDS
+            .iter()
+            .find(|(k, min)| is_abbreviation(&upper, k, *min))
+        {
+            Some((k, _)) => self.command(k, &options, rest),
+            None => Reply::Error(text::UNKNOWN_COMMAND),
+        }
+    }
+
+    fn confirmed(&mut self) -> Reply {
+        match self.pending.take() {
+            Some(Pending::Kill(task)) => done(self.c.kill_task(task)),
+            Some(Pending::Delete(name)) => done(self.c.delete_program(&name)),
+            None => Reply::Lines(Vec::new()),
+        }
+    }
+
+    fn transfer_blocked(&self) -> bool {
+        self.c.transfer_open()
+    }
+
+    fn transfer_abandoned(&mut self) {
+        self.c.abandon_transfer();
+    }
+
+    fn check_load(&mut self, file: &[u8]) -> Vec<SyntaxError> {
+        self.c
+            .check_program_text(&String::from_utf8_lossy(file))
+            .into_iter()
+            .map(|(_, line)| SyntaxError { line })
+            .collect()
+    }
+
+    fn finish_load(&mut self, file: &[u8], answer: LoadAnswer) -> (Vec<String>, usize) {
+        if answer == LoadAnswer::Abort {
+            return (Vec::new(), 0);
+        }
+        let report = self
+            .c
+            .load_program_text(&String::from_utf8_lossy(file), true);
+        let mut out: Vec<String> = report
+            .loaded
+            .iter()
+            .map(|(n, p)| text::program_loaded(n, p))
+            .collect();
+        for (name, e) in &report.refused {
+            out.push(format!("{name}: {}", e.line()));
+        }
+        out.extend(report.notes.iter().cloned());
+        (out, report.errors)
+    }
+
+    fn save(&mut self, spec: &str) -> Result<Vec<u8>, MonitorError> {
+        self.save_file(spec)
+    }
+}

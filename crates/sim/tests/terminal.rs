@@ -1,0 +1,554 @@
+//! The controller's terminal, command by command, on virtual time: the project's terminal
+//! client against a [`TerminalLink`] over the emulated controller, in memory.
+
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
+
+use std::time::Duration;
+
+use fs020n_as::TaskId;
+use fs020n_sim::{Controller, ControllerConfig, Fault, TerminalLink};
+use fs020n_term::frame::{client_frame, Letter, SUB};
+use fs020n_term::{ClientConfig, Event, Question, SessionConfig, TerminalClient, TerminalError};
+
+/// The client and one terminal session on the controller, on one fake clock.
+struct Term {
+    now: Duration,
+    c: Controller,
+    client: TerminalClient,
+    link: TerminalLink,
+}
+
+fn bare() -> Controller {
+    Controller::bare(ControllerConfig::default())
+}
+
+impl Term {
+    fn new(c: Controller) -> Term {
+        Term::with_piece(c, 7)
+    }
+
+    fn with_piece(mut c: Controller, piece: usize) -> Term {
+        let link = TerminalLink::open(
+            &mut c,
+            SessionConfig {
+                max_piece: piece,
+                ..SessionConfig::default()
+            },
+        );
+        let mut t = Term {
+            now: Duration::ZERO,
+            c,
+            client: TerminalClient::new(ClientConfig::default()),
+            link,
+        };
+        t.client.login(t.now).unwrap();
+        match t.settle().as_slice() {
+            [Event::LoggedIn { terminal }] => assert_eq!(terminal.as_deref(), Some("AUX1")),
+            other => panic!("{other:?}"),
+        }
+        t
+    }
+
+    fn settle(&mut self) -> Vec<Event> {
+        let mut events = Vec::new();
+        for _ in 0..100_000 {
+            let mut moved = false;
+            while let Some(b) = self.client.poll_transmit() {
+                self.link.handle_input(&mut self.c, &b);
+                moved = true;
+            }
+            while let Some(b) = self.link.poll_transmit() {
+                self.now += Duration::from_micros(50);
+                self.client.handle_input(self.now, &b);
+                moved = true;
+            }
+            while let Some(e) = self.client.poll_event() {
+                events.push(e);
+            }
+            if self.client.is_idle() {
+                return events;
+            }
+            if !moved {
+                let t = self
+                    .client
+                    .poll_timeout()
+                    .expect("a waiting client has a timeout");
+                self.now = self.now.max(t);
+                self.client.handle_timeout(self.now);
+            }
+        }
+        panic!("the exchange did not settle: {events:?}");
+    }
+
+    /// A command's output (`confirm` answers `Are you sure ?` with 1).
+    fn cmd(&mut self, line: &str, confirm: bool) -> String {
+        self.client.command(self.now, line, confirm).unwrap();
+        let events = self.settle();
+        match events.last() {
+            Some(Event::Reply { output, .. }) => output.clone(),
+            other => panic!("{line}: {other:?}"),
+        }
+    }
+
+    fn load(&mut self, name: &str, file: &str) -> Event {
+        self.client.load(self.now, name, file.as_bytes()).unwrap();
+        self.settle().pop().expect("an event")
+    }
+
+    /// Advances the controller (and its programs) by `d`.
+    fn advance(&mut self, d: Duration) {
+        let t = self.c.now() + d;
+        self.c.advance_to(t);
+    }
+}
+
+fn loaded_ok(e: &Event) -> &str {
+    match e {
+        Event::Loaded {
+            errors: 0,
+            syntax_error: None,
+            output,
+        } => output,
+        other => panic!("{other:?}"),
+    }
+}
+
+/// A poll of protocol 1040 through the program's served port: the reply's fields.
+fn poll(c: &mut Controller) -> Vec<String> {
+    let client = c
+        .program_connect(None, [127, 0, 0, 1])
+        .expect("the program listens");
+    c.advance_by(Duration::from_millis(50));
+    assert!(c.program_send(client, b"1040 0 0"));
+    c.advance_by(Duration::from_millis(100));
+    let reply = c.program_recv(client);
+    c.program_close(client);
+    String::from_utf8_lossy(&reply.bytes)
+        .split_whitespace()
+        .map(str::to_owned)
+        .collect()
+}
+
+const SERVER: &str = fs020n_as::SERVER_1040;
+
+#[test]
+fn a_bare_controller_lists_nothing_and_serves_no_port() {
+    let mut t = Term::new(bare());
+    assert_eq!(t.cmd("DIRECTORY/P", false).trim(), "Program list");
+    t.advance(Duration::from_secs(1));
+    assert!(!t.c.program_listening(None));
+    assert!(t.c.program_connect(None, [127, 0, 0, 1]).is_err());
+}
+
+#[test]
+fn load_of_the_server_text_lists_its_programs_and_list_shows_their_text() {
+    let mut t = Term::new(bare());
+    let out = loaded_ok(&t.load("server1040.as", SERVER)).to_owned();
+    assert!(out.contains("Loading...(server1040.as)"), "{out}");
+    assert!(out.contains("Program autostart.pc()"), "{out}");
+    assert!(out.contains("File load completed. (0 errors)"), "{out}");
+    let dir = t.cmd("dir/p", false);
+    assert!(
+        dir.contains("autostart.pc") && dir.contains("ros_move"),
+        "{dir}"
+    );
+    let listing = t.cmd("LIST/P ros_move", false);
+    assert!(listing.starts_with(".PROGRAM ros_move"), "{listing}");
+    assert!(listing.trim_end().ends_with(".END"), "{listing}");
+    assert!(t.cmd("LIST/P nothing", false).starts_with("(P1038)"));
+}
+
+#[test]
+fn pcexecute_starts_the_loaded_server_and_its_port_answers_a_poll() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("server1040.as", SERVER));
+    assert_eq!(t.cmd("TYPE TASK (1001)", false), "0");
+    assert_eq!(t.cmd("pcexe 1: autostart.pc", false), "");
+    t.advance(Duration::from_millis(200));
+    assert_eq!(t.cmd("TYPE TASK(1001)", false), "1");
+    let status = t.cmd("PCSTATUS 1:", false);
+    assert!(status.starts_with("PC status: Program running"), "{status}");
+    assert!(
+        status.lines().last().unwrap().starts_with("autostart.pc"),
+        "{status}"
+    );
+    let fields = poll(&mut t.c);
+    assert_eq!(fields.len(), 14, "{fields:?}");
+    assert_eq!(fields[0], "1040");
+}
+
+#[test]
+fn pcexecute_refuses_a_busy_task_a_program_in_use_and_a_missing_program() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("server1040.as", SERVER));
+    t.cmd("PCEXECUTE 1: autostart.pc", false);
+    t.advance(Duration::from_millis(100));
+    assert!(t
+        .cmd("PCEXECUTE 1: autostart.pc", false)
+        .starts_with("(P1019)PC program is running."));
+    assert!(t
+        .cmd("PCEXECUTE 2: autostart.pc", false)
+        .starts_with("(P1014)"));
+    assert!(t
+        .cmd("PCEXECUTE 3: nothing", false)
+        .starts_with("(P1038)Program does not exist."));
+}
+
+#[test]
+fn a_running_program_cannot_be_killed_and_an_aborted_one_can() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("server1040.as", SERVER));
+    t.cmd("PCEXECUTE 1: autostart.pc", false);
+    t.advance(Duration::from_millis(100));
+    let out = t.cmd("PCKILL 1:", true);
+    assert!(
+        out.contains("(P1026)Cannot KILL program that is running."),
+        "{out}"
+    );
+    assert!(t.c.task_running(TaskId::Pc(1)));
+    let out = t.cmd("PCABORT 1:", false);
+    assert_eq!(out, "PC program aborted.No = 1");
+    assert_eq!(t.cmd("TYPE TASK (1001)", false), "0");
+    assert_eq!(
+        t.c.task_program(TaskId::Pc(1)).as_deref(),
+        Some("autostart.pc")
+    );
+    // On the stack: a new LOAD of it is refused, the other program loads.
+    match t.load("server1040.as", SERVER) {
+        Event::Loaded { errors, output, .. } => {
+            assert_eq!(errors, 1);
+            assert!(output.contains("autostart.pc: (P1014)"), "{output}");
+            assert!(output.contains("Program ros_move()"), "{output}");
+        }
+        other => panic!("{other:?}"),
+    }
+    t.cmd("PCKILL 1:", true);
+    assert_eq!(t.c.task_program(TaskId::Pc(1)), None);
+    loaded_ok(&t.load("server1040.as", SERVER));
+}
+
+#[test]
+fn kill_of_the_running_robot_program_is_refused_and_abort_then_kill_works() {
+    let mut t = Term::new(bare());
+    let spin = ".PROGRAM spin()\n  WHILE TRUE DO\n    TWAIT 0.1\n  END\n.END\n";
+    loaded_ok(&t.load("spin.as", spin));
+    assert_eq!(t.cmd("EXECUTE spin", false), "");
+    t.advance(Duration::from_millis(300));
+    assert!(t.cmd("STATUS", false).contains("CYCLE START ON"));
+    assert!(t.cmd("EX spin", false).starts_with("(P1009)"));
+    assert!(t.cmd("KILL", true).contains("(P1026)"));
+    assert_eq!(t.cmd("ABORT", false), "");
+    assert_eq!(t.cmd("TYPE TASK (1)", false), "0");
+    assert!(t.cmd("DELETE/P spin", true).contains("(P1018)"));
+    t.cmd("KILL", true);
+    assert!(t.cmd("STATUS", false).ends_with("No program is running."));
+    assert!(!t.cmd("DELETE/P spin", true).contains("(P"));
+    assert_eq!(t.c.loaded_programs(), Vec::<String>::new());
+}
+
+#[test]
+fn execute_of_the_robot_program_is_refused_in_error_until_ereset() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("spin.as", ".PROGRAM spin()\n  TWAIT 10\n.END\n"));
+    t.c.inject(Fault::RaiseError {
+        code: fs020n_proto::ErrorCode(-31130),
+    });
+    assert!(t.cmd("EXECUTE spin", false).starts_with("(P1013)"));
+    assert_eq!(t.cmd("ERESET", false), "Cleared error state.");
+    assert_eq!(t.cmd("ERESET", false), "");
+    assert_eq!(t.cmd("EXECUTE spin", false), "");
+}
+
+#[test]
+fn a_syntax_error_answered_abort_loads_nothing() {
+    let mut t = Term::new(bare());
+    let bad = ".PROGRAM good()\n  x = 1\n.END\n.PROGRAM bad()\n  THIS IS NOT AS (\n.END\n";
+    t.client.load(t.now, "bad.as", bad.as_bytes()).unwrap();
+    let events = t.settle();
+    assert!(
+        matches!(
+            &events[0],
+            Event::Answered { question: Question::SyntaxError(line), answer } if line.contains("THIS IS NOT AS") && answer == "1"
+        ),
+        "{events:?}"
+    );
+    assert!(matches!(
+        events.last(),
+        Some(Event::Loaded {
+            syntax_error: Some(_),
+            ..
+        })
+    ));
+    assert!(t.c.loaded_programs().is_empty());
+}
+
+#[test]
+fn a_syntax_error_answered_comment_out_loads_the_file_with_the_line_commented() {
+    let mut c = bare();
+    let mut link = TerminalLink::open(&mut c, SessionConfig::default());
+    let mut out = Vec::new();
+    let mut feed = |c: &mut Controller, link: &mut TerminalLink, bytes: &[u8]| {
+        link.handle_input(c, bytes);
+        while let Some(b) = link.poll_transmit() {
+            out.extend(b);
+        }
+        String::from_utf8_lossy(&out).into_owned()
+    };
+    feed(&mut c, &mut link, b"as\r\nLOAD x.as\r\n");
+    feed(&mut c, &mut link, &client_frame(Letter::A, b""));
+    let file = b".PROGRAM x()\n  y = 2\n  NOT AS AT ALL (\n.END\n";
+    feed(&mut c, &mut link, &client_frame(Letter::C, file));
+    let text = feed(&mut c, &mut link, &client_frame(Letter::C, &[SUB]));
+    assert!(text.contains("STEP syntax error."), "{text}");
+    feed(&mut c, &mut link, b"0\r\n");
+    let text = feed(&mut c, &mut link, &client_frame(Letter::E, b""));
+    assert!(text.contains("Program x()"), "{text}");
+    assert!(text.contains("File load completed. (1 errors)"), "{text}");
+    let listing = c.program_text("x").unwrap();
+    assert!(
+        listing.contains("; ") && listing.contains("NOT AS AT ALL"),
+        "{listing}"
+    );
+}
+
+#[test]
+fn a_transfer_left_open_gives_p2076_until_a_power_cycle() {
+    let mut c = bare();
+    let mut dropped = TerminalLink::open(&mut c, SessionConfig::default());
+    dropped.handle_input(&mut c, b"as\r\nLOAD x.as\r\n");
+    dropped.handle_close(&mut c);
+    assert!(c.transfer_open());
+    let mut t = Term::new(c);
+    t.client
+        .load(t.now, "y.as", b".PROGRAM y()\n.END\n")
+        .unwrap();
+    assert_eq!(
+        t.settle(),
+        vec![Event::Failed(TerminalError::TransferInProgress)]
+    );
+    t.c.power_cycle();
+    loaded_ok(&t.load("y.as", ".PROGRAM y()\n.END\n"));
+}
+
+#[test]
+fn switch_reads_and_sets_autostart_in_both_forms_and_refuses_unknown_names() {
+    let mut t = Term::new(bare());
+    assert_eq!(t.cmd("SWITCH AUTOSTART.PC", false), "AUTOSTART.PC    OFF");
+    assert_eq!(t.cmd("SWITCH AUTOSTART.PC = ON", false), "");
+    assert_eq!(t.cmd("sw autostart.pc", false), "AUTOSTART.PC    ON");
+    assert_eq!(t.cmd("SWITCH AUTOSTART3.PC ON", false), "");
+    assert_eq!(t.c.switch("AUTOSTART3.PC"), Some(true));
+    assert_eq!(t.cmd("SWITCH CP", false), "CP              ON");
+    assert_eq!(t.cmd("SWITCH ABS.SPEED=ON", false), "");
+    assert!(t.c.abs_speed());
+    assert!(t.cmd("SWITCH NO.SUCH", false).starts_with("(P0117)"));
+    let all = t.cmd("SWITCH", false);
+    assert!(
+        all.contains("AUTOSTART5.PC") && all.contains("SCREEN"),
+        "{all}"
+    );
+}
+
+#[test]
+fn a_power_cycle_starts_autostart_pc_only_when_its_switch_is_on() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("server1040.as", SERVER));
+    t.c.power_cycle();
+    t.advance(Duration::from_millis(200));
+    assert!(!t.c.program_listening(None));
+    t.cmd("SWITCH AUTOSTART.PC = ON", false);
+    let started = t.c.power_cycle();
+    assert_eq!(started.started, vec![(1, "autostart.pc".to_owned())]);
+    t.advance(Duration::from_millis(200));
+    assert_eq!(poll(&mut t.c).len(), 14);
+    assert_eq!(t.c.loaded_programs(), vec!["autostart.pc", "ros_move"]);
+}
+
+#[test]
+fn a_power_cycle_stops_tasks_closes_sockets_and_clears_the_error() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("server1040.as", SERVER));
+    t.cmd("PCEXECUTE 1: autostart.pc", false);
+    t.advance(Duration::from_millis(200));
+    let client = t.c.program_connect(None, [127, 0, 0, 1]).unwrap();
+    t.c.inject(Fault::RaiseError {
+        code: fs020n_proto::ErrorCode(-31130),
+    });
+    t.c.power_cycle();
+    assert!(!t.c.task_running(TaskId::Pc(1)));
+    assert!(t.c.error().is_none());
+    assert!(!t.c.panel().power);
+    assert!(t.c.program_recv(client).closed);
+    assert_eq!(t.c.task_program(TaskId::Pc(1)), None);
+}
+
+#[test]
+fn id_names_the_robot_and_the_emulators_as_version() {
+    let mut t = Term::new(bare());
+    let id = t.cmd("ID", false);
+    assert!(id.contains("Robot name: FS020N (emulator)"), "{id}");
+    assert!(
+        id.contains("[Software version]") && id.contains("EMULATOR-FS020N-AS"),
+        "{id}"
+    );
+}
+
+#[test]
+fn type_prints_variables_timers_and_literals() {
+    let mut t = Term::new(bare());
+    let p = ".PROGRAM setx()\n  x = 42\n  y[2] = 0.5\n  $s = \"hello\"\n  TIMER 2 = 0\n.END\n";
+    loaded_ok(&t.load("setx.as", p));
+    t.cmd("PCEXECUTE 2: setx", false);
+    t.advance(Duration::from_millis(1500));
+    assert_eq!(t.cmd("TYPE x", false), "42");
+    assert_eq!(t.cmd("TYPE y[2]", false), "0.5");
+    assert_eq!(t.cmd("TYPE $s", false), "hello");
+    assert_eq!(t.cmd("TYPE 7", false), "7");
+    let timer: f32 = t.cmd("TYPE TIMER(2)", false).parse().unwrap();
+    assert!((1.3..1.6).contains(&timer), "{timer}");
+    assert!(t.cmd("TYPE nothing", false).starts_with("(E0102)"));
+}
+
+#[test]
+fn print_output_of_a_program_reaches_the_terminal_unsolicited() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("hi.as", ".PROGRAM hi()\n  PRINT \"hello from AS\"\n.END\n"));
+    t.cmd("PCEXECUTE 2: hi", false);
+    t.advance(Duration::from_millis(100));
+    t.link.print_output(&mut t.c);
+    let mut out = Vec::new();
+    while let Some(b) = t.link.poll_transmit() {
+        out.extend(b);
+    }
+    let text = String::from_utf8_lossy(&out);
+    assert!(text.contains("hello from AS\r\n"), "{text}");
+}
+
+#[test]
+fn a_pc_program_that_completes_is_announced_and_an_aborted_one_is_not() {
+    let mut t = Term::new(bare());
+    let p = ".PROGRAM short()\n  TWAIT 0.2\n.END\n.PROGRAM long()\n  TWAIT 100\n.END\n";
+    loaded_ok(&t.load("p.as", p));
+    t.cmd("PCEXECUTE 2: short", false);
+    t.cmd("PCEXECUTE 3: long", false);
+    let mut out = Vec::new();
+    let mut drain = |t: &mut Term| {
+        t.link.print_output(&mut t.c);
+        while let Some(b) = t.link.poll_transmit() {
+            out.extend(b);
+        }
+        String::from_utf8_lossy(&out).into_owned()
+    };
+    assert!(!drain(&mut t).contains("Program completed."));
+    t.advance(Duration::from_millis(500));
+    let text = drain(&mut t);
+    assert!(text.contains("Program completed.No = 2\r\n"), "{text}");
+    assert_eq!(t.cmd("PCABORT 3:", false), "PC program aborted.No = 3");
+    t.advance(Duration::from_millis(100));
+    assert!(!drain(&mut t).contains("Program completed.No = 3"));
+}
+
+#[test]
+fn a_load_while_a_task_runs_is_stored_and_starts_once_every_task_has_stopped() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("server1040.as", SERVER));
+    t.cmd("PCEXECUTE 1: autostart.pc", false);
+    t.advance(Duration::from_millis(100));
+    loaded_ok(&t.load("x.as", ".PROGRAM extra()\n  x = 5\n.END\n"));
+    assert!(t.cmd("DIRECTORY/P", false).contains("extra"));
+    assert!(t.cmd("PCEXECUTE 2: extra", false).starts_with("(P1014)"));
+    // The running server is untouched.
+    assert!(t.c.task_running(TaskId::Pc(1)));
+    assert_eq!(poll(&mut t.c).len(), 14);
+    t.cmd("PCABORT 1:", false);
+    assert_eq!(t.cmd("PCEXECUTE 2: extra", false), "");
+    t.advance(Duration::from_millis(100));
+    assert_eq!(t.cmd("TYPE x", false), "5");
+}
+
+#[test]
+fn a_power_cycle_keeps_the_system_switches() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("server1040.as", SERVER));
+    t.cmd("SWITCH CP = OFF", false);
+    t.c.power_cycle();
+    assert_eq!(t.cmd("SWITCH CP", false), "CP              OFF");
+    assert_eq!(t.c.switch("cp"), Some(false));
+}
+
+#[test]
+fn save_sends_the_programs_and_they_load_again_elsewhere() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("server1040.as", SERVER));
+    t.client.save(t.now, "/P backup.as").unwrap();
+    let file = match t.settle().pop() {
+        Some(Event::Saved { file, output }) => {
+            assert!(output.contains("Saving...(backup.as)"), "{output}");
+            file
+        }
+        other => panic!("{other:?}"),
+    };
+    let text = String::from_utf8(file).unwrap();
+    assert!(text.contains(".PROGRAM autostart.pc()"), "{text}");
+    assert!(text.contains(".END\r\n") && !text.replace("\r\n", "").contains('\n'));
+    let mut other = Term::new(bare());
+    loaded_ok(&other.load("backup.as", &text));
+    assert_eq!(other.c.loaded_programs(), t.c.loaded_programs());
+    assert_eq!(
+        other.c.program_text("ros_move"),
+        t.c.program_text("ros_move")
+    );
+}
+
+#[test]
+fn a_load_overwrites_a_program_of_the_same_name() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("a.as", ".PROGRAM p()\n  x = 1\n.END\n"));
+    loaded_ok(&t.load("b.as", ".PROGRAM p()\n  x = 2\n.END\n"));
+    assert_eq!(t.c.loaded_programs(), vec!["p"]);
+    assert!(t.c.program_text("p").unwrap().contains("x = 2"));
+}
+
+#[test]
+fn at_most_three_sessions_and_a_fourth_is_refused() {
+    let mut c = bare();
+    let links: Vec<TerminalLink> = (0..3)
+        .map(|_| TerminalLink::open(&mut c, SessionConfig::default()))
+        .collect();
+    let names: Vec<_> = links
+        .iter()
+        .map(|l| l.terminal().unwrap().to_owned())
+        .collect();
+    assert_eq!(names, ["AUX1", "AUX2", "AUX3"]);
+    let mut fourth = TerminalLink::open(&mut c, SessionConfig::default());
+    assert_eq!(fourth.terminal(), None);
+    let mut out = Vec::new();
+    while let Some(b) = fourth.poll_transmit() {
+        out.extend(b);
+    }
+    assert!(String::from_utf8_lossy(&out).contains("All terminal sessions are in use."));
+    assert!(fourth.is_closed());
+    let mut second = links.into_iter().nth(1).unwrap();
+    second.handle_close(&mut c);
+    let again = TerminalLink::open(&mut c, SessionConfig::default());
+    assert_eq!(again.terminal(), Some("AUX2"));
+}
+
+#[test]
+fn an_unknown_command_is_refused() {
+    let mut t = Term::new(bare());
+    assert!(t.cmd("FROBNICATE", false).starts_with("(P0100)"));
+}
+
+#[test]
+fn the_native_server_refuses_loads_and_says_how_to_load() {
+    let mut t = Term::new(Controller::new(ControllerConfig::default()));
+    match t.load("x.as", ".PROGRAM x()\n.END\n") {
+        Event::Loaded { errors, output, .. } => {
+            assert_eq!(errors, 1);
+            assert!(output.contains("--bare"), "{output}");
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(t.c.loaded_programs().is_empty());
+}
