@@ -252,9 +252,13 @@ pub(crate) struct PlayArgs {
 #[derive(Debug, Args)]
 pub(crate) struct Ros2Args {
     /// Print a MoveIt configuration file for this robot model and these settings, and exit:
-    /// urdf, joint-limits (joint_limits.yaml) or controllers (moveit_controllers.yaml).
-    #[arg(long, value_name = "WHAT", value_parser = ["urdf", "joint-limits", "controllers"])]
+    /// urdf, srdf, joint-limits (joint_limits.yaml) or controllers (moveit_controllers.yaml);
+    /// or moveit-config DIR: write a whole MoveIt configuration package into DIR.
+    #[arg(long, value_name = "WHAT", value_parser = ["urdf", "srdf", "joint-limits", "controllers", "moveit-config"])]
     pub(crate) print: Option<String>,
+    /// With --print moveit-config: the package directory to write.
+    #[arg(value_name = "DIR")]
+    pub(crate) output: Option<PathBuf>,
     /// Run on an emulator inside this process instead of a robot (to try MoveIt, or in tests).
     #[arg(long)]
     pub(crate) embedded: bool,

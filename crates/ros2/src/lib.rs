@@ -16,7 +16,9 @@
 //!   (`fs020n_msgs/srv/SetSpeed`);
 //! * `/diagnostics` (`diagnostic_msgs/msg/DiagnosticArray`): switches, error with its remedy,
 //!   program ([`diagnostics`]);
-//! * settings from a ROS 2 parameter file ([`NodeConfig`]).
+//! * settings from a ROS 2 parameter file ([`NodeConfig`]);
+//! * MoveIt's robot files: URDF with collision shapes ([`urdf`]), SRDF with the self-collision
+//!   matrix ([`srdf`]) and a configuration package ([`moveit`]).
 //!
 //! The node runs on a shared robot session ([`RobotSource`]), so that a host owning the
 //! session (the CLI, a hub serving other faces too) can run it next to its other work:
@@ -29,8 +31,10 @@ pub mod diagnostics;
 mod error;
 pub mod execute;
 pub mod goal;
+pub mod moveit;
 pub mod msg;
 mod node;
+pub mod srdf;
 pub mod urdf;
 
 pub use config::{DdsConfig, ExecutionConfig, NodeConfig, Params, ServiceMapping};
