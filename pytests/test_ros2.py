@@ -320,8 +320,9 @@ class Node:
         self.info = json.loads(lines[0])
         self.pendant = self.info["pendant"]
 
-    def post(self, path):
-        req = urllib.request.Request(self.pendant + path, method="POST", data=b"{}",
+    def post(self, path, body=None):
+        data = json.dumps(body or {}).encode()
+        req = urllib.request.Request(self.pendant + path, method="POST", data=data,
                                      headers={"Content-Type": "application/json"})
         with urllib.request.urlopen(req, timeout=TIMEOUT) as r:
             return json.loads(r.read())
@@ -352,6 +353,7 @@ class Peer:
         self.cancel_goal = self.service(f"{a}/cancel_goal", CancelGoalRequest, CancelGoalResponse)
         self.feedback = self.reader(f"rt/{a}/feedback", FeedbackMessage, RELIABLE)
         self.start = self.service(f"{node}/start", TriggerRequest, TriggerResponse)
+        self.stop = self.service(f"{node}/stop", TriggerRequest, TriggerResponse)
         self.latest = None
 
     def reader(self, topic, cls, qos):
@@ -546,5 +548,99 @@ def test_an_emergency_stop_aborts_the_goal_with_an_error_code():
             result.result.error_string
         # A new goal is refused before anything moves while the E-stop is pressed.
         assert not peer.call(peer.send_goal, goal_to(with_jt1(0.0), 4.0)).accepted
+        # The cause cleared at the pendant: still no goal restarts the program by itself.
+        node.post("/estop/release")
+        node.post("/reset")
+        node.post("/panel", {"power": True})
+        here = peer.settled_joints()
+        refused = goal_to(with_jt1(0.0), 4.0, start=here)
+        assert not peer.call(peer.send_goal, refused).accepted
+        assert "~/start" in last_goal(peer), last_goal(peer)
+        # The explicit re-arm, then goals run again.
+        assert peer.call(peer.start, TriggerRequest()).success
+        request = goal_to(with_jt1(0.0), 4.0, start=here)
+        assert peer.call(peer.send_goal, request).accepted
+        result = peer.call(peer.get_result, GetResultRequest(goal_id=request.goal_id))
+        assert result.status == STATUS_SUCCEEDED, result.result.error_string
     finally:
         assert node.stop() == 0, "".join(node.stderr)
+
+
+def last_goal(peer):
+    """The node's `last_goal` text from the newest /diagnostics (waits for one after now)."""
+    peer.diagnostics.take(N=1000)
+    arr = wait_until("/diagnostics", lambda: peer.diagnostics.take(N=1))[0]
+    values = {kv.key: kv.value for kv in arr.status[0].values}
+    return values.get("last_goal", "")
+
+
+def test_after_a_cancel_the_next_goal_is_accepted_without_start(system):
+    """As joint_trajectory_controller: a cancel holds the arm and the next goal runs (the node
+    starts the motion program for it: a goal is an explicit request for motion)."""
+    node, peer = system
+    peer.call(peer.start, TriggerRequest())
+    start = peer.settled_joints()
+    first = goal_to(with_jt1(start[0] + 0.8), 6.0, steps=6, start=start)
+    assert peer.call(peer.send_goal, first).accepted
+    wait_until("the arm to move", lambda: peer.joints()[0] > start[0] + 0.05)
+    reply = peer.call(peer.cancel_goal, CancelGoalRequest(goal_info=GoalInfo(goal_id=first.goal_id)))
+    assert reply.return_code == 0
+    result = peer.call(peer.get_result, GetResultRequest(goal_id=first.goal_id))
+    assert result.status == STATUS_CANCELED, result.result.error_string
+    assert "holds" in result.result.error_string
+    # Immediately, no ~/start: accepted, and it runs to its end.
+    here = peer.settled_joints()
+    second = goal_to(with_jt1(start[0]), 3.0, start=here, tolerance=0.01)
+    assert peer.call(peer.send_goal, second).accepted, last_goal(peer)
+    result = peer.call(peer.get_result, GetResultRequest(goal_id=second.goal_id))
+    assert result.status == STATUS_SUCCEEDED, result.result.error_string
+    wait_until("joint_1 back", lambda: abs(peer.joints()[0] - start[0]) < 0.01)
+
+
+def test_a_new_goal_preempts_the_running_one(system):
+    """The running goal ends ABORTED "preempted by a new goal"; the new one starts from where
+    the arm is and succeeds."""
+    node, peer = system
+    peer.call(peer.start, TriggerRequest())
+    start = peer.settled_joints()
+    first = goal_to(with_jt1(start[0] + 1.0), 8.0, steps=8, start=start)
+    assert peer.call(peer.send_goal, first).accepted
+    wait_until("the arm to move", lambda: peer.joints()[0] > start[0] + 0.05)
+    # Planned from the state now, as MoveIt does (the first point later than 0).
+    now = peer.joints()
+    target = with_jt1(start[0] - 0.2)
+    second = goal_to(target, 4.0, start=now, tolerance=0.01)
+    assert peer.call(peer.send_goal, second).accepted, last_goal(peer)
+    old = peer.call(peer.get_result, GetResultRequest(goal_id=first.goal_id))
+    assert old.status == STATUS_ABORTED, old.result.error_string
+    assert "preempted by a new goal" in old.result.error_string
+    new = peer.call(peer.get_result, GetResultRequest(goal_id=second.goal_id))
+    assert new.status == STATUS_SUCCEEDED, new.result.error_string
+    wait_until("joint_1 at the new target", lambda: abs(peer.joints()[0] - target[0]) < 0.01)
+
+
+def test_an_invalid_new_goal_is_rejected_and_the_running_one_goes_on(system):
+    node, peer = system
+    peer.call(peer.start, TriggerRequest())
+    start = peer.settled_joints()
+    first = goal_to(with_jt1(start[0] + 0.4), 4.0, start=start, tolerance=0.01)
+    assert peer.call(peer.send_goal, first).accepted
+    wait_until("the arm to move", lambda: peer.joints()[0] > start[0] + 0.02)
+    bad = goal_to(with_jt1(3.0), 4.0, start=peer.joints())  # JT1 beyond its range
+    assert not peer.call(peer.send_goal, bad).accepted
+    result = peer.call(peer.get_result, GetResultRequest(goal_id=first.goal_id))
+    assert result.status == STATUS_SUCCEEDED, result.result.error_string
+
+
+def test_after_the_stop_service_a_goal_needs_start(system):
+    """An operator's ~/stop is not the node's own cancel: goals are refused until ~/start."""
+    node, peer = system
+    peer.call(peer.start, TriggerRequest())
+    assert peer.call(peer.stop, TriggerRequest()).success
+    here = peer.settled_joints()
+    request = goal_to(with_jt1(here[0] + 0.1), 2.0, start=here)
+    assert not peer.call(peer.send_goal, request).accepted
+    assert "~/stop" in last_goal(peer)
+    assert peer.call(peer.start, TriggerRequest()).success
+    request = goal_to(with_jt1(here[0] + 0.1), 2.0, start=here)
+    assert peer.call(peer.send_goal, request).accepted

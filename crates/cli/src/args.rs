@@ -301,8 +301,8 @@ pub(crate) struct Ros2NodeArgs {
     /// The action is NS/follow_joint_trajectory (default /fs020n_controller).
     #[arg(long, value_name = "NS")]
     pub(crate) action_namespace: Option<String>,
-    /// Start the motion program when a goal arrives and it is not running (default: call
-    /// ~/start first).
+    /// Let goals start the motion program from the node's start on, until the first fault
+    /// (then ~/start re-arms). Default: call ~/start first.
     #[arg(long)]
     pub(crate) auto_start: bool,
 }

@@ -109,8 +109,10 @@ pub struct ExecutionConfig {
     /// Time after the trajectory's end to come within the goal tolerances when the goal gives
     /// none. Default 2 s.
     pub goal_time_tolerance: Duration,
-    /// Start the motion program (command 1, after the preflight) when a goal arrives and it is
-    /// not running. Default off: call `~/start` first.
+    /// Armed from the start: a goal may start the motion program (command 1, after the
+    /// preflight) when it is not running, until the first fault (then `~/start` re-arms; see
+    /// [`crate::arming`]). Default off: call `~/start` first. Either way, after the node's own
+    /// stops (a cancel, a preemption) the next goal starts the program again.
     pub auto_start: bool,
     /// Longest wait for a goal whose header stamp lies in the future. Default 10 s.
     pub max_start_delay: Duration,

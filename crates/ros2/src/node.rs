@@ -21,11 +21,12 @@ use ros2_client::{
 };
 use tokio::sync::{mpsc, watch};
 
+use crate::arming::Arming;
 use crate::config::NodeConfig;
 use crate::diagnostics::{robot_status, NodeState};
 use crate::error::Ros2Error;
 use crate::execute::{execute, GoalEnd, Outcome};
-use crate::goal::{plan, GoalRefusal};
+use crate::goal::{plan, plan_preempting, GoalRefusal};
 use crate::msg::{
     error_code, DiagnosticArray, FollowJointTrajectoryFeedback, FollowJointTrajectoryGoal,
     FollowJointTrajectoryResult, Header, JointState, SetSpeedRequest, SetSpeedResponse, StringMsg,
@@ -127,6 +128,8 @@ struct Shared {
     state: Mutex<NodeState>,
     logger: ros2_client::NodeLoggingHandle,
     busy: std::sync::atomic::AtomicBool,
+    /// When a goal may start the motion program (the re-arm policy).
+    arming: Mutex<Arming>,
 }
 
 impl Shared {
@@ -332,6 +335,7 @@ pub async fn run(
         state: Mutex::new(NodeState::default()),
         logger: node.logging_handle(),
         busy: std::sync::atomic::AtomicBool::new(false),
+        arming: Mutex::new(Arming::new(config.execution.auto_start)),
         config,
     };
     let shared = &shared;
@@ -402,13 +406,21 @@ async fn joint_state_loop(
     let mut last_seq = None;
     loop {
         ticker.tick().await;
-        let Ok(robot) = shared.robot() else { continue };
+        let robot = match shared.robot() {
+            Ok(r) => r,
+            Err(why) => {
+                lock(&shared.arming).handle_link_lost(&why);
+                continue;
+            }
+        };
         let mut s = robot.status();
         // Idle, the session polls at its keep-alive rate: poll when the status is older than
         // one period, so that every message carries a fresh reply.
         if s.age() > period && robot.poll().await.is_ok() {
             s = robot.status();
         }
+        // Every status passes the re-arm policy (a fault revokes it).
+        lock(&shared.arming).handle_status(&s.status, s.received_at);
         if last_seq == Some(s.seq) && s.age() > period * 2 {
             continue;
         }
@@ -495,24 +507,36 @@ async fn trigger_loop(
                 message,
             },
             Ok(robot) => {
-                let r = match which {
-                    Trigger::Start => match shared.source.permit(Action::Start) {
-                        Err(reason) => Ok(Err(reason)),
-                        Ok(_permit) => robot
-                            .start()
-                            .await
-                            .map(|()| Ok("the motion program is running (command 1)".to_owned())),
-                    },
-                    Trigger::Stop => robot.stop_program().await.map(|_| {
-                        Ok("the robot stopped and the motion program ended (command 2); ~/start \
-                         runs it again"
-                            .to_owned())
-                    }),
-                    Trigger::Cancel => robot.cancel().await.map(|_| {
-                        Ok("the current motion was cancelled: the robot braked to a stop and the motion program ended (commands 5 and 2); ~/start runs it again"
-                            .to_owned())
-                    }),
-                };
+                let r =
+                    match which {
+                        Trigger::Start => match shared.source.permit(Action::Start) {
+                            Err(reason) => Ok(Err(reason)),
+                            Ok(_permit) => robot.start().await.map(|()| {
+                                lock(&shared.arming).handle_started();
+                                Ok("the motion program is running (command 1); goals may start it \
+                                again after the node's own cancels until the next fault"
+                                .to_owned())
+                            }),
+                        },
+                        Trigger::Stop => {
+                            lock(&shared.arming).handle_operator_stop("~/stop");
+                            robot.stop_program().await.map(|_| {
+                                Ok(
+                                    "the robot stopped and the motion program ended (command 2); \
+                                ~/start runs it again"
+                                        .to_owned(),
+                                )
+                            })
+                        }
+                        Trigger::Cancel => {
+                            lock(&shared.arming).handle_operator_stop("~/cancel");
+                            robot.cancel().await.map(|_| {
+                            Ok("the current motion was cancelled: the robot braked to a stop and \
+                                the motion program ended (commands 5 and 2); ~/start runs it again"
+                                .to_owned())
+                        })
+                        }
+                    };
                 match r {
                     Ok(Ok(message)) => TriggerResponse {
                         success: true,
@@ -586,16 +610,54 @@ async fn speed_loop(
     }
 }
 
-/// Checks a new goal against the robot now (session, switches, program) and plans it.
+/// Checks a new goal that would preempt the running one, without acting: the robot's session
+/// and the goal itself from where the arm is now. A goal that fails here is rejected and the
+/// running goal goes on, as `joint_trajectory_controller` does.
+async fn precheck(shared: &Shared, goal: &FollowJointTrajectoryGoal) -> Result<(), GoalRefusal> {
+    let refuse = |m: String| GoalRefusal::new(error_code::INVALID_GOAL, m);
+    let robot = shared.robot().map_err(refuse)?;
+    let current = robot.status().status.joints;
+    plan_preempting(
+        goal,
+        &shared.config.joint_names,
+        &shared.model,
+        &shared.config.execution,
+        &current,
+        Time::now(),
+    )
+    .map(|_| ())
+}
+
+/// Checks a new goal against the robot now (session, switches, program) and plans it. When the
+/// program is not running and the re-arm policy allows it ([`crate::arming`]: the node ended
+/// it itself and no fault came since), starts it (command 1): a goal is an explicit request
+/// for motion. `preempting`: the goal replaces one the node just stopped.
 async fn admit(
     shared: &Shared,
     goal: &FollowJointTrajectoryGoal,
+    preempting: bool,
 ) -> Result<(Arc<Robot>, crate::goal::Plan, Permit), GoalRefusal> {
     let refuse = |m: String| GoalRefusal::new(error_code::INVALID_GOAL, m);
     let robot = shared.robot().map_err(refuse)?;
-    let status = robot.poll().await.map_err(|e| refuse(e.to_string()))?;
+    let mut status = robot.poll().await.map_err(|e| refuse(e.to_string()))?;
+    lock(&shared.arming).handle_status(&status, tokio::time::Instant::now());
+    // After the node's own stop the program finishes its brake before it ends: wait for that
+    // end, so that the start below is not answered by a program about to end.
+    let deadline = tokio::time::Instant::now() + PROGRAM_END_WAIT;
+    while lock(&shared.arming).awaiting_program_end() && status.task_running {
+        if tokio::time::Instant::now() >= deadline {
+            return Err(refuse(format!(
+                "the motion program did not end within {PROGRAM_END_WAIT:?} of the node's stop; \
+                 call ~/stop, then ~/start"
+            )));
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+        status = robot.poll().await.map_err(|e| refuse(e.to_string()))?;
+        lock(&shared.arming).handle_status(&status, tokio::time::Instant::now());
+    }
     let list = blockers(&status, true);
-    if list == [Blocker::ProgramNotRunning] && shared.config.execution.auto_start {
+    let may_start = lock(&shared.arming).may_start_for_goal();
+    if list == [Blocker::ProgramNotRunning] && may_start.is_ok() {
         let _permit = shared
             .source
             .permit(Action::Start)
@@ -604,22 +666,28 @@ async fn admit(
             .start()
             .await
             .map_err(|e| refuse(format!("could not start the motion program: {e}")))?;
+        lock(&shared.arming).handle_started();
+        status = robot.poll().await.map_err(|e| refuse(e.to_string()))?;
+    } else if list == [Blocker::ProgramNotRunning] {
+        let reason = may_start.err().unwrap_or_default();
+        return Err(refuse(format!(
+            "the robot is not ready to move — {reason} ({})",
+            shared.config.fully_qualified_name()
+        )));
     } else if !list.is_empty() {
         let text = list
             .iter()
-            .map(|b| match b {
-                Blocker::ProgramNotRunning => format!(
-                    "{}: call the {}/start service (std_srvs/srv/Trigger) first",
-                    b.condition(),
-                    shared.config.fully_qualified_name()
-                ),
-                other => other.to_string(),
-            })
+            .map(|b| b.to_string())
             .collect::<Vec<_>>()
             .join("; ");
-        return Err(refuse(format!("the robot is not ready to move — {text}")));
+        return Err(refuse(format!(
+            "the robot is not ready to move — {text}; then call the {}/start service \
+             (std_srvs/srv/Trigger): no goal restarts the motion program after a fault",
+            shared.config.fully_qualified_name()
+        )));
     }
-    let p = plan(
+    let planner = if preempting { plan_preempting } else { plan };
+    let p = planner(
         goal,
         &shared.config.joint_names,
         &shared.model,
@@ -653,14 +721,61 @@ fn planned_path(trajectory: &fs020n_client::Trajectory) -> Vec<fs020n_kin::Joint
 
 type Executing<'a> = Pin<Box<dyn Future<Output = Outcome> + Send + 'a>>;
 type Finishing<'a> = Pin<Box<dyn Future<Output = ()> + Send + 'a>>;
+type GoalHandle = ExecutingGoalHandle<FollowJointTrajectoryGoal>;
+
+/// Ends a goal: logs, tells the re-arm policy what became of the program, and queues the
+/// result for the client's request.
+fn finish_goal<'a>(
+    shared: &'a Shared,
+    server: &'a ActionServer,
+    handle: GoalHandle,
+    outcome: Outcome,
+) -> Finishing<'a> {
+    shared
+        .busy
+        .store(false, std::sync::atomic::Ordering::SeqCst);
+    lock(&shared.arming).handle_goal_ended(outcome.program.clone(), tokio::time::Instant::now());
+    let status = match outcome.end {
+        GoalEnd::Succeeded => GoalEndStatus::Succeeded,
+        GoalEnd::Aborted => GoalEndStatus::Aborted,
+        GoalEnd::Canceled => GoalEndStatus::Canceled,
+    };
+    let text = format!(
+        "goal {:?} ({}): {}",
+        outcome.end, outcome.result.error_code, outcome.result.error_string
+    );
+    shared.log(
+        if outcome.end == GoalEnd::Succeeded {
+            LogLevel::Info
+        } else {
+            LogLevel::Warn
+        },
+        &text,
+    );
+    lock(&shared.state).last_goal = Some(text);
+    let result = outcome.result;
+    Box::pin(async move {
+        // The client asks for the result as soon as the goal is accepted; do not wait for
+        // ever for one that never does.
+        match tokio::time::timeout(
+            RESULT_WAIT,
+            server.send_result_response(handle, status, result),
+        )
+        .await
+        {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => tracing::warn!("goal result not sent: {e:?}"),
+            Err(_) => {
+                tracing::warn!("no client asked for the goal's result within {RESULT_WAIT:?}")
+            }
+        }
+    })
+}
 
 async fn action_loop(shared: &Shared, server: &ActionServer) -> Result<(), Ros2Error> {
     let (feedback_tx, mut feedback_rx) = mpsc::channel::<FollowJointTrajectoryFeedback>(4);
     let feedback_tx = &feedback_tx;
-    let mut current: Option<(
-        ExecutingGoalHandle<FollowJointTrajectoryGoal>,
-        watch::Sender<bool>,
-    )> = None;
+    let mut current: Option<(GoalHandle, watch::Sender<bool>)> = None;
     let mut executing: Option<Executing<'_>> = None;
     let mut finishing: Vec<Finishing<'_>> = Vec::new();
     let feedback_period = Duration::from_secs_f64(1.0 / shared.config.feedback_rate_hz);
@@ -675,13 +790,23 @@ async fn action_loop(shared: &Shared, server: &ActionServer) -> Result<(), Ros2E
                     }
                 };
                 let Some(goal) = server.get_new_goal(handle.clone()) else { continue };
+                // A new goal while one executes preempts it (as joint_trajectory_controller
+                // does) once it passes the checks that do not need the arm to stop.
                 let admitted = if current.is_some() {
-                    Err(GoalRefusal::new(
-                        error_code::INVALID_GOAL,
-                        "a goal is executing; cancel it first (the robot follows one trajectory at a time)",
-                    ))
+                    match precheck(shared, &goal).await {
+                        Err(refusal) => Err(refusal),
+                        Ok(()) => {
+                            if let (Some((h, cancel)), Some(running)) = (current.take(), executing.take()) {
+                                shared.log(LogLevel::Info, "a new goal preempts the running one: braking (commands 5 and 2)");
+                                cancel.send_replace(true);
+                                let outcome = running.await.preempted();
+                                finishing.push(finish_goal(shared, server, h, outcome));
+                            }
+                            admit(shared, &goal, true).await
+                        }
+                    }
                 } else {
-                    admit(shared, &goal).await
+                    admit(shared, &goal, false).await
                 };
                 match admitted {
                     Err(refusal) => {
@@ -715,6 +840,7 @@ async fn action_loop(shared: &Shared, server: &ActionServer) -> Result<(), Ros2E
                         shared.log(LogLevel::Info, &text);
                         lock(&shared.state).last_goal = Some(text);
                         shared.busy.store(true, std::sync::atomic::Ordering::SeqCst);
+                        lock(&shared.arming).handle_goal_started();
                         let (cancel_tx, cancel_rx) = watch::channel(false);
                         current = Some((exec_handle, cancel_tx));
                         let exec = &shared.config.execution;
@@ -744,7 +870,7 @@ async fn action_loop(shared: &Shared, server: &ActionServer) -> Result<(), Ros2E
                     _ => Vec::new(),
                 };
                 if !mine.is_empty() {
-                    shared.log(LogLevel::Info, "goal cancel requested: braking (commands 5 and 2)");
+                    shared.log(LogLevel::Info, "goal cancel requested: braking (commands 5 and 2); the arm holds where it stops");
                 }
                 if let Err(e) = server.respond_to_cancel_requests(&cancel, mine.into_iter()).await {
                     tracing::warn!("cancel response not sent: {e:?}");
@@ -758,32 +884,8 @@ async fn action_loop(shared: &Shared, server: &ActionServer) -> Result<(), Ros2E
             }
             outcome = maybe(&mut executing), if executing.is_some() => {
                 executing = None;
-                shared.busy.store(false, std::sync::atomic::Ordering::SeqCst);
                 let Some((h, _)) = current.take() else { continue };
-                let status = match outcome.end {
-                    GoalEnd::Succeeded => GoalEndStatus::Succeeded,
-                    GoalEnd::Aborted => GoalEndStatus::Aborted,
-                    GoalEnd::Canceled => GoalEndStatus::Canceled,
-                };
-                let text = format!(
-                    "goal {:?} ({}): {}",
-                    outcome.end, outcome.result.error_code, outcome.result.error_string
-                );
-                shared.log(
-                    if outcome.end == GoalEnd::Succeeded { LogLevel::Info } else { LogLevel::Warn },
-                    &text,
-                );
-                lock(&shared.state).last_goal = Some(text);
-                let result = outcome.result;
-                finishing.push(Box::pin(async move {
-                    // The client asks for the result as soon as the goal is accepted; do not
-                    // wait for ever for one that never does.
-                    match tokio::time::timeout(RESULT_WAIT, server.send_result_response(h, status, result)).await {
-                        Ok(Ok(())) => {}
-                        Ok(Err(e)) => tracing::warn!("goal result not sent: {e:?}"),
-                        Err(_) => tracing::warn!("no client asked for the goal's result within {RESULT_WAIT:?}"),
-                    }
-                }));
+                finishing.push(finish_goal(shared, server, h, outcome));
             }
             done = first_done(&mut finishing), if !finishing.is_empty() => {
                 drop(finishing.swap_remove(done));
@@ -791,6 +893,9 @@ async fn action_loop(shared: &Shared, server: &ActionServer) -> Result<(), Ros2E
         }
     }
 }
+
+/// How long a goal waits for the program the node stopped to end before starting it again.
+const PROGRAM_END_WAIT: Duration = Duration::from_secs(3);
 
 /// How long a finished goal's result waits for the client's request.
 const RESULT_WAIT: Duration = Duration::from_secs(60);
