@@ -277,7 +277,20 @@ class CancelGoalResponse(IdlStruct, typename="action_msgs::srv::dds_::CancelGoal
     goals_canceling: sequence[GoalInfo] = field(default_factory=list)
 
 
+@dataclass
+class GoalStatus(IdlStruct, typename="action_msgs::msg::dds_::GoalStatus_"):
+    goal_info: GoalInfo = field(default_factory=GoalInfo)
+    status: int8 = 0
+
+
+@dataclass
+class GoalStatusArray(IdlStruct, typename="action_msgs::msg::dds_::GoalStatusArray_"):
+    status_list: sequence[GoalStatus] = field(default_factory=list)
+
+
+STATUS_UNKNOWN, STATUS_EXECUTING, STATUS_CANCELING = 0, 2, 3
 STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED = 4, 5, 6
+CANCEL_ERROR_NONE, CANCEL_REJECTED, CANCEL_UNKNOWN_GOAL_ID, CANCEL_GOAL_TERMINATED = 0, 1, 2, 3
 
 # --------------------------------------------------------------------------- helpers
 
@@ -352,6 +365,7 @@ class Peer:
         self.get_result = self.service(f"{a}/get_result", GetResultRequest, GetResultResponse)
         self.cancel_goal = self.service(f"{a}/cancel_goal", CancelGoalRequest, CancelGoalResponse)
         self.feedback = self.reader(f"rt/{a}/feedback", FeedbackMessage, RELIABLE)
+        self.status = self.reader(f"rt/{a}/status", GoalStatusArray, LATCHED)
         self.start = self.service(f"{node}/start", TriggerRequest, TriggerResponse)
         self.stop = self.service(f"{node}/stop", TriggerRequest, TriggerResponse)
         self.latest = None
@@ -644,3 +658,71 @@ def test_after_the_stop_service_a_goal_needs_start(system):
     assert peer.call(peer.start, TriggerRequest()).success
     request = goal_to(with_jt1(here[0] + 0.1), 2.0, start=here)
     assert peer.call(peer.send_goal, request).accepted
+
+
+# --------------------------------------------------------------------------- rclcpp_action's protocol
+
+
+def statuses_of(peer, goal_id, seen):
+    """Appends every status the node published for `goal_id` to `seen` (in order)."""
+    for arr in peer.status.take(N=1000):
+        for st in arr.status_list:
+            if list(st.goal_info.goal_id.uuid) == list(goal_id.uuid):
+                if not seen or seen[-1] != st.status:
+                    seen.append(st.status)
+    return seen
+
+
+def test_status_is_published_on_every_transition_without_a_result_request(system):
+    node, peer = system
+    peer.call(peer.start, TriggerRequest())
+    here = peer.settled_joints()
+    request = goal_to(with_jt1(here[0] + 0.1), 1.5, start=here)
+    seen = []
+    assert peer.call(peer.send_goal, request).accepted
+    wait_until("SUCCEEDED on the status topic",
+               lambda: STATUS_SUCCEEDED in statuses_of(peer, request.goal_id, seen))
+    assert seen[0] == STATUS_EXECUTING and seen[-1] == STATUS_SUCCEEDED, seen
+    # The result, asked late, is still there.
+    time.sleep(1.0)
+    result = peer.call(peer.get_result, GetResultRequest(goal_id=request.goal_id))
+    assert result.status == STATUS_SUCCEEDED, result.result.error_string
+
+
+def test_result_requests_for_rejected_and_unknown_goals_are_answered_unknown(system):
+    node, peer = system
+    rejected = goal_to(with_jt1(3.0), 4.0)  # JT1 beyond its range
+    assert not peer.call(peer.send_goal, rejected).accepted
+    result = peer.call(peer.get_result, GetResultRequest(goal_id=rejected.goal_id), timeout=10)
+    assert result.status == STATUS_UNKNOWN
+    unknown = UUID(uuid=list(uuid.uuid4().bytes))
+    assert peer.call(peer.get_result, GetResultRequest(goal_id=unknown), timeout=10).status == STATUS_UNKNOWN
+
+
+def test_cancel_return_codes_and_cancel_all(system):
+    node, peer = system
+    unknown = GoalInfo(goal_id=UUID(uuid=list(uuid.uuid4().bytes)))
+    reply = peer.call(peer.cancel_goal, CancelGoalRequest(goal_info=unknown))
+    assert reply.return_code == CANCEL_UNKNOWN_GOAL_ID and not reply.goals_canceling
+    peer.call(peer.start, TriggerRequest())
+    here = peer.settled_joints()
+    done = goal_to(with_jt1(here[0] + 0.05), 1.0, start=here)
+    assert peer.call(peer.send_goal, done).accepted
+    assert peer.call(peer.get_result, GetResultRequest(goal_id=done.goal_id)).status == STATUS_SUCCEEDED
+    reply = peer.call(peer.cancel_goal, CancelGoalRequest(goal_info=GoalInfo(goal_id=done.goal_id)))
+    assert reply.return_code == CANCEL_GOAL_TERMINATED and not reply.goals_canceling
+    # Nothing running: cancel-all has nothing to cancel.
+    assert peer.call(peer.cancel_goal, CancelGoalRequest()).return_code == CANCEL_REJECTED
+    # A running goal, cancelled by the zero id and the zero stamp.
+    here = peer.settled_joints()
+    running = goal_to(with_jt1(here[0] + 0.6), 6.0, steps=6, start=here)
+    assert peer.call(peer.send_goal, running).accepted
+    wait_until("the arm to move", lambda: peer.joints()[0] > here[0] + 0.02)
+    reply = peer.call(peer.cancel_goal, CancelGoalRequest())
+    assert reply.return_code == CANCEL_ERROR_NONE
+    assert [list(g.goal_id.uuid) for g in reply.goals_canceling] == [list(running.goal_id.uuid)]
+    assert reply.goals_canceling[0].stamp.sec > 1_600_000_000
+    result = peer.call(peer.get_result, GetResultRequest(goal_id=running.goal_id))
+    assert result.status == STATUS_CANCELED, result.result.error_string
+    seen = statuses_of(peer, running.goal_id, [])
+    assert STATUS_CANCELING in seen or seen[-1] == STATUS_CANCELED, seen

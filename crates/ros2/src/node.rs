@@ -9,18 +9,23 @@ use std::time::Duration;
 
 use fs020n_client::{blockers, Blocker, Robot};
 use fs020n_kin::RobotModel;
-use ros2_client::action::{
-    ActionServerQosPolicies, AsyncActionServer, ExecutingGoalHandle, GoalEndStatus,
+use ros2_client::action::{ActionServerQosPolicies, GetResultResponse, SendGoalResponse};
+use ros2_client::action_msgs::{
+    CancelGoalRequest, CancelGoalResponse, CancelGoalResponseEnum, GoalId, GoalInfo, GoalStatus,
+    GoalStatusArray, GoalStatusEnum,
 };
+use ros2_client::builtin_interfaces::Time as RosTime;
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::log::LogLevel;
 use ros2_client::qos::{Durability, History, Reliability, WhenFull};
+use ros2_client::service::request_id::RmwRequestId;
 use ros2_client::{
     ActionTypeName, Context, MessageTypeName, Name, NodeName, NodeOptions, ParameterValue,
     QosProfile, RosoutRaw, ServiceTypeName,
 };
 use tokio::sync::{mpsc, watch};
 
+use crate::action::{status, CancelCode, GoalTable};
 use crate::arming::Arming;
 use crate::config::NodeConfig;
 use crate::diagnostics::{robot_status, NodeState};
@@ -92,7 +97,7 @@ impl RobotSource for Arc<Robot> {
 }
 
 type Server<Req, Resp> = ros2_client::Server<Req, Resp>;
-type ActionServer = AsyncActionServer<
+type ActionServer = ros2_client::action::ActionServer<
     FollowJointTrajectoryGoal,
     FollowJointTrajectoryResult,
     FollowJointTrajectoryFeedback,
@@ -326,7 +331,6 @@ pub async fn run(
             },
         )
         .map_err(dds("follow_joint_trajectory action"))?;
-    let action = AsyncActionServer::new(action);
     let spinner = node.spinner().map_err(dds("ROS 2 spinner"))?;
 
     let shared = Shared {
@@ -720,25 +724,93 @@ fn planned_path(trajectory: &fs020n_client::Trajectory) -> Vec<fs020n_kin::Joint
 }
 
 type Executing<'a> = Pin<Box<dyn Future<Output = Outcome> + Send + 'a>>;
-type Finishing<'a> = Pin<Box<dyn Future<Output = ()> + Send + 'a>>;
-type GoalHandle = ExecutingGoalHandle<FollowJointTrajectoryGoal>;
+type Goals = GoalTable<GoalId, RmwRequestId, FollowJointTrajectoryResult>;
 
-/// Ends a goal: logs, tells the re-arm policy what became of the program, and queues the
-/// result for the client's request.
-fn finish_goal<'a>(
-    shared: &'a Shared,
-    server: &'a ActionServer,
-    handle: GoalHandle,
+/// How long a goal waits for the program the node stopped to end before starting it again.
+const PROGRAM_END_WAIT: Duration = Duration::from_secs(3);
+
+/// How often the action's services are read (they are polled: a few milliseconds of latency).
+const ACTION_POLL: Duration = Duration::from_millis(5);
+
+fn status_enum(s: i8) -> GoalStatusEnum {
+    match s {
+        status::ACCEPTED => GoalStatusEnum::Accepted,
+        status::EXECUTING => GoalStatusEnum::Executing,
+        status::CANCELING => GoalStatusEnum::Canceling,
+        status::SUCCEEDED => GoalStatusEnum::Succeeded,
+        status::CANCELED => GoalStatusEnum::Canceled,
+        status::ABORTED => GoalStatusEnum::Aborted,
+        _ => GoalStatusEnum::Unknown,
+    }
+}
+
+/// Publishes the status of every known goal (transient local: a late subscriber gets it).
+fn publish_statuses(server: &ActionServer, goals: &Goals) {
+    let status_list = goals
+        .status_list()
+        .into_iter()
+        .map(|(goal_id, ns, s)| GoalStatus {
+            goal_info: GoalInfo {
+                goal_id,
+                stamp: RosTime::from_nanos(ns),
+            },
+            status: status_enum(s),
+        })
+        .collect();
+    if let Err(e) = server.send_goal_statuses(GoalStatusArray { status_list }) {
+        tracing::warn!("goal statuses not published: {e:?}");
+    }
+}
+
+fn send_results(
+    server: &ActionServer,
+    replies: Vec<(RmwRequestId, i8, FollowJointTrajectoryResult)>,
+) {
+    for (request, s, result) in replies {
+        let response = GetResultResponse {
+            status: status_enum(s),
+            result,
+        };
+        if let Err(e) = server.send_result(request, response) {
+            tracing::warn!("goal result not sent: {e:?}");
+        }
+    }
+}
+
+/// The goal id and stamp of a cancel request (ros2-client keeps the fields to itself: read
+/// them back through its serde representation).
+fn cancel_fields(request: &CancelGoalRequest) -> Option<(GoalId, RosTime)> {
+    #[derive(serde::Deserialize)]
+    struct Info {
+        goal_id: GoalId,
+        stamp: RosTime,
+    }
+    #[derive(serde::Deserialize)]
+    struct Fields {
+        goal_info: Info,
+    }
+    let value = serde_norway::to_value(request).ok()?;
+    let f: Fields = serde_norway::from_value(value).ok()?;
+    Some((f.goal_info.goal_id, f.goal_info.stamp))
+}
+
+/// Ends a goal: logs, tells the re-arm policy what became of the program, keeps the result,
+/// answers the result requests waiting for it and publishes the statuses.
+fn end_goal(
+    shared: &Shared,
+    server: &ActionServer,
+    goals: &mut Goals,
+    id: GoalId,
     outcome: Outcome,
-) -> Finishing<'a> {
+) {
     shared
         .busy
         .store(false, std::sync::atomic::Ordering::SeqCst);
     lock(&shared.arming).handle_goal_ended(outcome.program.clone(), tokio::time::Instant::now());
-    let status = match outcome.end {
-        GoalEnd::Succeeded => GoalEndStatus::Succeeded,
-        GoalEnd::Aborted => GoalEndStatus::Aborted,
-        GoalEnd::Canceled => GoalEndStatus::Canceled,
+    let end = match outcome.end {
+        GoalEnd::Succeeded => status::SUCCEEDED,
+        GoalEnd::Aborted => status::ABORTED,
+        GoalEnd::Canceled => status::CANCELED,
     };
     let text = format!(
         "goal {:?} ({}): {}",
@@ -753,152 +825,175 @@ fn finish_goal<'a>(
         &text,
     );
     lock(&shared.state).last_goal = Some(text);
-    let result = outcome.result;
-    Box::pin(async move {
-        // The client asks for the result as soon as the goal is accepted; do not wait for
-        // ever for one that never does.
-        match tokio::time::timeout(
-            RESULT_WAIT,
-            server.send_result_response(handle, status, result),
-        )
-        .await
-        {
-            Ok(Ok(())) => {}
-            Ok(Err(e)) => tracing::warn!("goal result not sent: {e:?}"),
-            Err(_) => {
-                tracing::warn!("no client asked for the goal's result within {RESULT_WAIT:?}")
-            }
-        }
-    })
+    let replies = goals.handle_goal_end(id, end, outcome.result, tokio::time::Instant::now());
+    send_results(server, replies);
+    publish_statuses(server, goals);
 }
 
 async fn action_loop(shared: &Shared, server: &ActionServer) -> Result<(), Ros2Error> {
     let (feedback_tx, mut feedback_rx) = mpsc::channel::<FollowJointTrajectoryFeedback>(4);
     let feedback_tx = &feedback_tx;
-    let mut current: Option<(GoalHandle, watch::Sender<bool>)> = None;
+    let mut goals: Goals = GoalTable::new(
+        Duration::from_secs_f64(shared.config.result_retention_s),
+        FollowJointTrajectoryResult::default(),
+    );
+    let mut current: Option<(GoalId, watch::Sender<bool>)> = None;
     let mut executing: Option<Executing<'_>> = None;
-    let mut finishing: Vec<Finishing<'_>> = Vec::new();
     let feedback_period = Duration::from_secs_f64(1.0 / shared.config.feedback_rate_hz);
+    let mut poll = tokio::time::interval(ACTION_POLL);
+    poll.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    publish_statuses(server, &goals);
     loop {
         tokio::select! {
-            new_goal = server.receive_new_goal() => {
-                let handle = match new_goal {
-                    Ok(h) => h,
-                    Err(e) => {
-                        tracing::warn!("goal request not read: {e:?}");
-                        continue;
-                    }
-                };
-                let Some(goal) = server.get_new_goal(handle.clone()) else { continue };
-                // A new goal while one executes preempts it (as joint_trajectory_controller
-                // does) once it passes the checks that do not need the arm to stop.
-                let admitted = if current.is_some() {
-                    match precheck(shared, &goal).await {
-                        Err(refusal) => Err(refusal),
-                        Ok(()) => {
-                            if let (Some((h, cancel)), Some(running)) = (current.take(), executing.take()) {
-                                shared.log(LogLevel::Info, "a new goal preempts the running one: braking (commands 5 and 2)");
-                                cancel.send_replace(true);
-                                let outcome = running.await.preempted();
-                                finishing.push(finish_goal(shared, server, h, outcome));
+            _ = poll.tick() => {
+                // Goals.
+                loop {
+                    let (request_id, request) = match server.receive_goal() {
+                        Ok(Some(r)) => r,
+                        Ok(None) => break,
+                        Err(e) => {
+                            tracing::warn!("goal request not read: {e:?}");
+                            break;
+                        }
+                    };
+                    let id = request.goal_id;
+                    let goal = request.goal;
+                    let admitted = if goals.contains(&id) {
+                        Err(GoalRefusal::new(error_code::INVALID_GOAL, "a goal with this id exists already; give every goal a new id"))
+                    } else if current.is_some() {
+                        // A new goal while one executes preempts it (as joint_trajectory_controller
+                        // does) once it passes the checks that do not need the arm to stop.
+                        match precheck(shared, &goal).await {
+                            Err(refusal) => Err(refusal),
+                            Ok(()) => {
+                                if let (Some((old, cancel)), Some(running)) = (current.take(), executing.take()) {
+                                    shared.log(LogLevel::Info, "a new goal preempts the running one: braking (commands 5 and 2)");
+                                    cancel.send_replace(true);
+                                    let outcome = running.await.preempted();
+                                    end_goal(shared, server, &mut goals, old, outcome);
+                                }
+                                admit(shared, &goal, true).await
                             }
-                            admit(shared, &goal, true).await
                         }
-                    }
-                } else {
-                    admit(shared, &goal, false).await
-                };
-                match admitted {
-                    Err(refusal) => {
-                        let text = format!("goal rejected ({}): {}", refusal.code, refusal.message);
-                        shared.log(LogLevel::Warn, &text);
-                        lock(&shared.state).last_goal = Some(text);
-                        if let Err(e) = server.reject_goal(handle).await {
-                            tracing::warn!("goal rejection not sent: {e:?}");
+                    } else {
+                        admit(shared, &goal, false).await
+                    };
+                    match admitted {
+                        Err(refusal) => {
+                            let text = format!("goal rejected ({}): {}", refusal.code, refusal.message);
+                            shared.log(LogLevel::Warn, &text);
+                            lock(&shared.state).last_goal = Some(text);
+                            let response = SendGoalResponse { accepted: false, stamp: RosTime::ZERO };
+                            if let Err(e) = server.send_goal_response(request_id, response) {
+                                tracing::warn!("goal rejection not sent: {e:?}");
+                            }
                         }
-                    }
-                    Ok((robot, p, permit)) => {
-                        let accepted = match server.accept_goal(handle).await {
-                            Ok(a) => a,
-                            Err(e) => {
+                        Ok((robot, p, permit)) => {
+                            let stamp = RosTime::now();
+                            goals.handle_goal_accepted(id, stamp.to_nanos());
+                            let response = SendGoalResponse { accepted: true, stamp };
+                            if let Err(e) = server.send_goal_response(request_id, response) {
                                 tracing::warn!("goal acceptance not sent: {e:?}");
-                                continue;
                             }
-                        };
-                        let exec_handle = match server.start_executing_goal(accepted).await {
-                            Ok(h) => h,
-                            Err(e) => {
-                                tracing::warn!("goal not started: {e:?}");
-                                continue;
-                            }
-                        };
-                        let text = format!(
-                            "executing a trajectory of {} points over {:.3} s",
-                            goal.trajectory.points.len(),
-                            p.duration_s()
-                        );
-                        shared.log(LogLevel::Info, &text);
-                        lock(&shared.state).last_goal = Some(text);
-                        shared.busy.store(true, std::sync::atomic::Ordering::SeqCst);
-                        lock(&shared.arming).handle_goal_started();
-                        let (cancel_tx, cancel_rx) = watch::channel(false);
-                        current = Some((exec_handle, cancel_tx));
-                        let exec = &shared.config.execution;
-                        let names = &shared.config.joint_names;
-                        executing = Some(Box::pin(async move {
-                            let outcome = execute(&robot, &p, exec, names, feedback_period, cancel_rx, feedback_tx).await;
-                            // Control is given back when the goal is over.
-                            drop(permit);
-                            outcome
-                        }));
+                            publish_statuses(server, &goals);
+                            let text = format!(
+                                "executing a trajectory of {} points over {:.3} s",
+                                goal.trajectory.points.len(),
+                                p.duration_s()
+                            );
+                            shared.log(LogLevel::Info, &text);
+                            lock(&shared.state).last_goal = Some(text);
+                            shared.busy.store(true, std::sync::atomic::Ordering::SeqCst);
+                            lock(&shared.arming).handle_goal_started();
+                            let (cancel_tx, cancel_rx) = watch::channel(false);
+                            current = Some((id, cancel_tx));
+                            let exec = &shared.config.execution;
+                            let names = &shared.config.joint_names;
+                            executing = Some(Box::pin(async move {
+                                let outcome = execute(&robot, &p, exec, names, feedback_period, cancel_rx, feedback_tx).await;
+                                // Control is given back when the goal is over.
+                                drop(permit);
+                                outcome
+                            }));
+                        }
                     }
                 }
-            }
-            cancel = server.receive_cancel_request() => {
-                let cancel = match cancel {
-                    Ok(c) => c,
-                    Err(e) => {
-                        tracing::warn!("cancel request not read: {e:?}");
-                        continue;
+                // Cancels.
+                loop {
+                    let (request_id, request) = match server.receive_cancel_request() {
+                        Ok(Some(r)) => r,
+                        Ok(None) => break,
+                        Err(e) => {
+                            tracing::warn!("cancel request not read: {e:?}");
+                            break;
+                        }
+                    };
+                    let (code, canceling) = match cancel_fields(&request) {
+                        Some((id, stamp)) => goals.handle_cancel_request(
+                            (id != GoalId::ZERO).then_some(id),
+                            stamp.to_nanos(),
+                        ),
+                        None => (CancelCode::Rejected, Vec::new()),
+                    };
+                    if let Some((id, tx)) = &current {
+                        if canceling.iter().any(|(k, _)| k == id) {
+                            tx.send_replace(true);
+                            shared.log(LogLevel::Info, "goal cancel requested: braking (commands 5 and 2); the arm holds where it stops");
+                        }
                     }
-                };
-                let mine: Vec<_> = match &current {
-                    Some((h, tx)) if cancel.contains_goal(&h.goal_id()) => {
-                        tx.send_replace(true);
-                        vec![h.goal_id()]
+                    let response = CancelGoalResponse {
+                        return_code: match code {
+                            CancelCode::ErrorNone => CancelGoalResponseEnum::None,
+                            CancelCode::Rejected => CancelGoalResponseEnum::Rejected,
+                            CancelCode::UnknownGoalId => CancelGoalResponseEnum::UnknownGoal,
+                            CancelCode::GoalTerminated => CancelGoalResponseEnum::GoalTerminated,
+                        },
+                        goals_canceling: canceling
+                            .iter()
+                            .map(|(goal_id, ns)| GoalInfo { goal_id: *goal_id, stamp: RosTime::from_nanos(*ns) })
+                            .collect(),
+                    };
+                    if let Err(e) = server.send_cancel_response(request_id, response) {
+                        tracing::warn!("cancel response not sent: {e:?}");
                     }
-                    _ => Vec::new(),
-                };
-                if !mine.is_empty() {
-                    shared.log(LogLevel::Info, "goal cancel requested: braking (commands 5 and 2); the arm holds where it stops");
+                    if !canceling.is_empty() {
+                        publish_statuses(server, &goals);
+                    }
                 }
-                if let Err(e) = server.respond_to_cancel_requests(&cancel, mine.into_iter()).await {
-                    tracing::warn!("cancel response not sent: {e:?}");
+                // Result requests.
+                loop {
+                    let (request_id, request) = match server.receive_result_request() {
+                        Ok(Some(r)) => r,
+                        Ok(None) => break,
+                        Err(e) => {
+                            tracing::warn!("result request not read: {e:?}");
+                            break;
+                        }
+                    };
+                    if let Some(reply) = goals.handle_result_request(request_id, request.goal_id) {
+                        send_results(server, vec![reply]);
+                    }
+                }
+                if goals.handle_timeout(tokio::time::Instant::now()) {
+                    publish_statuses(server, &goals);
                 }
             }
             Some(fb) = feedback_rx.recv() => {
-                if let Some((h, _)) = &current {
+                if let Some((id, _)) = &current {
                     // After a cancel request the goal is "canceling": no more feedback.
-                    let _ = server.publish_feedback(h.clone(), fb).await;
+                    if goals.status_of(id) == status::EXECUTING {
+                        let _ = server.send_feedback(*id, fb);
+                    }
                 }
             }
             outcome = maybe(&mut executing), if executing.is_some() => {
                 executing = None;
-                let Some((h, _)) = current.take() else { continue };
-                finishing.push(finish_goal(shared, server, h, outcome));
-            }
-            done = first_done(&mut finishing), if !finishing.is_empty() => {
-                drop(finishing.swap_remove(done));
+                let Some((id, _)) = current.take() else { continue };
+                end_goal(shared, server, &mut goals, id, outcome);
             }
         }
     }
 }
-
-/// How long a goal waits for the program the node stopped to end before starting it again.
-const PROGRAM_END_WAIT: Duration = Duration::from_secs(3);
-
-/// How long a finished goal's result waits for the client's request.
-const RESULT_WAIT: Duration = Duration::from_secs(60);
 
 /// Awaits the future in `slot`, or never when there is none.
 async fn maybe<F: Future + Unpin>(slot: &mut Option<F>) -> F::Output {
@@ -906,12 +1001,4 @@ async fn maybe<F: Future + Unpin>(slot: &mut Option<F>) -> F::Output {
         Some(f) => f.await,
         None => std::future::pending().await,
     }
-}
-
-/// The index of the first of `futures` to finish (never, when there are none).
-async fn first_done<F: Future + Unpin>(futures: &mut [F]) -> usize {
-    if futures.is_empty() {
-        return std::future::pending().await;
-    }
-    futures::future::select_all(futures.iter_mut()).await.1
 }
