@@ -315,12 +315,12 @@ def wait_until(what, predicate, timeout=TIMEOUT, step=0.05):
 class Node:
     """An `fs020n ros2 --embedded` process on a private ROS domain."""
 
-    def __init__(self, domain):
+    def __init__(self, domain, extra=()):
         binary = os.environ.get("FS020N_BIN")
         assert binary, "FS020N_BIN must name the fs020n binary built with --features ros2 (scripts/test-all)"
         self.proc = subprocess.Popen(
             [binary, "--json", "ros2", "--embedded", "--localhost-only", "--domain-id", str(domain),
-             "--pendant", "127.0.0.1:0"],
+             "--pendant", "127.0.0.1:0", *extra],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         )
         self.stderr = []
@@ -726,3 +726,114 @@ def test_cancel_return_codes_and_cancel_all(system):
     assert result.status == STATUS_CANCELED, result.result.error_string
     seen = statuses_of(peer, running.goal_id, [])
     assert STATUS_CANCELING in seen or seen[-1] == STATUS_CANCELED, seen
+
+
+# --------------------------------------------------------------------------- correlation
+
+
+# rmw_cyclonedds_cpp puts the request identity in the payload: the last 8 bytes of the client's
+# GUID and a sequence number, before the request; the reply carries the same header.
+@dataclass
+class CycloneSendGoalRequest(IdlStruct, typename="control_msgs::action::dds_::FollowJointTrajectory_SendGoal_Request_"):
+    guid: array[uint8, 8] = field(default_factory=lambda: [0] * 8)
+    seq_high: int32 = 0
+    seq_low: uint32 = 0
+    goal_id: UUID = field(default_factory=UUID)
+    goal: Goal = field(default_factory=Goal)
+
+
+@dataclass
+class CycloneSendGoalResponse(IdlStruct, typename="control_msgs::action::dds_::FollowJointTrajectory_SendGoal_Response_"):
+    guid: array[uint8, 8] = field(default_factory=lambda: [0] * 8)
+    seq_high: int32 = 0
+    seq_low: uint32 = 0
+    accepted: bool = False
+    stamp: Time = field(default_factory=Time)
+
+
+@dataclass
+class CycloneGetResultRequest(IdlStruct, typename="control_msgs::action::dds_::FollowJointTrajectory_GetResult_Request_"):
+    guid: array[uint8, 8] = field(default_factory=lambda: [0] * 8)
+    seq_high: int32 = 0
+    seq_low: uint32 = 0
+    goal_id: UUID = field(default_factory=UUID)
+
+
+@dataclass
+class CycloneGetResultResponse(IdlStruct, typename="control_msgs::action::dds_::FollowJointTrajectory_GetResult_Response_"):
+    guid: array[uint8, 8] = field(default_factory=lambda: [0] * 8)
+    seq_high: int32 = 0
+    seq_low: uint32 = 0
+    status: int8 = 0
+    result: Result = field(default_factory=Result)
+
+
+def test_two_clients_at_once_each_get_their_own_replies_cyclone_mapping():
+    """Two clients (two participants, each with its own request writer and identity) send goals
+    and result requests at the same moment to a node on the Cyclone mapping: every reply carries
+    the identity of its request, and says what that request asked (one goal rejected, one
+    accepted)."""
+    domain = random.randint(100, 230)
+    node = Node(domain, extra=("--service-mapping", "cyclone"))
+    try:
+        a = "fs020n_controller/follow_joint_trajectory/_action"
+        clients = []
+        for _ in range(2):
+            dp = DomainParticipant(domain)
+            goal_w = DataWriter(dp, Topic(dp, f"rq/{a}/send_goalRequest", CycloneSendGoalRequest), qos=RELIABLE)
+            goal_r = DataReader(dp, Topic(dp, f"rr/{a}/send_goalReply", CycloneSendGoalResponse), qos=RELIABLE)
+            res_w = DataWriter(dp, Topic(dp, f"rq/{a}/get_resultRequest", CycloneGetResultRequest), qos=RELIABLE)
+            res_r = DataReader(dp, Topic(dp, f"rr/{a}/get_resultReply", CycloneGetResultResponse), qos=RELIABLE)
+            clients.append((dp, goal_w, goal_r, res_w, res_r, list(uuid.uuid4().bytes[:8])))
+        start = Peer(domain)
+        for _, goal_w, goal_r, res_w, res_r, _ in clients:
+            wait_until("the action discovered", lambda: goal_w.get_matched_subscriptions()
+                       and goal_r.get_matched_publications() and res_w.get_matched_subscriptions()
+                       and res_r.get_matched_publications())
+        # ~/start over the Cyclone mapping too (its own header).
+        start_w = DataWriter(start.dp, Topic(start.dp, "rq/fs020n/startRequest", CycloneTrigger), qos=RELIABLE)
+        start_r = DataReader(start.dp, Topic(start.dp, "rr/fs020n/startReply", CycloneTriggerResponse), qos=RELIABLE)
+        wait_until("~/start discovered", lambda: start_w.get_matched_subscriptions() and start_r.get_matched_publications())
+        start_w.write(CycloneTrigger(guid=[9] * 8, seq_low=1))
+        reply = wait_until("~/start reply", lambda: start_r.take(N=1))[0]
+        assert list(reply.guid) == [9] * 8 and reply.seq_low == 1 and reply.success, reply.message
+        bad = goal_to(with_jt1(3.0), 4.0)  # rejected: beyond JT1's range
+        good = goal_to(with_jt1(0.2), 2.0, tolerance=0.01)
+        requests = [bad, good]
+        for (dp, goal_w, goal_r, res_w, res_r, guid), req, seq in zip(clients, requests, (7, 11)):
+            goal_w.write(CycloneSendGoalRequest(guid=guid, seq_low=seq, goal_id=req.goal_id, goal=req.goal))
+        for (dp, goal_w, goal_r, res_w, res_r, guid), req, seq in zip(clients, requests, (7, 11)):
+            res_w.write(CycloneGetResultRequest(guid=guid, seq_low=seq + 1, goal_id=req.goal_id))
+        replies = {0: [], 1: []}
+        results = {0: [], 1: []}
+
+        def collect():
+            for i, (dp, goal_w, goal_r, res_w, res_r, guid) in enumerate(clients):
+                replies[i].extend(r for r in goal_r.take(N=10) if list(r.guid) == guid)
+                results[i].extend(r for r in res_r.take(N=10) if list(r.guid) == guid)
+            return all(replies.values()) and all(results.values())
+
+        wait_until("every client's own replies", collect)
+        assert [(r.seq_low, r.accepted) for r in replies[0]] == [(7, False)]
+        assert [(r.seq_low, r.accepted) for r in replies[1]] == [(11, True)]
+        assert [(r.seq_low, r.status) for r in results[0]] == [(8, STATUS_UNKNOWN)]
+        assert [(r.seq_low, r.status) for r in results[1]] == [(12, STATUS_SUCCEEDED)], results[1][0].result
+    finally:
+        assert node.stop() == 0, "".join(node.stderr)
+
+
+@dataclass
+class CycloneTrigger(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Request_"):
+    guid: array[uint8, 8] = field(default_factory=lambda: [0] * 8)
+    seq_high: int32 = 0
+    seq_low: uint32 = 0
+    structure_needs_at_least_one_member: uint8 = 0
+
+
+@dataclass
+class CycloneTriggerResponse(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Response_"):
+    guid: array[uint8, 8] = field(default_factory=lambda: [0] * 8)
+    seq_high: int32 = 0
+    seq_low: uint32 = 0
+    success: bool = False
+    message: str = ""
