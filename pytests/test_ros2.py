@@ -288,6 +288,18 @@ class GoalStatusArray(IdlStruct, typename="action_msgs::msg::dds_::GoalStatusArr
     status_list: sequence[GoalStatus] = field(default_factory=list)
 
 
+@dataclass
+class TransformStamped(IdlStruct, typename="geometry_msgs::msg::dds_::TransformStamped_"):
+    header: Header = field(default_factory=Header)
+    child_frame_id: str = ""
+    transform: Transform = field(default_factory=Transform)
+
+
+@dataclass
+class TFMessage(IdlStruct, typename="tf2_msgs::msg::dds_::TFMessage_"):
+    transforms: sequence[TransformStamped] = field(default_factory=list)
+
+
 STATUS_UNKNOWN, STATUS_EXECUTING, STATUS_CANCELING = 0, 2, 3
 STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED = 4, 5, 6
 CANCEL_ERROR_NONE, CANCEL_REJECTED, CANCEL_UNKNOWN_GOAL_ID, CANCEL_GOAL_TERMINATED = 0, 1, 2, 3
@@ -837,3 +849,63 @@ class CycloneTriggerResponse(IdlStruct, typename="std_srvs::srv::dds_::Trigger_R
     seq_low: uint32 = 0
     success: bool = False
     message: str = ""
+
+
+# --------------------------------------------------------------------------- conventions
+
+
+def test_joint_states_carry_velocities_from_successive_replies(system):
+    node, peer = system
+    peer.call(peer.start, TriggerRequest())
+    here = peer.settled_joints()
+    peer.joint_states.take(N=1000)
+    idle = wait_until("an idle joint state", lambda: peer.joint_states.take(N=1))[0]
+    assert len(idle.velocity) == 6 and all(abs(v) < 1e-9 for v in idle.velocity), idle.velocity
+    request = goal_to(with_jt1(here[0] + 0.5), 2.0, start=here)
+    assert peer.call(peer.send_goal, request).accepted
+    moving = []
+    wait_until("JT1 moving on /joint_states", lambda: moving.extend(
+        m for m in peer.joint_states.take(N=1000) if len(m.velocity) == 6 and m.velocity[0] > 0.05)
+        or len(moving) >= 5)
+    # Below the model's speed (190 deg/s), about the trajectory's (0.25 rad/s on average).
+    assert all(0.0 < m.velocity[0] < math.radians(190) for m in moving)
+    assert all(abs(m.velocity[1]) < 1e-6 for m in moving)
+    assert peer.call(peer.get_result, GetResultRequest(goal_id=request.goal_id)).status == STATUS_SUCCEEDED
+
+
+def test_tf_carries_the_links_and_tf_static_the_flange(system):
+    node, peer = system
+    dp = peer.dp
+    tf = DataReader(dp, Topic(dp, "rt/tf", TFMessage), qos=RELIABLE)
+    tf_static = DataReader(dp, Topic(dp, "rt/tf_static", TFMessage), qos=LATCHED)
+    msg = wait_until("/tf", lambda: tf.take(N=1))[0]
+    pairs = [(t.header.frame_id, t.child_frame_id) for t in msg.transforms]
+    assert pairs == [("base_link", "link_1"), ("link_1", "link_2"), ("link_2", "link_3"),
+                     ("link_3", "link_4"), ("link_4", "link_5"), ("link_5", "link_6")]
+    q1 = peer.joints()[0]
+    r = msg.transforms[0].transform.rotation  # about Z by joint_1
+    assert abs(2 * math.atan2(r.z, r.w) - q1) < 1e-3, (r, q1)
+    shoulder = msg.transforms[1].transform.translation
+    assert (round(shoulder.x, 6), round(shoulder.z, 6)) == (0.15, 0.45)
+    static = wait_until("/tf_static", lambda: tf_static.take(N=1))[0]
+    fixed = {t.child_frame_id: t for t in static.transforms}
+    assert set(fixed) == {"flange", "tool0"}
+    assert abs(fixed["flange"].transform.translation.z - 0.0965) < 1e-9
+    assert fixed["flange"].header.frame_id == "link_6"
+
+
+def test_a_namespace_moves_the_joint_states_description_and_services():
+    domain = random.randint(100, 230)
+    node = Node(domain, extra=("--namespace", "/arm"))
+    try:
+        dp = DomainParticipant(domain)
+        js = DataReader(dp, Topic(dp, "rt/arm/joint_states", JointState), qos=RELIABLE)
+        desc = DataReader(dp, Topic(dp, "rt/arm/robot_description", String), qos=LATCHED)
+        assert list(wait_until("/arm/joint_states", lambda: js.take(N=1))[0].name) == JOINTS
+        assert wait_until("/arm/robot_description", lambda: desc.take(N=1))[0].data.startswith("<?xml")
+        peer = Peer.__new__(Peer)
+        peer.dp = dp
+        start = peer.service("arm/fs020n/start", TriggerRequest, TriggerResponse)
+        assert peer.call(start, TriggerRequest()).success
+    finally:
+        assert node.stop() == 0, "".join(node.stderr)

@@ -37,6 +37,7 @@ pub mod moveit;
 pub mod msg;
 mod node;
 pub mod srdf;
+pub mod tf;
 pub mod urdf;
 
 pub use config::{DdsConfig, ExecutionConfig, NodeConfig, Params, ServiceMapping};

@@ -35,7 +35,7 @@ use crate::goal::{plan, plan_preempting, GoalRefusal};
 use crate::msg::{
     error_code, DiagnosticArray, FollowJointTrajectoryFeedback, FollowJointTrajectoryGoal,
     FollowJointTrajectoryResult, Header, JointState, SetSpeedRequest, SetSpeedResponse, StringMsg,
-    Time, TriggerRequest, TriggerResponse,
+    TfMessage, Time, TriggerRequest, TriggerResponse,
 };
 use crate::urdf;
 
@@ -255,7 +255,7 @@ pub async fn run(
     let joint_states = {
         let topic = node
             .create_topic(
-                &name("/", "joint_states")?,
+                &name(&config.namespace, "joint_states")?,
                 MessageTypeName::new("sensor_msgs", "JointState"),
                 &joint_state_qos(),
             )
@@ -266,7 +266,7 @@ pub async fn run(
     let description = {
         let topic = node
             .create_topic(
-                &name("/", "robot_description")?,
+                &name(&config.namespace, "robot_description")?,
                 MessageTypeName::new("std_msgs", "String"),
                 &latched_qos(),
             )
@@ -284,6 +284,29 @@ pub async fn run(
             .map_err(dds("/diagnostics"))?;
         node.create_publisher::<DiagnosticArray>(&topic, Some(joint_state_qos()))
             .map_err(dds("/diagnostics"))?
+    };
+
+    let tf = {
+        let topic = node
+            .create_topic(
+                &name("/", "tf")?,
+                MessageTypeName::new("tf2_msgs", "TFMessage"),
+                &joint_state_qos(),
+            )
+            .map_err(dds("/tf"))?;
+        node.create_publisher::<TfMessage>(&topic, Some(joint_state_qos()))
+            .map_err(dds("/tf"))?
+    };
+    let tf_static = {
+        let topic = node
+            .create_topic(
+                &name("/", "tf_static")?,
+                MessageTypeName::new("tf2_msgs", "TFMessage"),
+                &latched_qos(),
+            )
+            .map_err(dds("/tf_static"))?;
+        node.create_publisher::<TfMessage>(&topic, Some(latched_qos()))
+            .map_err(dds("/tf_static"))?
     };
 
     // Services.
@@ -350,6 +373,13 @@ pub async fn run(
         .publish(StringMsg { data: urdf_text })
         .map_err(|e| Ros2Error::Dds(format!("/robot_description: {e:?}")))?;
 
+    // The fixed frames, latched.
+    let fixed = crate::tf::link_transforms(&shared.model, &shared.model.home.to_rad(), Time::now())
+        .split_off(6);
+    if let Err(e) = tf_static.publish(TfMessage { transforms: fixed }) {
+        tracing::warn!("/tf_static not published: {e:?}");
+    }
+
     // The speed this node runs at.
     if let (Some(percent), Ok(robot)) = (shared.config.speed_percent, shared.robot()) {
         let permitted = shared.source.permit(Action::SetSpeed(percent));
@@ -383,7 +413,7 @@ pub async fn run(
     };
     let work = async {
         tokio::try_join!(
-            joint_state_loop(shared, &joint_states),
+            joint_state_loop(shared, &joint_states, &tf),
             diagnostics_loop(shared, &diagnostics),
             trigger_loop(shared, &start_srv, Trigger::Start),
             trigger_loop(shared, &stop_srv, Trigger::Stop),
@@ -403,7 +433,9 @@ pub async fn run(
 async fn joint_state_loop(
     shared: &Shared,
     publisher: &ros2_client::Publisher<JointState>,
+    tf: &ros2_client::Publisher<TfMessage>,
 ) -> Result<(), Ros2Error> {
+    let mut previous: Option<([f64; 6], f64)> = None;
     let period = Duration::from_secs_f64(1.0 / shared.config.joint_state_rate_hz);
     let mut ticker = tokio::time::interval(period);
     ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
@@ -432,6 +464,16 @@ async fn joint_state_loop(
         let stamp = std::time::SystemTime::now()
             .checked_sub(s.age())
             .map_or_else(Time::now, Time::from_system);
+        let joints_deg: [f64; 6] = std::array::from_fn(|j| s.status.joints[j]);
+        let timer_s = s.status.timer.seconds();
+        let velocity = match timer_s {
+            Some(t) => crate::tf::joint_velocities(
+                previous.as_ref().map(|(q, t0)| (q, *t0)),
+                (&joints_deg, t),
+            ),
+            None => Vec::new(),
+        };
+        previous = timer_s.map(|t| (joints_deg, t));
         let msg = JointState {
             header: Header {
                 stamp,
@@ -439,11 +481,17 @@ async fn joint_state_loop(
             },
             name: shared.config.joint_names.to_vec(),
             position: s.status.joints.iter().map(|d| d.to_radians()).collect(),
-            velocity: Vec::new(),
+            velocity,
             effort: Vec::new(),
         };
         if let Err(e) = publisher.publish(msg) {
             tracing::debug!("joint state not published: {e:?}");
+        }
+        let mut transforms =
+            crate::tf::link_transforms(&shared.model, &s.status.joints.to_rad(), stamp);
+        transforms.truncate(6);
+        if let Err(e) = tf.publish(TfMessage { transforms }) {
+            tracing::debug!("/tf not published: {e:?}");
         }
     }
 }
