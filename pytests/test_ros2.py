@@ -909,3 +909,32 @@ def test_a_namespace_moves_the_joint_states_description_and_services():
         assert peer.call(start, TriggerRequest()).success
     finally:
         assert node.stop() == 0, "".join(node.stderr)
+
+
+def test_ros_args_as_launch_ros_passes_them_rename_remap_and_set_parameters(tmp_path):
+    """`launch_ros`'s Node() appends `--ros-args -r __node:=… -r __ns:=… --params-file …
+    -p …:=… -r from:=to`: the node takes its name, namespace, parameters and remaps from them."""
+    params = tmp_path / "params.yaml"
+    params.write_text("/cell/robot:\n  ros__parameters:\n    joint_state_rate_hz: 50.0\n")
+    domain = random.randint(100, 230)
+    node = Node(domain, extra=("--ros-args", "-r", "__node:=robot", "-r", "__ns:=/cell",
+                               "--params-file", str(params), "-p", "feedback_rate_hz:=10.0",
+                               "-r", "joint_states:=/robot/joint_states"))
+    try:
+        assert node.info["node"] == "/cell/robot"
+        dp = DomainParticipant(domain)
+        js = DataReader(dp, Topic(dp, "rt/robot/joint_states", JointState), qos=RELIABLE)
+        desc = DataReader(dp, Topic(dp, "rt/cell/robot_description", String), qos=LATCHED)
+        assert list(wait_until("the remapped joint states", lambda: js.take(N=1))[0].name) == JOINTS
+        assert wait_until("the description under the namespace", lambda: desc.take(N=1))
+        # 50 Hz from the parameter file: about 50 messages a second, not 100.
+        js.take(N=1000)
+        time.sleep(2.0)
+        n = len(js.take(N=1000))
+        assert 40 <= n <= 130, n
+        peer = Peer.__new__(Peer)
+        peer.dp = dp
+        start = peer.service("cell/robot/start", TriggerRequest, TriggerResponse)
+        assert peer.call(start, TriggerRequest()).success
+    finally:
+        assert node.stop() == 0, "".join(node.stderr)

@@ -305,6 +305,10 @@ pub(crate) struct Ros2NodeArgs {
     /// (then ~/start re-arms). Default: call ~/start first.
     #[arg(long)]
     pub(crate) auto_start: bool,
+    /// ROS 2's own arguments, last on the line, as launch_ros's Node() passes them:
+    /// -r FROM:=TO (also __node, __ns), -p NAME:=VALUE, --params-file FILE, --log-level L.
+    #[arg(long = "ros-args", num_args = 0.., allow_hyphen_values = true, value_name = "ARG")]
+    pub(crate) ros_args: Option<Vec<String>>,
 }
 
 /// `plot` arguments.

@@ -48,6 +48,10 @@ pub(crate) fn node_config(args: &Ros2NodeArgs) -> CliResult<NodeConfig> {
     if args.auto_start {
         config.execution.auto_start = true;
     }
+    if let Some(ros_args) = &args.ros_args {
+        let parsed = fs020n_ros2::RosArgs::parse(ros_args).map_err(input)?;
+        config.apply_ros_args(&parsed).map_err(input)?;
+    }
     config.validate().map_err(input)?;
     Ok(config)
 }

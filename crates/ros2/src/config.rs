@@ -162,6 +162,9 @@ pub struct NodeConfig {
     /// How long a finished goal's result is kept for late result requests, seconds (1 s to a
     /// day). Default 900 (15 min, as rcl_action).
     pub result_retention_s: f64,
+    /// Remaps of topic and service names (from, to), as `--ros-args -r` gives them; see
+    /// [`NodeConfig::resolve`].
+    pub remaps: Vec<(String, String)>,
     /// The DDS participant.
     pub dds: DdsConfig,
 }
@@ -179,6 +182,7 @@ impl Default for NodeConfig {
             speed_percent: Some(100.0),
             execution: ExecutionConfig::default(),
             result_retention_s: crate::action::DEFAULT_RESULT_RETENTION.as_secs_f64(),
+            remaps: Vec::new(),
             dds: DdsConfig::default(),
         }
     }

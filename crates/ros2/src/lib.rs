@@ -36,6 +36,7 @@ pub mod goal;
 pub mod moveit;
 pub mod msg;
 mod node;
+pub mod ros_args;
 pub mod srdf;
 pub mod tf;
 pub mod urdf;
@@ -43,6 +44,7 @@ pub mod urdf;
 pub use config::{DdsConfig, ExecutionConfig, NodeConfig, Params, ServiceMapping};
 pub use error::Ros2Error;
 pub use node::{run, Action, Permit, RobotSource};
+pub use ros_args::RosArgs;
 
 #[cfg(test)]
 mod tests {

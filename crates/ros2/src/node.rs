@@ -255,7 +255,7 @@ pub async fn run(
     let joint_states = {
         let topic = node
             .create_topic(
-                &name(&config.namespace, "joint_states")?,
+                &split_name(&config.resolve("joint_states"))?,
                 MessageTypeName::new("sensor_msgs", "JointState"),
                 &joint_state_qos(),
             )
@@ -266,7 +266,7 @@ pub async fn run(
     let description = {
         let topic = node
             .create_topic(
-                &name(&config.namespace, "robot_description")?,
+                &split_name(&config.resolve("robot_description"))?,
                 MessageTypeName::new("std_msgs", "String"),
                 &latched_qos(),
             )
@@ -277,7 +277,7 @@ pub async fn run(
     let diagnostics = {
         let topic = node
             .create_topic(
-                &name("/", "diagnostics")?,
+                &split_name(&config.resolve("/diagnostics"))?,
                 MessageTypeName::new("diagnostic_msgs", "DiagnosticArray"),
                 &joint_state_qos(),
             )
@@ -289,7 +289,7 @@ pub async fn run(
     let tf = {
         let topic = node
             .create_topic(
-                &name("/", "tf")?,
+                &split_name(&config.resolve("/tf"))?,
                 MessageTypeName::new("tf2_msgs", "TFMessage"),
                 &joint_state_qos(),
             )
@@ -300,7 +300,7 @@ pub async fn run(
     let tf_static = {
         let topic = node
             .create_topic(
-                &name("/", "tf_static")?,
+                &split_name(&config.resolve("/tf_static"))?,
                 MessageTypeName::new("tf2_msgs", "TFMessage"),
                 &latched_qos(),
             )
@@ -315,7 +315,7 @@ pub async fn run(
         |base: &str| -> Result<Server<TriggerRequest, TriggerResponse>, Ros2Error> {
             node.create_server(
                 mapping,
-                &name(&fqn, base)?,
+                &split_name(&config.resolve(&format!("~/{base}")))?,
                 &trigger,
                 service_qos(),
                 service_qos(),
@@ -328,7 +328,7 @@ pub async fn run(
     let speed_srv: Server<SetSpeedRequest, SetSpeedResponse> = node
         .create_server(
             mapping,
-            &name(&fqn, "set_speed")?,
+            &split_name(&config.resolve("~/set_speed"))?,
             &ServiceTypeName::new("fs020n_msgs", "SetSpeed"),
             service_qos(),
             service_qos(),
@@ -343,7 +343,7 @@ pub async fn run(
     let action = node
         .create_action_server::<FollowJointTrajectoryGoal, FollowJointTrajectoryResult, FollowJointTrajectoryFeedback>(
             mapping,
-            &split_name(&config.action_name())?,
+            &split_name(&config.resolve(&config.action_name()))?,
             &ActionTypeName::new("control_msgs", "FollowJointTrajectory"),
             ActionServerQosPolicies {
                 goal_service: volatile.clone(),
