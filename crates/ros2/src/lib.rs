@@ -12,6 +12,8 @@
 //!   library's checks before anything moves ([`goal`]), then streamed with command 7 (or
 //!   command 6 waypoints) with feedback, path and goal tolerances, cancel (the robot brakes)
 //!   and an error code when the robot faults ([`execute`]);
+//! * `~/joint_trajectory` (a streamed trajectory replacing the running one), `/tf` and
+//!   `/tf_static` ([`tf`]), `--ros-args` ([`RosArgs`]);
 //! * `~/start`, `~/stop`, `~/cancel` (`std_srvs/srv/Trigger`) and `~/set_speed`
 //!   (`fs020n_msgs/srv/SetSpeed`);
 //! * `/diagnostics` (`diagnostic_msgs/msg/DiagnosticArray`): switches, error with its remedy,

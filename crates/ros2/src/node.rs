@@ -34,8 +34,8 @@ use crate::execute::{execute, GoalEnd, Outcome};
 use crate::goal::{plan, plan_preempting, GoalRefusal};
 use crate::msg::{
     error_code, DiagnosticArray, FollowJointTrajectoryFeedback, FollowJointTrajectoryGoal,
-    FollowJointTrajectoryResult, Header, JointState, SetSpeedRequest, SetSpeedResponse, StringMsg,
-    TfMessage, Time, TriggerRequest, TriggerResponse,
+    FollowJointTrajectoryResult, Header, JointState, JointTrajectory, SetSpeedRequest,
+    SetSpeedResponse, StringMsg, TfMessage, Time, TriggerRequest, TriggerResponse,
 };
 use crate::urdf;
 
@@ -186,10 +186,14 @@ fn service_qos() -> QosProfile {
 ///
 /// What it serves (`~` is the node's name, `/fs020n` by default):
 ///
-/// * `/joint_states` (`sensor_msgs/msg/JointState`, radians) at `joint_state_rate_hz`;
-/// * `/robot_description` (`std_msgs/msg/String`, transient local): [`urdf::generate`];
+/// * `joint_states` (`sensor_msgs/msg/JointState`, radians, with velocities) at
+///   `joint_state_rate_hz`, and `/tf` with it ([`crate::tf`]); `/tf_static` once;
+/// * `robot_description` (`std_msgs/msg/String`, transient local): [`urdf::generate`];
+/// * `~/joint_trajectory` (`trajectory_msgs/msg/JointTrajectory`): replaces the running
+///   trajectory, as a goal would;
 /// * `/diagnostics` (`diagnostic_msgs/msg/DiagnosticArray`) at `diagnostics_rate_hz`;
-/// * `<action_namespace>/follow_joint_trajectory` (`control_msgs/action/FollowJointTrajectory`);
+/// * `<action_namespace>/follow_joint_trajectory` (`control_msgs/action/FollowJointTrajectory`,
+///   the protocol of [`crate::action`], the re-arm policy of [`crate::arming`]);
 /// * `~/start`, `~/stop`, `~/cancel` (`std_srvs/srv/Trigger`), `~/set_speed`
 ///   (`fs020n_msgs/srv/SetSpeed`).
 pub async fn run(
@@ -309,6 +313,19 @@ pub async fn run(
             .map_err(dds("/tf_static"))?
     };
 
+    // Streaming input: a trajectory on a topic replaces the running one (as JTC's).
+    let trajectory_topic = {
+        let topic = node
+            .create_topic(
+                &split_name(&config.resolve("~/joint_trajectory"))?,
+                MessageTypeName::new("trajectory_msgs", "JointTrajectory"),
+                &joint_state_qos(),
+            )
+            .map_err(dds("~/joint_trajectory"))?;
+        node.create_subscription::<JointTrajectory>(&topic, Some(joint_state_qos()))
+            .map_err(dds("~/joint_trajectory"))?
+    };
+
     // Services.
     let trigger = ServiceTypeName::new("std_srvs", "Trigger");
     let mut trigger_server =
@@ -419,7 +436,7 @@ pub async fn run(
             trigger_loop(shared, &stop_srv, Trigger::Stop),
             trigger_loop(shared, &cancel_srv, Trigger::Cancel),
             speed_loop(shared, &speed_srv),
-            action_loop(shared, &action),
+            action_loop(shared, &action, &trajectory_topic),
             spin,
         )
         .map(|_| ())
@@ -848,7 +865,7 @@ fn end_goal(
     shared: &Shared,
     server: &ActionServer,
     goals: &mut Goals,
-    id: GoalId,
+    id: Option<GoalId>,
     outcome: Outcome,
 ) {
     shared
@@ -873,19 +890,48 @@ fn end_goal(
         &text,
     );
     lock(&shared.state).last_goal = Some(text);
-    let replies = goals.handle_goal_end(id, end, outcome.result, tokio::time::Instant::now());
-    send_results(server, replies);
-    publish_statuses(server, goals);
+    // A trajectory from the topic has no goal: nobody asks for its result.
+    if let Some(id) = id {
+        let replies = goals.handle_goal_end(id, end, outcome.result, tokio::time::Instant::now());
+        send_results(server, replies);
+        publish_statuses(server, goals);
+    }
 }
 
-async fn action_loop(shared: &Shared, server: &ActionServer) -> Result<(), Ros2Error> {
+/// Stops the running trajectory because a newer one replaces it: it ends ABORTED "preempted
+/// by a new goal" once the robot has braked.
+async fn preempt(
+    shared: &Shared,
+    server: &ActionServer,
+    goals: &mut Goals,
+    current: &mut Option<(Option<GoalId>, watch::Sender<bool>)>,
+    executing: &mut Option<Executing<'_>>,
+) {
+    if let (Some((old, cancel)), Some(running)) = (current.take(), executing.take()) {
+        shared.log(
+            LogLevel::Info,
+            "a new trajectory preempts the running one: braking (commands 5 and 2)",
+        );
+        cancel.send_replace(true);
+        let outcome = running.await.preempted();
+        end_goal(shared, server, goals, old, outcome);
+    }
+}
+
+async fn action_loop(
+    shared: &Shared,
+    server: &ActionServer,
+    trajectories: &ros2_client::Subscription<JointTrajectory>,
+) -> Result<(), Ros2Error> {
     let (feedback_tx, mut feedback_rx) = mpsc::channel::<FollowJointTrajectoryFeedback>(4);
     let feedback_tx = &feedback_tx;
     let mut goals: Goals = GoalTable::new(
         Duration::from_secs_f64(shared.config.result_retention_s),
         FollowJointTrajectoryResult::default(),
     );
-    let mut current: Option<(GoalId, watch::Sender<bool>)> = None;
+    // The executing trajectory: its goal id (`None`: from the `~/joint_trajectory` topic) and
+    // its cancel switch.
+    let mut current: Option<(Option<GoalId>, watch::Sender<bool>)> = None;
     let mut executing: Option<Executing<'_>> = None;
     let feedback_period = Duration::from_secs_f64(1.0 / shared.config.feedback_rate_hz);
     let mut poll = tokio::time::interval(ACTION_POLL);
@@ -914,12 +960,7 @@ async fn action_loop(shared: &Shared, server: &ActionServer) -> Result<(), Ros2E
                         match precheck(shared, &goal).await {
                             Err(refusal) => Err(refusal),
                             Ok(()) => {
-                                if let (Some((old, cancel)), Some(running)) = (current.take(), executing.take()) {
-                                    shared.log(LogLevel::Info, "a new goal preempts the running one: braking (commands 5 and 2)");
-                                    cancel.send_replace(true);
-                                    let outcome = running.await.preempted();
-                                    end_goal(shared, server, &mut goals, old, outcome);
-                                }
+                                preempt(shared, server, &mut goals, &mut current, &mut executing).await;
                                 admit(shared, &goal, true).await
                             }
                         }
@@ -954,7 +995,7 @@ async fn action_loop(shared: &Shared, server: &ActionServer) -> Result<(), Ros2E
                             shared.busy.store(true, std::sync::atomic::Ordering::SeqCst);
                             lock(&shared.arming).handle_goal_started();
                             let (cancel_tx, cancel_rx) = watch::channel(false);
-                            current = Some((id, cancel_tx));
+                            current = Some((Some(id), cancel_tx));
                             let exec = &shared.config.execution;
                             let names = &shared.config.joint_names;
                             executing = Some(Box::pin(async move {
@@ -983,7 +1024,7 @@ async fn action_loop(shared: &Shared, server: &ActionServer) -> Result<(), Ros2E
                         ),
                         None => (CancelCode::Rejected, Vec::new()),
                     };
-                    if let Some((id, tx)) = &current {
+                    if let Some((Some(id), tx)) = &current {
                         if canceling.iter().any(|(k, _)| k == id) {
                             tx.send_replace(true);
                             shared.log(LogLevel::Info, "goal cancel requested: braking (commands 5 and 2); the arm holds where it stops");
@@ -1027,7 +1068,7 @@ async fn action_loop(shared: &Shared, server: &ActionServer) -> Result<(), Ros2E
                 }
             }
             Some(fb) = feedback_rx.recv() => {
-                if let Some((id, _)) = &current {
+                if let Some((Some(id), _)) = &current {
                     // After a cancel request the goal is "canceling": no more feedback.
                     if goals.status_of(id) == status::EXECUTING {
                         let _ = server.send_feedback(*id, fb);
@@ -1038,6 +1079,56 @@ async fn action_loop(shared: &Shared, server: &ActionServer) -> Result<(), Ros2E
                 executing = None;
                 let Some((id, _)) = current.take() else { continue };
                 end_goal(shared, server, &mut goals, id, outcome);
+            }
+            message = trajectories.async_take() => {
+                let trajectory = match message {
+                    Ok((t, _)) => t,
+                    Err(e) => {
+                        tracing::warn!("~/joint_trajectory message not read: {e:?}");
+                        continue;
+                    }
+                };
+                // Checked like a goal with the node's default tolerances; it replaces the
+                // running trajectory (goal or topic) once it passes the checks.
+                let goal = FollowJointTrajectoryGoal { trajectory, ..Default::default() };
+                let admitted = if current.is_some() {
+                    match precheck(shared, &goal).await {
+                        Err(refusal) => Err(refusal),
+                        Ok(()) => {
+                            preempt(shared, server, &mut goals, &mut current, &mut executing).await;
+                            admit(shared, &goal, true).await
+                        }
+                    }
+                } else {
+                    admit(shared, &goal, false).await
+                };
+                match admitted {
+                    Err(refusal) => {
+                        let text = format!("~/joint_trajectory refused ({}): {}", refusal.code, refusal.message);
+                        shared.log(LogLevel::Warn, &text);
+                        lock(&shared.state).last_goal = Some(text);
+                    }
+                    Ok((robot, p, permit)) => {
+                        let text = format!(
+                            "following a ~/joint_trajectory of {} points over {:.3} s",
+                            goal.trajectory.points.len(),
+                            p.duration_s()
+                        );
+                        shared.log(LogLevel::Info, &text);
+                        lock(&shared.state).last_goal = Some(text);
+                        shared.busy.store(true, std::sync::atomic::Ordering::SeqCst);
+                        lock(&shared.arming).handle_goal_started();
+                        let (cancel_tx, cancel_rx) = watch::channel(false);
+                        current = Some((None, cancel_tx));
+                        let exec = &shared.config.execution;
+                        let names = &shared.config.joint_names;
+                        executing = Some(Box::pin(async move {
+                            let outcome = execute(&robot, &p, exec, names, feedback_period, cancel_rx, feedback_tx).await;
+                            drop(permit);
+                            outcome
+                        }));
+                    }
+                }
             }
         }
     }
