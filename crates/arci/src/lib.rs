@@ -13,16 +13,23 @@
 //!   outside a joint range is `arci::Error::OutOfLimit`, a too fast or jerky trajectory
 //!   `arci::Error::Other` with the reason; nothing is sent then.
 //! * The returned `WaitFuture` ends when the robot is at the last point (within
-//!   `end_tolerance_deg`); dropping it does not stop the motion (as arci asks). One trajectory
-//!   at a time: a second call while one runs fails with the reason (wait for the first, or
-//!   cancel it with `Robot::cancel`).
+//!   `end_tolerance_deg`); dropping it does not stop the motion (as arci asks).
+//! * **No command is dropped silently.** One trajectory runs at a time; a call while one runs
+//!   is queued, newest target wins (as the servo of the client library coalesces its samples,
+//!   and as openrr's teleop expects when it sends a target every cycle without waiting): when
+//!   the running trajectory ends, the newest queued one starts from where the arm is, checked
+//!   again from there. A queued command replaced by a newer one ends its `WaitFuture` with
+//!   `arci::Error::Canceled` ("superseded"); an error found after the call returned (the
+//!   session busy with another client's motion, a check from the new start, a fault) ends its
+//!   `WaitFuture` with the error and, when that future was dropped, is logged (`tracing`
+//!   warning) instead of vanishing.
 //!
 //! The client needs a tokio runtime (it spawns the stream's waiting task on it) and a robot
 //! with the program running (`Robot::start`). Example: `examples/emulator.rs`.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use arci::{Error, JointTrajectoryClient, TrajectoryPoint as ArciPoint, WaitFuture};
@@ -30,6 +37,24 @@ use fs020n_client::{
     ClientError, Robot, StreamOptions, StreamOutcome, Trajectory, TrajectoryError, TrajectoryPoint,
 };
 use fs020n_proto::{JointsDeg, JOINT_COUNT};
+use tokio::sync::oneshot;
+
+/// A command waiting to run: its points and where its caller waits for the end.
+struct Job {
+    points: Vec<TrajectoryPoint>,
+    done: oneshot::Sender<Result<(), Error>>,
+}
+
+/// The commands of one client: whether a trajectory runs, and the newest one waiting.
+#[derive(Default)]
+struct Queue {
+    running: bool,
+    pending: Option<Job>,
+}
+
+fn lock(q: &Mutex<Queue>) -> std::sync::MutexGuard<'_, Queue> {
+    q.lock().unwrap_or_else(|p| p.into_inner())
+}
 
 /// An FS020N as an [`arci::JointTrajectoryClient`].
 pub struct Fs020nClient {
@@ -37,6 +62,7 @@ pub struct Fs020nClient {
     joint_names: Vec<String>,
     options: StreamOptions,
     runtime: tokio::runtime::Handle,
+    queue: Arc<Mutex<Queue>>,
 }
 
 impl std::fmt::Debug for Fs020nClient {
@@ -60,6 +86,7 @@ impl Fs020nClient {
             joint_names: (1..=JOINT_COUNT).map(|i| format!("joint_{i}")).collect(),
             options: StreamOptions::default(),
             runtime,
+            queue: Arc::default(),
         })
     }
 
@@ -115,53 +142,144 @@ impl Fs020nClient {
         Ok(JointsDeg::new(out))
     }
 
-    /// Checks the trajectory (ranges, speeds, steps, command 7's extrapolation) and its start
-    /// before anything is sent, then streams it from a task; the future waits for its end.
-    fn start(&self, mut points: Vec<TrajectoryPoint>) -> Result<WaitFuture, Error> {
+    /// Checks the trajectory (ranges, speeds, steps, command 7's extrapolation) from the
+    /// current position before anything is sent, then runs it — or, while one runs, queues it
+    /// in place of any older queued one; the future waits for its end.
+    fn start(&self, points: Vec<TrajectoryPoint>) -> Result<WaitFuture, Error> {
         let current = self.current_deg()?;
-        if points.first().is_some_and(|p| p.time_s > 0.0) {
-            points.insert(0, TrajectoryPoint::new(0.0, current));
-        }
-        let trajectory = Trajectory::new(points).map_err(|e| self.refusal(e))?;
-        self.options
-            .validate(self.robot.model(), &trajectory)
-            .map_err(|e| self.refusal(e))?;
-        let robot = self.robot.clone();
-        let options = self.options;
-        let task = self.runtime.spawn(async move {
-            let handle = robot.stream(trajectory, options).await?;
-            handle.wait().await
-        });
         let names = self.joint_names.clone();
-        Ok(WaitFuture::new(async move {
-            let report = task
-                .await
-                .map_err(|e| Error::Other(anyhow::anyhow!("the stream task ended: {e}")))?
-                .map_err(|e| client_error(e, &names))?;
-            match report.outcome {
-                StreamOutcome::Cancelled => Err(Error::Canceled {
-                    message: "the trajectory was cancelled; the robot braked and the motion program ended (commands 5 and 2)".into(),
-                }),
-                StreamOutcome::Completed if report.settled => Ok(()),
-                StreamOutcome::Completed => Err(Error::Other(anyhow::anyhow!(
-                    "the robot ended {:.3} deg from the last point (more than the stream's end \
-                     tolerance); check the monitor speed (100 % for command 7)",
-                    report.final_error_deg
-                ))),
+        plan(&self.robot, &self.options, current, points.clone(), &names)?;
+        let (done, wait) = oneshot::channel();
+        let job = Job { points, done };
+        let mut queue = lock(&self.queue);
+        if queue.running {
+            if let Some(old) = queue.pending.replace(job) {
+                finish(
+                    old.done,
+                    Err(Error::Canceled {
+                        message:
+                            "superseded by a newer target before it started (newest target wins)"
+                                .into(),
+                    }),
+                );
             }
+        } else {
+            queue.running = true;
+            let runner = Runner {
+                robot: self.robot.clone(),
+                options: self.options,
+                names: names.clone(),
+                queue: self.queue.clone(),
+            };
+            self.runtime.spawn(runner.run(job));
+        }
+        drop(queue);
+        Ok(WaitFuture::new(async move {
+            wait.await.unwrap_or_else(|_| {
+                Err(Error::Other(anyhow::anyhow!(
+                    "the trajectory's task ended without a result (runtime shut down)"
+                )))
+            })
         }))
     }
+}
 
-    fn refusal(&self, e: TrajectoryError) -> Error {
-        if let TrajectoryError::OutOfRange { limit, .. } = &e {
-            let j = limit.joint.saturating_sub(1).min(JOINT_COUNT - 1);
-            return Error::OutOfLimit {
-                name: self.joint_names[j].clone(),
-                position: limit.value_deg.to_radians(),
-                limit: limit.min_deg.to_radians()..=limit.max_deg.to_radians(),
+/// The trajectory of `points` from `current`: the current position prepended at time 0 when
+/// the first point is later, and every check of the stream run.
+fn plan(
+    robot: &Robot,
+    options: &StreamOptions,
+    current: JointsDeg,
+    mut points: Vec<TrajectoryPoint>,
+    names: &[String],
+) -> Result<Trajectory, Error> {
+    if points.first().is_some_and(|p| p.time_s > 0.0) {
+        points.insert(0, TrajectoryPoint::new(0.0, current));
+    }
+    let trajectory = Trajectory::new(points).map_err(|e| refusal(e, names))?;
+    options
+        .validate(robot.model(), &trajectory)
+        .map_err(|e| refusal(e, names))?;
+    Ok(trajectory)
+}
+
+fn refusal(e: TrajectoryError, names: &[String]) -> Error {
+    if let TrajectoryError::OutOfRange { limit, .. } = &e {
+        let j = limit.joint.saturating_sub(1).min(JOINT_COUNT - 1);
+        return Error::OutOfLimit {
+            name: names.get(j).cloned().unwrap_or_default(),
+            position: limit.value_deg.to_radians(),
+            limit: limit.min_deg.to_radians()..=limit.max_deg.to_radians(),
+        };
+    }
+    Error::Other(anyhow::anyhow!("trajectory refused before sending: {e}"))
+}
+
+/// Gives a command its end; when its caller dropped the `WaitFuture`, an error is logged
+/// rather than lost.
+fn finish(done: oneshot::Sender<Result<(), Error>>, result: Result<(), Error>) {
+    if let Err(Err(e)) = done.send(result) {
+        tracing::warn!("an arci command whose WaitFuture was dropped failed: {e}");
+    }
+}
+
+/// Runs queued trajectories one after the other until none is left.
+struct Runner {
+    robot: Arc<Robot>,
+    options: StreamOptions,
+    names: Vec<String>,
+    queue: Arc<Mutex<Queue>>,
+}
+
+impl Runner {
+    async fn run(self, first: Job) {
+        let mut job = first;
+        loop {
+            let result = self.follow(job.points).await;
+            finish(job.done, result);
+            let next = {
+                let mut queue = lock(&self.queue);
+                let next = queue.pending.take();
+                queue.running = next.is_some();
+                next
             };
+            match next {
+                Some(j) => job = j,
+                None => return,
+            }
         }
-        Error::Other(anyhow::anyhow!("trajectory refused before sending: {e}"))
+    }
+
+    async fn follow(&self, points: Vec<TrajectoryPoint>) -> Result<(), Error> {
+        let current = match self.robot.link_error() {
+            Some(e) => {
+                return Err(Error::Connection {
+                    message: e.to_string(),
+                })
+            }
+            None => self.robot.status().status.joints,
+        };
+        let trajectory = plan(&self.robot, &self.options, current, points, &self.names)?;
+        let handle = self
+            .robot
+            .stream(trajectory, self.options)
+            .await
+            .map_err(|e| client_error(e, &self.names))?;
+        let report = handle
+            .wait()
+            .await
+            .map_err(|e| client_error(e, &self.names))?;
+        match report.outcome {
+            StreamOutcome::Cancelled => Err(Error::Canceled {
+                message: "the trajectory was cancelled; the robot braked and the motion program ended (commands 5 and 2)".into(),
+            }),
+            StreamOutcome::Completed if report.settled => Ok(()),
+            StreamOutcome::Completed => Err(Error::Other(anyhow::anyhow!(
+                "the robot ended {:.3} deg from the last point (more than the stream's end \
+                 tolerance); check the monitor speed (100 % for command 7)",
+                report.final_error_deg
+            ))),
+        }
     }
 }
 

@@ -108,3 +108,65 @@ async fn a_cancel_ends_the_wait_with_canceled() {
     let (r, ()) = tokio::join!(wait, cancel);
     assert!(matches!(r, Err(arci::Error::Canceled { .. })), "{r:?}");
 }
+
+/// openrr's teleop sends a target every cycle and never waits for the `WaitFuture`: every
+/// command counts — the newest target is where the arm ends.
+#[tokio::test(start_paused = true)]
+async fn teleop_targets_every_cycle_without_waiting_end_at_the_newest() {
+    let (emu, arm) = ready().await;
+    let home = arm.current_joint_positions().unwrap();
+    let mut target = home.clone();
+    for k in 1..=20 {
+        target[0] = home[0] + 0.01 * f64::from(k);
+        let wait = arm
+            .send_joint_positions(target.clone(), Duration::from_millis(500))
+            .expect("every target is accepted at once");
+        drop(wait); // as the teleop does
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    tokio::time::sleep(Duration::from_secs(3)).await;
+    let at = emu.with(|c| c.joints())[0];
+    assert!(
+        (at - target[0].to_degrees()).abs() < 0.05,
+        "the arm is at {at} deg, the newest target {} deg",
+        target[0].to_degrees()
+    );
+}
+
+/// While a trajectory runs, a newer command replaces the queued one: the replaced one ends
+/// with Canceled ("superseded"), the running and the newest ones run to their end.
+#[tokio::test(start_paused = true)]
+async fn a_queued_command_replaced_by_a_newer_one_ends_canceled() {
+    let (emu, arm) = ready().await;
+    let home = arm.current_joint_positions().unwrap();
+    let at = |deg: f64| {
+        let mut t = home.clone();
+        t[0] = deg.to_radians();
+        t
+    };
+    let first = arm
+        .send_joint_positions(at(10.0), Duration::from_secs(1))
+        .unwrap();
+    let second = arm
+        .send_joint_positions(at(20.0), Duration::from_secs(1))
+        .unwrap();
+    let third = arm
+        .send_joint_positions(at(5.0), Duration::from_secs(1))
+        .unwrap();
+    match second.await {
+        Err(arci::Error::Canceled { message }) => {
+            assert!(message.contains("superseded"), "{message}")
+        }
+        other => panic!("expected Canceled, got {other:?}"),
+    }
+    first.await.expect("the running command ends normally");
+    third.await.expect("the newest command runs after it");
+    assert!((emu.with(|c| c.joints())[0] - 5.0).abs() < 0.05);
+    // Refusals found at the call still come back at once.
+    let mut far = home.clone();
+    far[0] = 3.0;
+    assert!(matches!(
+        arm.send_joint_positions(far, Duration::from_secs(10)),
+        Err(arci::Error::OutOfLimit { .. })
+    ));
+}

@@ -287,9 +287,13 @@ pub(crate) struct PlayArgs {
 #[derive(Debug, Args)]
 pub(crate) struct Ros2Args {
     /// Print a MoveIt configuration file for this robot model and these settings, and exit:
-    /// urdf, joint-limits (joint_limits.yaml) or controllers (moveit_controllers.yaml).
-    #[arg(long, value_name = "WHAT", value_parser = ["urdf", "joint-limits", "controllers"])]
+    /// urdf, srdf, joint-limits (joint_limits.yaml) or controllers (moveit_controllers.yaml);
+    /// or moveit-config DIR: write a whole MoveIt configuration package into DIR.
+    #[arg(long, value_name = "WHAT", value_parser = ["urdf", "srdf", "joint-limits", "controllers", "moveit-config"])]
     pub(crate) print: Option<String>,
+    /// With --print moveit-config: the package directory to write.
+    #[arg(value_name = "DIR")]
+    pub(crate) output: Option<PathBuf>,
     /// Run on an emulator inside this process instead of a robot (to try MoveIt, or in tests).
     #[arg(long)]
     pub(crate) embedded: bool,
@@ -332,10 +336,14 @@ pub(crate) struct Ros2NodeArgs {
     /// The action is NS/follow_joint_trajectory (default /fs020n_controller).
     #[arg(long, value_name = "NS")]
     pub(crate) action_namespace: Option<String>,
-    /// Start the motion program when a goal arrives and it is not running (default: call
-    /// ~/start first).
+    /// Let goals start the motion program from the node's start on, until the first fault
+    /// (then ~/start re-arms). Default: call ~/start first.
     #[arg(long)]
     pub(crate) auto_start: bool,
+    /// ROS 2's own arguments, last on the line, as launch_ros's Node() passes them:
+    /// -r FROM:=TO (also __node, __ns), -p NAME:=VALUE, --params-file FILE, --log-level L.
+    #[arg(long = "ros-args", num_args = 0.., allow_hyphen_values = true, value_name = "ARG")]
+    pub(crate) ros_args: Option<Vec<String>>,
 }
 
 /// `plot` arguments.

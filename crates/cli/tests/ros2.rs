@@ -84,3 +84,50 @@ fn bad_settings_exit_2_naming_the_setting() {
         .code(2)
         .stderr(predicate::str::contains("either --robot"));
 }
+
+#[test]
+fn writes_a_moveit_configuration_package_into_a_directory() {
+    let dir = tempfile::tempdir().unwrap();
+    let pkg = dir.path().join("fs020n_moveit_config");
+    fs020n()
+        .args(["ros2", "--print", "moveit-config"])
+        .arg(&pkg)
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("fs020n_moveit_config"));
+    for f in [
+        "package.xml",
+        "config/fs020n.urdf",
+        "config/fs020n.srdf",
+        "config/kinematics.yaml",
+        "config/joint_limits.yaml",
+        "config/moveit_controllers.yaml",
+        "launch/move_group.launch.py",
+    ] {
+        assert!(pkg.join(f).is_file(), "{f} missing");
+    }
+    let urdf = std::fs::read_to_string(pkg.join("config/fs020n.urdf")).unwrap();
+    assert!(urdf.contains("<collision>"));
+    // Without a directory: refused with the remedy.
+    fs020n()
+        .args(["ros2", "--print", "moveit-config"])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("give its directory"));
+}
+
+#[test]
+fn ros_args_rename_the_node_and_unknown_ones_are_refused() {
+    fs020n()
+        .args(["ros2", "--print", "controllers", "--ros-args", "-p"])
+        .arg("action_namespace:=/arm_controller")
+        .args(["-r", "__node:=arm"])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("    - arm_controller\n"));
+    fs020n()
+        .args(["ros2", "--print", "urdf", "--ros-args", "--enclave", "/x"])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("--enclave"));
+}

@@ -109,8 +109,10 @@ pub struct ExecutionConfig {
     /// Time after the trajectory's end to come within the goal tolerances when the goal gives
     /// none. Default 2 s.
     pub goal_time_tolerance: Duration,
-    /// Start the motion program (command 1, after the preflight) when a goal arrives and it is
-    /// not running. Default off: call `~/start` first.
+    /// Armed from the start: a goal may start the motion program (command 1, after the
+    /// preflight) when it is not running, until the first fault (then `~/start` re-arms; see
+    /// [`crate::arming`]). Default off: call `~/start` first. Either way, after the node's own
+    /// stops (a cancel, a preemption) the next goal starts the program again.
     pub auto_start: bool,
     /// Longest wait for a goal whose header stamp lies in the future. Default 10 s.
     pub max_start_delay: Duration,
@@ -157,6 +159,12 @@ pub struct NodeConfig {
     pub speed_percent: Option<f64>,
     /// Execution of goals.
     pub execution: ExecutionConfig,
+    /// How long a finished goal's result is kept for late result requests, seconds (1 s to a
+    /// day). Default 900 (15 min, as rcl_action).
+    pub result_retention_s: f64,
+    /// Remaps of topic and service names (from, to), as `--ros-args -r` gives them; see
+    /// [`NodeConfig::resolve`].
+    pub remaps: Vec<(String, String)>,
     /// The DDS participant.
     pub dds: DdsConfig,
 }
@@ -173,6 +181,8 @@ impl Default for NodeConfig {
             action_namespace: "/fs020n_controller".into(),
             speed_percent: Some(100.0),
             execution: ExecutionConfig::default(),
+            result_retention_s: crate::action::DEFAULT_RESULT_RETENTION.as_secs_f64(),
+            remaps: Vec::new(),
             dds: DdsConfig::default(),
         }
     }
@@ -213,6 +223,8 @@ pub struct Params {
     pub goal_time_tolerance_s: Option<f64>,
     /// See [`ExecutionConfig::auto_start`].
     pub auto_start: Option<bool>,
+    /// See [`NodeConfig::result_retention_s`].
+    pub result_retention_s: Option<f64>,
     /// `enhanced`, `cyclone` or `basic`.
     pub service_mapping: Option<String>,
 }
@@ -328,6 +340,7 @@ impl NodeConfig {
         set!(goal_tolerance_rad, self.execution.goal_tolerance_rad);
         set!(path_tolerance_rad, self.execution.path_tolerance_rad);
         set!(auto_start, self.execution.auto_start);
+        set!(result_retention_s, self.result_retention_s);
         set!(max_step_deg, self.execution.stream.max_step_deg);
         if let Some(ns) = &p.action_namespace {
             self.action_namespace = ns.clone();
@@ -397,6 +410,7 @@ impl NodeConfig {
             ("joint_state_rate_hz", self.joint_state_rate_hz, 1.0, 1000.0),
             ("diagnostics_rate_hz", self.diagnostics_rate_hz, 0.1, 100.0),
             ("feedback_rate_hz", self.feedback_rate_hz, 1.0, 1000.0),
+            ("result_retention_s", self.result_retention_s, 1.0, 86_400.0),
         ] {
             if !(v.is_finite() && (lo..=hi).contains(&v)) {
                 return bad(format!("{name} {v} must be from {lo} to {hi}"));

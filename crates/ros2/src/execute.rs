@@ -10,6 +10,7 @@ use fs020n_proto::{JointsDeg, JOINT_COUNT};
 use tokio::sync::{mpsc, watch};
 use tokio::time::Instant;
 
+use crate::arming::GoalStop;
 use crate::config::ExecutionConfig;
 use crate::goal::Plan;
 use crate::msg::{
@@ -24,7 +25,8 @@ pub enum GoalEnd {
     Succeeded,
     /// Stopped: a fault, a tolerance, the link, a refusal (see the result's error code).
     Aborted,
-    /// Cancelled by the action client; the robot braked (commands 5 and 2).
+    /// Cancelled by the action client (or preempted by a newer goal); the robot braked
+    /// (commands 5 and 2).
     Canceled,
 }
 
@@ -35,6 +37,8 @@ pub struct Outcome {
     pub end: GoalEnd,
     /// Error code and text.
     pub result: FollowJointTrajectoryResult,
+    /// What became of the motion program (for the re-arm policy, [`crate::arming`]).
+    pub program: GoalStop,
 }
 
 impl Outcome {
@@ -45,11 +49,45 @@ impl Outcome {
                 error_code: code,
                 error_string: text.into(),
             },
+            program: GoalStop::ProgramRunning,
         }
     }
 
     fn aborted(code: i32, text: impl Into<String>) -> Outcome {
         Outcome::new(GoalEnd::Aborted, code, text)
+    }
+
+    /// The robot, the link or someone else stopped the motion: a fault.
+    fn fault(code: i32, text: impl Into<String>) -> Outcome {
+        let o = Outcome::aborted(code, text);
+        Outcome {
+            program: GoalStop::Fault(format!("the goal was stopped: {}", o.result.error_string)),
+            ..o
+        }
+    }
+
+    fn by_the_node(self) -> Outcome {
+        Outcome {
+            program: GoalStop::ByTheNode,
+            ..self
+        }
+    }
+
+    /// The outcome of a goal cancelled because a newer goal preempted it: ABORTED (as
+    /// `INVALID_GOAL`, the code `joint_trajectory_controller` gives a preempted goal) with
+    /// "preempted by a new goal". A goal that had ended otherwise keeps its outcome.
+    pub fn preempted(self) -> Outcome {
+        if self.end != GoalEnd::Canceled {
+            return self;
+        }
+        Outcome {
+            program: self.program,
+            ..Outcome::aborted(
+                error_code::INVALID_GOAL,
+                "preempted by a new goal: the robot braked (commands 5 and 2) and follows the \
+                 new goal from where it stopped",
+            )
+        }
     }
 }
 
@@ -144,11 +182,11 @@ fn failed(e: &ClientError) -> Outcome {
             error_code::INVALID_GOAL,
             format!("refused before moving: {e}"),
         ),
-        ClientError::Aborted { .. } => Outcome::aborted(
+        ClientError::Aborted { .. } => Outcome::fault(
             error_code::PATH_TOLERANCE_VIOLATED,
             format!("the robot stopped while moving: {e}"),
         ),
-        _ => Outcome::aborted(
+        _ => Outcome::fault(
             error_code::PATH_TOLERANCE_VIOLATED,
             format!("the motion stopped: {e}"),
         ),
@@ -158,8 +196,9 @@ fn failed(e: &ClientError) -> Outcome {
 /// Executes `plan` on `robot` (program running, robot at the plan's start): waits the plan's
 /// start delay, streams the trajectory, sends feedback every `feedback_period` (dropped when
 /// the channel is full), checks path tolerances on every status, and on `cancel` becoming
-/// `true` cancels the stream (commands 5 and 2: the robot brakes, the program ends). At the end, checks the goal
-/// tolerances on the robot's joints.
+/// `true` cancels the stream (commands 5 and 2: the robot brakes, the program ends). At the
+/// end, checks the goal tolerances on the robot's joints. The outcome says what became of the
+/// motion program ([`Outcome::program`]).
 pub async fn execute(
     robot: &Robot,
     plan: &Plan,
@@ -173,8 +212,10 @@ pub async fn execute(
         Outcome::new(
             GoalEnd::Canceled,
             error_code::SUCCESSFUL,
-            "cancelled: the robot braked to a stop and the motion program ended (commands 5 and 2); call ~/start before the next goal",
+            "cancelled: the robot braked to a stop and holds there (commands 5 and 2); the next \
+             goal starts the motion program again",
         )
+        .by_the_node()
     };
     if *cancel.borrow() {
         return Outcome::new(
@@ -255,11 +296,11 @@ pub async fn execute(
         Err(e) => return failed(&e),
     };
     if let Some(text) = path_violation {
-        return Outcome::aborted(error_code::PATH_TOLERANCE_VIOLATED, text);
+        return Outcome::aborted(error_code::PATH_TOLERANCE_VIOLATED, text).by_the_node();
     }
     match report.outcome {
         StreamOutcome::Cancelled if we_cancelled => canceled(),
-        StreamOutcome::Cancelled => Outcome::aborted(
+        StreamOutcome::Cancelled => Outcome::fault(
             error_code::PATH_TOLERANCE_VIOLATED,
             "the motion was cancelled by a cancel or stop of the robot (~/cancel, ~/stop or \
              another client of the session); the robot braked",

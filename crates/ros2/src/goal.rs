@@ -79,6 +79,33 @@ pub fn plan(
     current: &JointsDeg,
     now: Time,
 ) -> Result<Plan, GoalRefusal> {
+    plan_with(goal, joint_names, model, exec, current, now, false)
+}
+
+/// [`plan`] for a goal that preempts a running one: it starts from where the arm is. The arm
+/// braked somewhere past the state the new goal was planned from, so a first point at time 0
+/// further than `start_tolerance_rad` from the current joints is replaced by them (the
+/// checks of speeds and accelerations then decide whether the rest can follow on time).
+pub fn plan_preempting(
+    goal: &FollowJointTrajectoryGoal,
+    joint_names: &[String; JOINT_COUNT],
+    model: &RobotModel,
+    exec: &ExecutionConfig,
+    current: &JointsDeg,
+    now: Time,
+) -> Result<Plan, GoalRefusal> {
+    plan_with(goal, joint_names, model, exec, current, now, true)
+}
+
+fn plan_with(
+    goal: &FollowJointTrajectoryGoal,
+    joint_names: &[String; JOINT_COUNT],
+    model: &RobotModel,
+    exec: &ExecutionConfig,
+    current: &JointsDeg,
+    now: Time,
+    from_current: bool,
+) -> Result<Plan, GoalRefusal> {
     let tr = &goal.trajectory;
     if !goal.multi_dof_trajectory.joint_names.is_empty()
         || !goal.multi_dof_trajectory.points.is_empty()
@@ -222,7 +249,10 @@ pub fn plan(
     } else {
         let first = points[0].position;
         let tol_deg = exec.start_tolerance_rad.to_degrees();
-        if let Some(j) = (0..JOINT_COUNT).find(|&j| (first[j] - current[j]).abs() > tol_deg) {
+        let off = (0..JOINT_COUNT).find(|&j| (first[j] - current[j]).abs() > tol_deg);
+        if off.is_some() && from_current {
+            points[0] = TrajectoryPoint::new(0.0, *current);
+        } else if let Some(j) = off {
             return Err(GoalRefusal::invalid(format!(
                 "the first point (time 0) has {} at {:.4} rad but the robot is at {:.4} rad \
                  (more than {} rad apart); start the trajectory at the current joints, or give \
@@ -351,6 +381,25 @@ mod tests {
         assert_eq!(p.duration_s(), 2.0);
         assert_eq!(p.goal_tolerance_deg[0], Some(0.01f64.to_degrees()));
         assert_eq!(p.path_tolerance_deg[0], None);
+    }
+
+    #[test]
+    fn a_preempting_goal_starts_from_where_the_arm_braked() {
+        // Planned from home, but the arm braked 1 degree further on JT1.
+        let g = goal(vec![
+            point(0.0, [0.0, 0.0, -90.0, 0.0, -90.0, 0.0]),
+            point(2.0, [-10.0, 0.0, -90.0, 0.0, -90.0, 0.0]),
+        ]);
+        let braked = JointsDeg::new([1.5, 0.0, -90.0, 0.0, -90.0, 0.0]);
+        let exec = ExecutionConfig::default();
+        let m = RobotModel::fs020n();
+        assert!(plan(&g, &names(), &m, &exec, &braked, Time::now()).is_err());
+        let p = plan_preempting(&g, &names(), &m, &exec, &braked, Time::now()).unwrap();
+        assert_eq!(p.trajectory.first(), braked);
+        assert!((p.trajectory.last()[0] + 10.0).abs() < 1e-9);
+        // Within the tolerance the goal's own first point stays.
+        let p = plan_preempting(&g, &names(), &m, &exec, &home(), Time::now()).unwrap();
+        assert_eq!(p.trajectory.first(), home());
     }
 
     #[test]

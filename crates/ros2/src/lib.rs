@@ -12,11 +12,15 @@
 //!   library's checks before anything moves ([`goal`]), then streamed with command 7 (or
 //!   command 6 waypoints) with feedback, path and goal tolerances, cancel (the robot brakes)
 //!   and an error code when the robot faults ([`execute`]);
+//! * `~/joint_trajectory` (a streamed trajectory replacing the running one), `/tf` and
+//!   `/tf_static` ([`tf`]), `--ros-args` ([`RosArgs`]);
 //! * `~/start`, `~/stop`, `~/cancel` (`std_srvs/srv/Trigger`) and `~/set_speed`
 //!   (`fs020n_msgs/srv/SetSpeed`);
 //! * `/diagnostics` (`diagnostic_msgs/msg/DiagnosticArray`): switches, error with its remedy,
 //!   program ([`diagnostics`]);
-//! * settings from a ROS 2 parameter file ([`NodeConfig`]).
+//! * settings from a ROS 2 parameter file ([`NodeConfig`]);
+//! * MoveIt's robot files: URDF with collision shapes ([`urdf`]), SRDF with the self-collision
+//!   matrix ([`srdf`]) and a configuration package ([`moveit`]).
 //!
 //! The node runs on a shared robot session ([`RobotSource`]), so that a host owning the
 //! session (the CLI, a hub serving other faces too) can run it next to its other work:
@@ -24,18 +28,25 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod action;
+pub mod arming;
 pub mod config;
 pub mod diagnostics;
 mod error;
 pub mod execute;
 pub mod goal;
+pub mod moveit;
 pub mod msg;
 mod node;
+pub mod ros_args;
+pub mod srdf;
+pub mod tf;
 pub mod urdf;
 
 pub use config::{DdsConfig, ExecutionConfig, NodeConfig, Params, ServiceMapping};
 pub use error::Ros2Error;
 pub use node::{run, Action, Permit, RobotSource};
+pub use ros_args::RosArgs;
 
 #[cfg(test)]
 mod tests {

@@ -374,6 +374,24 @@ pub struct SetSpeedResponse {
     pub message: String,
 }
 
+/// `geometry_msgs/TransformStamped`: `child_frame_id` in `header.frame_id`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct TransformStamped {
+    /// Stamp and parent frame.
+    pub header: Header,
+    /// Child frame.
+    pub child_frame_id: String,
+    /// The child frame in the parent's.
+    pub transform: Transform,
+}
+
+/// `tf2_msgs/TFMessage` (`/tf`, `/tf_static`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct TfMessage {
+    /// The transforms.
+    pub transforms: Vec<TransformStamped>,
+}
+
 macro_rules! messages {
     ($($t:ty),* $(,)?) => { $(impl ros2_client::Message for $t {})* };
 }
@@ -394,6 +412,7 @@ messages!(
     TriggerResponse,
     SetSpeedRequest,
     SetSpeedResponse,
+    TfMessage,
 );
 
 #[cfg(test)]

@@ -9,27 +9,33 @@ use std::time::Duration;
 
 use fs020n_client::{blockers, Blocker, Robot};
 use fs020n_kin::RobotModel;
-use ros2_client::action::{
-    ActionServerQosPolicies, AsyncActionServer, ExecutingGoalHandle, GoalEndStatus,
+use ros2_client::action::{ActionServerQosPolicies, GetResultResponse, SendGoalResponse};
+use ros2_client::action_msgs::{
+    CancelGoalRequest, CancelGoalResponse, CancelGoalResponseEnum, GoalId, GoalInfo, GoalStatus,
+    GoalStatusArray, GoalStatusEnum,
 };
+use ros2_client::builtin_interfaces::Time as RosTime;
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::log::LogLevel;
 use ros2_client::qos::{Durability, History, Reliability, WhenFull};
+use ros2_client::service::request_id::RmwRequestId;
 use ros2_client::{
     ActionTypeName, Context, MessageTypeName, Name, NodeName, NodeOptions, ParameterValue,
     QosProfile, RosoutRaw, ServiceTypeName,
 };
 use tokio::sync::{mpsc, watch};
 
+use crate::action::{status, CancelCode, GoalTable};
+use crate::arming::Arming;
 use crate::config::NodeConfig;
 use crate::diagnostics::{robot_status, NodeState};
 use crate::error::Ros2Error;
 use crate::execute::{execute, GoalEnd, Outcome};
-use crate::goal::{plan, GoalRefusal};
+use crate::goal::{plan, plan_preempting, GoalRefusal};
 use crate::msg::{
     error_code, DiagnosticArray, FollowJointTrajectoryFeedback, FollowJointTrajectoryGoal,
-    FollowJointTrajectoryResult, Header, JointState, SetSpeedRequest, SetSpeedResponse, StringMsg,
-    Time, TriggerRequest, TriggerResponse,
+    FollowJointTrajectoryResult, Header, JointState, JointTrajectory, SetSpeedRequest,
+    SetSpeedResponse, StringMsg, TfMessage, Time, TriggerRequest, TriggerResponse,
 };
 use crate::urdf;
 
@@ -91,7 +97,7 @@ impl RobotSource for Arc<Robot> {
 }
 
 type Server<Req, Resp> = ros2_client::Server<Req, Resp>;
-type ActionServer = AsyncActionServer<
+type ActionServer = ros2_client::action::ActionServer<
     FollowJointTrajectoryGoal,
     FollowJointTrajectoryResult,
     FollowJointTrajectoryFeedback,
@@ -127,6 +133,8 @@ struct Shared {
     state: Mutex<NodeState>,
     logger: ros2_client::NodeLoggingHandle,
     busy: std::sync::atomic::AtomicBool,
+    /// When a goal may start the motion program (the re-arm policy).
+    arming: Mutex<Arming>,
 }
 
 impl Shared {
@@ -178,10 +186,14 @@ fn service_qos() -> QosProfile {
 ///
 /// What it serves (`~` is the node's name, `/fs020n` by default):
 ///
-/// * `/joint_states` (`sensor_msgs/msg/JointState`, radians) at `joint_state_rate_hz`;
-/// * `/robot_description` (`std_msgs/msg/String`, transient local): [`urdf::generate`];
+/// * `joint_states` (`sensor_msgs/msg/JointState`, radians, with velocities) at
+///   `joint_state_rate_hz`, and `/tf` with it ([`crate::tf`]); `/tf_static` once;
+/// * `robot_description` (`std_msgs/msg/String`, transient local): [`urdf::generate`];
+/// * `~/joint_trajectory` (`trajectory_msgs/msg/JointTrajectory`): replaces the running
+///   trajectory, as a goal would;
 /// * `/diagnostics` (`diagnostic_msgs/msg/DiagnosticArray`) at `diagnostics_rate_hz`;
-/// * `<action_namespace>/follow_joint_trajectory` (`control_msgs/action/FollowJointTrajectory`);
+/// * `<action_namespace>/follow_joint_trajectory` (`control_msgs/action/FollowJointTrajectory`,
+///   the protocol of [`crate::action`], the re-arm policy of [`crate::arming`]);
 /// * `~/start`, `~/stop`, `~/cancel` (`std_srvs/srv/Trigger`), `~/set_speed`
 ///   (`fs020n_msgs/srv/SetSpeed`).
 pub async fn run(
@@ -247,7 +259,7 @@ pub async fn run(
     let joint_states = {
         let topic = node
             .create_topic(
-                &name("/", "joint_states")?,
+                &split_name(&config.resolve("joint_states"))?,
                 MessageTypeName::new("sensor_msgs", "JointState"),
                 &joint_state_qos(),
             )
@@ -258,7 +270,7 @@ pub async fn run(
     let description = {
         let topic = node
             .create_topic(
-                &name("/", "robot_description")?,
+                &split_name(&config.resolve("robot_description"))?,
                 MessageTypeName::new("std_msgs", "String"),
                 &latched_qos(),
             )
@@ -269,7 +281,7 @@ pub async fn run(
     let diagnostics = {
         let topic = node
             .create_topic(
-                &name("/", "diagnostics")?,
+                &split_name(&config.resolve("/diagnostics"))?,
                 MessageTypeName::new("diagnostic_msgs", "DiagnosticArray"),
                 &joint_state_qos(),
             )
@@ -278,13 +290,49 @@ pub async fn run(
             .map_err(dds("/diagnostics"))?
     };
 
+    let tf = {
+        let topic = node
+            .create_topic(
+                &split_name(&config.resolve("/tf"))?,
+                MessageTypeName::new("tf2_msgs", "TFMessage"),
+                &joint_state_qos(),
+            )
+            .map_err(dds("/tf"))?;
+        node.create_publisher::<TfMessage>(&topic, Some(joint_state_qos()))
+            .map_err(dds("/tf"))?
+    };
+    let tf_static = {
+        let topic = node
+            .create_topic(
+                &split_name(&config.resolve("/tf_static"))?,
+                MessageTypeName::new("tf2_msgs", "TFMessage"),
+                &latched_qos(),
+            )
+            .map_err(dds("/tf_static"))?;
+        node.create_publisher::<TfMessage>(&topic, Some(latched_qos()))
+            .map_err(dds("/tf_static"))?
+    };
+
+    // Streaming input: a trajectory on a topic replaces the running one (as JTC's).
+    let trajectory_topic = {
+        let topic = node
+            .create_topic(
+                &split_name(&config.resolve("~/joint_trajectory"))?,
+                MessageTypeName::new("trajectory_msgs", "JointTrajectory"),
+                &joint_state_qos(),
+            )
+            .map_err(dds("~/joint_trajectory"))?;
+        node.create_subscription::<JointTrajectory>(&topic, Some(joint_state_qos()))
+            .map_err(dds("~/joint_trajectory"))?
+    };
+
     // Services.
     let trigger = ServiceTypeName::new("std_srvs", "Trigger");
     let mut trigger_server =
         |base: &str| -> Result<Server<TriggerRequest, TriggerResponse>, Ros2Error> {
             node.create_server(
                 mapping,
-                &name(&fqn, base)?,
+                &split_name(&config.resolve(&format!("~/{base}")))?,
                 &trigger,
                 service_qos(),
                 service_qos(),
@@ -297,7 +345,7 @@ pub async fn run(
     let speed_srv: Server<SetSpeedRequest, SetSpeedResponse> = node
         .create_server(
             mapping,
-            &name(&fqn, "set_speed")?,
+            &split_name(&config.resolve("~/set_speed"))?,
             &ServiceTypeName::new("fs020n_msgs", "SetSpeed"),
             service_qos(),
             service_qos(),
@@ -312,7 +360,7 @@ pub async fn run(
     let action = node
         .create_action_server::<FollowJointTrajectoryGoal, FollowJointTrajectoryResult, FollowJointTrajectoryFeedback>(
             mapping,
-            &split_name(&config.action_name())?,
+            &split_name(&config.resolve(&config.action_name()))?,
             &ActionTypeName::new("control_msgs", "FollowJointTrajectory"),
             ActionServerQosPolicies {
                 goal_service: volatile.clone(),
@@ -323,7 +371,6 @@ pub async fn run(
             },
         )
         .map_err(dds("follow_joint_trajectory action"))?;
-    let action = AsyncActionServer::new(action);
     let spinner = node.spinner().map_err(dds("ROS 2 spinner"))?;
 
     let shared = Shared {
@@ -332,6 +379,7 @@ pub async fn run(
         state: Mutex::new(NodeState::default()),
         logger: node.logging_handle(),
         busy: std::sync::atomic::AtomicBool::new(false),
+        arming: Mutex::new(Arming::new(config.execution.auto_start)),
         config,
     };
     let shared = &shared;
@@ -341,6 +389,13 @@ pub async fn run(
     description
         .publish(StringMsg { data: urdf_text })
         .map_err(|e| Ros2Error::Dds(format!("/robot_description: {e:?}")))?;
+
+    // The fixed frames, latched.
+    let fixed = crate::tf::link_transforms(&shared.model, &shared.model.home.to_rad(), Time::now())
+        .split_off(6);
+    if let Err(e) = tf_static.publish(TfMessage { transforms: fixed }) {
+        tracing::warn!("/tf_static not published: {e:?}");
+    }
 
     // The speed this node runs at.
     if let (Some(percent), Ok(robot)) = (shared.config.speed_percent, shared.robot()) {
@@ -375,13 +430,13 @@ pub async fn run(
     };
     let work = async {
         tokio::try_join!(
-            joint_state_loop(shared, &joint_states),
+            joint_state_loop(shared, &joint_states, &tf),
             diagnostics_loop(shared, &diagnostics),
             trigger_loop(shared, &start_srv, Trigger::Start),
             trigger_loop(shared, &stop_srv, Trigger::Stop),
             trigger_loop(shared, &cancel_srv, Trigger::Cancel),
             speed_loop(shared, &speed_srv),
-            action_loop(shared, &action),
+            action_loop(shared, &action, &trajectory_topic),
             spin,
         )
         .map(|_| ())
@@ -395,20 +450,30 @@ pub async fn run(
 async fn joint_state_loop(
     shared: &Shared,
     publisher: &ros2_client::Publisher<JointState>,
+    tf: &ros2_client::Publisher<TfMessage>,
 ) -> Result<(), Ros2Error> {
+    let mut previous: Option<([f64; 6], f64)> = None;
     let period = Duration::from_secs_f64(1.0 / shared.config.joint_state_rate_hz);
     let mut ticker = tokio::time::interval(period);
     ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut last_seq = None;
     loop {
         ticker.tick().await;
-        let Ok(robot) = shared.robot() else { continue };
+        let robot = match shared.robot() {
+            Ok(r) => r,
+            Err(why) => {
+                lock(&shared.arming).handle_link_lost(&why);
+                continue;
+            }
+        };
         let mut s = robot.status();
         // Idle, the session polls at its keep-alive rate: poll when the status is older than
         // one period, so that every message carries a fresh reply.
         if s.age() > period && robot.poll().await.is_ok() {
             s = robot.status();
         }
+        // Every status passes the re-arm policy (a fault revokes it).
+        lock(&shared.arming).handle_status(&s.status, s.received_at);
         if last_seq == Some(s.seq) && s.age() > period * 2 {
             continue;
         }
@@ -416,6 +481,16 @@ async fn joint_state_loop(
         let stamp = std::time::SystemTime::now()
             .checked_sub(s.age())
             .map_or_else(Time::now, Time::from_system);
+        let joints_deg: [f64; 6] = std::array::from_fn(|j| s.status.joints[j]);
+        let timer_s = s.status.timer.seconds();
+        let velocity = match timer_s {
+            Some(t) => crate::tf::joint_velocities(
+                previous.as_ref().map(|(q, t0)| (q, *t0)),
+                (&joints_deg, t),
+            ),
+            None => Vec::new(),
+        };
+        previous = timer_s.map(|t| (joints_deg, t));
         let msg = JointState {
             header: Header {
                 stamp,
@@ -423,11 +498,17 @@ async fn joint_state_loop(
             },
             name: shared.config.joint_names.to_vec(),
             position: s.status.joints.iter().map(|d| d.to_radians()).collect(),
-            velocity: Vec::new(),
+            velocity,
             effort: Vec::new(),
         };
         if let Err(e) = publisher.publish(msg) {
             tracing::debug!("joint state not published: {e:?}");
+        }
+        let mut transforms =
+            crate::tf::link_transforms(&shared.model, &s.status.joints.to_rad(), stamp);
+        transforms.truncate(6);
+        if let Err(e) = tf.publish(TfMessage { transforms }) {
+            tracing::debug!("/tf not published: {e:?}");
         }
     }
 }
@@ -495,24 +576,36 @@ async fn trigger_loop(
                 message,
             },
             Ok(robot) => {
-                let r = match which {
-                    Trigger::Start => match shared.source.permit(Action::Start) {
-                        Err(reason) => Ok(Err(reason)),
-                        Ok(_permit) => robot
-                            .start()
-                            .await
-                            .map(|()| Ok("the motion program is running (command 1)".to_owned())),
-                    },
-                    Trigger::Stop => robot.stop_program().await.map(|_| {
-                        Ok("the robot stopped and the motion program ended (command 2); ~/start \
-                         runs it again"
-                            .to_owned())
-                    }),
-                    Trigger::Cancel => robot.cancel().await.map(|_| {
-                        Ok("the current motion was cancelled: the robot braked to a stop and the motion program ended (commands 5 and 2); ~/start runs it again"
-                            .to_owned())
-                    }),
-                };
+                let r =
+                    match which {
+                        Trigger::Start => match shared.source.permit(Action::Start) {
+                            Err(reason) => Ok(Err(reason)),
+                            Ok(_permit) => robot.start().await.map(|()| {
+                                lock(&shared.arming).handle_started();
+                                Ok("the motion program is running (command 1); goals may start it \
+                                again after the node's own cancels until the next fault"
+                                .to_owned())
+                            }),
+                        },
+                        Trigger::Stop => {
+                            lock(&shared.arming).handle_operator_stop("~/stop");
+                            robot.stop_program().await.map(|_| {
+                                Ok(
+                                    "the robot stopped and the motion program ended (command 2); \
+                                ~/start runs it again"
+                                        .to_owned(),
+                                )
+                            })
+                        }
+                        Trigger::Cancel => {
+                            lock(&shared.arming).handle_operator_stop("~/cancel");
+                            robot.cancel().await.map(|_| {
+                            Ok("the current motion was cancelled: the robot braked to a stop and \
+                                the motion program ended (commands 5 and 2); ~/start runs it again"
+                                .to_owned())
+                        })
+                        }
+                    };
                 match r {
                     Ok(Ok(message)) => TriggerResponse {
                         success: true,
@@ -586,16 +679,54 @@ async fn speed_loop(
     }
 }
 
-/// Checks a new goal against the robot now (session, switches, program) and plans it.
+/// Checks a new goal that would preempt the running one, without acting: the robot's session
+/// and the goal itself from where the arm is now. A goal that fails here is rejected and the
+/// running goal goes on, as `joint_trajectory_controller` does.
+async fn precheck(shared: &Shared, goal: &FollowJointTrajectoryGoal) -> Result<(), GoalRefusal> {
+    let refuse = |m: String| GoalRefusal::new(error_code::INVALID_GOAL, m);
+    let robot = shared.robot().map_err(refuse)?;
+    let current = robot.status().status.joints;
+    plan_preempting(
+        goal,
+        &shared.config.joint_names,
+        &shared.model,
+        &shared.config.execution,
+        &current,
+        Time::now(),
+    )
+    .map(|_| ())
+}
+
+/// Checks a new goal against the robot now (session, switches, program) and plans it. When the
+/// program is not running and the re-arm policy allows it ([`crate::arming`]: the node ended
+/// it itself and no fault came since), starts it (command 1): a goal is an explicit request
+/// for motion. `preempting`: the goal replaces one the node just stopped.
 async fn admit(
     shared: &Shared,
     goal: &FollowJointTrajectoryGoal,
+    preempting: bool,
 ) -> Result<(Arc<Robot>, crate::goal::Plan, Permit), GoalRefusal> {
     let refuse = |m: String| GoalRefusal::new(error_code::INVALID_GOAL, m);
     let robot = shared.robot().map_err(refuse)?;
-    let status = robot.poll().await.map_err(|e| refuse(e.to_string()))?;
+    let mut status = robot.poll().await.map_err(|e| refuse(e.to_string()))?;
+    lock(&shared.arming).handle_status(&status, tokio::time::Instant::now());
+    // After the node's own stop the program finishes its brake before it ends: wait for that
+    // end, so that the start below is not answered by a program about to end.
+    let deadline = tokio::time::Instant::now() + PROGRAM_END_WAIT;
+    while lock(&shared.arming).awaiting_program_end() && status.task_running {
+        if tokio::time::Instant::now() >= deadline {
+            return Err(refuse(format!(
+                "the motion program did not end within {PROGRAM_END_WAIT:?} of the node's stop; \
+                 call ~/stop, then ~/start"
+            )));
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+        status = robot.poll().await.map_err(|e| refuse(e.to_string()))?;
+        lock(&shared.arming).handle_status(&status, tokio::time::Instant::now());
+    }
     let list = blockers(&status, true);
-    if list == [Blocker::ProgramNotRunning] && shared.config.execution.auto_start {
+    let may_start = lock(&shared.arming).may_start_for_goal();
+    if list == [Blocker::ProgramNotRunning] && may_start.is_ok() {
         let _permit = shared
             .source
             .permit(Action::Start)
@@ -604,22 +735,28 @@ async fn admit(
             .start()
             .await
             .map_err(|e| refuse(format!("could not start the motion program: {e}")))?;
+        lock(&shared.arming).handle_started();
+        status = robot.poll().await.map_err(|e| refuse(e.to_string()))?;
+    } else if list == [Blocker::ProgramNotRunning] {
+        let reason = may_start.err().unwrap_or_default();
+        return Err(refuse(format!(
+            "the robot is not ready to move — {reason} ({})",
+            shared.config.fully_qualified_name()
+        )));
     } else if !list.is_empty() {
         let text = list
             .iter()
-            .map(|b| match b {
-                Blocker::ProgramNotRunning => format!(
-                    "{}: call the {}/start service (std_srvs/srv/Trigger) first",
-                    b.condition(),
-                    shared.config.fully_qualified_name()
-                ),
-                other => other.to_string(),
-            })
+            .map(|b| b.to_string())
             .collect::<Vec<_>>()
             .join("; ");
-        return Err(refuse(format!("the robot is not ready to move — {text}")));
+        return Err(refuse(format!(
+            "the robot is not ready to move — {text}; then call the {}/start service \
+             (std_srvs/srv/Trigger): no goal restarts the motion program after a fault",
+            shared.config.fully_qualified_name()
+        )));
     }
-    let p = plan(
+    let planner = if preempting { plan_preempting } else { plan };
+    let p = planner(
         goal,
         &shared.config.joint_names,
         &shared.model,
@@ -652,148 +789,350 @@ fn planned_path(trajectory: &fs020n_client::Trajectory) -> Vec<fs020n_kin::Joint
 }
 
 type Executing<'a> = Pin<Box<dyn Future<Output = Outcome> + Send + 'a>>;
-type Finishing<'a> = Pin<Box<dyn Future<Output = ()> + Send + 'a>>;
+type Goals = GoalTable<GoalId, RmwRequestId, FollowJointTrajectoryResult>;
 
-async fn action_loop(shared: &Shared, server: &ActionServer) -> Result<(), Ros2Error> {
+/// How long a goal waits for the program the node stopped to end before starting it again.
+const PROGRAM_END_WAIT: Duration = Duration::from_secs(3);
+
+/// How often the action's services are read (they are polled: a few milliseconds of latency).
+const ACTION_POLL: Duration = Duration::from_millis(5);
+
+fn status_enum(s: i8) -> GoalStatusEnum {
+    match s {
+        status::ACCEPTED => GoalStatusEnum::Accepted,
+        status::EXECUTING => GoalStatusEnum::Executing,
+        status::CANCELING => GoalStatusEnum::Canceling,
+        status::SUCCEEDED => GoalStatusEnum::Succeeded,
+        status::CANCELED => GoalStatusEnum::Canceled,
+        status::ABORTED => GoalStatusEnum::Aborted,
+        _ => GoalStatusEnum::Unknown,
+    }
+}
+
+/// Publishes the status of every known goal (transient local: a late subscriber gets it).
+fn publish_statuses(server: &ActionServer, goals: &Goals) {
+    let status_list = goals
+        .status_list()
+        .into_iter()
+        .map(|(goal_id, ns, s)| GoalStatus {
+            goal_info: GoalInfo {
+                goal_id,
+                stamp: RosTime::from_nanos(ns),
+            },
+            status: status_enum(s),
+        })
+        .collect();
+    if let Err(e) = server.send_goal_statuses(GoalStatusArray { status_list }) {
+        tracing::warn!("goal statuses not published: {e:?}");
+    }
+}
+
+fn send_results(
+    server: &ActionServer,
+    replies: Vec<(RmwRequestId, i8, FollowJointTrajectoryResult)>,
+) {
+    for (request, s, result) in replies {
+        let response = GetResultResponse {
+            status: status_enum(s),
+            result,
+        };
+        if let Err(e) = server.send_result(request, response) {
+            tracing::warn!("goal result not sent: {e:?}");
+        }
+    }
+}
+
+/// The goal id and stamp of a cancel request (ros2-client keeps the fields to itself: read
+/// them back through its serde representation).
+fn cancel_fields(request: &CancelGoalRequest) -> Option<(GoalId, RosTime)> {
+    #[derive(serde::Deserialize)]
+    struct Info {
+        goal_id: GoalId,
+        stamp: RosTime,
+    }
+    #[derive(serde::Deserialize)]
+    struct Fields {
+        goal_info: Info,
+    }
+    let value = serde_norway::to_value(request).ok()?;
+    let f: Fields = serde_norway::from_value(value).ok()?;
+    Some((f.goal_info.goal_id, f.goal_info.stamp))
+}
+
+/// Ends a goal: logs, tells the re-arm policy what became of the program, keeps the result,
+/// answers the result requests waiting for it and publishes the statuses.
+fn end_goal(
+    shared: &Shared,
+    server: &ActionServer,
+    goals: &mut Goals,
+    id: Option<GoalId>,
+    outcome: Outcome,
+) {
+    shared
+        .busy
+        .store(false, std::sync::atomic::Ordering::SeqCst);
+    lock(&shared.arming).handle_goal_ended(outcome.program.clone(), tokio::time::Instant::now());
+    let end = match outcome.end {
+        GoalEnd::Succeeded => status::SUCCEEDED,
+        GoalEnd::Aborted => status::ABORTED,
+        GoalEnd::Canceled => status::CANCELED,
+    };
+    let text = format!(
+        "goal {:?} ({}): {}",
+        outcome.end, outcome.result.error_code, outcome.result.error_string
+    );
+    shared.log(
+        if outcome.end == GoalEnd::Succeeded {
+            LogLevel::Info
+        } else {
+            LogLevel::Warn
+        },
+        &text,
+    );
+    lock(&shared.state).last_goal = Some(text);
+    // A trajectory from the topic has no goal: nobody asks for its result.
+    if let Some(id) = id {
+        let replies = goals.handle_goal_end(id, end, outcome.result, tokio::time::Instant::now());
+        send_results(server, replies);
+        publish_statuses(server, goals);
+    }
+}
+
+/// Stops the running trajectory because a newer one replaces it: it ends ABORTED "preempted
+/// by a new goal" once the robot has braked.
+async fn preempt(
+    shared: &Shared,
+    server: &ActionServer,
+    goals: &mut Goals,
+    current: &mut Option<(Option<GoalId>, watch::Sender<bool>)>,
+    executing: &mut Option<Executing<'_>>,
+) {
+    if let (Some((old, cancel)), Some(running)) = (current.take(), executing.take()) {
+        shared.log(
+            LogLevel::Info,
+            "a new trajectory preempts the running one: braking (commands 5 and 2)",
+        );
+        cancel.send_replace(true);
+        let outcome = running.await.preempted();
+        end_goal(shared, server, goals, old, outcome);
+    }
+}
+
+async fn action_loop(
+    shared: &Shared,
+    server: &ActionServer,
+    trajectories: &ros2_client::Subscription<JointTrajectory>,
+) -> Result<(), Ros2Error> {
     let (feedback_tx, mut feedback_rx) = mpsc::channel::<FollowJointTrajectoryFeedback>(4);
     let feedback_tx = &feedback_tx;
-    let mut current: Option<(
-        ExecutingGoalHandle<FollowJointTrajectoryGoal>,
-        watch::Sender<bool>,
-    )> = None;
+    let mut goals: Goals = GoalTable::new(
+        Duration::from_secs_f64(shared.config.result_retention_s),
+        FollowJointTrajectoryResult::default(),
+    );
+    // The executing trajectory: its goal id (`None`: from the `~/joint_trajectory` topic) and
+    // its cancel switch.
+    let mut current: Option<(Option<GoalId>, watch::Sender<bool>)> = None;
     let mut executing: Option<Executing<'_>> = None;
-    let mut finishing: Vec<Finishing<'_>> = Vec::new();
     let feedback_period = Duration::from_secs_f64(1.0 / shared.config.feedback_rate_hz);
+    let mut poll = tokio::time::interval(ACTION_POLL);
+    poll.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    publish_statuses(server, &goals);
     loop {
         tokio::select! {
-            new_goal = server.receive_new_goal() => {
-                let handle = match new_goal {
-                    Ok(h) => h,
+            _ = poll.tick() => {
+                // Goals.
+                loop {
+                    let (request_id, request) = match server.receive_goal() {
+                        Ok(Some(r)) => r,
+                        Ok(None) => break,
+                        Err(e) => {
+                            tracing::warn!("goal request not read: {e:?}");
+                            break;
+                        }
+                    };
+                    let id = request.goal_id;
+                    let goal = request.goal;
+                    let admitted = if goals.contains(&id) {
+                        Err(GoalRefusal::new(error_code::INVALID_GOAL, "a goal with this id exists already; give every goal a new id"))
+                    } else if current.is_some() {
+                        // A new goal while one executes preempts it (as joint_trajectory_controller
+                        // does) once it passes the checks that do not need the arm to stop.
+                        match precheck(shared, &goal).await {
+                            Err(refusal) => Err(refusal),
+                            Ok(()) => {
+                                preempt(shared, server, &mut goals, &mut current, &mut executing).await;
+                                admit(shared, &goal, true).await
+                            }
+                        }
+                    } else {
+                        admit(shared, &goal, false).await
+                    };
+                    match admitted {
+                        Err(refusal) => {
+                            let text = format!("goal rejected ({}): {}", refusal.code, refusal.message);
+                            shared.log(LogLevel::Warn, &text);
+                            lock(&shared.state).last_goal = Some(text);
+                            let response = SendGoalResponse { accepted: false, stamp: RosTime::ZERO };
+                            if let Err(e) = server.send_goal_response(request_id, response) {
+                                tracing::warn!("goal rejection not sent: {e:?}");
+                            }
+                        }
+                        Ok((robot, p, permit)) => {
+                            let stamp = RosTime::now();
+                            goals.handle_goal_accepted(id, stamp.to_nanos());
+                            let response = SendGoalResponse { accepted: true, stamp };
+                            if let Err(e) = server.send_goal_response(request_id, response) {
+                                tracing::warn!("goal acceptance not sent: {e:?}");
+                            }
+                            publish_statuses(server, &goals);
+                            let text = format!(
+                                "executing a trajectory of {} points over {:.3} s",
+                                goal.trajectory.points.len(),
+                                p.duration_s()
+                            );
+                            shared.log(LogLevel::Info, &text);
+                            lock(&shared.state).last_goal = Some(text);
+                            shared.busy.store(true, std::sync::atomic::Ordering::SeqCst);
+                            lock(&shared.arming).handle_goal_started();
+                            let (cancel_tx, cancel_rx) = watch::channel(false);
+                            current = Some((Some(id), cancel_tx));
+                            let exec = &shared.config.execution;
+                            let names = &shared.config.joint_names;
+                            executing = Some(Box::pin(async move {
+                                let outcome = execute(&robot, &p, exec, names, feedback_period, cancel_rx, feedback_tx).await;
+                                // Control is given back when the goal is over.
+                                drop(permit);
+                                outcome
+                            }));
+                        }
+                    }
+                }
+                // Cancels.
+                loop {
+                    let (request_id, request) = match server.receive_cancel_request() {
+                        Ok(Some(r)) => r,
+                        Ok(None) => break,
+                        Err(e) => {
+                            tracing::warn!("cancel request not read: {e:?}");
+                            break;
+                        }
+                    };
+                    let (code, canceling) = match cancel_fields(&request) {
+                        Some((id, stamp)) => goals.handle_cancel_request(
+                            (id != GoalId::ZERO).then_some(id),
+                            stamp.to_nanos(),
+                        ),
+                        None => (CancelCode::Rejected, Vec::new()),
+                    };
+                    if let Some((Some(id), tx)) = &current {
+                        if canceling.iter().any(|(k, _)| k == id) {
+                            tx.send_replace(true);
+                            shared.log(LogLevel::Info, "goal cancel requested: braking (commands 5 and 2); the arm holds where it stops");
+                        }
+                    }
+                    let response = CancelGoalResponse {
+                        return_code: match code {
+                            CancelCode::ErrorNone => CancelGoalResponseEnum::None,
+                            CancelCode::Rejected => CancelGoalResponseEnum::Rejected,
+                            CancelCode::UnknownGoalId => CancelGoalResponseEnum::UnknownGoal,
+                            CancelCode::GoalTerminated => CancelGoalResponseEnum::GoalTerminated,
+                        },
+                        goals_canceling: canceling
+                            .iter()
+                            .map(|(goal_id, ns)| GoalInfo { goal_id: *goal_id, stamp: RosTime::from_nanos(*ns) })
+                            .collect(),
+                    };
+                    if let Err(e) = server.send_cancel_response(request_id, response) {
+                        tracing::warn!("cancel response not sent: {e:?}");
+                    }
+                    if !canceling.is_empty() {
+                        publish_statuses(server, &goals);
+                    }
+                }
+                // Result requests.
+                loop {
+                    let (request_id, request) = match server.receive_result_request() {
+                        Ok(Some(r)) => r,
+                        Ok(None) => break,
+                        Err(e) => {
+                            tracing::warn!("result request not read: {e:?}");
+                            break;
+                        }
+                    };
+                    if let Some(reply) = goals.handle_result_request(request_id, request.goal_id) {
+                        send_results(server, vec![reply]);
+                    }
+                }
+                if goals.handle_timeout(tokio::time::Instant::now()) {
+                    publish_statuses(server, &goals);
+                }
+            }
+            Some(fb) = feedback_rx.recv() => {
+                if let Some((Some(id), _)) = &current {
+                    // After a cancel request the goal is "canceling": no more feedback.
+                    if goals.status_of(id) == status::EXECUTING {
+                        let _ = server.send_feedback(*id, fb);
+                    }
+                }
+            }
+            outcome = maybe(&mut executing), if executing.is_some() => {
+                executing = None;
+                let Some((id, _)) = current.take() else { continue };
+                end_goal(shared, server, &mut goals, id, outcome);
+            }
+            message = trajectories.async_take() => {
+                let trajectory = match message {
+                    Ok((t, _)) => t,
                     Err(e) => {
-                        tracing::warn!("goal request not read: {e:?}");
+                        tracing::warn!("~/joint_trajectory message not read: {e:?}");
                         continue;
                     }
                 };
-                let Some(goal) = server.get_new_goal(handle.clone()) else { continue };
+                // Checked like a goal with the node's default tolerances; it replaces the
+                // running trajectory (goal or topic) once it passes the checks.
+                let goal = FollowJointTrajectoryGoal { trajectory, ..Default::default() };
                 let admitted = if current.is_some() {
-                    Err(GoalRefusal::new(
-                        error_code::INVALID_GOAL,
-                        "a goal is executing; cancel it first (the robot follows one trajectory at a time)",
-                    ))
+                    match precheck(shared, &goal).await {
+                        Err(refusal) => Err(refusal),
+                        Ok(()) => {
+                            preempt(shared, server, &mut goals, &mut current, &mut executing).await;
+                            admit(shared, &goal, true).await
+                        }
+                    }
                 } else {
-                    admit(shared, &goal).await
+                    admit(shared, &goal, false).await
                 };
                 match admitted {
                     Err(refusal) => {
-                        let text = format!("goal rejected ({}): {}", refusal.code, refusal.message);
+                        let text = format!("~/joint_trajectory refused ({}): {}", refusal.code, refusal.message);
                         shared.log(LogLevel::Warn, &text);
                         lock(&shared.state).last_goal = Some(text);
-                        if let Err(e) = server.reject_goal(handle).await {
-                            tracing::warn!("goal rejection not sent: {e:?}");
-                        }
                     }
                     Ok((robot, p, permit)) => {
-                        let accepted = match server.accept_goal(handle).await {
-                            Ok(a) => a,
-                            Err(e) => {
-                                tracing::warn!("goal acceptance not sent: {e:?}");
-                                continue;
-                            }
-                        };
-                        let exec_handle = match server.start_executing_goal(accepted).await {
-                            Ok(h) => h,
-                            Err(e) => {
-                                tracing::warn!("goal not started: {e:?}");
-                                continue;
-                            }
-                        };
                         let text = format!(
-                            "executing a trajectory of {} points over {:.3} s",
+                            "following a ~/joint_trajectory of {} points over {:.3} s",
                             goal.trajectory.points.len(),
                             p.duration_s()
                         );
                         shared.log(LogLevel::Info, &text);
                         lock(&shared.state).last_goal = Some(text);
                         shared.busy.store(true, std::sync::atomic::Ordering::SeqCst);
+                        lock(&shared.arming).handle_goal_started();
                         let (cancel_tx, cancel_rx) = watch::channel(false);
-                        current = Some((exec_handle, cancel_tx));
+                        current = Some((None, cancel_tx));
                         let exec = &shared.config.execution;
                         let names = &shared.config.joint_names;
                         executing = Some(Box::pin(async move {
                             let outcome = execute(&robot, &p, exec, names, feedback_period, cancel_rx, feedback_tx).await;
-                            // Control is given back when the goal is over.
                             drop(permit);
                             outcome
                         }));
                     }
                 }
             }
-            cancel = server.receive_cancel_request() => {
-                let cancel = match cancel {
-                    Ok(c) => c,
-                    Err(e) => {
-                        tracing::warn!("cancel request not read: {e:?}");
-                        continue;
-                    }
-                };
-                let mine: Vec<_> = match &current {
-                    Some((h, tx)) if cancel.contains_goal(&h.goal_id()) => {
-                        tx.send_replace(true);
-                        vec![h.goal_id()]
-                    }
-                    _ => Vec::new(),
-                };
-                if !mine.is_empty() {
-                    shared.log(LogLevel::Info, "goal cancel requested: braking (commands 5 and 2)");
-                }
-                if let Err(e) = server.respond_to_cancel_requests(&cancel, mine.into_iter()).await {
-                    tracing::warn!("cancel response not sent: {e:?}");
-                }
-            }
-            Some(fb) = feedback_rx.recv() => {
-                if let Some((h, _)) = &current {
-                    // After a cancel request the goal is "canceling": no more feedback.
-                    let _ = server.publish_feedback(h.clone(), fb).await;
-                }
-            }
-            outcome = maybe(&mut executing), if executing.is_some() => {
-                executing = None;
-                shared.busy.store(false, std::sync::atomic::Ordering::SeqCst);
-                let Some((h, _)) = current.take() else { continue };
-                let status = match outcome.end {
-                    GoalEnd::Succeeded => GoalEndStatus::Succeeded,
-                    GoalEnd::Aborted => GoalEndStatus::Aborted,
-                    GoalEnd::Canceled => GoalEndStatus::Canceled,
-                };
-                let text = format!(
-                    "goal {:?} ({}): {}",
-                    outcome.end, outcome.result.error_code, outcome.result.error_string
-                );
-                shared.log(
-                    if outcome.end == GoalEnd::Succeeded { LogLevel::Info } else { LogLevel::Warn },
-                    &text,
-                );
-                lock(&shared.state).last_goal = Some(text);
-                let result = outcome.result;
-                finishing.push(Box::pin(async move {
-                    // The client asks for the result as soon as the goal is accepted; do not
-                    // wait for ever for one that never does.
-                    match tokio::time::timeout(RESULT_WAIT, server.send_result_response(h, status, result)).await {
-                        Ok(Ok(())) => {}
-                        Ok(Err(e)) => tracing::warn!("goal result not sent: {e:?}"),
-                        Err(_) => tracing::warn!("no client asked for the goal's result within {RESULT_WAIT:?}"),
-                    }
-                }));
-            }
-            done = first_done(&mut finishing), if !finishing.is_empty() => {
-                drop(finishing.swap_remove(done));
-            }
         }
     }
 }
-
-/// How long a finished goal's result waits for the client's request.
-const RESULT_WAIT: Duration = Duration::from_secs(60);
 
 /// Awaits the future in `slot`, or never when there is none.
 async fn maybe<F: Future + Unpin>(slot: &mut Option<F>) -> F::Output {
@@ -801,12 +1140,4 @@ async fn maybe<F: Future + Unpin>(slot: &mut Option<F>) -> F::Output {
         Some(f) => f.await,
         None => std::future::pending().await,
     }
-}
-
-/// The index of the first of `futures` to finish (never, when there are none).
-async fn first_done<F: Future + Unpin>(futures: &mut [F]) -> usize {
-    if futures.is_empty() {
-        return std::future::pending().await;
-    }
-    futures::future::select_all(futures.iter_mut()).await.1
 }

@@ -248,3 +248,73 @@ async fn a_goal_with_the_program_stopped_is_refused_without_moving() {
     assert_eq!(emu.with(|c| c.counters().effective_requests), before);
     assert_eq!(emu.with(|c| c.joints()), home());
 }
+
+/// JT1 from `from` to `to` degrees (the rest at home) in `secs`, first point at `secs / steps`.
+fn jt1_goal_between(from: f64, to: f64, secs: f64, steps: usize) -> FollowJointTrajectoryGoal {
+    let mut g = jt1_goal(to - from, secs, steps);
+    for p in &mut g.trajectory.points {
+        p.positions[0] += from.to_radians();
+    }
+    g
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_cancel_is_an_own_stop_and_the_program_starts_again_for_the_next_goal() {
+    let (emu, robot) = ready().await;
+    let (tx, cancel) = watch::channel(false);
+    let goal = jt1_goal(60.0, 6.0, 30);
+    let canceller = async {
+        tokio::time::sleep(Duration::from_secs(2)).await;
+        tx.send_replace(true);
+    };
+    let ((outcome, _), ()) = tokio::join!(run(&robot, &goal, cancel), canceller);
+    assert_eq!(outcome.end, GoalEnd::Canceled, "{outcome:?}");
+    assert_eq!(outcome.program, fs020n_ros2::arming::GoalStop::ByTheNode);
+    // At once, as the node does for the next goal: start, then follow from where it stopped.
+    robot
+        .start()
+        .await
+        .expect("start after the node's own stop");
+    let here = robot.poll().await.expect("poll").joints;
+    let (_tx2, cancel) = watch::channel(false);
+    let back = jt1_goal_between(here[0], 0.0, 3.0, 15);
+    let (outcome, _) = run(&robot, &back, cancel).await;
+    assert_eq!(outcome.end, GoalEnd::Succeeded, "{outcome:?}");
+    assert!(emu.with(|c| c.joints())[0].abs() < 0.01f64.to_degrees());
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_preempted_goal_ends_aborted_and_a_fault_is_not_an_own_stop() {
+    let (emu, robot) = ready().await;
+    let (tx, cancel) = watch::channel(false);
+    let canceller = async {
+        tokio::time::sleep(Duration::from_secs(1)).await;
+        tx.send_replace(true);
+    };
+    let goal = jt1_goal(60.0, 6.0, 30);
+    let ((outcome, _), ()) = tokio::join!(run(&robot, &goal, cancel), canceller);
+    let preempted = outcome.preempted();
+    assert_eq!(preempted.end, GoalEnd::Aborted);
+    assert_eq!(preempted.result.error_code, error_code::INVALID_GOAL);
+    assert!(preempted
+        .result
+        .error_string
+        .contains("preempted by a new goal"));
+    assert_eq!(preempted.program, fs020n_ros2::arming::GoalStop::ByTheNode);
+    // An E-stop during a goal: a fault for the re-arm policy.
+    robot.start().await.expect("start");
+    let here = robot.poll().await.expect("poll").joints;
+    let (_tx, cancel) = watch::channel(false);
+    let estop = async {
+        tokio::time::sleep(Duration::from_secs(1)).await;
+        emu.with(|c| c.press_estop());
+    };
+    let goal = jt1_goal_between(here[0], here[0] + 40.0, 6.0, 30);
+    let ((outcome, _), ()) = tokio::join!(run(&robot, &goal, cancel), estop);
+    assert!(
+        matches!(outcome.program, fs020n_ros2::arming::GoalStop::Fault(_)),
+        "{outcome:?}"
+    );
+    // A fault is not turned into a preemption.
+    assert_eq!(outcome.clone().preempted(), outcome);
+}

@@ -1,6 +1,7 @@
 //! `ros2`: the ROS 2 node (crate `fs020n-ros2`) on one robot session, until Ctrl-C.
 
 use std::net::SocketAddr;
+use std::path::Path;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -48,6 +49,10 @@ pub(crate) fn node_config(args: &Ros2NodeArgs) -> CliResult<NodeConfig> {
     if args.auto_start {
         config.execution.auto_start = true;
     }
+    if let Some(ros_args) = &args.ros_args {
+        let parsed = fs020n_ros2::RosArgs::parse(ros_args).map_err(input)?;
+        config.apply_ros_args(&parsed).map_err(input)?;
+    }
     config.validate().map_err(input)?;
     Ok(config)
 }
@@ -60,21 +65,23 @@ pub(crate) fn ros2_error(e: Ros2Error) -> CliError {
     }
 }
 
-/// MoveIt's `moveit_controllers.yaml` for this node.
-pub(crate) fn moveit_controllers_yaml(config: &NodeConfig) -> String {
-    let ns = config.action_namespace.trim_start_matches('/');
-    let joints: String = config
-        .joint_names
-        .iter()
-        .map(|j| format!("      - {j}\n"))
-        .collect();
-    format!(
-        "# moveit_controllers.yaml for the fs020n ROS 2 node (fs020n ros2)\n\
-         moveit_controller_manager: moveit_simple_controller_manager/MoveItSimpleControllerManager\n\
-         moveit_simple_controller_manager:\n  controller_names:\n    - {ns}\n  {ns}:\n    \
-         type: FollowJointTrajectory\n    action_ns: follow_joint_trajectory\n    default: true\n    \
-         joints:\n{joints}"
-    )
+/// Writes the MoveIt configuration package into `dir` (created if needed; the generated files
+/// are overwritten, others are left alone).
+fn write_moveit_config(dir: &Path, files: &[(String, String)]) -> CliResult {
+    let failed = |path: &Path, e: std::io::Error| {
+        CliError::input(format!(
+            "cannot write {}: {e}; give a directory you can write to",
+            path.display()
+        ))
+    };
+    for (relative, text) in files {
+        let path = dir.join(relative);
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent).map_err(|e| failed(parent, e))?;
+        }
+        std::fs::write(&path, text).map_err(|e| failed(&path, e))?;
+    }
+    Ok(())
 }
 
 /// `ros2`.
@@ -83,9 +90,37 @@ pub(crate) fn ros2(ctx: &Ctx, args: &Ros2Args) -> CliResult {
     if let Some(what) = &args.print {
         let text = match what.as_str() {
             "urdf" => fs020n_ros2::urdf::generate(&ctx.model, &config.joint_names),
+            "srdf" => fs020n_ros2::srdf::generate(&ctx.model, &config.joint_names),
             "joint-limits" => fs020n_ros2::urdf::joint_limits_yaml(&ctx.model, &config.joint_names),
-            _ => moveit_controllers_yaml(&config),
+            "moveit-config" => {
+                let Some(dir) = &args.output else {
+                    return Err(CliError::input(
+                        "--print moveit-config writes a package: give its directory, e.g. \
+                         `fs020n ros2 --print moveit-config src/fs020n_moveit_config`",
+                    ));
+                };
+                let files = fs020n_ros2::moveit::config_package(&ctx.model, &config);
+                write_moveit_config(dir, &files)?;
+                if ctx.json {
+                    let paths: Vec<_> = files.iter().map(|(p, _)| p.as_str()).collect();
+                    println!("{}", json!({ "package": dir, "files": paths }));
+                } else {
+                    println!(
+                        "MoveIt configuration package {} written to {} ({} files)",
+                        fs020n_ros2::moveit::PACKAGE_NAME,
+                        dir.display(),
+                        files.len()
+                    );
+                }
+                return Ok(());
+            }
+            _ => fs020n_ros2::moveit::moveit_controllers_yaml(&config),
         };
+        if args.output.is_some() {
+            return Err(CliError::input(
+                "a directory is only for --print moveit-config; the other files go to stdout",
+            ));
+        }
         print!("{text}");
         return Ok(());
     }
