@@ -67,7 +67,7 @@
         ; 3. One request: whatever one receive returns (up to 4096 bytes, in 255-byte
         ;    elements); only the first element is parsed.
         .n = 0
-        TCP_RECV .ret, .sock, .$buf[1], .n, 5
+        TCP_RECV .ret, .sock, .$buf[1], .n, 5, 255
         IF .ret < 0 THEN
           ; Timeout or a lost connection: the session ends.
           .loop = 0

@@ -117,10 +117,10 @@ pub const RULES: &[Rule] = &[
     },
     Rule {
         id: "d-tcp-recv-arguments",
-        severity: Severity::Error,
+        severity: Severity::Warning,
         controllers: &[Controller::D],
-        checks: "TCP_RECV with its optional timeout or max-bytes arguments on a D controller",
-        source: "D-series TCP_RECV takes no optional arguments (low confidence: one third-party D program; research: as-language.md, generation caveat)",
+        checks: "TCP_RECV without both its timeout and max-bytes arguments on a D controller",
+        source: "the one known D-controller program passes both only in its D variant (research: as-language.md, generation caveat; low confidence). An earlier reading, 'D takes no optional arguments', contradicts that program and would leave a server without its receive timeout",
     },
     Rule {
         id: "d-integer-timeout",
@@ -320,11 +320,12 @@ fn tcp_lint(
         TcpStmt::EndListen { port, .. } => ("TCP_END_LISTEN", Some(port), None),
         TcpStmt::Accept { port, timeout, .. } => ("TCP_ACCEPT", Some(port), timeout.as_ref()),
         TcpStmt::Recv { timeout, max, .. } => {
-            if let Some(e) = timeout.as_ref().or(max.as_ref()) {
+            if timeout.is_none() || max.is_none() {
                 add(
                     "d-tcp-recv-arguments",
-                    e.span,
-                    "a D controller's TCP_RECV takes no timeout or max-bytes argument: drop them"
+                    s.span,
+                    "give TCP_RECV both its timeout and its max-bytes argument (`…, .n, 5, 255`): \
+                     the one known D-controller program does"
                         .into(),
                 );
             }

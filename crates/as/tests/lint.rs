@@ -117,14 +117,11 @@ fn listen_ports_outside_8192_to_65535_are_errors() {
 }
 
 #[test]
-fn the_d_series_tcp_recv_takes_no_optional_arguments_and_whole_second_timeouts() {
-    let body = "  TCP_RECV .r, .s, .$b[1], .n, 5, 255\n  TCP_SEND .r, .s, .$b[1], 1, 1.5";
+fn the_d_series_tcp_recv_wants_both_its_arguments_and_whole_second_timeouts() {
+    let body = "  TCP_RECV .r, .s, .$b[1], .n, 5\n  TCP_SEND .r, .s, .$b[1], 1, 1.5\n  TCP_RECV .r, .s, .$b[1], .n, 5, 255";
     assert_eq!(
         findings(&pc(body), Some(Controller::D)),
-        vec![
-            ("d-tcp-recv-arguments", 2, 32),
-            ("d-integer-timeout", 3, 31)
-        ]
+        vec![("d-tcp-recv-arguments", 2, 3), ("d-integer-timeout", 3, 31)]
     );
     // Not a D controller: the rules do not apply.
     assert!(findings(&pc(body), Some(Controller::F)).is_empty());

@@ -501,6 +501,10 @@ pub(crate) struct DeployArgs {
     /// Bytes per block of the LOAD (486 is the smallest any client uses on a D controller).
     #[arg(long, default_value_t = 480)]
     pub block_bytes: usize,
+    /// An instruction the controller knows and this project's check does not (repeatable):
+    /// the check accepts it; the controller still judges it during the LOAD.
+    #[arg(long = "stub", value_name = "INSTR")]
+    pub stubs: Vec<String>,
 }
 
 /// `doctor` arguments (the protocol port is `--robot`).

@@ -90,22 +90,48 @@ fn json_gives_one_object_per_file_per_line() {
 #[test]
 fn a_lint_error_exits_1_and_the_controller_choice_changes_the_rules() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let f = write(
-        &dir,
-        "d.as",
-        b".PROGRAM autostart.pc()\n  TCP_RECV .r, .s, .$b[1], .n, 5, 255\n.END\n",
-    );
-    let out = run(&["as", "check", "--json", "--controller", "f"], &[&f]);
-    assert_eq!(out.status.code(), Some(0));
-    let out = run(&["as", "check", "--json", "--controller", "d"], &[&f]);
-    assert_eq!(out.status.code(), Some(1));
-    let v: serde_json::Value =
+    let first_json = |out: &std::process::Output| -> serde_json::Value {
         serde_json::from_slice(out.stdout.split(|b| *b == b'\n').next().unwrap_or_default())
-            .expect("json");
+            .expect("json")
+    };
+    // A listen port the TCP option does not open: an error on every controller.
+    let p = write(
+        &dir,
+        "p.as",
+        b".PROGRAM autostart.pc()\n  TCP_LISTEN .r, 5000\n.END\n",
+    );
+    let out = run(&["as", "check", "--json"], &[&p]);
+    assert_eq!(out.status.code(), Some(1));
+    let v = first_json(&out);
     assert_eq!(v["loaded"], true);
-    assert_eq!(v["lint"][0]["rule"], "d-tcp-recv-arguments");
+    assert_eq!(v["lint"][0]["rule"], "tcp-port-range");
     assert_eq!(v["lint"][0]["severity"], "error");
     assert_eq!(v["lint"][0]["line"], 2);
+    // A timeout of 0 s: an E controller takes 0–60 s, an F controller 1–60 s (a warning).
+    let t = write(
+        &dir,
+        "t.as",
+        b".PROGRAM autostart.pc()\n  TCP_RECV .r, .s, .$b[1], .n, 0, 255\n.END\n",
+    );
+    let out = run(&["as", "check", "--json", "--controller", "e"], &[&t]);
+    assert_eq!(out.status.code(), Some(0));
+    assert_eq!(first_json(&out)["lint"], serde_json::json!([]));
+    let out = run(&["as", "check", "--json", "--controller", "f"], &[&t]);
+    assert_eq!(out.status.code(), Some(0));
+    assert_eq!(first_json(&out)["lint"][0]["rule"], "tcp-timeout-range");
+    // A D-only warning: TCP_RECV without its max-bytes argument.
+    let w = write(
+        &dir,
+        "w.as",
+        b".PROGRAM autostart.pc()\n  TCP_RECV .r, .s, .$b[1], .n, 5\n.END\n",
+    );
+    let out = run(&["as", "check", "--json", "--controller", "d"], &[&w]);
+    assert_eq!(out.status.code(), Some(0));
+    let v = first_json(&out);
+    assert_eq!(v["lint"][0]["rule"], "d-tcp-recv-arguments");
+    assert_eq!(v["lint"][0]["severity"], "warning");
+    let out = run(&["as", "check", "--json", "--controller", "f"], &[&w]);
+    assert_eq!(first_json(&out)["lint"], serde_json::json!([]));
 }
 
 #[test]

@@ -69,7 +69,8 @@ pub(crate) fn deploy(ctx: &Ctx, args: &DeployArgs) -> CliResult {
     let mut steps = Steps::new(ctx.json);
 
     // 1. The check, as the emulator loads it, against the controller's limits.
-    let report = fs020n_as::check(&name, &bytes, &LoadOptions::new(), Some(generation));
+    let opts = (args.stubs.iter()).fold(LoadOptions::new(), |o, s| o.stub(s));
+    let report = fs020n_as::check(&name, &bytes, &opts, Some(generation));
     if !report.passes() {
         let first = report
             .errors
