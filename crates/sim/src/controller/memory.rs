@@ -72,6 +72,8 @@ pub(crate) struct MonitorState {
     sessions: [bool; text::MAX_SESSIONS],
     /// A transfer was abandoned: every LOAD/SAVE gets P2076 until a power cycle.
     transfer_open: bool,
+    /// Sessions in the middle of a transfer now.
+    transfers_running: usize,
     /// Lines the programs printed, numbered, for the terminal sessions.
     output: VecDeque<(u64, String)>,
     next_line: u64,
@@ -599,10 +601,20 @@ impl Controller {
         }
     }
 
-    /// `true` once a transfer was abandoned (every `LOAD`/`SAVE` gets P2076 until a power
-    /// cycle).
+    /// `true` while a `LOAD`/`SAVE` is in progress in a session, and once a transfer was
+    /// abandoned (every `LOAD`/`SAVE` then gets P2076 until a power cycle).
     pub fn transfer_open(&self) -> bool {
-        self.monitor.transfer_open
+        self.monitor.transfer_open || self.monitor.transfers_running > 0
+    }
+
+    /// A session began (`true`) or ended (`false`) a transfer.
+    pub fn transfer_running(&mut self, running: bool) {
+        let n = &mut self.monitor.transfers_running;
+        *n = if running {
+            n.saturating_add(1)
+        } else {
+            n.saturating_sub(1)
+        };
     }
 
     /// A `LOAD`/`SAVE` was left open (a dropped link, a client that stopped answering).
