@@ -535,6 +535,25 @@ fn a_load_overwrites_a_program_of_the_same_name() {
 }
 
 #[test]
+fn data_sections_load_with_their_programs_and_are_saved_without_p() {
+    let mut t = Term::new(bare());
+    let file = ".PROGRAM p()\n  y = limit\n.END\n.REALS\nlimit = 3\n.END\n";
+    loaded_ok(&t.load("d.as", file));
+    loaded_ok(&t.load("d.as", file));
+    assert_eq!(t.c.data_sections().len(), 1);
+    t.cmd("PCEXECUTE 2: p", false);
+    t.advance(Duration::from_millis(50));
+    assert_eq!(t.cmd("TYPE y", false), "3");
+    t.client.save(t.now, "all.as").unwrap();
+    match t.settle().pop() {
+        Some(Event::Saved { file, .. }) => {
+            assert!(String::from_utf8_lossy(&file).contains(".REALS\r\nlimit = 3\r\n"))
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
 fn at_most_three_sessions_and_a_fourth_is_refused() {
     let mut c = bare();
     let links: Vec<TerminalLink> = (0..3)
