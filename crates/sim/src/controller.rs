@@ -9,6 +9,8 @@ use fs020n_kin::RobotModel;
 use fs020n_proto::{Command, ErrorCode, JointsDeg, Status};
 
 mod memory;
+mod sessions;
+mod tasks;
 
 use memory::{Idle, MonitorState};
 pub use memory::{LoadReport, PowerCycle};

@@ -51,6 +51,9 @@ mod terminal;
 
 pub use controller::{Controller, LoadReport, PowerCycle};
 pub use fault::{Fault, ReplyFault, MAX_FAULT_BYTES, MAX_FAULT_COUNT, MAX_FAULT_MS};
+/// The terminal protocol the emulator's terminal speaks (its [`fs020n_term::SessionConfig`]
+/// configures [`Emulator::serve_terminal`]).
+pub use fs020n_term as term;
 #[cfg(feature = "pendant")]
 pub use guard::{GuardRefusal, PendantAccess, RequestGuard};
 pub use machine::{

@@ -178,10 +178,13 @@ impl ProgramStore {
         self.generation += 1;
     }
 
-    /// Adds a data section.
+    /// Adds a data section (one already held word for word is not added again, so that
+    /// loading the same file twice does not grow the memory).
     pub(crate) fn put_data(&mut self, section: String) {
-        self.data.push(section);
-        self.generation += 1;
+        if !self.data.contains(&section) {
+            self.data.push(section);
+            self.generation += 1;
+        }
     }
 
     /// Removes a program; `false` when there is none of that name.

@@ -27,6 +27,8 @@ pub struct TerminalLink {
     pending: Option<Pending>,
     /// The next line of program output this session prints.
     output_from: u64,
+    /// The session is in the middle of a transfer (the controller counts it).
+    in_transfer: bool,
 }
 
 impl TerminalLink {
@@ -45,6 +47,7 @@ impl TerminalLink {
             session,
             pending,
             output_from: controller.terminal_output_next(),
+            in_transfer: false,
         }
     }
 
@@ -62,6 +65,17 @@ impl TerminalLink {
             },
             bytes,
         );
+        self.note_transfer(controller);
+    }
+
+    /// Tells the controller when this session's transfer begins or ends: while it runs, the
+    /// other sessions' `LOAD`/`SAVE` get P2076.
+    fn note_transfer(&mut self, controller: &mut Controller) {
+        let now = self.session.in_transfer();
+        if now != self.in_transfer {
+            self.in_transfer = now;
+            controller.transfer_running(now);
+        }
     }
 
     /// The connection ended.
@@ -70,6 +84,7 @@ impl TerminalLink {
             c: controller,
             pending: &mut self.pending,
         });
+        self.note_transfer(controller);
     }
 
     /// Queues what the programs printed since this session last looked (after the prompt

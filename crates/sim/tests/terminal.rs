@@ -43,7 +43,9 @@ impl Term {
         };
         t.client.login(t.now).unwrap();
         match t.settle().as_slice() {
-            [Event::LoggedIn { terminal }] => assert_eq!(terminal.as_deref(), Some("AUX1")),
+            [Event::LoggedIn { terminal }] => {
+                assert!(terminal.as_deref().is_some_and(|t| t.starts_with("AUX")))
+            }
             other => panic!("{other:?}"),
         }
         t
@@ -331,6 +333,29 @@ fn a_transfer_left_open_gives_p2076_until_a_power_cycle() {
 }
 
 #[test]
+fn a_transfer_in_progress_in_one_session_gives_p2076_in_another() {
+    let mut c = bare();
+    let mut busy = TerminalLink::open(&mut c, SessionConfig::default());
+    busy.handle_input(&mut c, b"as\r\nLOAD x.as\r\n");
+    let mut t = Term::new(c);
+    t.client
+        .load(t.now, "y.as", b".PROGRAM y()\n.END\n")
+        .unwrap();
+    assert_eq!(
+        t.settle(),
+        vec![Event::Failed(TerminalError::TransferInProgress)]
+    );
+    // The first session finishes its transfer: the other may load again.
+    busy.handle_input(&mut t.c, &client_frame(Letter::A, b""));
+    busy.handle_input(&mut t.c, &client_frame(Letter::C, b".PROGRAM x()\n.END\n"));
+    busy.handle_input(&mut t.c, &client_frame(Letter::C, &[SUB]));
+    busy.handle_input(&mut t.c, &client_frame(Letter::E, b""));
+    assert!(!t.c.transfer_open());
+    loaded_ok(&t.load("y.as", ".PROGRAM y()\n.END\n"));
+    assert_eq!(t.c.loaded_programs(), vec!["x", "y"]);
+}
+
+#[test]
 fn switch_reads_and_sets_autostart_in_both_forms_and_refuses_unknown_names() {
     let mut t = Term::new(bare());
     assert_eq!(t.cmd("SWITCH AUTOSTART.PC", false), "AUTOSTART.PC    OFF");
@@ -507,6 +532,25 @@ fn a_load_overwrites_a_program_of_the_same_name() {
     loaded_ok(&t.load("b.as", ".PROGRAM p()\n  x = 2\n.END\n"));
     assert_eq!(t.c.loaded_programs(), vec!["p"]);
     assert!(t.c.program_text("p").unwrap().contains("x = 2"));
+}
+
+#[test]
+fn data_sections_load_with_their_programs_and_are_saved_without_p() {
+    let mut t = Term::new(bare());
+    let file = ".PROGRAM p()\n  y = limit\n.END\n.REALS\nlimit = 3\n.END\n";
+    loaded_ok(&t.load("d.as", file));
+    loaded_ok(&t.load("d.as", file));
+    assert_eq!(t.c.data_sections().len(), 1);
+    t.cmd("PCEXECUTE 2: p", false);
+    t.advance(Duration::from_millis(50));
+    assert_eq!(t.cmd("TYPE y", false), "3");
+    t.client.save(t.now, "all.as").unwrap();
+    match t.settle().pop() {
+        Some(Event::Saved { file, .. }) => {
+            assert!(String::from_utf8_lossy(&file).contains(".REALS\r\nlimit = 3\r\n"))
+        }
+        other => panic!("{other:?}"),
+    }
 }
 
 #[test]

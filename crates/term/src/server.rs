@@ -159,6 +159,20 @@ impl TerminalSession {
         self.state == State::Closed && self.out.is_empty()
     }
 
+    /// `true` while a `LOAD` or `SAVE` of this session has begun and not ended (its
+    /// question included): the controller refuses other transfers meanwhile (P2076).
+    pub fn in_transfer(&self) -> bool {
+        matches!(
+            self.state,
+            State::LoadOpening
+                | State::LoadBlocks
+                | State::LoadQuestion { .. }
+                | State::LoadClosing { .. }
+                | State::SaveOpening { .. }
+                | State::SaveClosing
+        )
+    }
+
     /// The terminal's name (`AUX1`), once logged in or refused (`None`).
     pub fn terminal(&self) -> Option<&str> {
         self.terminal.as_deref()

@@ -1,5 +1,7 @@
-//! The controller's program memory, task stacks, switches and power cycle, as the monitor
-//! terminal operates them (`terminal/` drives these; `store.rs` holds the memory).
+//! The controller's program memory (loaded, listed, deleted), the task stacks, the switches
+//! and the interpreter built from the memory, as the monitor terminal operates them
+//! (`terminal/` drives these; `store.rs` holds the memory; `tasks.rs` starts and stops tasks
+//! and power-cycles; `sessions.rs` holds the terminal's sessions, transfers and output).
 //!
 //! Choices and limits (docs/EMULATOR.md, "The controller's terminal"):
 //! - a program is *on a task's stack* from its start until `KILL`/`PCKILL`, unless it
@@ -22,13 +24,12 @@ use fs020n_term::text::{self, MonitorError};
 
 use super::{Controller, Server};
 use crate::machine::{Machine, OnTick};
-use crate::native::NativeServer;
 use crate::program::ProgramServer;
 use crate::snapshot::SessionInfo;
 use crate::store::{sections, StoredProgram, AUTOSTART_SWITCHES};
 
 /// Terminal lines kept for sessions that read them late.
-const OUTPUT_LINES: usize = 200;
+pub(super) const OUTPUT_LINES: usize = 200;
 
 /// The machine's tick with no server on it.
 pub(crate) struct Idle;
@@ -65,22 +66,24 @@ pub(crate) struct MonitorState {
     /// The program each task was started with ([robot, pc1 … pc5]), until killed.
     pub(crate) stacks: [Option<String>; 6],
     /// The task was aborted (its program stays on the stack until killed).
-    kept: [bool; 6],
+    pub(super) kept: [bool; 6],
     /// The memory generation the interpreter was built from.
     pub(crate) built: Option<u64>,
     /// Terminal slots AUX1–AUX3 in use.
-    sessions: [bool; text::MAX_SESSIONS],
+    pub(super) sessions: [bool; text::MAX_SESSIONS],
     /// A transfer was abandoned: every LOAD/SAVE gets P2076 until a power cycle.
-    transfer_open: bool,
+    pub(super) transfer_open: bool,
+    /// Sessions in the middle of a transfer now.
+    pub(super) transfers_running: usize,
     /// Lines the programs printed, numbered, for the terminal sessions.
-    output: VecDeque<(u64, String)>,
-    next_line: u64,
+    pub(super) output: VecDeque<(u64, String)>,
+    pub(super) next_line: u64,
     /// The newest interpreter line taken: its time and how many lines had that time.
-    seen: (Duration, usize),
+    pub(super) seen: (Duration, usize),
     /// The PC tasks that ran when the output was last taken (a completion is announced).
-    ran: [bool; 6],
+    pub(super) ran: [bool; 6],
     /// Bumped by every change the monitor makes (a network layer waits for it).
-    generation: u64,
+    pub(super) generation: u64,
 }
 
 /// What a `LOAD` did.
@@ -105,14 +108,14 @@ pub struct PowerCycle {
     pub missing: Vec<(u8, String)>,
 }
 
-fn task_index(task: TaskId) -> usize {
+pub(super) fn task_index(task: TaskId) -> usize {
     match task {
         TaskId::Robot => 0,
         TaskId::Pc(n) => usize::from(n.clamp(1, 5)),
     }
 }
 
-fn refusal_error(r: &Refusal) -> MonitorError {
+pub(super) fn refusal_error(r: &Refusal) -> MonitorError {
     match r {
         Refusal::Controller { code, .. } => match code.0 {
             -11000 => text::P1000_POWER_OFF,
@@ -260,20 +263,20 @@ impl Controller {
         Ok(())
     }
 
-    fn on_any_stack(&self, name: &str) -> bool {
+    pub(super) fn on_any_stack(&self, name: &str) -> bool {
         let name = name.to_ascii_lowercase();
         (0..6).any(|i| self.stack_program(i).as_deref() == Some(name.as_str()))
     }
 
     /// The program on the stack of task `i` (0 robot, 1–5 PC).
-    fn stack_program(&self, i: usize) -> Option<String> {
+    pub(super) fn stack_program(&self, i: usize) -> Option<String> {
         let name = self.monitor.stacks.get(i)?.clone()?;
         let (running, error) = self.task_facts(i);
         (running || error || self.monitor.kept[i]).then_some(name)
     }
 
     /// Whether task `i` runs (or is paused or finishing), and whether an error stopped it.
-    fn task_facts(&self, i: usize) -> (bool, bool) {
+    pub(super) fn task_facts(&self, i: usize) -> (bool, bool) {
         self.program()
             .and_then(|p| p.tasks(&self.machine).get(i).cloned())
             .map_or((false, false), |t| {
@@ -296,7 +299,7 @@ impl Controller {
 
     /// Rebuilds the interpreter from memory if the programs changed and no task runs;
     /// `Err(P1014)` when a task runs and programs wait.
-    fn sync_runtime(&mut self) -> Result<(), MonitorError> {
+    pub(super) fn sync_runtime(&mut self) -> Result<(), MonitorError> {
         if self.monitor.built == Some(self.memory.generation()) {
             return Ok(());
         }
@@ -311,7 +314,7 @@ impl Controller {
 
     /// A new interpreter over the memory (with the switches carried over); `restart` also
     /// closes every socket.
-    fn rebuild(&mut self, restart: bool) -> Result<(), MonitorError> {
+    pub(super) fn rebuild(&mut self, restart: bool) -> Result<(), MonitorError> {
         self.keep_switches();
         let mut interp = match self.memory.build() {
             Ok(i) => i,
@@ -344,7 +347,7 @@ impl Controller {
     }
 
     /// Copies the interpreter's system switches into memory (before it is replaced).
-    fn keep_switches(&mut self) {
+    pub(super) fn keep_switches(&mut self) {
         if let Some(p) = self.program() {
             let values: Vec<(&str, bool)> = SYSTEM_SWITCHES
                 .iter()
@@ -356,109 +359,13 @@ impl Controller {
         }
     }
 
-    fn bump(&mut self) {
+    pub(super) fn bump(&mut self) {
         self.monitor.generation = self.monitor.generation.wrapping_add(1);
     }
 
     /// Counts every change the monitor made (loads, starts, stops, power cycles).
     pub fn monitor_generation(&self) -> u64 {
         self.monitor.generation
-    }
-
-    // ----------------------------------------------------------------- tasks
-
-    /// `PCEXECUTE task: program`: P1019 while the task runs, P1038 without the program, P1014
-    /// when the program runs in another task (or programs loaded while tasks ran wait).
-    pub fn pc_execute(&mut self, task: u8, program: &str) -> Result<(), MonitorError> {
-        let name = program.to_ascii_lowercase();
-        if !(1..=5).contains(&task) {
-            return Err(text::P1019_PC_RUNNING);
-        }
-        if self.task_facts(usize::from(task)).0 {
-            return Err(text::P1019_PC_RUNNING);
-        }
-        if self.memory.program(&name).is_none() {
-            return Err(text::P1038_NO_PROGRAM);
-        }
-        if (0..6).any(|i| self.task_facts(i).0 && self.monitor.stacks[i].as_deref() == Some(&name))
-        {
-            return Err(text::P1014_IN_USE);
-        }
-        self.sync_runtime()?;
-        let p = self.program_mut().ok_or(text::P1038_NO_PROGRAM)?;
-        p.interpreter_mut()
-            .pc_execute(task, &name)
-            .map_err(|r| refusal_error(&r))?;
-        let i = usize::from(task);
-        self.monitor.stacks[i] = Some(name);
-        self.monitor.kept[i] = false;
-        self.bump();
-        Ok(())
-    }
-
-    /// `PCABORT task:`: stops the task (its program stays on the stack); `false` when it did
-    /// not run.
-    pub fn pc_abort(&mut self, task: u8) -> bool {
-        let i = usize::from(task.clamp(1, 5));
-        self.abort_task(TaskId::Pc(task.clamp(1, 5)), i)
-    }
-
-    fn abort_task(&mut self, task: TaskId, i: usize) -> bool {
-        if !self.task_facts(i).0 {
-            return false;
-        }
-        if let Some(p) = self.program_mut() {
-            p.interpreter_mut().abort(task);
-        }
-        self.monitor.kept[i] = true;
-        self.bump();
-        true
-    }
-
-    /// `PCKILL task:` (and `KILL` for the robot task): takes the program off the stack;
-    /// P1026 while it runs.
-    pub fn kill_task(&mut self, task: TaskId) -> Result<(), MonitorError> {
-        let i = task_index(task);
-        if self.task_facts(i).0 {
-            return Err(text::P1026_CANNOT_KILL_RUNNING);
-        }
-        self.monitor.stacks[i] = None;
-        self.monitor.kept[i] = false;
-        self.bump();
-        let _ = self.sync_runtime();
-        Ok(())
-    }
-
-    /// `EXECUTE program` in robot task 1, with the controller's checks (power, REPEAT, teach
-    /// lock, error, already running).
-    pub fn execute_program(&mut self, program: &str) -> Result<(), MonitorError> {
-        let name = program.to_ascii_lowercase();
-        if self.task_facts(0).0 {
-            return Err(text::P1009_ALREADY_RUNNING);
-        }
-        if self.memory.program(&name).is_none() {
-            return Err(text::P1038_NO_PROGRAM);
-        }
-        self.sync_runtime()?;
-        let Server::Program(p) = &mut self.server else {
-            return Err(text::P1038_NO_PROGRAM);
-        };
-        p.execute(&mut self.machine, &name)
-            .map_err(|r| refusal_error(&r))?;
-        self.monitor.stacks[0] = Some(name);
-        self.monitor.kept[0] = false;
-        self.bump();
-        Ok(())
-    }
-
-    /// `ABORT`: stops the robot program (the motion in progress ends as braked); `false` when
-    /// it did not run.
-    pub fn abort_program(&mut self) -> bool {
-        let stopped = self.abort_task(TaskId::Robot, 0);
-        if stopped {
-            self.machine.brake();
-        }
-        stopped
     }
 
     // ----------------------------------------------------------------- switches
@@ -527,169 +434,6 @@ impl Controller {
             }
         }
         out
-    }
-
-    // ----------------------------------------------------------------- power
-
-    /// Switches the controller off and on again: every task stops, every socket closes, the
-    /// interpreter starts again (timers, variables), the error is cleared (unless the
-    /// emergency stop is pressed), motor power is off; the memory and the switches stay; the
-    /// autostart programs whose AUTOSTART switch is ON start in their PC tasks. A controller
-    /// running the native server starts it again.
-    pub fn power_cycle(&mut self) -> PowerCycle {
-        let mut out = PowerCycle::default();
-        let _ = self.machine.set_power(false);
-        let _ = self.machine.reset_error();
-        self.monitor.stacks = Default::default();
-        self.monitor.kept = [false; 6];
-        self.monitor.transfer_open = false;
-        match &self.server {
-            Server::Native(_) => {
-                self.server = Server::Native(NativeServer::new());
-                self.bump();
-                return out;
-            }
-            Server::Empty if self.memory.programs().is_empty() => {
-                self.bump();
-                return out;
-            }
-            _ => {}
-        }
-        self.monitor.built = None;
-        if self.rebuild(true).is_err() {
-            return out;
-        }
-        for (n, (_, name, task)) in (1u8..).zip(AUTOSTART_SWITCHES) {
-            if !self.memory.autostart(n) {
-                continue;
-            }
-            match self.pc_execute(task, name) {
-                Ok(()) => out.started.push((task, name.to_owned())),
-                Err(_) => {
-                    self.push_output(format!(
-                        "{}: {}",
-                        name.to_ascii_uppercase(),
-                        text::P1038_NO_PROGRAM.line()
-                    ));
-                    out.missing.push((task, name.to_owned()));
-                }
-            }
-        }
-        tracing::info!(started = ?out.started, "power cycle");
-        out
-    }
-
-    // ----------------------------------------------------------------- terminal
-
-    /// A terminal session opens: its name (`AUX1`…`AUX3`), or `None` when all are in use.
-    pub fn open_terminal(&mut self) -> Option<String> {
-        let i = self.monitor.sessions.iter().position(|used| !used)?;
-        self.monitor.sessions[i] = true;
-        Some(format!("AUX{}", i + 1))
-    }
-
-    /// A terminal session ended.
-    pub fn close_terminal(&mut self, terminal: &str) {
-        let slot = terminal
-            .strip_prefix("AUX")
-            .and_then(|n| n.parse::<usize>().ok())
-            .and_then(|n| n.checked_sub(1));
-        if let Some(s) = slot.and_then(|i| self.monitor.sessions.get_mut(i)) {
-            *s = false;
-        }
-    }
-
-    /// `true` once a transfer was abandoned (every `LOAD`/`SAVE` gets P2076 until a power
-    /// cycle).
-    pub fn transfer_open(&self) -> bool {
-        self.monitor.transfer_open
-    }
-
-    /// A `LOAD`/`SAVE` was left open (a dropped link, a client that stopped answering).
-    pub fn abandon_transfer(&mut self) {
-        tracing::warn!(
-            "a terminal transfer was abandoned: SAVE/LOAD in progress until a power cycle"
-        );
-        self.monitor.transfer_open = true;
-    }
-
-    fn push_output(&mut self, line: String) {
-        self.monitor
-            .output
-            .push_back((self.monitor.next_line, line));
-        self.monitor.next_line += 1;
-        while self.monitor.output.len() > OUTPUT_LINES {
-            self.monitor.output.pop_front();
-        }
-    }
-
-    /// Takes the lines the programs printed since the last call into the terminal's list,
-    /// and announces the PC programs that completed since (`Program completed.No = n`).
-    fn pull_output(&mut self) {
-        self.pull_printed();
-        let tasks = self.program().map(|p| p.tasks(&self.machine));
-        for n in 1..=5u8 {
-            let i = usize::from(n);
-            let info = tasks.as_ref().and_then(|t| t.get(i));
-            let running = info.is_some_and(|t| t.state != fs020n_as::TaskState::Idle);
-            let completed = info.is_some_and(|t| t.last_error.is_none());
-            if self.monitor.ran[i] && !running && completed && !self.monitor.kept[i] {
-                self.push_output(text::pc_completed(n));
-            }
-            self.monitor.ran[i] = running;
-        }
-    }
-
-    /// Takes the lines the programs printed since the last call.
-    fn pull_printed(&mut self) {
-        let Some(interp) = self.interpreter() else {
-            return;
-        };
-        let (seen_at, seen_n) = self.monitor.seen;
-        let mut at_count = 0;
-        let mut new = Vec::new();
-        let mut newest = (seen_at, seen_n);
-        for l in interp.terminal() {
-            if l.at < seen_at {
-                continue;
-            }
-            if l.at == seen_at {
-                at_count += 1;
-                if at_count <= seen_n {
-                    continue;
-                }
-            }
-            new.push(l.text.clone());
-            newest = if l.at == newest.0 {
-                (l.at, newest.1 + 1)
-            } else {
-                (l.at, 1)
-            };
-        }
-        self.monitor.seen = newest;
-        for l in new {
-            self.push_output(l);
-        }
-    }
-
-    /// The lines programs printed (`PRINT`, the controller's messages) numbered from `from`
-    /// on, and the number to ask from next time. Lines older than the last 200 are gone.
-    pub fn terminal_output_since(&mut self, from: u64) -> (Vec<String>, u64) {
-        self.pull_output();
-        let lines = self
-            .monitor
-            .output
-            .iter()
-            .filter(|(n, _)| *n >= from)
-            .map(|(_, l)| l.clone())
-            .collect();
-        (lines, self.monitor.next_line)
-    }
-
-    /// The number the next printed line will have (a new session reads from there).
-    pub fn terminal_output_next(&mut self) -> u64 {
-        self.pull_output();
-        self.monitor.next_line
     }
 
     /// The interpreter, when the controller runs AS programs.

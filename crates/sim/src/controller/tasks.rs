@@ -1,0 +1,159 @@
+//! The controller's tasks as the monitor starts and stops them (`PCEXECUTE`, `PCABORT`,
+//! `PCKILL`/`KILL`, `EXECUTE`, `ABORT`) and the power cycle; the stacks and the rebuild of the
+//! interpreter are in `memory.rs`.
+
+use fs020n_as::TaskId;
+use fs020n_term::text::{self, MonitorError};
+
+use super::memory::{refusal_error, task_index, PowerCycle};
+use super::{Controller, Server};
+use crate::native::NativeServer;
+use crate::store::AUTOSTART_SWITCHES;
+
+impl Controller {
+    // ----------------------------------------------------------------- tasks
+
+    /// `PCEXECUTE task: program`: P1019 while the task runs, P1038 without the program, P1014
+    /// when the program runs in another task (or programs loaded while tasks ran wait).
+    pub fn pc_execute(&mut self, task: u8, program: &str) -> Result<(), MonitorError> {
+        let name = program.to_ascii_lowercase();
+        if !(1..=5).contains(&task) {
+            return Err(text::P1019_PC_RUNNING);
+        }
+        if self.task_facts(usize::from(task)).0 {
+            return Err(text::P1019_PC_RUNNING);
+        }
+        if self.memory.program(&name).is_none() {
+            return Err(text::P1038_NO_PROGRAM);
+        }
+        if (0..6).any(|i| self.task_facts(i).0 && self.monitor.stacks[i].as_deref() == Some(&name))
+        {
+            return Err(text::P1014_IN_USE);
+        }
+        self.sync_runtime()?;
+        let p = self.program_mut().ok_or(text::P1038_NO_PROGRAM)?;
+        p.interpreter_mut()
+            .pc_execute(task, &name)
+            .map_err(|r| refusal_error(&r))?;
+        let i = usize::from(task);
+        self.monitor.stacks[i] = Some(name);
+        self.monitor.kept[i] = false;
+        self.bump();
+        Ok(())
+    }
+
+    /// `PCABORT task:`: stops the task (its program stays on the stack); `false` when it did
+    /// not run.
+    pub fn pc_abort(&mut self, task: u8) -> bool {
+        let i = usize::from(task.clamp(1, 5));
+        self.abort_task(TaskId::Pc(task.clamp(1, 5)), i)
+    }
+
+    fn abort_task(&mut self, task: TaskId, i: usize) -> bool {
+        if !self.task_facts(i).0 {
+            return false;
+        }
+        if let Some(p) = self.program_mut() {
+            p.interpreter_mut().abort(task);
+        }
+        self.monitor.kept[i] = true;
+        self.bump();
+        true
+    }
+
+    /// `PCKILL task:` (and `KILL` for the robot task): takes the program off the stack;
+    /// P1026 while it runs.
+    pub fn kill_task(&mut self, task: TaskId) -> Result<(), MonitorError> {
+        let i = task_index(task);
+        if self.task_facts(i).0 {
+            return Err(text::P1026_CANNOT_KILL_RUNNING);
+        }
+        self.monitor.stacks[i] = None;
+        self.monitor.kept[i] = false;
+        self.bump();
+        let _ = self.sync_runtime();
+        Ok(())
+    }
+
+    /// `EXECUTE program` in robot task 1, with the controller's checks (power, REPEAT, teach
+    /// lock, error, already running).
+    pub fn execute_program(&mut self, program: &str) -> Result<(), MonitorError> {
+        let name = program.to_ascii_lowercase();
+        if self.task_facts(0).0 {
+            return Err(text::P1009_ALREADY_RUNNING);
+        }
+        if self.memory.program(&name).is_none() {
+            return Err(text::P1038_NO_PROGRAM);
+        }
+        self.sync_runtime()?;
+        let Server::Program(p) = &mut self.server else {
+            return Err(text::P1038_NO_PROGRAM);
+        };
+        p.execute(&mut self.machine, &name)
+            .map_err(|r| refusal_error(&r))?;
+        self.monitor.stacks[0] = Some(name);
+        self.monitor.kept[0] = false;
+        self.bump();
+        Ok(())
+    }
+
+    /// `ABORT`: stops the robot program (the motion in progress ends as braked); `false` when
+    /// it did not run.
+    pub fn abort_program(&mut self) -> bool {
+        let stopped = self.abort_task(TaskId::Robot, 0);
+        if stopped {
+            self.machine.brake();
+        }
+        stopped
+    }
+
+    // ----------------------------------------------------------------- power
+
+    /// Switches the controller off and on again: every task stops, every socket closes, the
+    /// interpreter starts again (timers, variables), the error is cleared (unless the
+    /// emergency stop is pressed), motor power is off; the memory and the switches stay; the
+    /// autostart programs whose AUTOSTART switch is ON start in their PC tasks. A controller
+    /// running the native server starts it again.
+    pub fn power_cycle(&mut self) -> PowerCycle {
+        let mut out = PowerCycle::default();
+        let _ = self.machine.set_power(false);
+        let _ = self.machine.reset_error();
+        self.monitor.stacks = Default::default();
+        self.monitor.kept = [false; 6];
+        self.monitor.transfer_open = false;
+        match &self.server {
+            Server::Native(_) => {
+                self.server = Server::Native(NativeServer::new());
+                self.bump();
+                return out;
+            }
+            Server::Empty if self.memory.programs().is_empty() => {
+                self.bump();
+                return out;
+            }
+            _ => {}
+        }
+        self.monitor.built = None;
+        if self.rebuild(true).is_err() {
+            return out;
+        }
+        for (n, (_, name, task)) in (1u8..).zip(AUTOSTART_SWITCHES) {
+            if !self.memory.autostart(n) {
+                continue;
+            }
+            match self.pc_execute(task, name) {
+                Ok(()) => out.started.push((task, name.to_owned())),
+                Err(_) => {
+                    self.push_output(format!(
+                        "{}: {}",
+                        name.to_ascii_uppercase(),
+                        text::P1038_NO_PROGRAM.line()
+                    ));
+                    out.missing.push((task, name.to_owned()));
+                }
+            }
+        }
+        tracing::info!(started = ?out.started, "power cycle");
+        out
+    }
+}
