@@ -4,16 +4,19 @@
 #![cfg(unix)]
 #![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
+mod common;
+
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
-/// A bare emulated controller with its terminal; killed when dropped.
+/// A bare emulated controller with its terminal (and its pendant API); killed when dropped.
 struct Bare {
     child: Child,
     terminal: String,
     robot: String,
+    pendant: Option<String>,
 }
 
 impl Drop for Bare {
@@ -30,6 +33,10 @@ fn field(line: &str, key: &str) -> Option<String> {
 }
 
 fn bare() -> Bare {
+    bare_with(&[])
+}
+
+fn bare_with(extra: &[&str]) -> Bare {
     let mut child = Command::new(assert_cmd::cargo::cargo_bin("fs020n"))
         .args([
             "--json",
@@ -42,6 +49,7 @@ fn bare() -> Bare {
             "--terminal-piece",
             "16",
         ])
+        .args(extra)
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
@@ -52,6 +60,7 @@ fn bare() -> Bare {
     Bare {
         terminal: field(&line, "terminal").expect("a terminal address"),
         robot: field(&line, "listen").expect("a robot address"),
+        pendant: field(&line, "pendant").map(|p| p.trim_start_matches("http://").to_owned()),
         child,
     }
 }
@@ -240,4 +249,30 @@ fn an_abandoned_transfer_is_p2076_and_deploy_says_to_restart_the_controller() {
     let out = stdout(&a);
     assert!(out.contains("P2076"), "{out}");
     assert!(out.contains("restart the controller"), "{out}");
+}
+
+#[test]
+fn autostart_brings_the_server_back_after_a_power_cycle_and_doctor_finds_the_motor_power_off() {
+    let b = bare_with(&["--pendant", "127.0.0.1:0"]);
+    let pendant = b.pendant.clone().expect("a pendant address");
+    // Without AUTOSTART, a power cycle leaves the server loaded but not running.
+    deploy(&b, &[]).success();
+    common::pendant_post(&pendant, "/power-cycle", "{}");
+    let a = fs020n(&b, &["doctor", "--terminal", &b.terminal]).code(3);
+    assert!(stdout(&a).contains("FAIL protocol port"), "{}", stdout(&a));
+    // With it, the controller starts the server by itself at power-on.
+    deploy(&b, &["--replace", "--autostart"]).success();
+    common::pendant_post(&pendant, "/power-cycle", "{}");
+    // The server is back once autostart.pc, started by the controller, waits for a client.
+    common::wait_for_state(&pendant, |s| {
+        s["program"]["tasks"][1]["waiting"] == "TCP_ACCEPT on port 10050"
+    });
+    let a = fs020n(&b, &["--json", "status"]).success();
+    assert!(stdout(&a).contains("\"version\":1040"), "{}", stdout(&a));
+    // A power cycle leaves the motor power off: doctor walks up to the preflight and stops.
+    let a = fs020n(&b, &["doctor", "--terminal", &b.terminal]).code(4);
+    let out = stdout(&a);
+    assert!(out.contains("ok   server program:"), "{out}");
+    assert!(out.contains("FAIL preflight"), "{out}");
+    assert!(out.to_lowercase().contains("power"), "{out}");
 }
