@@ -1,6 +1,7 @@
 //! A session started with an aged timer (`Timing::session_timer_start`): TIMER(1) is a 32-bit
 //! AS real, so a long session's replies step by more than the wire's millisecond — what a
 //! client streaming with command 7 must account for.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 use std::time::Duration;
 

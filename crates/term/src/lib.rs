@@ -7,7 +7,7 @@
 //!   one place to correct a fact.
 //! * [`telnet`] — the controller's opening negotiation; a filter taking telnet commands out
 //!   of a stream.
-//! * [`line`] — input lines as the controller reads them (CR, LF, CR LF; 128 characters).
+//! * [`line`](mod@line) — input lines as the controller reads them (CR, LF, CR LF; 128 characters).
 //! * [`frame`] — the `LOAD`/`SAVE` block-transfer frames, and a scanner for either side.
 //! * [`client`] — [`TerminalClient`]: login, commands, `LOAD` and `SAVE` as a state machine,
 //!   answering the controller's questions the safe way.

@@ -1,5 +1,5 @@
 //! Input lines as the controller reads them: CR, LF and CR LF each end one line (terminals
-//! send any of the three); at most [`MAX_LINE_CHARS`](crate::text::MAX_LINE_CHARS) characters
+//! send any of the three); at most [`crate::text::MAX_LINE_CHARS`] characters
 //! are kept, the rest of the line is ignored; backspace and delete remove the last character.
 
 use crate::text::MAX_LINE_CHARS;

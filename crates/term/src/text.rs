@@ -299,6 +299,35 @@ pub fn parse_as_version(output: &str) -> Option<String> {
         .map(str::to_owned)
 }
 
+/// The header line of `DIRECTORY/P` before the names (**L**: clients read only the line after
+/// it; the wording is the emulator's).
+pub const DIRECTORY_HEADER: &str = "Program list";
+
+/// The robot name `ID` reports on the emulator (**L**: the real controller's `ID` block is
+/// documented, not captured for an FS020N).
+pub const EMULATOR_ROBOT_NAME: &str = "FS020N";
+
+/// The AS version `ID` reports on the emulator: clearly not a Kawasaki build, so that no tool
+/// takes the emulator for a real controller.
+pub const EMULATOR_AS_VERSION: &str = "EMULATOR-FS020N-AS";
+
+/// The emulator's answer to a `LOAD` on a controller running its native protocol-1040 server,
+/// which is not an AS program the memory could hold beside others (emulator only).
+pub const EMULATOR_NATIVE_NO_LOAD: &str = "(emulator) this controller runs the native server: \
+     start it with --bare or --as-program to load AS programs";
+
+/// `PCSTATUS`'s cycle lines (**H** for the wording of the manual's example).
+pub fn cycle_lines(completed: u32, remaining: u32) -> [String; 2] {
+    [
+        format!("Completed cycles: {completed}"),
+        format!("Remaining cycles: {remaining}"),
+    ]
+}
+
+/// The emulator's answer to `ERESET` while the emergency stop is pressed (emulator only).
+pub const EMULATOR_ESTOP_PRESSED: &str =
+    "(emulator) the emergency stop is pressed: release it, then ERESET";
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -345,32 +374,3 @@ mod tests {
         );
     }
 }
-
-/// The header line of `DIRECTORY/P` before the names (**L**: clients read only the line after
-/// it; the wording is the emulator's).
-pub const DIRECTORY_HEADER: &str = "Program list";
-
-/// The robot name `ID` reports on the emulator (**L**: the real controller's `ID` block is
-/// documented, not captured for an FS020N).
-pub const EMULATOR_ROBOT_NAME: &str = "FS020N";
-
-/// The AS version `ID` reports on the emulator: clearly not a Kawasaki build, so that no tool
-/// takes the emulator for a real controller.
-pub const EMULATOR_AS_VERSION: &str = "EMULATOR-FS020N-AS";
-
-/// The emulator's answer to a `LOAD` on a controller running its native protocol-1040 server,
-/// which is not an AS program the memory could hold beside others (emulator only).
-pub const EMULATOR_NATIVE_NO_LOAD: &str = "(emulator) this controller runs the native server: \
-     start it with --bare or --as-program to load AS programs";
-
-/// `PCSTATUS`'s cycle lines (**H** for the wording of the manual's example).
-pub fn cycle_lines(completed: u32, remaining: u32) -> [String; 2] {
-    [
-        format!("Completed cycles: {completed}"),
-        format!("Remaining cycles: {remaining}"),
-    ]
-}
-
-/// The emulator's answer to `ERESET` while the emergency stop is pressed (emulator only).
-pub const EMULATOR_ESTOP_PRESSED: &str =
-    "(emulator) the emergency stop is pressed: release it, then ERESET";

@@ -47,7 +47,7 @@ pub struct Config {
     pub signal_debounce: Duration,
     /// Deepest `CALL` nesting before E0109.
     pub max_call_depth: usize,
-    /// Terminal lines kept for [`Interpreter::terminal`].
+    /// Terminal lines kept for [`Interpreter::terminal`](crate::Interpreter::terminal).
     pub terminal_lines: usize,
     /// `false` (default): a program's dot-locals are created for each execution and each
     /// `CALL` and start undefined. `true`: they belong to the program in its task and keep

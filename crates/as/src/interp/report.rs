@@ -66,7 +66,7 @@ pub struct TerminalLine {
     pub text: String,
 }
 
-/// One executed step (see [`Interpreter::set_trace`]).
+/// One executed step (see [`Interpreter::set_trace`](crate::Interpreter::set_trace)).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub struct TraceLine {
     /// When it executed.
