@@ -26,10 +26,15 @@
 //! |---|---|
 //! | a command arrived | [`ForwardCommands::handle_command`] |
 //! | the sample for a fence | [`ForwardCommands::stream_sample`] |
+//! | the servo ended: what for the re-arm policy | [`servo_end`] |
 
-use fs020n_client::ServoSample;
+use std::time::Duration;
+
+use fs020n_client::{ClientError, ServoOutcome, ServoSample};
 use fs020n_kin::{JointsDeg, RobotModel, JOINT_COUNT};
 use fs020n_proto::StreamSample;
+
+use crate::arming::GoalStop;
 
 /// Why a command was refused. The text names the remedy.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -120,9 +125,74 @@ impl ForwardCommands {
     }
 }
 
+/// What the end of a servo means for the re-arm policy ([`crate::arming`]), and the text for
+/// `/rosout` and `/diagnostics`: the watchdog and the node's own stop are the node's stops (the
+/// next command starts the program again); a stop of the robot by anyone else (`Cancelled`), a
+/// fault or a lost link (`Err`) require `~/start`.
+pub fn servo_end(
+    ended: Result<ServoOutcome, &ClientError>,
+    watchdog: Duration,
+) -> (GoalStop, String) {
+    match ended {
+        Ok(ServoOutcome::Watchdog) => (
+            GoalStop::ByTheNode,
+            format!(
+                "~/commands stopped for {watchdog:?}: the watchdog braked the arm and ended the \
+                 motion program (commands 5 and 2); the next command starts it again"
+            ),
+        ),
+        Ok(ServoOutcome::Stopped) => (
+            GoalStop::ByTheNode,
+            "the servo of ~/commands was stopped for a trajectory (commands 5 and 2)".into(),
+        ),
+        Ok(ServoOutcome::Cancelled) => {
+            let what = "the servo of ~/commands was cancelled by a stop of the robot (~/stop, \
+                        ~/cancel or another client)";
+            (GoalStop::Fault(what.into()), what.into())
+        }
+        Err(e) => {
+            let what = format!("the servo of ~/commands ended: {e}");
+            (GoalStop::Fault(what.clone()), what)
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::arming::Arming;
+    use fs020n_client::LinkError;
+    use tokio::time::Instant;
+
+    #[test]
+    fn after_the_watchdog_the_next_command_may_start_the_program() {
+        let mut arming = Arming::new(false);
+        arming.handle_started();
+        arming.handle_goal_started();
+        let (how, text) = servo_end(Ok(ServoOutcome::Watchdog), Duration::from_millis(200));
+        assert_eq!(how, GoalStop::ByTheNode);
+        assert!(
+            text.contains("200ms") && text.contains("watchdog"),
+            "{text}"
+        );
+        arming.handle_goal_ended(how, Instant::now());
+        assert_eq!(arming.may_start_for_goal(), Ok(()));
+    }
+
+    #[test]
+    fn after_a_fault_or_a_stop_by_someone_else_commands_need_start() {
+        let lost = ClientError::LinkLost(LinkError::SessionEnded);
+        for ended in [Ok(ServoOutcome::Cancelled), Err(&lost)] {
+            let mut arming = Arming::new(false);
+            arming.handle_started();
+            arming.handle_goal_started();
+            let (how, _) = servo_end(ended, Duration::from_millis(200));
+            assert!(matches!(how, GoalStop::Fault(_)), "{how:?}");
+            arming.handle_goal_ended(how, Instant::now());
+            let refusal = arming.may_start_for_goal().unwrap_err();
+            assert!(refusal.contains("~/start"), "{refusal}");
+        }
+    }
 
     fn commands() -> ForwardCommands {
         let names = std::array::from_fn(|i| format!("joint_{}", i + 1));

@@ -7,7 +7,7 @@ use std::pin::Pin;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
-use fs020n_client::{blockers, Blocker, Robot, ServoHandle, ServoOptions, ServoOutcome};
+use fs020n_client::{blockers, Blocker, Robot, ServoHandle, ServoOptions};
 use fs020n_kin::RobotModel;
 use ros2_client::action::{ActionServerQosPolicies, GetResultResponse, SendGoalResponse};
 use ros2_client::action_msgs::{
@@ -26,7 +26,7 @@ use ros2_client::{
 use tokio::sync::{mpsc, watch};
 
 use crate::action::{status, CancelCode, GoalTable};
-use crate::arming::{Arming, GoalStop};
+use crate::arming::Arming;
 use crate::config::NodeConfig;
 use crate::diagnostics::{robot_status, NodeState};
 use crate::error::Ros2Error;
@@ -1023,30 +1023,8 @@ async fn end_servo(shared: &Shared, servo: &mut Option<ServoRun>) {
     let watchdog = handle.options().watchdog;
     let ended = handle.finish().await;
     drop(permit);
-    let (how, text) = match ended {
-        Ok(report) => match report.outcome {
-            ServoOutcome::Watchdog => (
-                GoalStop::ByTheNode,
-                format!(
-                    "~/commands stopped for {watchdog:?}: the watchdog braked the arm and ended \
-                     the motion program (commands 5 and 2); the next command starts it again"
-                ),
-            ),
-            ServoOutcome::Stopped => (
-                GoalStop::ByTheNode,
-                "the servo of ~/commands was stopped for a trajectory (commands 5 and 2)".into(),
-            ),
-            ServoOutcome::Cancelled => {
-                let what = "the servo of ~/commands was cancelled by a stop of the robot (~/stop, \
-                            ~/cancel or another client)";
-                (GoalStop::Fault(what.into()), what.into())
-            }
-        },
-        Err(e) => {
-            let what = format!("the servo of ~/commands ended: {e}");
-            (GoalStop::Fault(what.clone()), what)
-        }
-    };
+    let (how, text) =
+        crate::forward::servo_end(ended.as_ref().map(|report| report.outcome), watchdog);
     lock(&shared.arming).handle_goal_ended(how, tokio::time::Instant::now());
     shared.log(LogLevel::Warn, &text);
     lock(&shared.state).last_command = Some(text);
