@@ -15,11 +15,17 @@ import time
 import pytest
 
 from test_ros2 import (  # the DDS participant and the ROS 2 types
+    RELIABLE,
     STATUS_SUCCEEDED,
+    DataWriter,
+    Float64MultiArray,
     GetResultRequest,
     Peer,
+    Topic,
     TriggerRequest,
+    diagnostics_value,
     goal_to,
+    stream_commands,
     wait_until,
     with_jt1,
 )
@@ -127,3 +133,29 @@ def test_while_a_face_client_holds_control_the_node_is_refused(rig):
     wait_until("control released", lambda: controller(hub) is None, timeout=10)
     # Free again: the node may act.
     assert peer.call(peer.start, TriggerRequest()).success
+
+
+def test_commands_pass_the_fence_sample_by_sample_and_hold_control_while_servoing(rig):
+    """~/commands through the hub: the servo holds the hub's control while it runs, every
+    sample is checked against the fence (a command past it is refused and never sent), and the
+    watchdog ends the servo when the commands stop, giving control back."""
+    sim, hub, peer = rig
+    assert peer.call(peer.start, TriggerRequest()).success
+    writer = DataWriter(peer.dp, Topic(peer.dp, "rt/fs020n/commands", Float64MultiArray), qos=RELIABLE)
+    wait_until("~/commands discovered", lambda: writer.get_matched_subscriptions())
+    here = peer.settled_joints()
+    inside = list(here)
+    inside[0] = math.radians(43.0)  # the fence's JT1 limit is 45 deg
+    stream_commands(writer, here, inside, 2.0, 100)
+    stream_commands(writer, inside, inside, 0.5, 100)  # holding there: the arm catches up
+    assert controller(hub) is not None, "the servo holds control while it runs"
+    # 46 deg: inside the controller's range, a small step, but past the fence.
+    past = list(inside)
+    past[0] = math.radians(46.0)
+    writer.write(Float64MultiArray(data=past))
+    wait_until("the fence's refusal", lambda: "fence" in diagnostics_value(peer, "last_command_refused"))
+    refusals = [e for e in hub_state(hub)["events"] if e["kind"] == "refused"]
+    assert refusals and refusals[-1]["refusal"] == "fence", refusals
+    wait_until("control released after the watchdog", lambda: controller(hub) is None, timeout=10)
+    joints = sim_state(sim)["joints_deg"]
+    assert abs(joints[0] - 43.0) < 0.1, joints

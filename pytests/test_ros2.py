@@ -136,6 +136,25 @@ class JointTrajectory(IdlStruct, typename="trajectory_msgs::msg::dds_::JointTraj
 
 
 @dataclass
+class MultiArrayDimension(IdlStruct, typename="std_msgs::msg::dds_::MultiArrayDimension_"):
+    label: str = ""
+    size: uint32 = 0
+    stride: uint32 = 0
+
+
+@dataclass
+class MultiArrayLayout(IdlStruct, typename="std_msgs::msg::dds_::MultiArrayLayout_"):
+    dim: sequence[MultiArrayDimension] = field(default_factory=list)
+    data_offset: uint32 = 0
+
+
+@dataclass
+class Float64MultiArray(IdlStruct, typename="std_msgs::msg::dds_::Float64MultiArray_"):
+    layout: MultiArrayLayout = field(default_factory=MultiArrayLayout)
+    data: sequence[float64] = field(default_factory=list)
+
+
+@dataclass
 class Vector3(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
     x: float64 = 0.0
     y: float64 = 0.0
@@ -973,3 +992,108 @@ def test_joint_trajectory_topic_replaces_the_running_trajectory(system):
     topic.write(goal_to(with_jt1(3.0), 4.0, start=rest).goal.trajectory)
     wait_until("the refusal", lambda: "~/joint_trajectory refused" in last_goal(peer))
     assert abs(peer.settled_joints()[0] - rest[0]) < 1e-6
+
+
+def diagnostics_value(peer, key):
+    """A value of the newest /diagnostics (waits for one after now)."""
+    peer.diagnostics.take(N=1000)
+    arr = wait_until("/diagnostics", lambda: peer.diagnostics.take(N=1))[0]
+    return {kv.key: kv.value for kv in arr.status[0].values}.get(key, "")
+
+
+def stream_commands(writer, start, target, seconds, rate_hz):
+    """Forward commands from `start` to `target` (radians), linear, at `rate_hz`."""
+    n = max(1, int(seconds * rate_hz))
+    t0 = time.monotonic()
+    for k in range(1, n + 1):
+        f = k / n
+        writer.write(Float64MultiArray(data=[a + (b - a) * f for a, b in zip(start, target)]))
+        # Paced on the clock, not on sleep's drift.
+        delay = t0 + k / rate_hz - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+
+
+def test_forward_commands_servo_the_arm_refuse_bad_ones_and_the_watchdog_stops_it(system):
+    """~/commands (std_msgs/Float64MultiArray) at 50 and 100 Hz moves the arm through the
+    client's servo; a command of the wrong length, with a NaN or out of range is refused with
+    the reason and nothing moves; when the commands stop, the watchdog stops the arm (commands
+    5 and 2) and the next command starts the program again."""
+    node, peer = system
+    dp = peer.dp
+    writer = DataWriter(dp, Topic(dp, "rt/fs020n/commands", Float64MultiArray), qos=RELIABLE)
+    wait_until("~/commands discovered", lambda: writer.get_matched_subscriptions())
+    peer.call(peer.start, TriggerRequest())
+    here = peer.settled_joints()
+    # 100 Hz: 0.2 rad on JT1 in 2 s (0.1 rad/s), then silence.
+    target = list(here)
+    target[0] = here[0] + 0.2
+    stream_commands(writer, here, target, 2.0, 100)
+    wait_until("joint_1 at the commanded position", lambda: abs(peer.joints()[0] - target[0]) < 0.01)
+    wait_until("the watchdog", lambda: "watchdog" in diagnostics_value(peer, "last_command"))
+    rest = peer.settled_joints()
+    assert abs(rest[0] - target[0]) < 0.01, rest
+    # Bad commands: refused with the reason, never sent (the arm stays where it is).
+    for bad, why in [
+        (rest[:5], "5 values for 6 joints"),
+        ([float("nan")] + rest[1:], "joint_1 is NaN"),
+        ([3.5] + rest[1:], "outside its range"),
+    ]:
+        writer.write(Float64MultiArray(data=bad))
+        wait_until(f"the refusal {why!r}", lambda: why in diagnostics_value(peer, "last_command_refused"))
+    assert abs(peer.settled_joints()[0] - rest[0]) < 1e-6
+    # 50 Hz after the watchdog: the first command starts the program again (the node's own
+    # stop), and the arm follows back.
+    back = list(rest)
+    back[0] = rest[0] - 0.1
+    stream_commands(writer, rest, back, 1.5, 50)
+    wait_until("joint_1 back", lambda: abs(peer.joints()[0] - back[0]) < 0.01)
+    wait_until("the watchdog again", lambda: "watchdog" in diagnostics_value(peer, "last_command"))
+
+
+def test_after_a_fault_commands_are_refused_until_start():
+    """A fault while servoing (the E-stop) ends the servo; commands are refused, also once the
+    cause is cleared, until ~/start re-arms."""
+    domain = random.randint(100, 230)
+    node = Node(domain)
+    try:
+        peer = Peer(domain)
+        dp = peer.dp
+        writer = DataWriter(dp, Topic(dp, "rt/fs020n/commands", Float64MultiArray), qos=RELIABLE)
+        wait_until("~/commands discovered", lambda: writer.get_matched_subscriptions())
+        assert peer.call(peer.start, TriggerRequest()).success
+        here = peer.settled_joints()
+        stop = threading.Event()
+
+        def drive():
+            k = 0
+            while not stop.is_set():
+                k += 1
+                q = list(here)
+                q[0] = here[0] + 0.001 * min(k, 100)
+                writer.write(Float64MultiArray(data=q))
+                time.sleep(0.01)
+
+        driver = threading.Thread(target=drive, daemon=True)
+        driver.start()
+        wait_until("the arm to move", lambda: peer.joints()[0] > here[0] + 0.02)
+        node.post("/estop/press")
+        # The servo ends ("ended: ..."); the commands still coming are refused ("not ready").
+        wait_until("the servo's end", lambda: "ended" in diagnostics_value(peer, "last_command"))
+        stop.set()
+        driver.join()
+        node.post("/estop/release")
+        node.post("/reset")
+        node.post("/panel", {"power": True})
+        now = peer.settled_joints()
+        writer.write(Float64MultiArray(data=now))
+        wait_until("the refusal", lambda: "~/start" in diagnostics_value(peer, "last_command_refused"))
+        assert abs(peer.settled_joints()[0] - now[0]) < 1e-6
+        # Re-armed: commands move the arm again.
+        assert peer.call(peer.start, TriggerRequest()).success
+        target = list(now)
+        target[0] = now[0] - 0.05
+        stream_commands(writer, now, target, 1.0, 100)
+        wait_until("joint_1 at the commanded position", lambda: abs(peer.joints()[0] - target[0]) < 0.01)
+    finally:
+        assert node.stop() == 0, "".join(node.stderr)

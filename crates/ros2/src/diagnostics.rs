@@ -17,6 +17,10 @@ pub struct NodeState {
     pub link_error: Option<String>,
     /// The goal being executed, or the last one and how it ended.
     pub last_goal: Option<String>,
+    /// The last event of the servo of `~/commands` (opened, ended and why).
+    pub last_command: Option<String>,
+    /// The last command of `~/commands` refused, and why.
+    pub last_command_refused: Option<String>,
     /// The monitor speed this node last set, percent.
     pub speed_percent: Option<f64>,
 }
@@ -165,6 +169,16 @@ fn push_node(d: &mut DiagnosticStatus, node: &NodeState) {
     d.values.push(kv(
         "last_goal",
         node.last_goal.clone().unwrap_or_else(|| "none".into()),
+    ));
+    d.values.push(kv(
+        "last_command",
+        node.last_command.clone().unwrap_or_else(|| "none".into()),
+    ));
+    d.values.push(kv(
+        "last_command_refused",
+        node.last_command_refused
+            .clone()
+            .unwrap_or_else(|| "none".into()),
     ));
 }
 

@@ -12,7 +12,9 @@
 //!   library's checks before anything moves ([`goal`]), then streamed with command 7 (or
 //!   command 6 waypoints) with feedback, path and goal tolerances, cancel (the robot brakes)
 //!   and an error code when the robot faults ([`execute`]);
-//! * `~/joint_trajectory` (a streamed trajectory replacing the running one), `/tf` and
+//! * `~/joint_trajectory` (a streamed trajectory replacing the running one), `~/commands`
+//!   (forward positions for MoveIt Servo and teleoperation, sent through the client's servo and
+//!   its watchdog: [`forward`]), `/tf` and
 //!   `/tf_static` ([`tf`]), `--ros-args` ([`RosArgs`]);
 //! * `~/start`, `~/stop`, `~/cancel` (`std_srvs/srv/Trigger`) and `~/set_speed`
 //!   (`fs020n_msgs/srv/SetSpeed`);
@@ -34,6 +36,7 @@ pub mod config;
 pub mod diagnostics;
 mod error;
 pub mod execute;
+pub mod forward;
 pub mod goal;
 pub mod moveit;
 pub mod msg;

@@ -93,6 +93,35 @@ pub struct StringMsg {
     pub data: String,
 }
 
+/// `std_msgs/msg/MultiArrayDimension`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct MultiArrayDimension {
+    /// The dimension's label.
+    pub label: String,
+    /// Its size.
+    pub size: u32,
+    /// Its stride.
+    pub stride: u32,
+}
+
+/// `std_msgs/msg/MultiArrayLayout`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct MultiArrayLayout {
+    /// The dimensions (empty for a plain vector).
+    pub dim: Vec<MultiArrayDimension>,
+    /// Padding before the data.
+    pub data_offset: u32,
+}
+
+/// `std_msgs/msg/Float64MultiArray`: the forward position command (`~/commands`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Float64MultiArray {
+    /// The layout (ignored: `data` is one position per joint).
+    pub layout: MultiArrayLayout,
+    /// The values.
+    pub data: Vec<f64>,
+}
+
 /// `sensor_msgs/msg/JointState`.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct JointState {

@@ -7,7 +7,7 @@ use std::pin::Pin;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
-use fs020n_client::{blockers, Blocker, Robot};
+use fs020n_client::{blockers, Blocker, Robot, ServoHandle, ServoOptions};
 use fs020n_kin::RobotModel;
 use ros2_client::action::{ActionServerQosPolicies, GetResultResponse, SendGoalResponse};
 use ros2_client::action_msgs::{
@@ -31,11 +31,12 @@ use crate::config::NodeConfig;
 use crate::diagnostics::{robot_status, NodeState};
 use crate::error::Ros2Error;
 use crate::execute::{execute, GoalEnd, Outcome};
+use crate::forward::ForwardCommands;
 use crate::goal::{plan, plan_preempting, GoalRefusal};
 use crate::msg::{
-    error_code, DiagnosticArray, FollowJointTrajectoryFeedback, FollowJointTrajectoryGoal,
-    FollowJointTrajectoryResult, Header, JointState, JointTrajectory, SetSpeedRequest,
-    SetSpeedResponse, StringMsg, TfMessage, Time, TriggerRequest, TriggerResponse,
+    error_code, DiagnosticArray, Float64MultiArray, FollowJointTrajectoryFeedback,
+    FollowJointTrajectoryGoal, FollowJointTrajectoryResult, Header, JointState, JointTrajectory,
+    SetSpeedRequest, SetSpeedResponse, StringMsg, TfMessage, Time, TriggerRequest, TriggerResponse,
 };
 use crate::urdf;
 
@@ -56,6 +57,15 @@ pub trait RobotSource: Send + Sync + 'static {
         let _ = action;
         Ok(Permit::default())
     }
+
+    /// Checks an action without taking anything: a source with a safety fence refuses what
+    /// crosses it (`Err` carries the reason). The node calls it for every sample of a servo
+    /// ([`Action::StreamSample`]) while it holds the servo's permit, so it must not claim,
+    /// wait or log success. The default allows everything.
+    fn check(&self, action: Action<'_>) -> Result<(), String> {
+        let _ = action;
+        Ok(())
+    }
 }
 
 /// What the node is about to do, for [`RobotSource::permit`].
@@ -70,6 +80,12 @@ pub enum Action<'a> {
     /// Follow a trajectory (a `FollowJointTrajectory` goal): its points in the robot's joint
     /// order, degrees, from the current position.
     Trajectory(&'a [fs020n_kin::JointsDeg]),
+    /// Servo the arm from `~/commands` (the client's servo, command 7 samples): asked once
+    /// when the servo opens; its permit is held until the servo ends.
+    Servo,
+    /// One command-7 sample of the servo, exactly as it is sent (its time stamp aside): given
+    /// to [`RobotSource::check`] before every push.
+    StreamSample(&'a fs020n_proto::StreamSample),
 }
 
 /// Held while an action runs; dropping it tells the source the action is over (the hub then
@@ -191,6 +207,8 @@ fn service_qos() -> QosProfile {
 /// * `robot_description` (`std_msgs/msg/String`, transient local): [`urdf::generate`];
 /// * `~/joint_trajectory` (`trajectory_msgs/msg/JointTrajectory`): replaces the running
 ///   trajectory, as a goal would;
+/// * `~/commands` (`std_msgs/msg/Float64MultiArray`, radians): forward positions sent through
+///   the client's servo and its watchdog ([`crate::forward`]);
 /// * `/diagnostics` (`diagnostic_msgs/msg/DiagnosticArray`) at `diagnostics_rate_hz`;
 /// * `<action_namespace>/follow_joint_trajectory` (`control_msgs/action/FollowJointTrajectory`,
 ///   the protocol of [`crate::action`], the re-arm policy of [`crate::arming`]);
@@ -326,6 +344,19 @@ pub async fn run(
             .map_err(dds("~/joint_trajectory"))?
     };
 
+    // Streaming input: forward positions for the client's servo (MoveIt Servo, teleoperation).
+    let commands_topic = {
+        let topic = node
+            .create_topic(
+                &split_name(&config.resolve("~/commands"))?,
+                MessageTypeName::new("std_msgs", "Float64MultiArray"),
+                &joint_state_qos(),
+            )
+            .map_err(dds("~/commands"))?;
+        node.create_subscription::<Float64MultiArray>(&topic, Some(joint_state_qos()))
+            .map_err(dds("~/commands"))?
+    };
+
     // Services.
     let trigger = ServiceTypeName::new("std_srvs", "Trigger");
     let mut trigger_server =
@@ -436,7 +467,7 @@ pub async fn run(
             trigger_loop(shared, &stop_srv, Trigger::Stop),
             trigger_loop(shared, &cancel_srv, Trigger::Cancel),
             speed_loop(shared, &speed_srv),
-            action_loop(shared, &action, &trajectory_topic),
+            action_loop(shared, &action, &trajectory_topic, &commands_topic),
             spin,
         )
         .map(|_| ())
@@ -707,54 +738,7 @@ async fn admit(
     preempting: bool,
 ) -> Result<(Arc<Robot>, crate::goal::Plan, Permit), GoalRefusal> {
     let refuse = |m: String| GoalRefusal::new(error_code::INVALID_GOAL, m);
-    let robot = shared.robot().map_err(refuse)?;
-    let mut status = robot.poll().await.map_err(|e| refuse(e.to_string()))?;
-    lock(&shared.arming).handle_status(&status, tokio::time::Instant::now());
-    // After the node's own stop the program finishes its brake before it ends: wait for that
-    // end, so that the start below is not answered by a program about to end.
-    let deadline = tokio::time::Instant::now() + PROGRAM_END_WAIT;
-    while lock(&shared.arming).awaiting_program_end() && status.task_running {
-        if tokio::time::Instant::now() >= deadline {
-            return Err(refuse(format!(
-                "the motion program did not end within {PROGRAM_END_WAIT:?} of the node's stop; \
-                 call ~/stop, then ~/start"
-            )));
-        }
-        tokio::time::sleep(Duration::from_millis(20)).await;
-        status = robot.poll().await.map_err(|e| refuse(e.to_string()))?;
-        lock(&shared.arming).handle_status(&status, tokio::time::Instant::now());
-    }
-    let list = blockers(&status, true);
-    let may_start = lock(&shared.arming).may_start_for_goal();
-    if list == [Blocker::ProgramNotRunning] && may_start.is_ok() {
-        let _permit = shared
-            .source
-            .permit(Action::Start)
-            .map_err(|r| refuse(format!("the motion program was not started: {r}")))?;
-        robot
-            .start()
-            .await
-            .map_err(|e| refuse(format!("could not start the motion program: {e}")))?;
-        lock(&shared.arming).handle_started();
-        status = robot.poll().await.map_err(|e| refuse(e.to_string()))?;
-    } else if list == [Blocker::ProgramNotRunning] {
-        let reason = may_start.err().unwrap_or_default();
-        return Err(refuse(format!(
-            "the robot is not ready to move — {reason} ({})",
-            shared.config.fully_qualified_name()
-        )));
-    } else if !list.is_empty() {
-        let text = list
-            .iter()
-            .map(|b| b.to_string())
-            .collect::<Vec<_>>()
-            .join("; ");
-        return Err(refuse(format!(
-            "the robot is not ready to move — {text}; then call the {}/start service \
-             (std_srvs/srv/Trigger): no goal restarts the motion program after a fault",
-            shared.config.fully_qualified_name()
-        )));
-    }
+    let (robot, status) = ready_to_move(shared).await.map_err(refuse)?;
     let planner = if preempting { plan_preempting } else { plan };
     let p = planner(
         goal,
@@ -772,6 +756,62 @@ async fn admit(
         .permit(Action::Trajectory(&path))
         .map_err(refuse)?;
     Ok((robot, p, permit))
+}
+
+/// Checks the robot now (session, switches, program) for an explicit request of motion (a
+/// goal, a streamed trajectory, the first command of a servo). When the program is not
+/// running and the re-arm policy allows it ([`crate::arming`]: the node ended it itself and
+/// no fault came since), starts it (command 1). Returns the session and a fresh status.
+async fn ready_to_move(shared: &Shared) -> Result<(Arc<Robot>, fs020n_client::Status), String> {
+    let robot = shared.robot()?;
+    let mut status = robot.poll().await.map_err(|e| e.to_string())?;
+    lock(&shared.arming).handle_status(&status, tokio::time::Instant::now());
+    // After the node's own stop the program finishes its brake before it ends: wait for that
+    // end, so that the start below is not answered by a program about to end.
+    let deadline = tokio::time::Instant::now() + PROGRAM_END_WAIT;
+    while lock(&shared.arming).awaiting_program_end() && status.task_running {
+        if tokio::time::Instant::now() >= deadline {
+            return Err(format!(
+                "the motion program did not end within {PROGRAM_END_WAIT:?} of the node's stop; \
+                 call ~/stop, then ~/start"
+            ));
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+        status = robot.poll().await.map_err(|e| e.to_string())?;
+        lock(&shared.arming).handle_status(&status, tokio::time::Instant::now());
+    }
+    let list = blockers(&status, true);
+    let may_start = lock(&shared.arming).may_start_for_goal();
+    if list == [Blocker::ProgramNotRunning] && may_start.is_ok() {
+        let _permit = shared
+            .source
+            .permit(Action::Start)
+            .map_err(|r| format!("the motion program was not started: {r}"))?;
+        robot
+            .start()
+            .await
+            .map_err(|e| format!("could not start the motion program: {e}"))?;
+        lock(&shared.arming).handle_started();
+        status = robot.poll().await.map_err(|e| e.to_string())?;
+    } else if list == [Blocker::ProgramNotRunning] {
+        let reason = may_start.err().unwrap_or_default();
+        return Err(format!(
+            "the robot is not ready to move — {reason} ({})",
+            shared.config.fully_qualified_name()
+        ));
+    } else if !list.is_empty() {
+        let text = list
+            .iter()
+            .map(|b| b.to_string())
+            .collect::<Vec<_>>()
+            .join("; ");
+        return Err(format!(
+            "the robot is not ready to move — {text}; then call the {}/start service \
+             (std_srvs/srv/Trigger): no goal restarts the motion program after a fault",
+            shared.config.fully_qualified_name()
+        ));
+    }
+    Ok((robot, status))
 }
 
 /// The positions of `trajectory` at its points and every 10 ms between them, in time order.
@@ -918,10 +958,83 @@ async fn preempt(
     }
 }
 
+/// A servo fed by `~/commands`, with the source's permit it holds until it ends.
+struct ServoRun {
+    handle: ServoHandle,
+    permit: Permit,
+}
+
+/// Handles one `~/commands` message: checks it, opens the servo for the first one (the same
+/// readiness and re-arm policy as a goal), checks the sample with the source (a fence) and
+/// pushes it. `Err`: why it was refused (nothing was sent).
+async fn command(
+    shared: &Shared,
+    forward: &ForwardCommands,
+    servo: &mut Option<ServoRun>,
+    trajectory_running: bool,
+    data: &[f64],
+) -> Result<(), String> {
+    if trajectory_running {
+        return Err(
+            "a trajectory is executing (a goal or ~/joint_trajectory); cancel it or \
+                    wait for its end before sending commands"
+                .into(),
+        );
+    }
+    if servo.as_ref().is_some_and(|s| s.handle.is_finished()) {
+        end_servo(shared, servo).await;
+    }
+    let sample = forward.handle_command(data).map_err(|e| e.to_string())?;
+    let options = ServoOptions::default();
+    let checked = ForwardCommands::stream_sample(&sample, options.lookahead_passes);
+    let run = match servo {
+        Some(run) => run,
+        None => {
+            let (robot, _) = ready_to_move(shared).await?;
+            shared.source.check(Action::StreamSample(&checked))?;
+            let permit = shared.source.permit(Action::Servo)?;
+            let handle = robot
+                .servo(options)
+                .await
+                .map_err(|e| format!("the servo did not open: {e}"))?;
+            lock(&shared.arming).handle_goal_started();
+            let text = format!(
+                "servoing from ~/commands (command 7): the watchdog brakes the arm and ends the \
+                 motion program after {:?} without a command",
+                options.watchdog
+            );
+            shared.log(LogLevel::Info, &text);
+            lock(&shared.state).last_command = Some(text);
+            servo.insert(ServoRun { handle, permit })
+        }
+    };
+    shared.source.check(Action::StreamSample(&checked))?;
+    run.handle.push(sample).map_err(|e| e.to_string())
+}
+
+/// Ends the servo (if it still runs: commands 5 then 2), tells the re-arm policy how it ended
+/// and gives the permit back. The watchdog and the node's own stop are the node's stops (the
+/// next command starts the program again); a fault, a lost link or a stop of the robot by
+/// anyone else requires `~/start`.
+async fn end_servo(shared: &Shared, servo: &mut Option<ServoRun>) {
+    let Some(ServoRun { handle, permit }) = servo.take() else {
+        return;
+    };
+    let watchdog = handle.options().watchdog;
+    let ended = handle.finish().await;
+    drop(permit);
+    let (how, text) =
+        crate::forward::servo_end(ended.as_ref().map(|report| report.outcome), watchdog);
+    lock(&shared.arming).handle_goal_ended(how, tokio::time::Instant::now());
+    shared.log(LogLevel::Warn, &text);
+    lock(&shared.state).last_command = Some(text);
+}
+
 async fn action_loop(
     shared: &Shared,
     server: &ActionServer,
     trajectories: &ros2_client::Subscription<JointTrajectory>,
+    commands: &ros2_client::Subscription<Float64MultiArray>,
 ) -> Result<(), Ros2Error> {
     let (feedback_tx, mut feedback_rx) = mpsc::channel::<FollowJointTrajectoryFeedback>(4);
     let feedback_tx = &feedback_tx;
@@ -933,6 +1046,9 @@ async fn action_loop(
     // its cancel switch.
     let mut current: Option<(Option<GoalId>, watch::Sender<bool>)> = None;
     let mut executing: Option<Executing<'_>> = None;
+    // The servo of `~/commands`, while one runs.
+    let mut servo: Option<ServoRun> = None;
+    let forward = ForwardCommands::new(shared.model.clone(), shared.config.joint_names.clone());
     let feedback_period = Duration::from_secs_f64(1.0 / shared.config.feedback_rate_hz);
     let mut poll = tokio::time::interval(ACTION_POLL);
     poll.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
@@ -954,12 +1070,14 @@ async fn action_loop(
                     let goal = request.goal;
                     let admitted = if goals.contains(&id) {
                         Err(GoalRefusal::new(error_code::INVALID_GOAL, "a goal with this id exists already; give every goal a new id"))
-                    } else if current.is_some() {
-                        // A new goal while one executes preempts it (as joint_trajectory_controller
-                        // does) once it passes the checks that do not need the arm to stop.
+                    } else if current.is_some() || servo.is_some() {
+                        // A new goal while one executes (or a servo runs) preempts it (as
+                        // joint_trajectory_controller does) once it passes the checks that do
+                        // not need the arm to stop.
                         match precheck(shared, &goal).await {
                             Err(refusal) => Err(refusal),
                             Ok(()) => {
+                                end_servo(shared, &mut servo).await;
                                 preempt(shared, server, &mut goals, &mut current, &mut executing).await;
                                 admit(shared, &goal, true).await
                             }
@@ -1066,6 +1184,24 @@ async fn action_loop(
                 if goals.handle_timeout(tokio::time::Instant::now()) {
                     publish_statuses(server, &goals);
                 }
+                // A servo that ended by itself (the watchdog, a fault).
+                if servo.as_ref().is_some_and(|s| s.handle.is_finished()) {
+                    end_servo(shared, &mut servo).await;
+                }
+            }
+            message = commands.async_take() => {
+                let data = match message {
+                    Ok((m, _)) => m.data,
+                    Err(e) => {
+                        tracing::warn!("~/commands message not read: {e:?}");
+                        continue;
+                    }
+                };
+                if let Err(reason) = command(shared, &forward, &mut servo, current.is_some(), &data).await {
+                    let text = format!("~/commands refused (nothing sent): {reason}");
+                    shared.log(LogLevel::Warn, &text);
+                    lock(&shared.state).last_command_refused = Some(text);
+                }
             }
             Some(fb) = feedback_rx.recv() => {
                 if let Some((Some(id), _)) = &current {
@@ -1091,10 +1227,11 @@ async fn action_loop(
                 // Checked like a goal with the node's default tolerances; it replaces the
                 // running trajectory (goal or topic) once it passes the checks.
                 let goal = FollowJointTrajectoryGoal { trajectory, ..Default::default() };
-                let admitted = if current.is_some() {
+                let admitted = if current.is_some() || servo.is_some() {
                     match precheck(shared, &goal).await {
                         Err(refusal) => Err(refusal),
                         Ok(()) => {
+                            end_servo(shared, &mut servo).await;
                             preempt(shared, server, &mut goals, &mut current, &mut executing).await;
                             admit(shared, &goal, true).await
                         }

@@ -54,20 +54,20 @@ impl fs020n_ros2::RobotSource for HubSource {
     }
 
     fn permit(&self, action: fs020n_ros2::Action<'_>) -> Result<fs020n_ros2::Permit, String> {
-        use fs020n_ros2::Action;
-        match action {
-            Action::SetSpeed(percent) => self
-                .0
-                .check_speed(percent)
-                .map_err(|v| format!("refused by the hub's fence: {v}"))?,
-            Action::Trajectory(path) => self
-                .0
-                .check_path(path)
-                .map_err(|v| format!("refused by the hub's fence: {v}"))?,
-            _ => {}
-        }
+        fs020n_ros2::RobotSource::check(self, action)?;
         let claim = self.0.claim_control("ROS 2 node")?;
         Ok(fs020n_ros2::Permit::holding(claim))
+    }
+
+    fn check(&self, action: fs020n_ros2::Action<'_>) -> Result<(), String> {
+        use fs020n_ros2::Action;
+        let verdict = match action {
+            Action::SetSpeed(percent) => self.0.check_speed(percent),
+            Action::Trajectory(path) => self.0.check_path(path),
+            Action::StreamSample(sample) => self.0.check_sample(sample),
+            _ => Ok(()),
+        };
+        verdict.map_err(|v| format!("refused by the hub's fence: {v}"))
     }
 }
 

@@ -482,6 +482,21 @@ impl Hub {
         self.fence_verdict("a speed", r)
     }
 
+    /// Checks a command-7 sample an in-process user is about to send (a servo's) against the
+    /// fence: the client's sample check against the fenced model, and the flange inside the
+    /// workspace box over every time the controller can extrapolate it to. Takes nothing
+    /// (call it for every sample while holding control). `Ok` without a fence.
+    pub fn check_sample(&self, sample: &fs020n_proto::StreamSample) -> Result<(), FenceViolation> {
+        let Some(fence) = &self.inner.config.fence else {
+            return Ok(());
+        };
+        let r = fence.check(
+            &fs020n_proto::Command::StreamedMove(*sample),
+            &sample.position,
+        );
+        self.fence_verdict("a servo sample", r)
+    }
+
     /// Counts and logs a fence refusal of an in-process user's `what` (a path, a speed).
     fn fence_verdict(
         &self,
