@@ -277,6 +277,7 @@ fn spawn(conn: Conn, first: Exchange, common: Arc<Common>, target: String) -> Li
         let mut st = lock(&common.stats);
         st.stats.requests += 1;
         st.record_rtt(first.rtt(), late);
+        st.record_timer(first.frame.status.timer);
     }
     common.record(first.sent_at, id, Dir::Event, "connect", None, &target);
     common.record(first.sent_at, id, Dir::Tx, "poll", None, POLL);

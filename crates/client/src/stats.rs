@@ -49,6 +49,12 @@ pub struct Stats {
     pub stream_late_replies: u64,
     /// Lines that could not be written to the recording.
     pub record_errors: u64,
+    /// The step of TIMER(1) in the latest reply ([`fs020n_proto::Timer::step_s`]): the
+    /// accuracy of the session's clock and of command 7's time stamps. TIMER(1) is a 32-bit
+    /// AS real, so the step grows with the session's age; above the wire's 1 ms
+    /// ([`fs020n_proto::TIMER_WIRE_STEP_S`]) the age costs streaming accuracy, and a reconnect
+    /// starts a new session. `None` before a reply or when TIMER(1) overflowed.
+    pub timer_step_s: Option<f64>,
     /// Round-trip times.
     pub rtt: RttStats,
 }
@@ -61,6 +67,27 @@ pub(crate) struct StatsInner {
 }
 
 impl StatsInner {
+    /// Notes the TIMER(1) of a reply (its step: [`Stats::timer_step_s`]); a coarse one is
+    /// logged once when it first costs streaming accuracy.
+    pub(crate) fn record_timer(&mut self, timer: fs020n_proto::Timer) {
+        let step = timer.step_s();
+        let was_fine = self
+            .stats
+            .timer_step_s
+            .is_none_or(|s| s <= fs020n_proto::TIMER_WIRE_STEP_S);
+        if let Some(s) = step.filter(|s| *s > fs020n_proto::TIMER_WIRE_STEP_S) {
+            if was_fine {
+                tracing::warn!(
+                    step_ms = s * 1e3,
+                    "the session is old: TIMER(1) and command 7's time stamps step by {:.1} ms \
+                     (reconnect to start a new session)",
+                    s * 1e3
+                );
+            }
+        }
+        self.stats.timer_step_s = step;
+    }
+
     pub(crate) fn record_rtt(&mut self, rtt: Duration, late: bool) {
         let r = &mut self.stats.rtt;
         if r.count == 0 || rtt < r.min {

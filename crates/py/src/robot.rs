@@ -749,6 +749,7 @@ impl Robot {
         d.set_item("stream_underruns", s.stream_underruns)?;
         d.set_item("stream_late_replies", s.stream_late_replies)?;
         d.set_item("record_errors", s.record_errors)?;
+        d.set_item("timer_step_s", s.timer_step_s)?;
         let rtt = PyDict::new(py);
         rtt.set_item("count", s.rtt.count)?;
         rtt.set_item("min_s", s.rtt.min.as_secs_f64())?;

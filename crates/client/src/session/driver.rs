@@ -140,6 +140,7 @@ impl SessionShared {
                 st.stats.keepalive_polls += 1;
             }
             st.record_rtt(rtt, rtt > cfg.late_reply_after);
+            st.record_timer(ex.frame.status.timer);
         }
         if let Some(t) = ex.frame.status.timer.seconds() {
             lock(&self.clock).add(ex.sent_at, ex.received_at, t);

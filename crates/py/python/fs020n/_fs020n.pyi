@@ -36,6 +36,7 @@ class RobotStats(TypedDict):
     stream_underruns: int
     stream_late_replies: int
     record_errors: int
+    timer_step_s: Optional[float]
     rtt: RttStats
 
 class ServoStats(TypedDict):
