@@ -233,6 +233,40 @@ pub enum StmtKind {
     Pause,
     /// `SIGNAL n, -m, …`.
     Signal(Vec<Expr>),
+    /// `SWAIT n, -m, …`: waits until every signal is in the state asked (negative: OFF).
+    Swait(Vec<Expr>),
+    /// `PULSE n[, seconds]`: output `n` ON now, OFF after the time (0.2 s when omitted).
+    Pulse {
+        /// The output signal.
+        signal: Expr,
+        /// How long it stays ON, seconds.
+        time: Option<Expr>,
+    },
+    /// `DLYSIG n, seconds`: signal `n` (negative: OFF) set after the time; the program goes on.
+    Dlysig {
+        /// The signal (negative: turned OFF).
+        signal: Expr,
+        /// The delay, seconds.
+        time: Expr,
+    },
+    /// `BITS start, count = value`: `count` signals from `start` set to the binary of `value`.
+    Bits {
+        /// The first (least significant) signal.
+        start: Expr,
+        /// How many signals (1–16).
+        count: Expr,
+        /// The value.
+        value: Expr,
+    },
+    /// `OPEN`/`CLOSE`/`RELAX [hand]` and their `I` forms: the hand's signals.
+    Hand {
+        /// What the hand does.
+        action: HandAction,
+        /// The `I` form: at once (after the current motion), not with the next motion.
+        immediate: bool,
+        /// The hand number (1 when omitted).
+        hand: Option<Expr>,
+    },
     /// `ON sig GOTO|CALL …` (`immediate`: `ONI`).
     On {
         /// `ONI` (cuts the motion) rather than `ON`.
@@ -334,6 +368,17 @@ pub enum StmtKind {
         /// Declared a no-op by the user ([`crate::LoadOptions::stub`]).
         stubbed: bool,
     },
+}
+
+/// What `OPEN`, `CLOSE` and `RELAX` do to a hand.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HandAction {
+    /// `OPEN`: the open signal ON, the close signal OFF.
+    Open,
+    /// `CLOSE`: the close signal ON, the open signal OFF.
+    Close,
+    /// `RELAX`: both OFF.
+    Relax,
 }
 
 /// One `VALUE …:` or `ANY:` arm of a CASE.

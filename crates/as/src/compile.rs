@@ -82,6 +82,7 @@ pub(crate) enum RFunc {
     MaxVal,
     MinVal,
     Sig,
+    Bits,
     Task,
     Timer,
 }
@@ -219,6 +220,14 @@ pub(crate) enum Op {
     Stop,
     Pause,
     Signal(Box<[RExpr]>),
+    /// `PULSE n[, t]`.
+    Pulse(RExpr, Option<RExpr>),
+    /// `DLYSIG n, t`.
+    Dlysig(RExpr, RExpr),
+    /// `BITS start, count = value`.
+    Bits(RExpr, RExpr, RExpr),
+    /// `OPEN`/`CLOSE`/`RELAX[I] [hand]`: the action, the `I` form, the hand.
+    Hand(HandAction, bool, Option<RExpr>),
     On {
         immediate: bool,
         signal: RExpr,
@@ -807,6 +816,42 @@ impl Compiler {
                     .collect::<CResult<Vec<_>>>()?;
                 self.emit(Op::Signal(v.into()), line);
             }
+            StmtKind::Swait(v) => {
+                // `SWAIT a, b` is `WAIT SIG(a, b)`: the same poll, the same checks.
+                let v = v
+                    .iter()
+                    .map(|e| self.real(e))
+                    .collect::<CResult<Vec<_>>>()?;
+                self.emit(Op::Wait(RExpr::Func(RFunc::Sig, v.into())), line);
+            }
+            StmtKind::Pulse { signal, time } => {
+                let signal = self.real(signal)?;
+                let time = time.as_ref().map(|t| self.real(t)).transpose()?;
+                self.emit(Op::Pulse(signal, time), line);
+            }
+            StmtKind::Dlysig { signal, time } => {
+                let signal = self.real(signal)?;
+                let time = self.real(time)?;
+                self.emit(Op::Dlysig(signal, time), line);
+            }
+            StmtKind::Bits {
+                start,
+                count,
+                value,
+            } => {
+                let start = self.real(start)?;
+                let count = self.real(count)?;
+                let value = self.real(value)?;
+                self.emit(Op::Bits(start, count, value), line);
+            }
+            StmtKind::Hand {
+                action,
+                immediate,
+                hand,
+            } => {
+                let hand = hand.as_ref().map(|h| self.real(h)).transpose()?;
+                self.emit(Op::Hand(*action, *immediate, hand), line);
+            }
             StmtKind::On {
                 immediate,
                 signal,
@@ -1390,6 +1435,11 @@ impl Compiler {
                 };
                 Ok(CExpr::R(RExpr::Func(func, v.into())))
             }
+            (Sigil::None, "bits") => {
+                self.arity(name, args, 2, 2, span)?;
+                let v = vec![self.arg_real(&args[0])?, self.arg_real(&args[1])?];
+                Ok(CExpr::R(RExpr::Func(RFunc::Bits, v.into())))
+            }
             (Sigil::None, "val") => {
                 self.arity(name, args, 1, 2, span)?;
                 let s = self.arg_str(&args[0])?;
@@ -1679,6 +1729,9 @@ fn op_touches(op: &Op) -> bool {
             .any(|a| c_touches(&a.value) || a.var.as_ref().is_some_and(|(_, l)| l_touches(l))),
         Op::Print(items) => items_touch(items),
         Op::Signal(v) => any_r(v),
+        Op::Pulse(a, b) => r_touches(a) || opt(b),
+        Op::Dlysig(a, b) => r_touches(a) || r_touches(b),
+        Op::Bits(a, b, c) => r_touches(a) || r_touches(b) || r_touches(c),
         Op::On { signal, .. } => r_touches(signal),
         Op::Timer(a, b) => r_touches(a) || r_touches(b),
         Op::Speed(e, _, _) | Op::Accuracy(e, _, _) | Op::AccelDecel(_, e, _) => r_touches(e),

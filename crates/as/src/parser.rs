@@ -1328,6 +1328,60 @@ impl<'a> Cur<'a> {
                 }
                 LineKind::Stmt(StmtKind::Signal(v))
             }
+            "swait" => {
+                let mut v = vec![self.expr()?];
+                while self.eat(&Tok::Comma) {
+                    v.push(self.expr()?);
+                }
+                LineKind::Stmt(StmtKind::Swait(v))
+            }
+            "pulse" => {
+                let signal = self.expr()?;
+                let time = if self.eat(&Tok::Comma) {
+                    Some(self.expr()?)
+                } else {
+                    None
+                };
+                LineKind::Stmt(StmtKind::Pulse { signal, time })
+            }
+            "dlysig" => {
+                let signal = self.expr()?;
+                self.expect(&Tok::Comma, "\",\" and the delay after the DLYSIG signal")?;
+                let time = self.expr()?;
+                LineKind::Stmt(StmtKind::Dlysig { signal, time })
+            }
+            "bits" => {
+                let start = self.expr()?;
+                self.expect(
+                    &Tok::Comma,
+                    "\",\" and the count after the first BITS signal",
+                )?;
+                let count = self.expr()?;
+                self.expect(&Tok::Assign, "\"= value\" after BITS start, count")?;
+                let value = self.expr()?;
+                LineKind::Stmt(StmtKind::Bits {
+                    start,
+                    count,
+                    value,
+                })
+            }
+            "open" | "openi" | "close" | "closei" | "relax" | "relaxi" => {
+                let action = match kw.trim_end_matches('i') {
+                    "open" => HandAction::Open,
+                    "close" => HandAction::Close,
+                    _ => HandAction::Relax,
+                };
+                let hand = if self.peek().is_some() {
+                    Some(self.expr()?)
+                } else {
+                    None
+                };
+                LineKind::Stmt(StmtKind::Hand {
+                    action,
+                    immediate: kw.ends_with('i'),
+                    hand,
+                })
+            }
             "on" | "oni" => {
                 let signal = self.expr()?;
                 let action = if self.eat_word("goto") {

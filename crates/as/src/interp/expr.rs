@@ -181,6 +181,7 @@ impl Interpreter {
                 }
                 as_bool(all)
             }
+            RFunc::Bits => self.bits_in(x, v[1])?,
             RFunc::Task => {
                 let id = match x.trunc() as i64 {
                     1 => Some(TaskId::Robot),

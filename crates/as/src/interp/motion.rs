@@ -256,7 +256,12 @@ impl Interpreter {
             cp,
             abs_speed,
         };
-        match sys.issue_motion(&req) {
+        let issued = sys.issue_motion(&req);
+        if issued.is_ok() && !self.hand_pending.is_empty() {
+            // OPEN/CLOSE/RELAX act with the motion that follows them.
+            self.apply_pending_hands();
+        }
+        match issued {
             Ok(Issued::Started) => Ok(Flow::Next),
             Ok(Issued::Planned) => Ok(Flow::Wait(Box::new(Wait::MotionPlanned))),
             Err(code) => Err(Box::new(RuntimeError::System(code))),

@@ -289,6 +289,12 @@ impl Interpreter {
             }
             Op::Pause => Flow::Wait(Box::new(Wait::Paused)),
             Op::Signal(v) => self.signal_out(i, v, sys)?,
+            Op::Pulse(sig, t) => self.pulse(i, sig, t, sys, now)?,
+            Op::Dlysig(sig, t) => self.dlysig(i, sig, t, sys, now)?,
+            Op::Bits(start, count, value) => self.bits_out(i, start, count, value, sys)?,
+            Op::Hand(action, immediate, hand) => {
+                self.hand(i, *action, *immediate, hand, sys, pc)?
+            }
             Op::On {
                 immediate,
                 signal,
