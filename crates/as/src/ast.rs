@@ -320,6 +320,39 @@ pub enum StmtKind {
         /// A joint point or a transformation.
         target: Expr,
     },
+    /// `TOOL t` / `TOOL NULL` (`base` false), `BASE t` / `BASE NULL`: the flange-to-tool or
+    /// world-to-robot frame (`None`: NULL, the identity).
+    Frame {
+        /// `BASE` rather than `TOOL`.
+        base: bool,
+        /// The transformation (`None`: NULL).
+        value: Option<Expr>,
+    },
+    /// `APPRO`/`JAPPRO` (joint) or `LAPPRO` (linear) `location, distance`: to `distance` mm
+    /// short of the location along its tool Z axis.
+    Appro {
+        /// Straight-line interpolation.
+        linear: bool,
+        /// The location approached.
+        target: Expr,
+        /// Millimetres back along the tool Z axis.
+        distance: Expr,
+    },
+    /// `DEPART`/`JDEPART` (joint) or `LDEPART` (linear) `distance`: back along the tool Z axis.
+    Depart {
+        /// Straight-line interpolation.
+        linear: bool,
+        /// Millimetres back along the tool Z axis.
+        distance: Expr,
+    },
+    /// `DRAW dx, dy, dz` (along the base axes) or `TDRAW` (along the tool's): a straight line
+    /// by an offset; an omitted value is 0.
+    Draw {
+        /// `TDRAW`: the tool's axes.
+        tool: bool,
+        /// X, Y, Z offsets, millimetres.
+        offset: [Option<Expr>; 3],
+    },
     /// `HOME [n]`.
     Home(Option<Expr>),
     /// `DELAY seconds` (a motion that stands still).

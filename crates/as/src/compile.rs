@@ -122,6 +122,8 @@ pub(crate) enum JExpr {
     Var(LRef),
     PPoint(Box<[RExpr]>),
     Here,
+    /// A transformation's joint values (inverse kinematics near the current joints).
+    Inverse(Box<TExpr>),
 }
 
 /// Transformation expressions.
@@ -131,6 +133,8 @@ pub(crate) enum TExpr {
     Trans(Box<[RExpr]>),
     Here,
     Compose(Box<TExpr>, Box<TExpr>),
+    /// A joint point's transformation (forward kinematics, with TOOL and BASE).
+    Forward(Box<JExpr>),
 }
 
 /// A location: joint point or transformation.
@@ -259,6 +263,14 @@ pub(crate) enum Op {
     HereT(LRef),
     Move(bool, Loc),
     Home,
+    /// `TOOL`/`BASE` (true) with a transformation or NULL.
+    Frame(bool, Option<TExpr>),
+    /// `APPRO`/`LAPPRO` (linear) location, distance.
+    Appro(bool, TExpr, RExpr),
+    /// `DEPART`/`LDEPART` (linear) distance.
+    Depart(bool, RExpr),
+    /// `DRAW`/`TDRAW` (tool axes) offsets.
+    Draw(bool, Box<[Option<RExpr>; 3]>),
     Delay(RExpr),
     Brake,
     Break,
@@ -963,24 +975,14 @@ impl Compiler {
                         let t = self.lref(target, Ty::Joint)?;
                         match self.loc(value)? {
                             Loc::J(j) => Op::AssignJ(t, j),
-                            Loc::T(_) => {
-                                // Converting a transformation to joint values (inverse
-                                // kinematics): loads as not emulated.
-                                self.not_emulated_fn = Some("POINT #name = transformation".into());
-                                return Err(self.err(value.span, "POINT #name needs a joint point on the right (converting a transformation to joint values is not emulated)"));
-                            }
+                            Loc::T(x) => Op::AssignJ(t, JExpr::Inverse(Box::new(x))),
                         }
                     }
                     Sigil::None => {
                         let t = self.lref(target, Ty::Trans)?;
                         match self.loc(value)? {
                             Loc::T(x) => Op::AssignT(t, x),
-                            Loc::J(_) => {
-                                // Converting joint values to a transformation (forward
-                                // kinematics): loads as not emulated.
-                                self.not_emulated_fn = Some("POINT name = joint point".into());
-                                return Err(self.err(value.span, "POINT name needs a transformation on the right (converting joint values to a transformation is not emulated; use HERE)"));
-                            }
+                            Loc::J(j) => Op::AssignT(t, TExpr::Forward(Box::new(j))),
                         }
                     }
                     Sigil::Dollar => {
@@ -995,6 +997,35 @@ impl Compiler {
             StmtKind::Move { linear, target } => {
                 let l = self.loc(target)?;
                 self.emit(Op::Move(*linear, l), line);
+            }
+            StmtKind::Frame { base, value } => {
+                let t = match value {
+                    Some(v) => Some(self.trans_loc(v)?),
+                    None => None,
+                };
+                self.emit(Op::Frame(*base, t), line);
+            }
+            StmtKind::Appro {
+                linear,
+                target,
+                distance,
+            } => {
+                let t = self.trans_loc(target)?;
+                let d = self.real(distance)?;
+                self.emit(Op::Appro(*linear, t, d), line);
+            }
+            StmtKind::Depart { linear, distance } => {
+                let d = self.real(distance)?;
+                self.emit(Op::Depart(*linear, d), line);
+            }
+            StmtKind::Draw { tool, offset } => {
+                let mut v: [Option<RExpr>; 3] = [None, None, None];
+                for (k, e) in offset.iter().enumerate() {
+                    if let Some(e) = e {
+                        v[k] = Some(self.real(e)?);
+                    }
+                }
+                self.emit(Op::Draw(*tool, Box::new(v)), line);
             }
             StmtKind::Home(_) => {
                 self.emit(Op::Home, line);
@@ -1251,6 +1282,14 @@ impl Compiler {
                 other => Err(self.err(e.span, format!("expected a location (#point, #PPOINT(…), a transformation, HERE), found {}", other.ty().name()))),
             },
         }
+    }
+
+    /// A location as a transformation (a joint point through forward kinematics).
+    fn trans_loc(&mut self, e: &Expr) -> CResult<TExpr> {
+        Ok(match self.loc(e)? {
+            Loc::T(t) => t,
+            Loc::J(j) => TExpr::Forward(Box::new(j)),
+        })
     }
 
     fn reals_up_to(
@@ -1680,7 +1719,7 @@ fn j_touches(e: &JExpr) -> bool {
     match e {
         JExpr::Var(l) => l_touches(l),
         JExpr::PPoint(a) => any_r(a),
-        JExpr::Here => true,
+        JExpr::Here | JExpr::Inverse(_) => true,
     }
 }
 
@@ -1688,7 +1727,7 @@ fn t_touches(e: &TExpr) -> bool {
     match e {
         TExpr::Var(l) => l_touches(l),
         TExpr::Trans(a) => any_r(a),
-        TExpr::Here => true,
+        TExpr::Here | TExpr::Forward(_) => true,
         TExpr::Compose(a, b) => t_touches(a) || t_touches(b),
     }
 }

@@ -12,6 +12,8 @@ pub const STATEMENTS: &[(&str, usize)] = &[
     ("accel", 4),
     ("accuracy", 4),
     ("any", 3),
+    ("appro", 5),
+    ("base", 4),
     ("bits", 4),
     ("brake", 3),
     ("break", 3),
@@ -23,9 +25,11 @@ pub const STATEMENTS: &[(&str, usize)] = &[
     ("decel", 5),
     ("decompose", 4),
     ("delay", 3),
+    ("depart", 6),
     ("disable", 4),
     ("dlysig", 6),
     ("do", 2),
+    ("draw", 4),
     ("else", 4),
     ("enable", 3),
     ("end", 3),
@@ -37,7 +41,11 @@ pub const STATEMENTS: &[(&str, usize)] = &[
     ("home", 3),
     ("if", 2),
     ("ignore", 2),
+    ("jappro", 6),
+    ("jdepart", 7),
     ("jmove", 2),
+    ("lappro", 6),
+    ("ldepart", 7),
     ("lmove", 2),
     ("mc", 2),
     ("on", 2),
@@ -66,7 +74,9 @@ pub const STATEMENTS: &[(&str, usize)] = &[
     ("tcp_listen", 10),
     ("tcp_recv", 8),
     ("tcp_send", 8),
+    ("tdraw", 5),
     ("timer", 3),
+    ("tool", 4),
     ("twait", 2),
     ("type", 2),
     ("until", 2),
@@ -82,32 +92,22 @@ pub const STATEMENTS: &[(&str, usize)] = &[
 pub const UNSUPPORTED: &[&str] = &[
     "above",
     "align",
-    "appro",
-    "base",
     "below",
     "bits32",
     "c1move",
     "c2move",
-    "depart",
-    "draw",
     "drive",
     "dwrist",
     "extcall",
     "hmove",
     "intfchk",
     "japro",
-    "jappro",
-    "jdepart",
-    "lappro",
-    "ldepart",
     "lefty",
     "one",
     "prefetch.sigins",
     "righty",
     "runmask",
     "tcp_status",
-    "tdraw",
-    "tool",
     "udp_recvfrom",
     "udp_sendto",
     "uwrist",
@@ -296,8 +296,10 @@ mod tests {
         assert_eq!(statement("oni"), Some("oni"));
         assert_eq!(statement("tw"), Some("twait"));
         assert_eq!(statement("tcp_recv"), Some("tcp_recv"));
-        assert_eq!(statement("jappro"), None);
-        assert!(not_emulated("jappro"));
+        assert_eq!(statement("jappro"), Some("jappro"));
+        assert_eq!(statement("jappr"), None);
+        assert!(not_emulated("c1move"));
+        assert!(!not_emulated("jappro"));
         assert!(not_emulated("l3jmove"));
         assert!(!not_emulated("jmove"));
         assert!(!not_emulated("tcp_send"));

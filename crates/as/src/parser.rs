@@ -1500,6 +1500,60 @@ impl<'a> Cur<'a> {
                 linear: kw == "lmove",
                 target: self.expr()?,
             }),
+            "tool" | "base" => {
+                let null = matches!(self.peek(), Some(Tok::Name(n)) if n.text == "null" && !n.local && n.sigil == Sigil::None)
+                    && self.peek_at(1).is_none();
+                let value = if null {
+                    self.pos += 1;
+                    None
+                } else {
+                    Some(self.expr()?)
+                };
+                LineKind::Stmt(StmtKind::Frame {
+                    base: kw == "base",
+                    value,
+                })
+            }
+            "appro" | "jappro" | "lappro" => {
+                let target = self.expr()?;
+                self.expect(
+                    &Tok::Comma,
+                    "\",\" and the distance (mm) after the location approached",
+                )?;
+                let distance = self.expr()?;
+                LineKind::Stmt(StmtKind::Appro {
+                    linear: kw == "lappro",
+                    target,
+                    distance,
+                })
+            }
+            "depart" | "jdepart" | "ldepart" => LineKind::Stmt(StmtKind::Depart {
+                linear: kw == "ldepart",
+                distance: self.expr()?,
+            }),
+            "draw" | "tdraw" => {
+                let mut offset: [Option<Expr>; 3] = [None, None, None];
+                for (k, slot) in offset.iter_mut().enumerate() {
+                    if k > 0 && !self.eat(&Tok::Comma) {
+                        break;
+                    }
+                    if !self.at_end() && self.peek() != Some(&Tok::Comma) {
+                        *slot = Some(self.expr()?);
+                    }
+                }
+                if self.eat(&Tok::Comma) {
+                    // Rotations about the axes: not modelled.
+                    self.pos = self.toks.len();
+                    return Ok(LineKind::Stmt(StmtKind::NotEmulated {
+                        instruction: format!("{} (with rotations)", kw.to_uppercase()),
+                        stubbed: false,
+                    }));
+                }
+                LineKind::Stmt(StmtKind::Draw {
+                    tool: kw == "tdraw",
+                    offset,
+                })
+            }
             "home" => LineKind::Stmt(StmtKind::Home(if self.at_end() {
                 None
             } else {

@@ -32,7 +32,9 @@ use fs020n_proto::ErrorCode;
 /// A joint-displacement value: JT1..JT6 in degrees.
 pub type Joints = [f64; 6];
 
-/// A transformation value: X, Y, Z (mm), O, A, T (degrees, Z-Y-Z Euler angles).
+/// A transformation value: X, Y, Z (mm), O, A, T (degrees, Z-Y-Z Euler angles). A
+/// [`Target::Pose`], [`System::pose`] and [`System::forward`] are the **flange** in the robot's
+/// base frame: the interpreter applies the program's TOOL and BASE on its side.
 pub type Trans = [f64; 6];
 
 /// Where a motion goes.
@@ -186,6 +188,14 @@ pub trait System {
     /// The tool pose of the current joints (`HERE`), `None` when the system has no
     /// kinematics.
     fn pose(&self) -> Option<Trans>;
+
+    /// The flange pose of any joint values (`POINT t = #j`, `APPRO #j, d`), in the robot's base
+    /// frame; `None` when the system has no kinematics. The interpreter applies TOOL and BASE.
+    fn forward(&self, joints: &Joints) -> Option<Trans>;
+
+    /// The joint values that put the flange at `pose` (robot base frame), the solution nearest
+    /// `near` (`POINT #j = t`); `None` when out of reach or without kinematics.
+    fn inverse(&self, pose: &Trans, near: &Joints) -> Option<Joints>;
 
     /// The HOME pose (`HOME`), degrees.
     fn home(&self) -> Joints;

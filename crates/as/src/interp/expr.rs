@@ -336,6 +336,7 @@ impl Interpreter {
                 v
             }
             JExpr::Here => sys.joints().map(|x| x as f32),
+            JExpr::Inverse(t) => self.inverse_of(i, t, sys)?,
         })
     }
 
@@ -349,14 +350,8 @@ impl Interpreter {
                 }
                 v
             }
-            TExpr::Here => match sys.pose() {
-                Some(p) => p.map(|x| x as f32),
-                None => {
-                    return Err(Box::new(RuntimeError::IllegalValue(
-                        "HERE: this controller has no kinematics".into(),
-                    )))
-                }
-            },
+            TExpr::Here => self.here_world(sys)?,
+            TExpr::Forward(j) => self.forward_of(i, j, sys)?,
             TExpr::Compose(a, b) => {
                 let x = self.eval_t(i, a, sys)?;
                 let y = self.eval_t(i, b, sys)?;

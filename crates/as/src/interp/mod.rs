@@ -17,6 +17,7 @@
 //! | `start.rs` | starting and ending programs (`start`, `EXECUTE`, `PCEXECUTE`, frames) |
 //! | `vars.rs` | reading and writing variables with their indices |
 //! | `signals.rs` | signal numbers and outputs, `PULSE`, `DLYSIG`, `BITS` |
+//! | `frames.rs` | `TOOL`, `BASE`, kinematic conversions, `APPRO`, `DEPART`, `DRAW` |
 //! | `hands.rs` | `OPEN`/`CLOSE`/`RELAX` and their `I` forms on the hands' signals |
 //! | `expr.rs` | expressions (reals, strings, locations, functions, `PRINT` encoding) |
 //! | `stmt.rs` | one step: the hot path of pure computation, then every other op |
@@ -29,6 +30,7 @@ mod arith;
 mod config;
 mod expr;
 mod flow;
+mod frames;
 mod hands;
 mod monitor;
 mod motion;
@@ -92,6 +94,9 @@ pub struct Interpreter {
     timed_signals: Vec<(Ns, i32, bool)>,
     /// Hand actions of `OPEN`/`CLOSE`/`RELAX` waiting for the next motion: (hand, action).
     hand_pending: Vec<(usize, crate::ast::HandAction)>,
+    /// `TOOL` (flange to tool) and `BASE` (world to robot), `None` for NULL.
+    tool: Option<[f32; 6]>,
+    base: Option<[f32; 6]>,
     /// TIMER n: the time (ns, may be negative) at which it read 0.
     timers: [Option<i128>; 11],
     switches: Vec<bool>,
@@ -161,6 +166,8 @@ impl Interpreter {
             signals: HashMap::new(),
             timed_signals: Vec::new(),
             hand_pending: Vec::new(),
+            tool: None,
+            base: None,
             timers: [None; 11],
             switches: SYSTEM_SWITCHES.iter().map(|(_, v)| *v).collect(),
             mc_hold: false,

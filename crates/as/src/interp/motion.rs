@@ -71,12 +71,8 @@ impl Interpreter {
     /// `HERE p`: the current pose.
     #[inline(always)]
     pub(super) fn here_trans(&mut self, i: TaskSlot, l: &LRef, sys: &mut dyn System) -> R<Flow> {
-        let Some(p) = sys.pose() else {
-            return Err(Box::new(RuntimeError::IllegalValue(
-                "HERE: this controller has no kinematics".into(),
-            )));
-        };
-        self.write_loc_var(i, l, Ty::Trans, p.map(|x| x as f32), sys)?;
+        let p = self.here_world(sys)?;
+        self.write_loc_var(i, l, Ty::Trans, p, sys)?;
         Ok(Flow::Next)
     }
 
@@ -93,7 +89,7 @@ impl Interpreter {
         self.require_robot(robot, "JMOVE/LMOVE")?;
         let target = match self.eval_loc(i, l, sys)? {
             LocVal::J(v) => Target::Joints(v.map(f64::from)),
-            LocVal::T(v) => Target::Pose(v.map(f64::from)),
+            LocVal::T(v) => Target::Pose(self.flange_of_world(&v)),
         };
         let kind = if *linear {
             MotionKind::Linear
