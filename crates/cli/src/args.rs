@@ -444,6 +444,10 @@ pub(crate) struct SimArgs {
     /// With --as-program: declare an instruction a no-op (repeatable), as `as check --stub`.
     #[arg(long = "stub", value_name = "INSTR", requires = "as_program")]
     pub stubs: Vec<String>,
+    /// With --as-program: set an input signal (1001–1999) at start, `N=1` ON or `N=0` OFF
+    /// (repeatable); e.g. `--signal 1001=1` for a part-present sensor the program waits for.
+    #[arg(long = "signal", value_name = "N=0|1", requires = "as_program")]
+    pub signals: Vec<String>,
 }
 
 /// `deploy` arguments (the protocol port is `--robot`).
