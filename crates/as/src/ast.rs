@@ -258,6 +258,14 @@ pub enum StmtKind {
         /// The value.
         value: Expr,
     },
+    /// `RUNMASK n[, count]`: outputs turned OFF when the robot program stops (negative `n`:
+    /// no longer).
+    RunMask {
+        /// The first signal (negative: remove).
+        signal: Expr,
+        /// How many signals (1 when omitted).
+        count: Option<Expr>,
+    },
     /// `OPEN`/`CLOSE`/`RELAX [hand]` and their `I` forms: the hand's signals.
     Hand {
         /// What the hand does.

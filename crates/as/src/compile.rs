@@ -226,6 +226,8 @@ pub(crate) enum Op {
     Signal(Box<[RExpr]>),
     /// `PULSE n[, t]`.
     Pulse(RExpr, Option<RExpr>),
+    /// `RUNMASK n[, count]`.
+    RunMask(RExpr, Option<RExpr>),
     /// `DLYSIG n, t`.
     Dlysig(RExpr, RExpr),
     /// `BITS start, count = value`.
@@ -840,6 +842,11 @@ impl Compiler {
                 let signal = self.real(signal)?;
                 let time = time.as_ref().map(|t| self.real(t)).transpose()?;
                 self.emit(Op::Pulse(signal, time), line);
+            }
+            StmtKind::RunMask { signal, count } => {
+                let signal = self.real(signal)?;
+                let count = count.as_ref().map(|c| self.real(c)).transpose()?;
+                self.emit(Op::RunMask(signal, count), line);
             }
             StmtKind::Dlysig { signal, time } => {
                 let signal = self.real(signal)?;
@@ -1770,6 +1777,7 @@ fn op_touches(op: &Op) -> bool {
         Op::Signal(v) => any_r(v),
         Op::Pulse(a, b) => r_touches(a) || opt(b),
         Op::Dlysig(a, b) => r_touches(a) || r_touches(b),
+        Op::RunMask(a, b) => r_touches(a) || opt(b),
         Op::Bits(a, b, c) => r_touches(a) || r_touches(b) || r_touches(c),
         Op::On { signal, .. } => r_touches(signal),
         Op::Timer(a, b) => r_touches(a) || r_touches(b),

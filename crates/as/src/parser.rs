@@ -1344,6 +1344,15 @@ impl<'a> Cur<'a> {
                 };
                 LineKind::Stmt(StmtKind::Pulse { signal, time })
             }
+            "runmask" => {
+                let signal = self.expr()?;
+                let count = if self.eat(&Tok::Comma) {
+                    Some(self.expr()?)
+                } else {
+                    None
+                };
+                LineKind::Stmt(StmtKind::RunMask { signal, count })
+            }
             "dlysig" => {
                 let signal = self.expr()?;
                 self.expect(&Tok::Comma, "\",\" and the delay after the DLYSIG signal")?;

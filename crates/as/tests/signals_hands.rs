@@ -1,5 +1,5 @@
 //! Signals and hands on virtual time: `SWAIT`, `PULSE`, `DLYSIG`, `BITS` (instruction and
-//! function), `OPEN`/`CLOSE`/`RELAX` and their `I` forms on the hands' signals.
+//! function), `OPEN`/`CLOSE`/`RELAX` and their `I` forms on the hands' signals, `RUNMASK`.
 #![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 mod common;
@@ -225,4 +225,30 @@ fn hands_are_for_robot_programs() {
         "{:?}",
         printed(&s)
     );
+}
+
+#[test]
+fn runmask_outputs_go_off_when_the_robot_program_stops() {
+    let robot = ".PROGRAM rob()\n  RUNMASK 10, 3\n  RUNMASK -11\n  SIGNAL 10, 11, 12, 13\n  on_while_running = BITS(10, 4)\n  TWAIT 0.1\n.END\n";
+    let (mut i, mut s) = start(&format!("{}{robot}", pc("  MC EXECUTE rob")));
+    i.run_until(&mut s, ms(50));
+    assert_eq!(i.real("on_while_running"), Some(15.0));
+    i.run_until(&mut s, ms(200));
+    assert!(
+        !i.signal(10) && !i.signal(12),
+        "masked: OFF when the program ended"
+    );
+    assert!(i.signal(11), "taken off the mask by RUNMASK -11");
+    assert!(i.signal(13), "never masked");
+}
+
+#[test]
+fn runmask_outputs_go_off_when_an_error_stops_the_robot_program() {
+    let robot = ".PROGRAM rob()\n  RUNMASK 20\n  SIGNAL 20\n  TWAIT 0.1\n  x = 1 / 0\n.END\n";
+    let (mut i, mut s) = start(&format!("{}{robot}", pc("  MC EXECUTE rob")));
+    i.run_until(&mut s, ms(50));
+    assert!(i.signal(20));
+    i.run_until(&mut s, ms(200));
+    assert_eq!(s.raised, vec![ErrorCode(-30103)]);
+    assert!(!i.signal(20));
 }

@@ -194,6 +194,9 @@ impl Interpreter {
                             && self.tasks[TaskSlot::ROBOT].run == Run::Ending
                             && !sys.motion_in_progress()
                         {
+                            if !self.run_mask.is_empty() {
+                                self.apply_run_mask();
+                            }
                             self.set_run(TaskSlot::ROBOT, Run::Idle);
                         }
                         self.task_state(id, sys).number()

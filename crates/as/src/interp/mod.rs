@@ -94,6 +94,8 @@ pub struct Interpreter {
     timed_signals: Vec<(Ns, i32, bool)>,
     /// Hand actions of `OPEN`/`CLOSE`/`RELAX` waiting for the next motion: (hand, action).
     hand_pending: Vec<(usize, crate::ast::HandAction)>,
+    /// `RUNMASK`: outputs turned OFF when the robot program stops.
+    run_mask: Vec<i32>,
     /// `TOOL` (flange to tool) and `BASE` (world to robot), `None` for NULL.
     tool: Option<[f32; 6]>,
     base: Option<[f32; 6]>,
@@ -166,6 +168,7 @@ impl Interpreter {
             signals: HashMap::new(),
             timed_signals: Vec::new(),
             hand_pending: Vec::new(),
+            run_mask: Vec::new(),
             tool: None,
             base: None,
             timers: [None; 11],

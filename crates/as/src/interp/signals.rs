@@ -217,6 +217,42 @@ impl Interpreter {
         Ok(n as u32)
     }
 
+    /// `RUNMASK n[, count]`: outputs `n` … `n + count − 1` go OFF when the robot program
+    /// stops; a negative `n` takes them off the mask.
+    #[inline(always)]
+    pub(super) fn run_mask(
+        &mut self,
+        i: TaskSlot,
+        sig: &RExpr,
+        count: &Option<RExpr>,
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        let s = self.output_number(i, sig, sys, "RUNMASK")?;
+        let n = match count {
+            Some(c) => self.bits_count(i, c, sys)?,
+            None => 1,
+        };
+        let first = s.abs();
+        let last = first + n as i32 - 1;
+        if !Self::signal_number_ok(last, true) {
+            return Err(Box::new(RuntimeError::IllegalValue(format!(
+                "RUNMASK {s}, {n}: signal {last} is outside the outputs and internal signals"
+            ))));
+        }
+        self.run_mask.retain(|x| !(first..=last).contains(x));
+        if s > 0 {
+            self.run_mask.extend(first..=last);
+        }
+        Ok(Flow::Next)
+    }
+
+    /// The robot program stopped: the outputs of `RUNMASK` go OFF.
+    pub(super) fn apply_run_mask(&mut self) {
+        for n in self.run_mask.clone() {
+            self.write_signal(n, false);
+        }
+    }
+
     /// `ON`/`ONI signal GOTO/CALL`: arms an interrupt.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]

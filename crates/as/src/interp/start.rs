@@ -52,6 +52,9 @@ impl Interpreter {
     /// robot program). The robot's motion is the system's business.
     pub fn abort(&mut self, task: TaskId) {
         let i = TaskSlot::of(task);
+        if i.is_robot() && !self.run_mask.is_empty() && self.tasks[i].run != Run::Idle {
+            self.apply_run_mask();
+        }
         self.release_frames(i, 0);
         self.set_run(i, Run::Idle);
         let t = &mut self.tasks[i];
