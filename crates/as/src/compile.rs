@@ -135,6 +135,8 @@ pub(crate) enum TExpr {
     Compose(Box<TExpr>, Box<TExpr>),
     /// A joint point's transformation (forward kinematics, with TOOL and BASE).
     Forward(Box<JExpr>),
+    /// `SHIFT(t BY dx, dy, dz)`: `t` moved along the base axes.
+    Shift(Box<TExpr>, Box<[RExpr]>),
 }
 
 /// A location: joint point or transformation.
@@ -1560,6 +1562,16 @@ impl Compiler {
                     )),
                 }
             }
+            (Sigil::None, "shift") => {
+                self.arity(name, args, 2, 4, span)?;
+                let loc = self.arg_expr(&args[0])?.clone();
+                let t = self.trans_loc(&loc)?;
+                let d = args[1..]
+                    .iter()
+                    .map(|a| self.arg_real(a))
+                    .collect::<CResult<Vec<_>>>()?;
+                Ok(CExpr::T(TExpr::Shift(Box::new(t), d.into())))
+            }
             (Sigil::None, "trans") => Ok(CExpr::T(TExpr::Trans(
                 self.reals_up_to(args, 6, "TRANS", span)?,
             ))),
@@ -1736,6 +1748,7 @@ fn t_touches(e: &TExpr) -> bool {
         TExpr::Trans(a) => any_r(a),
         TExpr::Here | TExpr::Forward(_) => true,
         TExpr::Compose(a, b) => t_touches(a) || t_touches(b),
+        TExpr::Shift(t, d) => t_touches(t) || any_r(d),
     }
 }
 

@@ -2144,6 +2144,8 @@ impl<'a> Cur<'a> {
             return Ok(args);
         }
         let formats = name.sigil == Sigil::Dollar && name.text == "encode";
+        // `SHIFT(location BY dx, dy, dz)`: BY separates the location from the offsets.
+        let shift = name.sigil == Sigil::None && name.text == "shift";
         loop {
             if formats && self.peek() == Some(&Tok::Slash) {
                 let span = self.span();
@@ -2154,6 +2156,9 @@ impl<'a> Cur<'a> {
             }
             if self.eat(&Tok::RParen) {
                 break;
+            }
+            if shift && args.len() == 1 && self.eat_word("by") {
+                continue;
             }
             self.expect(
                 &Tok::Comma,

@@ -222,3 +222,42 @@ fn appro_in_a_pc_program_is_e0108() {
     i.run_until(&mut s, ms(10));
     assert_eq!(s.raised, vec![ErrorCode(-30108)]);
 }
+
+#[test]
+fn shift_moves_a_location_along_the_base_axes() {
+    let (i, _) = robot(
+        &format!("  POINT p = SHIFT({PICK} BY 10, -20, 30)\n  DECOMPOSE a[0] = p\n  LMOVE SHIFT(p BY 0, 0, 5)\n  BREAK\n  HERE h\n  DECOMPOSE h[0] = h\n  POINT q = SHIFT(#PPOINT(0, 0, -90, 0, -90, 0) BY 1)\n  DECOMPOSE b[0] = q\n  HERE #j\n  POINT r = #PPOINT(0, 0, -90, 0, -90, 0)\n  DECOMPOSE c[0] = r"),
+        10,
+    );
+    close(
+        &arr(&i, "a"),
+        &[910.0, 80.0, 630.0, 0.0, 180.0, 0.0],
+        0.01,
+        "SHIFT",
+    );
+    close(
+        &arr(&i, "h"),
+        &[910.0, 80.0, 635.0, 0.0, 180.0, 0.0],
+        0.05,
+        "moved to a SHIFT",
+    );
+    let c = arr(&i, "c");
+    close(
+        &arr(&i, "b"),
+        &[c[0] + 1.0, c[1], c[2], c[3], c[4], c[5]],
+        0.01,
+        "SHIFT of a joint point",
+    );
+}
+
+#[test]
+fn shift_without_by_is_a_load_error() {
+    let e = Interpreter::from_source(
+        "t.as",
+        ".PROGRAM rob()\n  p = SHIFT(TRANS(1, 2, 3) 1, 2)\n.END\n",
+        fs020n_as::Config::default(),
+    )
+    .expect_err("does not load")
+    .to_string();
+    assert!(e.contains("t.as:2:"), "{e}");
+}

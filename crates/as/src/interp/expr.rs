@@ -355,6 +355,13 @@ impl Interpreter {
             }
             TExpr::Here => self.here_world(sys)?,
             TExpr::Forward(j) => self.forward_of(i, j, sys)?,
+            TExpr::Shift(t, d) => {
+                let mut v = self.eval_t(i, t, sys)?;
+                for (k, e) in d.iter().enumerate().take(3) {
+                    v[k] = check(v[k] + self.eval_r(i, e, sys)?, "SHIFT")?;
+                }
+                v
+            }
             TExpr::Compose(a, b) => {
                 let x = self.eval_t(i, a, sys)?;
                 let y = self.eval_t(i, b, sys)?;
