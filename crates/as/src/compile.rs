@@ -124,6 +124,8 @@ pub(crate) enum JExpr {
     Here,
     /// A transformation's joint values (inverse kinematics near the current joints).
     Inverse(Box<TExpr>),
+    /// `#DEST`: the target of the latest motion instruction.
+    Dest,
 }
 
 /// Transformation expressions.
@@ -135,6 +137,8 @@ pub(crate) enum TExpr {
     Compose(Box<TExpr>, Box<TExpr>),
     /// A joint point's transformation (forward kinematics, with TOOL and BASE).
     Forward(Box<JExpr>),
+    /// `DEST`: the target of the latest motion instruction.
+    Dest,
     /// `SHIFT(t BY dx, dy, dz)`: `t` moved along the base axes.
     Shift(Box<TExpr>, Box<[RExpr]>),
 }
@@ -1277,6 +1281,7 @@ impl Compiler {
     fn loc(&mut self, e: &Expr) -> CResult<Loc> {
         match &e.kind {
             ExprKind::Var(lv) if lv.name.sigil == Sigil::None && !lv.name.local && lv.name.text == "here" && lv.indices.is_empty() => Ok(Loc::T(TExpr::Here)),
+            ExprKind::Var(lv) if lv.name.sigil == Sigil::None && !lv.name.local && lv.name.text == "dest" && lv.indices.is_empty() => Ok(Loc::T(TExpr::Dest)),
             ExprKind::Var(lv) if lv.name.sigil == Sigil::None => Ok(Loc::T(TExpr::Var(self.lref(lv, Ty::Trans)?))),
             ExprKind::Call { name, args } if name.sigil == Sigil::None && name.text == "trans" => {
                 Ok(Loc::T(TExpr::Trans(self.reals_up_to(args, 6, "TRANS", e.span)?)))
@@ -1386,6 +1391,8 @@ impl Compiler {
                 (Sigil::None, "error") => return Ok(CExpr::R(RExpr::Error)),
                 (Sigil::None, "here") => return Ok(CExpr::T(TExpr::Here)),
                 (Sigil::Hash, "here") => return Ok(CExpr::J(JExpr::Here)),
+                (Sigil::None, "dest") => return Ok(CExpr::T(TExpr::Dest)),
+                (Sigil::Hash, "dest") => return Ok(CExpr::J(JExpr::Dest)),
                 // `$TIME`, `$DATE`: the controller's clock as text; not emulated.
                 (Sigil::Dollar, "time" | "date") => {
                     self.not_emulated_fn = Some(format!("${}", n.text.to_ascii_uppercase()));
@@ -1659,8 +1666,8 @@ fn is_name_function(n: &Name) -> bool {
         (n.sigil, n.text.as_str()),
         (
             Sigil::None,
-            "true" | "false" | "on" | "off" | "pi" | "error" | "here"
-        ) | (Sigil::Hash, "here")
+            "true" | "false" | "on" | "off" | "pi" | "error" | "here" | "dest"
+        ) | (Sigil::Hash, "here" | "dest")
     )
 }
 
@@ -1738,7 +1745,7 @@ fn j_touches(e: &JExpr) -> bool {
     match e {
         JExpr::Var(l) => l_touches(l),
         JExpr::PPoint(a) => any_r(a),
-        JExpr::Here | JExpr::Inverse(_) => true,
+        JExpr::Here | JExpr::Inverse(_) | JExpr::Dest => true,
     }
 }
 
@@ -1746,7 +1753,7 @@ fn t_touches(e: &TExpr) -> bool {
     match e {
         TExpr::Var(l) => l_touches(l),
         TExpr::Trans(a) => any_r(a),
-        TExpr::Here | TExpr::Forward(_) => true,
+        TExpr::Here | TExpr::Forward(_) | TExpr::Dest => true,
         TExpr::Compose(a, b) => t_touches(a) || t_touches(b),
         TExpr::Shift(t, d) => t_touches(t) || any_r(d),
     }

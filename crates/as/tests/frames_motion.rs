@@ -261,3 +261,28 @@ fn shift_without_by_is_a_load_error() {
     .to_string();
     assert!(e.contains("t.as:2:"), "{e}");
 }
+
+#[test]
+fn dest_is_the_target_of_the_latest_motion_while_it_runs() {
+    let (i, _) = robot(
+        &format!("  TOOL TRANS(0, 0, 100)\n  LMOVE {PICK}\n  DECOMPOSE d[0] = DEST\n  HERE h\n  DECOMPOSE h[0] = h\n  JMOVE #PPOINT(10, 0, -90, 0, -90, 0)\n  DECOMPOSE j[0] = #DEST"),
+        10,
+    );
+    close(
+        &arr(&i, "d"),
+        &[900.0, 100.0, 600.0, 0.0, 180.0, 0.0],
+        0.05,
+        "DEST with the tool",
+    );
+    let h = arr(&i, "h");
+    assert!(
+        (h[2] - 600.0).abs() > 10.0,
+        "the robot was still on its way: {h:?}"
+    );
+    close(
+        &arr(&i, "j"),
+        &[10.0, 0.0, -90.0, 0.0, -90.0, 0.0],
+        0.001,
+        "#DEST",
+    );
+}

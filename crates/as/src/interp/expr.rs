@@ -340,6 +340,7 @@ impl Interpreter {
             }
             JExpr::Here => sys.joints().map(|x| x as f32),
             JExpr::Inverse(t) => self.inverse_of(i, t, sys)?,
+            JExpr::Dest => self.dest_joints(sys)?,
         })
     }
 
@@ -355,6 +356,7 @@ impl Interpreter {
             }
             TExpr::Here => self.here_world(sys)?,
             TExpr::Forward(j) => self.forward_of(i, j, sys)?,
+            TExpr::Dest => self.dest_world(sys)?,
             TExpr::Shift(t, d) => {
                 let mut v = self.eval_t(i, t, sys)?;
                 for (k, e) in d.iter().enumerate().take(3) {

@@ -97,6 +97,31 @@ impl Interpreter {
         }
     }
 
+    /// `DEST`: the latest motion's target as a transformation (where the robot stands when no
+    /// motion was issued yet).
+    pub(super) fn dest_world(&self, sys: &dyn System) -> R<[f32; 6]> {
+        let flange = match self.dest {
+            Some(Target::Pose(p)) => p,
+            Some(Target::Joints(q)) => sys.forward(&q).ok_or_else(|| no_kinematics("DEST"))?,
+            None => sys.pose().ok_or_else(|| no_kinematics("DEST"))?,
+        };
+        Ok(self.world_of_flange(&flange))
+    }
+
+    /// `#DEST`: the latest motion's target as joint values.
+    pub(super) fn dest_joints(&self, sys: &dyn System) -> R<[f32; 6]> {
+        let q = match self.dest {
+            Some(Target::Joints(q)) => q,
+            Some(Target::Pose(p)) => sys.inverse(&p, &sys.joints()).ok_or_else(|| {
+                Box::new(RuntimeError::System(
+                    fs020n_proto::ErrorCode::DESTINATION_OUT_OF_RANGE,
+                ))
+            })?,
+            None => sys.joints(),
+        };
+        Ok(q.map(|v| v as f32))
+    }
+
     /// `TOOL t`/`BASE t` (NULL: `None`): waits for the current motion to end, then sets the
     /// frame for the motions and `HERE`s that follow.
     #[inline(always)]

@@ -94,6 +94,8 @@ pub struct Interpreter {
     timed_signals: Vec<(Ns, i32, bool)>,
     /// Hand actions of `OPEN`/`CLOSE`/`RELAX` waiting for the next motion: (hand, action).
     hand_pending: Vec<(usize, crate::ast::HandAction)>,
+    /// The target of the latest motion instruction (`DEST`), as the system received it.
+    dest: Option<crate::system::Target>,
     /// `RUNMASK`: outputs turned OFF when the robot program stops.
     run_mask: Vec<i32>,
     /// `TOOL` (flange to tool) and `BASE` (world to robot), `None` for NULL.
@@ -169,6 +171,7 @@ impl Interpreter {
             timed_signals: Vec::new(),
             hand_pending: Vec::new(),
             run_mask: Vec::new(),
+            dest: None,
             tool: None,
             base: None,
             timers: [None; 11],

@@ -253,6 +253,9 @@ impl Interpreter {
             abs_speed,
         };
         let issued = sys.issue_motion(&req);
+        if issued.is_ok() && kind != MotionKind::Delay {
+            self.dest = Some(target);
+        }
         if issued.is_ok() && !self.hand_pending.is_empty() {
             // OPEN/CLOSE/RELAX act with the motion that follows them.
             self.apply_pending_hands();
