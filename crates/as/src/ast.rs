@@ -589,6 +589,14 @@ pub enum TcpStmt {
         /// Seconds (default 1).
         timeout: Option<Expr>,
     },
+    /// `TCP_STATUS ret, port[i], sock[i], err[i], sub[i], $ip[i]`: the open sockets.
+    Status {
+        /// Result: how many sockets.
+        ret: LValue,
+        /// First elements of the arrays filled per socket: port, id, error, sub-error, the
+        /// peer's address as text.
+        arrays: [LValue; 5],
+    },
     /// `TCP_CLOSE ret, sock`.
     Close {
         /// Result.

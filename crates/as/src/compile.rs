@@ -310,6 +310,8 @@ pub(crate) enum Op {
         timeout: Option<RExpr>,
     },
     TcpClose(LRef, RExpr),
+    /// `TCP_STATUS ret, port[i], sock[i], err[i], sub[i], $ip[i]`.
+    TcpStatus(LRef, Box<[LRef; 5]>),
     TcpConnect {
         ret: LRef,
         port: RExpr,
@@ -1135,6 +1137,19 @@ impl Compiler {
                 n: self.real(n)?,
                 timeout: timeout.as_ref().map(|e| self.real(e)).transpose()?,
             },
+            TcpStmt::Status { ret, arrays } => {
+                let [port, sock, err, sub, ip] = arrays;
+                Op::TcpStatus(
+                    self.lref(ret, Ty::Real)?,
+                    Box::new([
+                        self.lref(port, Ty::Real)?,
+                        self.lref(sock, Ty::Real)?,
+                        self.lref(err, Ty::Real)?,
+                        self.lref(sub, Ty::Real)?,
+                        self.lref(ip, Ty::Str)?,
+                    ]),
+                )
+            }
             TcpStmt::Close { ret, sock } => {
                 Op::TcpClose(self.lref(ret, Ty::Real)?, self.real(sock)?)
             }

@@ -1801,6 +1801,22 @@ impl<'a> Cur<'a> {
                     timeout,
                 }
             }
+            "tcp_status" => {
+                comma(self, "the port array element")?;
+                let port = self.lvalue()?;
+                comma(self, "the socket id array element")?;
+                let sock = self.lvalue()?;
+                comma(self, "the error code array element")?;
+                let err = self.lvalue()?;
+                comma(self, "the sub-error code array element")?;
+                let sub = self.lvalue()?;
+                comma(self, "the IP address string array element")?;
+                let ip = self.lvalue()?;
+                TcpStmt::Status {
+                    ret,
+                    arrays: [port, sock, err, sub, ip],
+                }
+            }
             "tcp_close" => {
                 comma(self, "the socket id")?;
                 TcpStmt::Close {

@@ -272,6 +272,9 @@ pub trait System {
     /// `TCP_CLOSE`: 0 or a negative code (−34057 unknown socket).
     fn tcp_close(&mut self, sock: i32) -> i32;
 
+    /// `TCP_STATUS`: the sockets the program holds open.
+    fn tcp_status(&self) -> Vec<crate::sockets::SocketStatus>;
+
     // ------------------------------------------------------------------ terminal
 
     /// A line printed by `PRINT`/`TYPE` (without its line ending) or a controller message.

@@ -100,6 +100,9 @@ pub struct VirtualSystem {
     planned: Option<(Seg, Duration)>,
     /// The sockets (test clients are local peers of the program's sockets).
     net: SocketTable,
+    /// The sockets of the test clients (local peers, not the program's: `TCP_STATUS` omits
+    /// them).
+    clients: Vec<i32>,
 }
 
 impl Default for VirtualSystem {
@@ -133,6 +136,7 @@ impl VirtualSystem {
             raised: Vec::new(),
             current: None,
             planned: None,
+            clients: Vec::new(),
             net: SocketTable::new(SocketLimits {
                 local_buffer: 64 * 1024,
                 client_buffer: 64 * 1024,
@@ -151,7 +155,9 @@ impl VirtualSystem {
 
     /// A test client connects to `port`: its socket id, `None` when nothing listens.
     pub fn connect(&mut self, port: u16) -> Option<i32> {
-        self.net.connect_local(port)
+        let id = self.net.connect_local(port)?;
+        self.clients.push(id);
+        Some(id)
     }
 
     /// A test client sends bytes (`false` when its socket is gone or the peer closed).
@@ -461,6 +467,12 @@ impl System for VirtualSystem {
 
     fn tcp_close(&mut self, sock: i32) -> i32 {
         self.net.close(sock)
+    }
+
+    fn tcp_status(&self) -> Vec<crate::sockets::SocketStatus> {
+        let mut v = self.net.status();
+        v.retain(|s| !self.clients.contains(&s.sock));
+        v
     }
 
     fn terminal(&mut self, task: TaskId, line: &str) {

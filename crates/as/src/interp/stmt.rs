@@ -392,6 +392,7 @@ impl Interpreter {
                 None => return Ok(Flow::Shared),
             },
             Op::TcpClose(ret, sock) => self.tcp_close(i, ret, sock, sys)?,
+            Op::TcpStatus(ret, arrays) => self.tcp_status(i, ret, arrays, sys)?,
         };
         let t = &mut self.tasks[i];
         t.ready_at = now.saturating_add(cost);

@@ -383,6 +383,10 @@ impl System for Host<'_> {
         self.net.close(sock)
     }
 
+    fn tcp_status(&self) -> Vec<fs020n_as::sockets::SocketStatus> {
+        self.net.status()
+    }
+
     fn terminal(&mut self, task: TaskId, line: &str) {
         tracing::debug!(%task, line, "AS terminal");
     }
