@@ -252,3 +252,18 @@ fn runmask_outputs_go_off_when_an_error_stops_the_robot_program() {
     assert_eq!(s.raised, vec![ErrorCode(-30103)]);
     assert!(!i.signal(20));
 }
+
+#[test]
+fn an_open_left_without_a_motion_is_dropped_when_the_program_ends() {
+    let robot = ".PROGRAM rob()\n  CLOSEI\n  OPEN\n.END\n.PROGRAM rob2()\n  JMOVE #PPOINT(10, 0, -90, 0, -90, 0)\n.END\n";
+    let (mut i, mut s) = start(&format!(
+        "{}{robot}",
+        pc("  MC EXECUTE rob\n  TWAIT 0.1\n  MC EXECUTE rob2")
+    ));
+    i.run_until(&mut s, ms(1000));
+    assert!(
+        i.signal(2) && !i.signal(1),
+        "rob2's motion did not open rob's hand"
+    );
+    assert!(s.raised.is_empty(), "{:?}", s.raised);
+}
