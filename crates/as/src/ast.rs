@@ -361,6 +361,9 @@ pub enum StmtKind {
         /// X, Y, Z offsets, millimetres.
         offset: [Option<Expr>; 3],
     },
+    /// `LEFTY`, `RIGHTY`, `ABOVE`, `BELOW`, `UWRIST`, `DWRIST`: the arm configuration of the
+    /// next joint motion to a transformation.
+    Posture(Posture),
     /// `HOME [n]`.
     Home(Option<Expr>),
     /// `DELAY seconds` (a motion that stands still).
@@ -409,6 +412,23 @@ pub enum StmtKind {
         /// Declared a no-op by the user ([`crate::LoadOptions::stub`]).
         stubbed: bool,
     },
+}
+
+/// A posture command: which inverse-kinematics branch the next joint motion takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Posture {
+    /// `LEFTY`: the shoulder in its back configuration (the wrist centre behind the JT1 axis).
+    Lefty,
+    /// `RIGHTY`: the shoulder in its front configuration.
+    Righty,
+    /// `ABOVE`: elbow up.
+    Above,
+    /// `BELOW`: elbow down.
+    Below,
+    /// `UWRIST`: JT5 positive.
+    Uwrist,
+    /// `DWRIST`: JT5 negative.
+    Dwrist,
 }
 
 /// What `OPEN`, `CLOSE` and `RELAX` do to a hand.

@@ -271,6 +271,8 @@ pub(crate) enum Op {
     HereT(LRef),
     Move(bool, Loc),
     Home,
+    /// `LEFTY`, `RIGHTY`, `ABOVE`, `BELOW`, `UWRIST`, `DWRIST`.
+    Posture(Posture),
     /// `TOOL`/`BASE` (true) with a transformation or NULL.
     Frame(bool, Option<TExpr>),
     /// `APPRO`/`LAPPRO` (linear) location, distance.
@@ -1012,6 +1014,9 @@ impl Compiler {
             StmtKind::Move { linear, target } => {
                 let l = self.loc(target)?;
                 self.emit(Op::Move(*linear, l), line);
+            }
+            StmtKind::Posture(p) => {
+                self.emit(Op::Posture(*p), line);
             }
             StmtKind::Frame { base, value } => {
                 let t = match value {

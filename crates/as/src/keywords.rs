@@ -8,12 +8,14 @@
 
 /// Program instructions: (keyword, shortest accepted form).
 pub const STATEMENTS: &[(&str, usize)] = &[
+    ("above", 5),
     ("abs.speed", 9),
     ("accel", 4),
     ("accuracy", 4),
     ("any", 3),
     ("appro", 5),
     ("base", 4),
+    ("below", 5),
     ("bits", 4),
     ("brake", 3),
     ("break", 3),
@@ -30,6 +32,7 @@ pub const STATEMENTS: &[(&str, usize)] = &[
     ("dlysig", 6),
     ("do", 2),
     ("draw", 4),
+    ("dwrist", 6),
     ("else", 4),
     ("enable", 3),
     ("end", 3),
@@ -46,6 +49,7 @@ pub const STATEMENTS: &[(&str, usize)] = &[
     ("jmove", 2),
     ("lappro", 6),
     ("ldepart", 7),
+    ("lefty", 5),
     ("lmove", 2),
     ("mc", 2),
     ("on", 2),
@@ -61,6 +65,7 @@ pub const STATEMENTS: &[(&str, usize)] = &[
     ("relax", 5),
     ("relaxi", 6),
     ("return", 3),
+    ("righty", 6),
     ("runmask", 7),
     ("scase", 3),
     ("signal", 3),
@@ -82,6 +87,7 @@ pub const STATEMENTS: &[(&str, usize)] = &[
     ("twait", 2),
     ("type", 2),
     ("until", 2),
+    ("uwrist", 6),
     ("value", 3),
     ("wait", 2),
     ("while", 3),
@@ -92,25 +98,19 @@ pub const STATEMENTS: &[(&str, usize)] = &[
 /// stops with E0111 naming it (or goes on, when the user stubs it). They also keep
 /// abbreviations honest (`L` is not taken for `LMOVE` when the controller knows `LAPPRO`).
 pub const UNSUPPORTED: &[&str] = &[
-    "above",
     "align",
-    "below",
     "bits32",
     "c1move",
     "c2move",
     "drive",
-    "dwrist",
     "extcall",
     "hmove",
     "intfchk",
     "japro",
-    "lefty",
     "one",
     "prefetch.sigins",
-    "righty",
     "udp_recvfrom",
     "udp_sendto",
-    "uwrist",
     "xmove",
 ];
 

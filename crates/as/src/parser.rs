@@ -1509,6 +1509,16 @@ impl<'a> Cur<'a> {
                 linear: kw == "lmove",
                 target: self.expr()?,
             }),
+            "lefty" | "righty" | "above" | "below" | "uwrist" | "dwrist" => {
+                LineKind::Stmt(StmtKind::Posture(match kw {
+                    "lefty" => Posture::Lefty,
+                    "righty" => Posture::Righty,
+                    "above" => Posture::Above,
+                    "below" => Posture::Below,
+                    "uwrist" => Posture::Uwrist,
+                    _ => Posture::Dwrist,
+                }))
+            }
             "tool" | "base" => {
                 let null = matches!(self.peek(), Some(Tok::Name(n)) if n.text == "null" && !n.local && n.sigil == Sigil::None)
                     && self.peek_at(1).is_none();

@@ -197,6 +197,10 @@ pub trait System {
     /// `near` (`POINT #j = t`); `None` when out of reach or without kinematics.
     fn inverse(&self, pose: &Trans, near: &Joints) -> Option<Joints>;
 
+    /// Every joint solution (within the joint limits) that puts the flange at `pose` (robot
+    /// base frame): the posture commands choose among them. Empty when out of reach.
+    fn inverse_all(&self, pose: &Trans) -> Vec<Joints>;
+
     /// The HOME pose (`HOME`), degrees.
     fn home(&self) -> Joints;
 

@@ -18,6 +18,7 @@
 //! | `vars.rs` | reading and writing variables with their indices |
 //! | `signals.rs` | signal numbers and outputs, `PULSE`, `DLYSIG`, `BITS` |
 //! | `frames.rs` | `TOOL`, `BASE`, kinematic conversions, `APPRO`, `DEPART`, `DRAW` |
+//! | `posture.rs` | `LEFTY`, `RIGHTY`, `ABOVE`, `BELOW`, `UWRIST`, `DWRIST`: the IK branch |
 //! | `hands.rs` | `OPEN`/`CLOSE`/`RELAX` and their `I` forms on the hands' signals |
 //! | `expr.rs` | expressions (reals, strings, locations, functions, `PRINT` encoding) |
 //! | `stmt.rs` | one step: the hot path of pure computation, then every other op |
@@ -35,6 +36,7 @@ mod hands;
 mod monitor;
 mod motion;
 mod observers;
+mod posture;
 mod print;
 mod report;
 mod scheduler;
@@ -98,6 +100,9 @@ pub struct Interpreter {
     dest: Option<crate::system::Target>,
     /// `RUNMASK`: outputs turned OFF when the robot program stops.
     run_mask: Vec<i32>,
+    /// The posture asked for the next joint motion to a transformation: front shoulder
+    /// (RIGHTY), elbow up (ABOVE), JT5 positive (UWRIST); `None`: any (the nearest solution).
+    posture: [Option<bool>; 3],
     /// `TOOL` (flange to tool) and `BASE` (world to robot), `None` for NULL.
     tool: Option<[f32; 6]>,
     base: Option<[f32; 6]>,
@@ -172,6 +177,7 @@ impl Interpreter {
             hand_pending: Vec::new(),
             run_mask: Vec::new(),
             dest: None,
+            posture: [None; 3],
             tool: None,
             base: None,
             timers: [None; 11],

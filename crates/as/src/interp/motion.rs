@@ -233,6 +233,12 @@ impl Interpreter {
         delay_s: f64,
         sys: &mut dyn System,
     ) -> R<Flow> {
+        let target = match (kind, target) {
+            (MotionKind::Joint, Target::Pose(p)) if self.posture.iter().any(Option::is_some) => {
+                Target::Joints(self.posture_solution(&p, sys)?)
+            }
+            (_, t) => t,
+        };
         let cp = self.switch_on("cp");
         let abs_speed = self.switch_on("abs.speed");
         let m = &mut self.tasks[i].motion;

@@ -351,6 +351,7 @@ impl Interpreter {
             Op::Move(linear, l) => self.move_to(i, linear, l, sys, robot)?,
             Op::Home => self.home(i, sys, robot)?,
             Op::Frame(base, t) => self.set_frame(i, *base, t, sys, pc)?,
+            Op::Posture(p) => self.set_posture(i, *p, sys, pc)?,
             Op::Appro(linear, t, d) => self.appro(i, *linear, t, d, sys)?,
             Op::Depart(linear, d) => self.depart(i, *linear, d, sys)?,
             Op::Draw(tool, offset) => self.draw(i, *tool, offset, sys)?,
