@@ -251,9 +251,11 @@ pub enum StmtKind {
     },
     /// `BITS start, count = value`: `count` signals from `start` set to the binary of `value`.
     Bits {
+        /// `BITS32`: up to 32 signals (`BITS`: 16).
+        wide: bool,
         /// The first (least significant) signal.
         start: Expr,
-        /// How many signals (1–16).
+        /// How many signals (1–16; `BITS32` 1–32).
         count: Expr,
         /// The value.
         value: Expr,

@@ -83,6 +83,7 @@ pub(crate) enum RFunc {
     MinVal,
     Sig,
     Bits,
+    Bits32,
     Task,
     Timer,
 }
@@ -236,8 +237,8 @@ pub(crate) enum Op {
     RunMask(RExpr, Option<RExpr>),
     /// `DLYSIG n, t`.
     Dlysig(RExpr, RExpr),
-    /// `BITS start, count = value`.
-    Bits(RExpr, RExpr, RExpr),
+    /// `BITS start, count = value` (`BITS32`: true).
+    Bits(bool, RExpr, RExpr, RExpr),
     /// `OPEN`/`CLOSE`/`RELAX[I] [hand]`: the action, the `I` form, the hand.
     Hand(HandAction, bool, Option<RExpr>),
     On {
@@ -864,6 +865,7 @@ impl Compiler {
                 self.emit(Op::Dlysig(signal, time), line);
             }
             StmtKind::Bits {
+                wide,
                 start,
                 count,
                 value,
@@ -871,7 +873,7 @@ impl Compiler {
                 let start = self.real(start)?;
                 let count = self.real(count)?;
                 let value = self.real(value)?;
-                self.emit(Op::Bits(start, count, value), line);
+                self.emit(Op::Bits(*wide, start, count, value), line);
             }
             StmtKind::Hand {
                 action,
@@ -1510,10 +1512,15 @@ impl Compiler {
                 };
                 Ok(CExpr::R(RExpr::Func(func, v.into())))
             }
-            (Sigil::None, "bits") => {
+            (Sigil::None, f @ ("bits" | "bits32")) => {
                 self.arity(name, args, 2, 2, span)?;
                 let v = vec![self.arg_real(&args[0])?, self.arg_real(&args[1])?];
-                Ok(CExpr::R(RExpr::Func(RFunc::Bits, v.into())))
+                let func = if f == "bits" {
+                    RFunc::Bits
+                } else {
+                    RFunc::Bits32
+                };
+                Ok(CExpr::R(RExpr::Func(func, v.into())))
             }
             (Sigil::None, "val") => {
                 self.arity(name, args, 1, 2, span)?;
@@ -1818,7 +1825,7 @@ fn op_touches(op: &Op) -> bool {
         Op::Pulse(a, b) => r_touches(a) || opt(b),
         Op::Dlysig(a, b) => r_touches(a) || r_touches(b),
         Op::RunMask(a, b) => r_touches(a) || opt(b),
-        Op::Bits(a, b, c) => r_touches(a) || r_touches(b) || r_touches(c),
+        Op::Bits(_, a, b, c) => r_touches(a) || r_touches(b) || r_touches(c),
         Op::On { signal, .. } => r_touches(signal),
         Op::Timer(a, b) => r_touches(a) || r_touches(b),
         Op::Speed(e, _, _) | Op::Accuracy(e, _, _) | Op::AccelDecel(_, e, _) => r_touches(e),

@@ -17,6 +17,7 @@ pub const STATEMENTS: &[(&str, usize)] = &[
     ("base", 4),
     ("below", 5),
     ("bits", 4),
+    ("bits32", 6),
     ("brake", 3),
     ("break", 3),
     ("call", 3),
@@ -99,7 +100,6 @@ pub const STATEMENTS: &[(&str, usize)] = &[
 /// abbreviations honest (`L` is not taken for `LMOVE` when the controller knows `LAPPRO`).
 pub const UNSUPPORTED: &[&str] = &[
     "align",
-    "bits32",
     "c1move",
     "c2move",
     "drive",
@@ -134,7 +134,6 @@ pub const BLOCK_TEACHING: &[&str] = &[
 /// Functions the controller has but the emulator does not compute: a statement that uses
 /// one loads as not emulated.
 pub const UNSUPPORTED_FUNCTIONS: &[&str] = &[
-    "bits32",
     "distance",
     "dx",
     "dy",

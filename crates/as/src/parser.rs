@@ -1359,7 +1359,7 @@ impl<'a> Cur<'a> {
                 let time = self.expr()?;
                 LineKind::Stmt(StmtKind::Dlysig { signal, time })
             }
-            "bits" => {
+            "bits" | "bits32" => {
                 let start = self.expr()?;
                 self.expect(
                     &Tok::Comma,
@@ -1369,6 +1369,7 @@ impl<'a> Cur<'a> {
                 self.expect(&Tok::Assign, "\"= value\" after BITS start, count")?;
                 let value = self.expr()?;
                 LineKind::Stmt(StmtKind::Bits {
+                    wide: kw == "bits32",
                     start,
                     count,
                     value,

@@ -267,3 +267,18 @@ fn an_open_left_without_a_motion_is_dropped_when_the_program_ends() {
     );
     assert!(s.raised.is_empty(), "{:?}", s.raised);
 }
+
+#[test]
+fn bits32_sets_and_reads_up_to_32_signals() {
+    let (mut i, mut s) = start(&pc(
+        "  BITS32 2001, 24 = 10000000\n  a = BITS32(2001, 24)\n  b = BITS(2001, 16)\n  c = BITS(2017, 8)",
+    ));
+    i.run_until(&mut s, ms(10));
+    assert_eq!(i.real("a"), Some(10_000_000.0));
+    assert_eq!(i.real("b"), Some((10_000_000 % 65_536) as f32));
+    assert_eq!(i.real("c"), Some((10_000_000 / 65_536) as f32));
+    let (mut i, mut s) = start(&pc("  a = BITS(2001, 17)"));
+    i.run_until(&mut s, ms(10));
+    assert_eq!(s.raised, vec![ErrorCode(-30105)], "BITS takes at most 16");
+    assert_eq!(i.real("a"), None);
+}

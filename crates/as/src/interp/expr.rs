@@ -181,7 +181,8 @@ impl Interpreter {
                 }
                 as_bool(all)
             }
-            RFunc::Bits => self.bits_in(x, v[1])?,
+            RFunc::Bits => self.bits_in(x, v[1], 16)?,
+            RFunc::Bits32 => self.bits_in(x, v[1], 32)?,
             RFunc::Task => {
                 let id = match x.trunc() as i64 {
                     1 => Some(TaskId::Robot),

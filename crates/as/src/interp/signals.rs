@@ -155,13 +155,14 @@ impl Interpreter {
     pub(super) fn bits_out(
         &mut self,
         i: TaskSlot,
+        wide: bool,
         start: &RExpr,
         count: &RExpr,
         value: &RExpr,
         sys: &mut dyn System,
     ) -> R<Flow> {
         let s = self.output_number(i, start, sys, "BITS")?;
-        let n = self.bits_count(i, count, sys)?;
+        let n = self.bits_count(i, count, sys, if wide { 32 } else { 16 })?;
         let v = self.eval_r(i, value, sys)?.trunc();
         let max = (1u64 << n) - 1;
         if s < 0 || !(0.0..=max as f32).contains(&v) {
@@ -183,12 +184,12 @@ impl Interpreter {
     }
 
     /// `BITS(start, count)`: the value the signals `start` … `start + count − 1` form.
-    pub(super) fn bits_in(&self, start: f32, count: f32) -> R<f32> {
+    pub(super) fn bits_in(&self, start: f32, count: f32, most: u32) -> R<f32> {
         let s = signal_number(start);
         let n = count.trunc();
-        if !(1.0..=16.0).contains(&n) {
+        if !(1.0..=most as f32).contains(&n) {
             return Err(Box::new(RuntimeError::IllegalValue(format!(
-                "BITS count {n} (1–16)"
+                "BITS count {n} (1–{most})"
             ))));
         }
         let n = n as u32;
@@ -198,20 +199,27 @@ impl Interpreter {
                 "BITS({s}, {n}): signals outside 1–999, 1001–1999, 2001–2960"
             ))));
         }
-        let mut v = 0u32;
+        let mut v = 0u64;
         for k in 0..n {
             if self.signal(s + k as i32) {
                 v |= 1 << k;
             }
         }
+        // An AS real: above 2^24 the value is rounded to 24 significant bits.
         Ok(v as f32)
     }
 
-    fn bits_count(&mut self, i: TaskSlot, count: &RExpr, sys: &mut dyn System) -> R<u32> {
+    fn bits_count(
+        &mut self,
+        i: TaskSlot,
+        count: &RExpr,
+        sys: &mut dyn System,
+        most: u32,
+    ) -> R<u32> {
         let n = self.eval_r(i, count, sys)?.trunc();
-        if !(1.0..=16.0).contains(&n) {
+        if !(1.0..=most as f32).contains(&n) {
             return Err(Box::new(RuntimeError::IllegalValue(format!(
-                "BITS count {n} (1–16)"
+                "BITS count {n} (1–{most})"
             ))));
         }
         Ok(n as u32)
@@ -229,7 +237,7 @@ impl Interpreter {
     ) -> R<Flow> {
         let s = self.output_number(i, sig, sys, "RUNMASK")?;
         let n = match count {
-            Some(c) => self.bits_count(i, c, sys)?,
+            Some(c) => self.bits_count(i, c, sys, 16)?,
             None => 1,
         };
         let first = s.abs();

@@ -292,7 +292,9 @@ impl Interpreter {
             Op::Pulse(sig, t) => self.pulse(i, sig, t, sys, now)?,
             Op::Dlysig(sig, t) => self.dlysig(i, sig, t, sys, now)?,
             Op::RunMask(sig, count) => self.run_mask(i, sig, count, sys)?,
-            Op::Bits(start, count, value) => self.bits_out(i, start, count, value, sys)?,
+            Op::Bits(wide, start, count, value) => {
+                self.bits_out(i, *wide, start, count, value, sys)?
+            }
             Op::Hand(action, immediate, hand) => {
                 self.hand(i, *action, *immediate, hand, sys, pc)?
             }
