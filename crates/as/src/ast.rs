@@ -233,6 +233,50 @@ pub enum StmtKind {
     Pause,
     /// `SIGNAL n, -m, …`.
     Signal(Vec<Expr>),
+    /// `SWAIT n, -m, …`: waits until every signal is in the state asked (negative: OFF).
+    Swait(Vec<Expr>),
+    /// `PULSE n[, seconds]`: output `n` ON now, OFF after the time (0.2 s when omitted).
+    Pulse {
+        /// The output signal.
+        signal: Expr,
+        /// How long it stays ON, seconds.
+        time: Option<Expr>,
+    },
+    /// `DLYSIG n, seconds`: signal `n` (negative: OFF) set after the time; the program goes on.
+    Dlysig {
+        /// The signal (negative: turned OFF).
+        signal: Expr,
+        /// The delay, seconds.
+        time: Expr,
+    },
+    /// `BITS start, count = value`: `count` signals from `start` set to the binary of `value`.
+    Bits {
+        /// `BITS32`: up to 32 signals (`BITS`: 16).
+        wide: bool,
+        /// The first (least significant) signal.
+        start: Expr,
+        /// How many signals (1–16; `BITS32` 1–32).
+        count: Expr,
+        /// The value.
+        value: Expr,
+    },
+    /// `RUNMASK n[, count]`: outputs turned OFF when the robot program stops (negative `n`:
+    /// no longer).
+    RunMask {
+        /// The first signal (negative: remove).
+        signal: Expr,
+        /// How many signals (1 when omitted).
+        count: Option<Expr>,
+    },
+    /// `OPEN`/`CLOSE`/`RELAX [hand]` and their `I` forms: the hand's signals.
+    Hand {
+        /// What the hand does.
+        action: HandAction,
+        /// The `I` form: at once (after the current motion), not with the next motion.
+        immediate: bool,
+        /// The hand number (1 when omitted).
+        hand: Option<Expr>,
+    },
     /// `ON sig GOTO|CALL …` (`immediate`: `ONI`).
     On {
         /// `ONI` (cuts the motion) rather than `ON`.
@@ -286,6 +330,42 @@ pub enum StmtKind {
         /// A joint point or a transformation.
         target: Expr,
     },
+    /// `TOOL t` / `TOOL NULL` (`base` false), `BASE t` / `BASE NULL`: the flange-to-tool or
+    /// world-to-robot frame (`None`: NULL, the identity).
+    Frame {
+        /// `BASE` rather than `TOOL`.
+        base: bool,
+        /// The transformation (`None`: NULL).
+        value: Option<Expr>,
+    },
+    /// `APPRO`/`JAPPRO` (joint) or `LAPPRO` (linear) `location, distance`: to `distance` mm
+    /// short of the location along its tool Z axis.
+    Appro {
+        /// Straight-line interpolation.
+        linear: bool,
+        /// The location approached.
+        target: Expr,
+        /// Millimetres back along the tool Z axis.
+        distance: Expr,
+    },
+    /// `DEPART`/`JDEPART` (joint) or `LDEPART` (linear) `distance`: back along the tool Z axis.
+    Depart {
+        /// Straight-line interpolation.
+        linear: bool,
+        /// Millimetres back along the tool Z axis.
+        distance: Expr,
+    },
+    /// `DRAW dx, dy, dz` (along the base axes) or `TDRAW` (along the tool's): a straight line
+    /// by an offset; an omitted value is 0.
+    Draw {
+        /// `TDRAW`: the tool's axes.
+        tool: bool,
+        /// X, Y, Z offsets, millimetres.
+        offset: [Option<Expr>; 3],
+    },
+    /// `LEFTY`, `RIGHTY`, `ABOVE`, `BELOW`, `UWRIST`, `DWRIST`: the arm configuration of the
+    /// next joint motion to a transformation.
+    Posture(Posture),
     /// `HOME [n]`.
     Home(Option<Expr>),
     /// `DELAY seconds` (a motion that stands still).
@@ -334,6 +414,34 @@ pub enum StmtKind {
         /// Declared a no-op by the user ([`crate::LoadOptions::stub`]).
         stubbed: bool,
     },
+}
+
+/// A posture command: which inverse-kinematics branch the next joint motion takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Posture {
+    /// `LEFTY`: the shoulder in its back configuration (the wrist centre behind the JT1 axis).
+    Lefty,
+    /// `RIGHTY`: the shoulder in its front configuration.
+    Righty,
+    /// `ABOVE`: elbow up.
+    Above,
+    /// `BELOW`: elbow down.
+    Below,
+    /// `UWRIST`: JT5 positive.
+    Uwrist,
+    /// `DWRIST`: JT5 negative.
+    Dwrist,
+}
+
+/// What `OPEN`, `CLOSE` and `RELAX` do to a hand.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HandAction {
+    /// `OPEN`: the open signal ON, the close signal OFF.
+    Open,
+    /// `CLOSE`: the close signal ON, the open signal OFF.
+    Close,
+    /// `RELAX`: both OFF.
+    Relax,
 }
 
 /// One `VALUE …:` or `ANY:` arm of a CASE.
@@ -502,6 +610,14 @@ pub enum TcpStmt {
         n: Expr,
         /// Seconds (default 1).
         timeout: Option<Expr>,
+    },
+    /// `TCP_STATUS ret, port[i], sock[i], err[i], sub[i], $ip[i]`: the open sockets.
+    Status {
+        /// Result: how many sockets.
+        ret: LValue,
+        /// First elements of the arrays filled per socket: port, id, error, sub-error, the
+        /// peer's address as text.
+        arrays: [LValue; 5],
     },
     /// `TCP_CLOSE ret, sock`.
     Close {

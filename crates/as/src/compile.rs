@@ -82,6 +82,8 @@ pub(crate) enum RFunc {
     MaxVal,
     MinVal,
     Sig,
+    Bits,
+    Bits32,
     Task,
     Timer,
 }
@@ -121,6 +123,10 @@ pub(crate) enum JExpr {
     Var(LRef),
     PPoint(Box<[RExpr]>),
     Here,
+    /// A transformation's joint values (inverse kinematics near the current joints).
+    Inverse(Box<TExpr>),
+    /// `#DEST`: the target of the latest motion instruction.
+    Dest,
 }
 
 /// Transformation expressions.
@@ -130,6 +136,12 @@ pub(crate) enum TExpr {
     Trans(Box<[RExpr]>),
     Here,
     Compose(Box<TExpr>, Box<TExpr>),
+    /// A joint point's transformation (forward kinematics, with TOOL and BASE).
+    Forward(Box<JExpr>),
+    /// `DEST`: the target of the latest motion instruction.
+    Dest,
+    /// `SHIFT(t BY dx, dy, dz)`: `t` moved along the base axes.
+    Shift(Box<TExpr>, Box<[RExpr]>),
 }
 
 /// A location: joint point or transformation.
@@ -219,6 +231,16 @@ pub(crate) enum Op {
     Stop,
     Pause,
     Signal(Box<[RExpr]>),
+    /// `PULSE n[, t]`.
+    Pulse(RExpr, Option<RExpr>),
+    /// `RUNMASK n[, count]`.
+    RunMask(RExpr, Option<RExpr>),
+    /// `DLYSIG n, t`.
+    Dlysig(RExpr, RExpr),
+    /// `BITS start, count = value` (`BITS32`: true).
+    Bits(bool, RExpr, RExpr, RExpr),
+    /// `OPEN`/`CLOSE`/`RELAX[I] [hand]`: the action, the `I` form, the hand.
+    Hand(HandAction, bool, Option<RExpr>),
     On {
         immediate: bool,
         signal: RExpr,
@@ -250,6 +272,16 @@ pub(crate) enum Op {
     HereT(LRef),
     Move(bool, Loc),
     Home,
+    /// `LEFTY`, `RIGHTY`, `ABOVE`, `BELOW`, `UWRIST`, `DWRIST`.
+    Posture(Posture),
+    /// `TOOL`/`BASE` (true) with a transformation or NULL.
+    Frame(bool, Option<TExpr>),
+    /// `APPRO`/`LAPPRO` (linear) location, distance.
+    Appro(bool, TExpr, RExpr),
+    /// `DEPART`/`LDEPART` (linear) distance.
+    Depart(bool, RExpr),
+    /// `DRAW`/`TDRAW` (tool axes) offsets.
+    Draw(bool, Box<[Option<RExpr>; 3]>),
     Delay(RExpr),
     Brake,
     Break,
@@ -281,6 +313,8 @@ pub(crate) enum Op {
         timeout: Option<RExpr>,
     },
     TcpClose(LRef, RExpr),
+    /// `TCP_STATUS ret, port[i], sock[i], err[i], sub[i], $ip[i]`.
+    TcpStatus(LRef, Box<[LRef; 5]>),
     TcpConnect {
         ret: LRef,
         port: RExpr,
@@ -807,6 +841,48 @@ impl Compiler {
                     .collect::<CResult<Vec<_>>>()?;
                 self.emit(Op::Signal(v.into()), line);
             }
+            StmtKind::Swait(v) => {
+                // `SWAIT a, b` is `WAIT SIG(a, b)`: the same poll, the same checks.
+                let v = v
+                    .iter()
+                    .map(|e| self.real(e))
+                    .collect::<CResult<Vec<_>>>()?;
+                self.emit(Op::Wait(RExpr::Func(RFunc::Sig, v.into())), line);
+            }
+            StmtKind::Pulse { signal, time } => {
+                let signal = self.real(signal)?;
+                let time = time.as_ref().map(|t| self.real(t)).transpose()?;
+                self.emit(Op::Pulse(signal, time), line);
+            }
+            StmtKind::RunMask { signal, count } => {
+                let signal = self.real(signal)?;
+                let count = count.as_ref().map(|c| self.real(c)).transpose()?;
+                self.emit(Op::RunMask(signal, count), line);
+            }
+            StmtKind::Dlysig { signal, time } => {
+                let signal = self.real(signal)?;
+                let time = self.real(time)?;
+                self.emit(Op::Dlysig(signal, time), line);
+            }
+            StmtKind::Bits {
+                wide,
+                start,
+                count,
+                value,
+            } => {
+                let start = self.real(start)?;
+                let count = self.real(count)?;
+                let value = self.real(value)?;
+                self.emit(Op::Bits(*wide, start, count, value), line);
+            }
+            StmtKind::Hand {
+                action,
+                immediate,
+                hand,
+            } => {
+                let hand = hand.as_ref().map(|h| self.real(h)).transpose()?;
+                self.emit(Op::Hand(*action, *immediate, hand), line);
+            }
             StmtKind::On {
                 immediate,
                 signal,
@@ -918,24 +994,14 @@ impl Compiler {
                         let t = self.lref(target, Ty::Joint)?;
                         match self.loc(value)? {
                             Loc::J(j) => Op::AssignJ(t, j),
-                            Loc::T(_) => {
-                                // Converting a transformation to joint values (inverse
-                                // kinematics): loads as not emulated.
-                                self.not_emulated_fn = Some("POINT #name = transformation".into());
-                                return Err(self.err(value.span, "POINT #name needs a joint point on the right (converting a transformation to joint values is not emulated)"));
-                            }
+                            Loc::T(x) => Op::AssignJ(t, JExpr::Inverse(Box::new(x))),
                         }
                     }
                     Sigil::None => {
                         let t = self.lref(target, Ty::Trans)?;
                         match self.loc(value)? {
                             Loc::T(x) => Op::AssignT(t, x),
-                            Loc::J(_) => {
-                                // Converting joint values to a transformation (forward
-                                // kinematics): loads as not emulated.
-                                self.not_emulated_fn = Some("POINT name = joint point".into());
-                                return Err(self.err(value.span, "POINT name needs a transformation on the right (converting joint values to a transformation is not emulated; use HERE)"));
-                            }
+                            Loc::J(j) => Op::AssignT(t, TExpr::Forward(Box::new(j))),
                         }
                     }
                     Sigil::Dollar => {
@@ -950,6 +1016,38 @@ impl Compiler {
             StmtKind::Move { linear, target } => {
                 let l = self.loc(target)?;
                 self.emit(Op::Move(*linear, l), line);
+            }
+            StmtKind::Posture(p) => {
+                self.emit(Op::Posture(*p), line);
+            }
+            StmtKind::Frame { base, value } => {
+                let t = match value {
+                    Some(v) => Some(self.trans_loc(v)?),
+                    None => None,
+                };
+                self.emit(Op::Frame(*base, t), line);
+            }
+            StmtKind::Appro {
+                linear,
+                target,
+                distance,
+            } => {
+                let t = self.trans_loc(target)?;
+                let d = self.real(distance)?;
+                self.emit(Op::Appro(*linear, t, d), line);
+            }
+            StmtKind::Depart { linear, distance } => {
+                let d = self.real(distance)?;
+                self.emit(Op::Depart(*linear, d), line);
+            }
+            StmtKind::Draw { tool, offset } => {
+                let mut v: [Option<RExpr>; 3] = [None, None, None];
+                for (k, e) in offset.iter().enumerate() {
+                    if let Some(e) = e {
+                        v[k] = Some(self.real(e)?);
+                    }
+                }
+                self.emit(Op::Draw(*tool, Box::new(v)), line);
             }
             StmtKind::Home(_) => {
                 self.emit(Op::Home, line);
@@ -1046,6 +1144,19 @@ impl Compiler {
                 n: self.real(n)?,
                 timeout: timeout.as_ref().map(|e| self.real(e)).transpose()?,
             },
+            TcpStmt::Status { ret, arrays } => {
+                let [port, sock, err, sub, ip] = arrays;
+                Op::TcpStatus(
+                    self.lref(ret, Ty::Real)?,
+                    Box::new([
+                        self.lref(port, Ty::Real)?,
+                        self.lref(sock, Ty::Real)?,
+                        self.lref(err, Ty::Real)?,
+                        self.lref(sub, Ty::Real)?,
+                        self.lref(ip, Ty::Str)?,
+                    ]),
+                )
+            }
             TcpStmt::Close { ret, sock } => {
                 Op::TcpClose(self.lref(ret, Ty::Real)?, self.real(sock)?)
             }
@@ -1192,6 +1303,7 @@ impl Compiler {
     fn loc(&mut self, e: &Expr) -> CResult<Loc> {
         match &e.kind {
             ExprKind::Var(lv) if lv.name.sigil == Sigil::None && !lv.name.local && lv.name.text == "here" && lv.indices.is_empty() => Ok(Loc::T(TExpr::Here)),
+            ExprKind::Var(lv) if lv.name.sigil == Sigil::None && !lv.name.local && lv.name.text == "dest" && lv.indices.is_empty() => Ok(Loc::T(TExpr::Dest)),
             ExprKind::Var(lv) if lv.name.sigil == Sigil::None => Ok(Loc::T(TExpr::Var(self.lref(lv, Ty::Trans)?))),
             ExprKind::Call { name, args } if name.sigil == Sigil::None && name.text == "trans" => {
                 Ok(Loc::T(TExpr::Trans(self.reals_up_to(args, 6, "TRANS", e.span)?)))
@@ -1206,6 +1318,14 @@ impl Compiler {
                 other => Err(self.err(e.span, format!("expected a location (#point, #PPOINT(…), a transformation, HERE), found {}", other.ty().name()))),
             },
         }
+    }
+
+    /// A location as a transformation (a joint point through forward kinematics).
+    fn trans_loc(&mut self, e: &Expr) -> CResult<TExpr> {
+        Ok(match self.loc(e)? {
+            Loc::T(t) => t,
+            Loc::J(j) => TExpr::Forward(Box::new(j)),
+        })
     }
 
     fn reals_up_to(
@@ -1293,6 +1413,8 @@ impl Compiler {
                 (Sigil::None, "error") => return Ok(CExpr::R(RExpr::Error)),
                 (Sigil::None, "here") => return Ok(CExpr::T(TExpr::Here)),
                 (Sigil::Hash, "here") => return Ok(CExpr::J(JExpr::Here)),
+                (Sigil::None, "dest") => return Ok(CExpr::T(TExpr::Dest)),
+                (Sigil::Hash, "dest") => return Ok(CExpr::J(JExpr::Dest)),
                 // `$TIME`, `$DATE`: the controller's clock as text; not emulated.
                 (Sigil::Dollar, "time" | "date") => {
                     self.not_emulated_fn = Some(format!("${}", n.text.to_ascii_uppercase()));
@@ -1390,6 +1512,16 @@ impl Compiler {
                 };
                 Ok(CExpr::R(RExpr::Func(func, v.into())))
             }
+            (Sigil::None, f @ ("bits" | "bits32")) => {
+                self.arity(name, args, 2, 2, span)?;
+                let v = vec![self.arg_real(&args[0])?, self.arg_real(&args[1])?];
+                let func = if f == "bits" {
+                    RFunc::Bits
+                } else {
+                    RFunc::Bits32
+                };
+                Ok(CExpr::R(RExpr::Func(func, v.into())))
+            }
             (Sigil::None, "val") => {
                 self.arity(name, args, 1, 2, span)?;
                 let s = self.arg_str(&args[0])?;
@@ -1463,6 +1595,16 @@ impl Compiler {
                         "SWITCH takes a switch name: POWER, RUN, REPEAT, TEACH_LOCK, CS, ERROR or a system switch such as ABS.SPEED",
                     )),
                 }
+            }
+            (Sigil::None, "shift") => {
+                self.arity(name, args, 2, 4, span)?;
+                let loc = self.arg_expr(&args[0])?.clone();
+                let t = self.trans_loc(&loc)?;
+                let d = args[1..]
+                    .iter()
+                    .map(|a| self.arg_real(a))
+                    .collect::<CResult<Vec<_>>>()?;
+                Ok(CExpr::T(TExpr::Shift(Box::new(t), d.into())))
             }
             (Sigil::None, "trans") => Ok(CExpr::T(TExpr::Trans(
                 self.reals_up_to(args, 6, "TRANS", span)?,
@@ -1551,8 +1693,8 @@ fn is_name_function(n: &Name) -> bool {
         (n.sigil, n.text.as_str()),
         (
             Sigil::None,
-            "true" | "false" | "on" | "off" | "pi" | "error" | "here"
-        ) | (Sigil::Hash, "here")
+            "true" | "false" | "on" | "off" | "pi" | "error" | "here" | "dest"
+        ) | (Sigil::Hash, "here" | "dest")
     )
 }
 
@@ -1630,7 +1772,7 @@ fn j_touches(e: &JExpr) -> bool {
     match e {
         JExpr::Var(l) => l_touches(l),
         JExpr::PPoint(a) => any_r(a),
-        JExpr::Here => true,
+        JExpr::Here | JExpr::Inverse(_) | JExpr::Dest => true,
     }
 }
 
@@ -1638,8 +1780,9 @@ fn t_touches(e: &TExpr) -> bool {
     match e {
         TExpr::Var(l) => l_touches(l),
         TExpr::Trans(a) => any_r(a),
-        TExpr::Here => true,
+        TExpr::Here | TExpr::Forward(_) | TExpr::Dest => true,
         TExpr::Compose(a, b) => t_touches(a) || t_touches(b),
+        TExpr::Shift(t, d) => t_touches(t) || any_r(d),
     }
 }
 
@@ -1679,6 +1822,10 @@ fn op_touches(op: &Op) -> bool {
             .any(|a| c_touches(&a.value) || a.var.as_ref().is_some_and(|(_, l)| l_touches(l))),
         Op::Print(items) => items_touch(items),
         Op::Signal(v) => any_r(v),
+        Op::Pulse(a, b) => r_touches(a) || opt(b),
+        Op::Dlysig(a, b) => r_touches(a) || r_touches(b),
+        Op::RunMask(a, b) => r_touches(a) || opt(b),
+        Op::Bits(_, a, b, c) => r_touches(a) || r_touches(b) || r_touches(c),
         Op::On { signal, .. } => r_touches(signal),
         Op::Timer(a, b) => r_touches(a) || r_touches(b),
         Op::Speed(e, _, _) | Op::Accuracy(e, _, _) | Op::AccelDecel(_, e, _) => r_touches(e),

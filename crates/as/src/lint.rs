@@ -333,7 +333,7 @@ fn tcp_lint(
         }
         TcpStmt::Send { timeout, .. } => ("TCP_SEND", None, timeout.as_ref()),
         TcpStmt::Connect { timeout, .. } => ("TCP_CONNECT", None, timeout.as_ref()),
-        TcpStmt::Close { .. } => return,
+        TcpStmt::Close { .. } | TcpStmt::Status { .. } => return,
     };
     if let Some(p) = port {
         if let Some(v) = constant(p) {

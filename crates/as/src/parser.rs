@@ -1328,6 +1328,70 @@ impl<'a> Cur<'a> {
                 }
                 LineKind::Stmt(StmtKind::Signal(v))
             }
+            "swait" => {
+                let mut v = vec![self.expr()?];
+                while self.eat(&Tok::Comma) {
+                    v.push(self.expr()?);
+                }
+                LineKind::Stmt(StmtKind::Swait(v))
+            }
+            "pulse" => {
+                let signal = self.expr()?;
+                let time = if self.eat(&Tok::Comma) {
+                    Some(self.expr()?)
+                } else {
+                    None
+                };
+                LineKind::Stmt(StmtKind::Pulse { signal, time })
+            }
+            "runmask" => {
+                let signal = self.expr()?;
+                let count = if self.eat(&Tok::Comma) {
+                    Some(self.expr()?)
+                } else {
+                    None
+                };
+                LineKind::Stmt(StmtKind::RunMask { signal, count })
+            }
+            "dlysig" => {
+                let signal = self.expr()?;
+                self.expect(&Tok::Comma, "\",\" and the delay after the DLYSIG signal")?;
+                let time = self.expr()?;
+                LineKind::Stmt(StmtKind::Dlysig { signal, time })
+            }
+            "bits" | "bits32" => {
+                let start = self.expr()?;
+                self.expect(
+                    &Tok::Comma,
+                    "\",\" and the count after the first BITS signal",
+                )?;
+                let count = self.expr()?;
+                self.expect(&Tok::Assign, "\"= value\" after BITS start, count")?;
+                let value = self.expr()?;
+                LineKind::Stmt(StmtKind::Bits {
+                    wide: kw == "bits32",
+                    start,
+                    count,
+                    value,
+                })
+            }
+            "open" | "openi" | "close" | "closei" | "relax" | "relaxi" => {
+                let action = match kw.trim_end_matches('i') {
+                    "open" => HandAction::Open,
+                    "close" => HandAction::Close,
+                    _ => HandAction::Relax,
+                };
+                let hand = if self.peek().is_some() {
+                    Some(self.expr()?)
+                } else {
+                    None
+                };
+                LineKind::Stmt(StmtKind::Hand {
+                    action,
+                    immediate: kw.ends_with('i'),
+                    hand,
+                })
+            }
             "on" | "oni" => {
                 let signal = self.expr()?;
                 let action = if self.eat_word("goto") {
@@ -1446,6 +1510,70 @@ impl<'a> Cur<'a> {
                 linear: kw == "lmove",
                 target: self.expr()?,
             }),
+            "lefty" | "righty" | "above" | "below" | "uwrist" | "dwrist" => {
+                LineKind::Stmt(StmtKind::Posture(match kw {
+                    "lefty" => Posture::Lefty,
+                    "righty" => Posture::Righty,
+                    "above" => Posture::Above,
+                    "below" => Posture::Below,
+                    "uwrist" => Posture::Uwrist,
+                    _ => Posture::Dwrist,
+                }))
+            }
+            "tool" | "base" => {
+                let null = matches!(self.peek(), Some(Tok::Name(n)) if n.text == "null" && !n.local && n.sigil == Sigil::None)
+                    && self.peek_at(1).is_none();
+                let value = if null {
+                    self.pos += 1;
+                    None
+                } else {
+                    Some(self.expr()?)
+                };
+                LineKind::Stmt(StmtKind::Frame {
+                    base: kw == "base",
+                    value,
+                })
+            }
+            "appro" | "jappro" | "lappro" => {
+                let target = self.expr()?;
+                self.expect(
+                    &Tok::Comma,
+                    "\",\" and the distance (mm) after the location approached",
+                )?;
+                let distance = self.expr()?;
+                LineKind::Stmt(StmtKind::Appro {
+                    linear: kw == "lappro",
+                    target,
+                    distance,
+                })
+            }
+            "depart" | "jdepart" | "ldepart" => LineKind::Stmt(StmtKind::Depart {
+                linear: kw == "ldepart",
+                distance: self.expr()?,
+            }),
+            "draw" | "tdraw" => {
+                let mut offset: [Option<Expr>; 3] = [None, None, None];
+                for (k, slot) in offset.iter_mut().enumerate() {
+                    if k > 0 && !self.eat(&Tok::Comma) {
+                        break;
+                    }
+                    if !self.at_end() && self.peek() != Some(&Tok::Comma) {
+                        *slot = Some(self.expr()?);
+                    }
+                }
+                if self.eat(&Tok::Comma) {
+                    // Rotations about the axes: not modelled.
+                    self.pos = self.toks.len();
+                    return Ok(LineKind::Stmt(StmtKind::NotEmulated {
+                        instruction: format!("{} (with rotations)", kw.to_uppercase()),
+                        stubbed: false,
+                    }));
+                }
+                LineKind::Stmt(StmtKind::Draw {
+                    tool: kw == "tdraw",
+                    offset,
+                })
+            }
             "home" => LineKind::Stmt(StmtKind::Home(if self.at_end() {
                 None
             } else {
@@ -1682,6 +1810,22 @@ impl<'a> Cur<'a> {
                     buf,
                     n,
                     timeout,
+                }
+            }
+            "tcp_status" => {
+                comma(self, "the port array element")?;
+                let port = self.lvalue()?;
+                comma(self, "the socket id array element")?;
+                let sock = self.lvalue()?;
+                comma(self, "the error code array element")?;
+                let err = self.lvalue()?;
+                comma(self, "the sub-error code array element")?;
+                let sub = self.lvalue()?;
+                comma(self, "the IP address string array element")?;
+                let ip = self.lvalue()?;
+                TcpStmt::Status {
+                    ret,
+                    arrays: [port, sock, err, sub, ip],
                 }
             }
             "tcp_close" => {
@@ -2027,6 +2171,8 @@ impl<'a> Cur<'a> {
             return Ok(args);
         }
         let formats = name.sigil == Sigil::Dollar && name.text == "encode";
+        // `SHIFT(location BY dx, dy, dz)`: BY separates the location from the offsets.
+        let shift = name.sigil == Sigil::None && name.text == "shift";
         loop {
             if formats && self.peek() == Some(&Tok::Slash) {
                 let span = self.span();
@@ -2037,6 +2183,9 @@ impl<'a> Cur<'a> {
             }
             if self.eat(&Tok::RParen) {
                 break;
+            }
+            if shift && args.len() == 1 && self.eat_word("by") {
+                continue;
             }
             self.expect(
                 &Tok::Comma,

@@ -150,6 +150,19 @@ pub struct ClientRead {
     pub next_at: Option<Duration>,
 }
 
+/// One socket as `TCP_STATUS` reports it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SocketStatus {
+    /// The socket id.
+    pub sock: i32,
+    /// The port it was accepted on (0 for the connecting end of a local connection).
+    pub port: u16,
+    /// The peer's address.
+    pub ip: [u8; 4],
+    /// 0, or [`TcpCode::Broken`]'s code when the peer closed the connection.
+    pub error: i32,
+}
+
 #[derive(Debug, Clone)]
 struct Chunk {
     at: Duration,
@@ -299,6 +312,26 @@ impl SocketTable {
                 s.peer == Peer::Client && s.port == port && !s.program_closed && !waiting(id)
             })
             .map(|(id, _)| *id)
+    }
+
+    /// The sockets the program holds open (accepted or connected, in id order) for
+    /// `TCP_STATUS`; connections still waiting to be accepted are not among them.
+    pub fn status(&self) -> Vec<SocketStatus> {
+        let waiting = |id: &i32| self.listeners.values().any(|b| b.contains(id));
+        self.sockets
+            .iter()
+            .filter(|(id, s)| !s.program_closed && !waiting(id))
+            .map(|(id, s)| SocketStatus {
+                sock: *id,
+                port: s.port,
+                ip: s.ip,
+                error: if s.peer_closed {
+                    TcpCode::Broken.code()
+                } else {
+                    0
+                },
+            })
+            .collect()
     }
 
     /// A socket the program may use (known, not closed by the program).

@@ -32,7 +32,9 @@ use fs020n_proto::ErrorCode;
 /// A joint-displacement value: JT1..JT6 in degrees.
 pub type Joints = [f64; 6];
 
-/// A transformation value: X, Y, Z (mm), O, A, T (degrees, Z-Y-Z Euler angles).
+/// A transformation value: X, Y, Z (mm), O, A, T (degrees, Z-Y-Z Euler angles). A
+/// [`Target::Pose`], [`System::pose`] and [`System::forward`] are the **flange** in the robot's
+/// base frame: the interpreter applies the program's TOOL and BASE on its side.
 pub type Trans = [f64; 6];
 
 /// Where a motion goes.
@@ -187,6 +189,18 @@ pub trait System {
     /// kinematics.
     fn pose(&self) -> Option<Trans>;
 
+    /// The flange pose of any joint values (`POINT t = #j`, `APPRO #j, d`), in the robot's base
+    /// frame; `None` when the system has no kinematics. The interpreter applies TOOL and BASE.
+    fn forward(&self, joints: &Joints) -> Option<Trans>;
+
+    /// The joint values that put the flange at `pose` (robot base frame), the solution nearest
+    /// `near` (`POINT #j = t`); `None` when out of reach or without kinematics.
+    fn inverse(&self, pose: &Trans, near: &Joints) -> Option<Joints>;
+
+    /// Every joint solution (within the joint limits) that puts the flange at `pose` (robot
+    /// base frame): the posture commands choose among them. Empty when out of reach.
+    fn inverse_all(&self, pose: &Trans) -> Vec<Joints>;
+
     /// The HOME pose (`HOME`), degrees.
     fn home(&self) -> Joints;
 
@@ -261,6 +275,9 @@ pub trait System {
 
     /// `TCP_CLOSE`: 0 or a negative code (−34057 unknown socket).
     fn tcp_close(&mut self, sock: i32) -> i32;
+
+    /// `TCP_STATUS`: the sockets the program holds open.
+    fn tcp_status(&self) -> Vec<crate::sockets::SocketStatus>;
 
     // ------------------------------------------------------------------ terminal
 

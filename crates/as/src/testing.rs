@@ -100,6 +100,9 @@ pub struct VirtualSystem {
     planned: Option<(Seg, Duration)>,
     /// The sockets (test clients are local peers of the program's sockets).
     net: SocketTable,
+    /// The sockets of the test clients (local peers, not the program's: `TCP_STATUS` omits
+    /// them).
+    clients: Vec<i32>,
 }
 
 impl Default for VirtualSystem {
@@ -133,6 +136,7 @@ impl VirtualSystem {
             raised: Vec::new(),
             current: None,
             planned: None,
+            clients: Vec::new(),
             net: SocketTable::new(SocketLimits {
                 local_buffer: 64 * 1024,
                 client_buffer: 64 * 1024,
@@ -151,7 +155,9 @@ impl VirtualSystem {
 
     /// A test client connects to `port`: its socket id, `None` when nothing listens.
     pub fn connect(&mut self, port: u16) -> Option<i32> {
-        self.net.connect_local(port)
+        let id = self.net.connect_local(port)?;
+        self.clients.push(id);
+        Some(id)
     }
 
     /// A test client sends bytes (`false` when its socket is gone or the peer closed).
@@ -289,6 +295,49 @@ impl System for VirtualSystem {
             .forward(&JointsDeg(self.joints()).to_rad())
             .to_xyzoat();
         Some([x.x_mm, x.y_mm, x.z_mm, x.o_deg, x.a_deg, x.t_deg])
+    }
+
+    fn forward(&self, joints: &Joints) -> Option<Trans> {
+        let x = self.model.forward(&JointsDeg(*joints).to_rad()).to_xyzoat();
+        Some([x.x_mm, x.y_mm, x.z_mm, x.o_deg, x.a_deg, x.t_deg])
+    }
+
+    fn inverse_all(&self, pose: &Trans) -> Vec<Joints> {
+        let pose = Pose::from_xyzoat(Xyzoat {
+            x_mm: pose[0],
+            y_mm: pose[1],
+            z_mm: pose[2],
+            o_deg: pose[3],
+            a_deg: pose[4],
+            t_deg: pose[5],
+        });
+        match self.model.inverse_all(&pose) {
+            Ok(all) => all
+                .iter()
+                .map(|q| q.to_deg())
+                .filter(|q| self.model.within_limits(q))
+                .map(|q| q.0)
+                .collect(),
+            Err(_) => Vec::new(),
+        }
+    }
+
+    fn inverse(&self, pose: &Trans, near: &Joints) -> Option<Joints> {
+        let pose = Pose::from_xyzoat(Xyzoat {
+            x_mm: pose[0],
+            y_mm: pose[1],
+            z_mm: pose[2],
+            o_deg: pose[3],
+            a_deg: pose[4],
+            t_deg: pose[5],
+        });
+        let q = self
+            .model
+            .inverse_nearest(&pose, &JointsDeg(*near).to_rad())
+            .ok()?
+            .to_deg()
+            .0;
+        self.model.within_limits(&JointsDeg(q)).then_some(q)
     }
 
     fn home(&self) -> Joints {
@@ -438,6 +487,12 @@ impl System for VirtualSystem {
 
     fn tcp_close(&mut self, sock: i32) -> i32 {
         self.net.close(sock)
+    }
+
+    fn tcp_status(&self) -> Vec<crate::sockets::SocketStatus> {
+        let mut v = self.net.status();
+        v.retain(|s| !self.clients.contains(&s.sock));
+        v
     }
 
     fn terminal(&mut self, task: TaskId, line: &str) {

@@ -465,6 +465,10 @@ pub(crate) struct SimArgs {
     /// (default: whole replies).
     #[arg(long, value_name = "N", requires = "terminal")]
     pub terminal_piece: Option<usize>,
+    /// With --as-program: set an input signal (1001–1999) at start, `N=1` ON or `N=0` OFF
+    /// (repeatable); e.g. `--signal 1001=1` for a part-present sensor the program waits for.
+    #[arg(long = "signal", value_name = "N=0|1", requires = "as_program")]
+    pub signals: Vec<String>,
 }
 
 /// `deploy` arguments (the protocol port is `--robot`).

@@ -22,7 +22,7 @@ fn run(args: &[&str], files: &[&std::path::Path]) -> Output {
         .expect("runs")
 }
 
-const GOOD: &[u8] = b".** a backup\r\n.NETCONF 192.168.0.2\r\n.PROGRAM autostart.pc() #0 ; \x83\x52\x83\x81\r\n  TOOL gripper\r\n  TCP_LISTEN .r, 10050\r\n.END\r\n";
+const GOOD: &[u8] = b".** a backup\r\n.NETCONF 192.168.0.2\r\n.PROGRAM autostart.pc() #0 ; \x83\x52\x83\x81\r\n  C1MOVE p\r\n  TCP_LISTEN .r, 10050\r\n.END\r\n";
 
 #[test]
 fn a_file_that_loads_exits_0_and_lists_its_warnings() {
@@ -40,7 +40,7 @@ fn a_file_that_loads_exits_0_and_lists_its_warnings() {
     );
     assert!(
         text.contains(&format!(
-            "{name}:4:3: warning: TOOL loads but is not emulated"
+            "{name}:4:3: warning: C1MOVE loads but is not emulated"
         )),
         "{text}"
     );
@@ -240,5 +240,20 @@ fn sim_takes_stub_too() {
             "warning: {}:2:3: GUNON is stubbed: it loads and does nothing",
             f.display()
         ))
+    );
+}
+
+#[test]
+fn the_pick_and_place_example_loads_without_warnings() {
+    let example = std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../as/programs/examples/pick_place.as"
+    ));
+    let out = run(&["as", "check"], &[example]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{text}");
+    assert!(
+        text.contains("loads (0 warning(s), 0 lint finding(s)"),
+        "every instruction it uses runs: {text}"
     );
 }

@@ -104,3 +104,86 @@ fn a_modified_server_runs_and_traces() {
         std::thread::sleep(Duration::from_millis(20));
     }
 }
+
+#[test]
+fn the_pick_and_place_example_runs_on_a_signal_given_on_the_command_line() {
+    use std::io::Read as _;
+    let example = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../as/programs/examples/pick_place.as"
+    );
+    let mut child = Command::new(bin())
+        .args([
+            "sim",
+            "--listen",
+            "127.0.0.1:0",
+            "--signal",
+            "1001=1",
+            "--as-program",
+            example,
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let out = BufReader::new(child.stdout.take().unwrap());
+    let mut lines = out.lines().map_while(Result::ok);
+    let addr = lines
+        .find_map(|l| {
+            l.strip_prefix("robot 1: protocol 1040 on ")
+                .map(|a| a.split(',').next().unwrap_or_default().to_owned())
+        })
+        .expect("the address");
+    // The reporting task serves its port (10060) at --listen: one line per part placed.
+    let start = Instant::now();
+    let mut stream = loop {
+        match std::net::TcpStream::connect(&addr) {
+            Ok(s) => break s,
+            Err(_) if start.elapsed() < Duration::from_secs(20) => {
+                std::thread::sleep(Duration::from_millis(50))
+            }
+            Err(e) => panic!("cannot connect to {addr}: {e}"),
+        }
+    };
+    stream
+        .set_read_timeout(Some(Duration::from_secs(60)))
+        .unwrap();
+    let mut got = Vec::new();
+    let mut buf = [0u8; 64];
+    while !got.ends_with(b"\r\n") {
+        let n = stream.read(&mut buf).expect("a report within 60 s");
+        assert!(n > 0, "closed: {:?}", String::from_utf8_lossy(&got));
+        got.extend_from_slice(&buf[..n]);
+    }
+    assert_eq!(String::from_utf8_lossy(&got), "PLACED 1\r\n");
+    let _ = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status();
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        assert!(start.elapsed() < Duration::from_secs(20), "did not stop");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn a_signal_that_is_no_input_is_refused() {
+    let example = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../as/programs/examples/pick_place.as"
+    );
+    let out = Command::new(bin())
+        .args([
+            "sim",
+            "--listen",
+            "127.0.0.1:0",
+            "--signal",
+            "5=1",
+            "--as-program",
+            example,
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("input signal 1001–1999"));
+}

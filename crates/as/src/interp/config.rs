@@ -54,6 +54,19 @@ pub struct Config {
     /// their values across calls and new executions (the controller's behaviour is not
     /// documented; see docs/AS.md).
     pub persistent_locals: bool,
+    /// The output signals of hands 1, 2, … that `OPEN`/`CLOSE`/`RELAX` drive (default: hand 1
+    /// on outputs 1 and 2, hand 2 on 3 and 4; see docs/AS.md).
+    pub hands: Vec<HandSignals>,
+}
+
+/// The output signals of one hand (a double-solenoid valve: one signal opens, one closes).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct HandSignals {
+    /// The signal `OPEN` turns ON (and `CLOSE` OFF); 0 for a single-solenoid hand, where
+    /// `OPEN` only turns [`HandSignals::close`] OFF.
+    pub open: i32,
+    /// The signal `CLOSE` turns ON (and `OPEN` OFF).
+    pub close: i32,
 }
 
 impl Default for Config {
@@ -65,6 +78,10 @@ impl Default for Config {
             max_call_depth: 32,
             terminal_lines: 1000,
             persistent_locals: false,
+            hands: vec![
+                HandSignals { open: 1, close: 2 },
+                HandSignals { open: 3, close: 4 },
+            ],
         }
     }
 }

@@ -181,6 +181,8 @@ impl Interpreter {
                 }
                 as_bool(all)
             }
+            RFunc::Bits => self.bits_in(x, v[1], 16)?,
+            RFunc::Bits32 => self.bits_in(x, v[1], 32)?,
             RFunc::Task => {
                 let id = match x.trunc() as i64 {
                     1 => Some(TaskId::Robot),
@@ -193,6 +195,9 @@ impl Interpreter {
                             && self.tasks[TaskSlot::ROBOT].run == Run::Ending
                             && !sys.motion_in_progress()
                         {
+                            if !self.run_mask.is_empty() {
+                                self.apply_run_mask();
+                            }
                             self.set_run(TaskSlot::ROBOT, Run::Idle);
                         }
                         self.task_state(id, sys).number()
@@ -335,6 +340,8 @@ impl Interpreter {
                 v
             }
             JExpr::Here => sys.joints().map(|x| x as f32),
+            JExpr::Inverse(t) => self.inverse_of(i, t, sys)?,
+            JExpr::Dest => self.dest_joints(sys)?,
         })
     }
 
@@ -348,14 +355,16 @@ impl Interpreter {
                 }
                 v
             }
-            TExpr::Here => match sys.pose() {
-                Some(p) => p.map(|x| x as f32),
-                None => {
-                    return Err(Box::new(RuntimeError::IllegalValue(
-                        "HERE: this controller has no kinematics".into(),
-                    )))
+            TExpr::Here => self.here_world(sys)?,
+            TExpr::Forward(j) => self.forward_of(i, j, sys)?,
+            TExpr::Dest => self.dest_world(sys)?,
+            TExpr::Shift(t, d) => {
+                let mut v = self.eval_t(i, t, sys)?;
+                for (k, e) in d.iter().enumerate().take(3) {
+                    v[k] = check(v[k] + self.eval_r(i, e, sys)?, "SHIFT")?;
                 }
-            },
+                v
+            }
             TExpr::Compose(a, b) => {
                 let x = self.eval_t(i, a, sys)?;
                 let y = self.eval_t(i, b, sys)?;

@@ -16,7 +16,10 @@
 //! | `scheduler.rs` | `run_until`: which task runs next, waits and polls, interrupts, errors |
 //! | `start.rs` | starting and ending programs (`start`, `EXECUTE`, `PCEXECUTE`, frames) |
 //! | `vars.rs` | reading and writing variables with their indices |
-//! | `signals.rs` | signal numbers and outputs |
+//! | `signals.rs` | signal numbers and outputs, `PULSE`, `DLYSIG`, `BITS` |
+//! | `frames.rs` | `TOOL`, `BASE`, kinematic conversions, `APPRO`, `DEPART`, `DRAW` |
+//! | `posture.rs` | `LEFTY`, `RIGHTY`, `ABOVE`, `BELOW`, `UWRIST`, `DWRIST`: the IK branch |
+//! | `hands.rs` | `OPEN`/`CLOSE`/`RELAX` and their `I` forms on the hands' signals |
 //! | `expr.rs` | expressions (reals, strings, locations, functions, `PRINT` encoding) |
 //! | `stmt.rs` | one step: the hot path of pure computation, then every other op |
 //! | `arith.rs`, `strings.rs` | free helpers: numbers and overflow, string functions |
@@ -28,9 +31,12 @@ mod arith;
 mod config;
 mod expr;
 mod flow;
+mod frames;
+mod hands;
 mod monitor;
 mod motion;
 mod observers;
+mod posture;
 mod print;
 mod report;
 mod scheduler;
@@ -56,7 +62,7 @@ use crate::value::{Bytes, Store};
 use arith::{ns, Ns};
 use task::{SignalState, Task, TaskSlot};
 
-pub use config::{Config, CostModel};
+pub use config::{Config, CostModel, HandSignals};
 pub use report::{Refusal, TaskInfo, TaskState, TerminalLine, TraceLine};
 
 /// The AS interpreter: programs, variables and up to six tasks (robot task 1, PC tasks 1–5),
@@ -86,6 +92,20 @@ pub struct Interpreter {
     elements: usize,
     tasks: Vec<Task>,
     signals: HashMap<i32, SignalState>,
+    /// Signal changes due later (`PULSE`, `DLYSIG`): (time, signal, ON), in no order.
+    timed_signals: Vec<(Ns, i32, bool)>,
+    /// Hand actions of `OPEN`/`CLOSE`/`RELAX` waiting for the next motion: (hand, action).
+    hand_pending: Vec<(usize, crate::ast::HandAction)>,
+    /// The target of the latest motion instruction (`DEST`), as the system received it.
+    dest: Option<crate::system::Target>,
+    /// `RUNMASK`: outputs turned OFF when the robot program stops.
+    run_mask: Vec<i32>,
+    /// The posture asked for the next joint motion to a transformation: front shoulder
+    /// (RIGHTY), elbow up (ABOVE), JT5 positive (UWRIST); `None`: any (the nearest solution).
+    posture: [Option<bool>; 3],
+    /// `TOOL` (flange to tool) and `BASE` (world to robot), `None` for NULL.
+    tool: Option<[f32; 6]>,
+    base: Option<[f32; 6]>,
     /// TIMER n: the time (ns, may be negative) at which it read 0.
     timers: [Option<i128>; 11],
     switches: Vec<bool>,
@@ -153,6 +173,13 @@ impl Interpreter {
             elements,
             tasks: (0..6).map(|i| Task::new(TaskId::from_index(i))).collect(),
             signals: HashMap::new(),
+            timed_signals: Vec::new(),
+            hand_pending: Vec::new(),
+            run_mask: Vec::new(),
+            dest: None,
+            posture: [None; 3],
+            tool: None,
+            base: None,
             timers: [None; 11],
             switches: SYSTEM_SWITCHES.iter().map(|(_, v)| *v).collect(),
             mc_hold: false,

@@ -71,12 +71,8 @@ impl Interpreter {
     /// `HERE p`: the current pose.
     #[inline(always)]
     pub(super) fn here_trans(&mut self, i: TaskSlot, l: &LRef, sys: &mut dyn System) -> R<Flow> {
-        let Some(p) = sys.pose() else {
-            return Err(Box::new(RuntimeError::IllegalValue(
-                "HERE: this controller has no kinematics".into(),
-            )));
-        };
-        self.write_loc_var(i, l, Ty::Trans, p.map(|x| x as f32), sys)?;
+        let p = self.here_world(sys)?;
+        self.write_loc_var(i, l, Ty::Trans, p, sys)?;
         Ok(Flow::Next)
     }
 
@@ -93,7 +89,7 @@ impl Interpreter {
         self.require_robot(robot, "JMOVE/LMOVE")?;
         let target = match self.eval_loc(i, l, sys)? {
             LocVal::J(v) => Target::Joints(v.map(f64::from)),
-            LocVal::T(v) => Target::Pose(v.map(f64::from)),
+            LocVal::T(v) => Target::Pose(self.flange_of_world(&v)),
         };
         let kind = if *linear {
             MotionKind::Linear
@@ -237,6 +233,12 @@ impl Interpreter {
         delay_s: f64,
         sys: &mut dyn System,
     ) -> R<Flow> {
+        let target = match (kind, target) {
+            (MotionKind::Joint, Target::Pose(p)) if self.posture.iter().any(Option::is_some) => {
+                Target::Joints(self.posture_solution(&p, sys)?)
+            }
+            (_, t) => t,
+        };
         let cp = self.switch_on("cp");
         let abs_speed = self.switch_on("abs.speed");
         let m = &mut self.tasks[i].motion;
@@ -256,7 +258,15 @@ impl Interpreter {
             cp,
             abs_speed,
         };
-        match sys.issue_motion(&req) {
+        let issued = sys.issue_motion(&req);
+        if issued.is_ok() && kind != MotionKind::Delay {
+            self.dest = Some(target);
+        }
+        if issued.is_ok() && !self.hand_pending.is_empty() {
+            // OPEN/CLOSE/RELAX act with the motion that follows them.
+            self.apply_pending_hands();
+        }
+        match issued {
             Ok(Issued::Started) => Ok(Flow::Next),
             Ok(Issued::Planned) => Ok(Flow::Wait(Box::new(Wait::MotionPlanned))),
             Err(code) => Err(Box::new(RuntimeError::System(code))),

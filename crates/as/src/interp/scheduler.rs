@@ -132,7 +132,8 @@ impl Interpreter {
 
     /// Earliest event, skipping task `skip`'s own steps; ties go to the lower task.
     pub(super) fn next_event_from(&self, skip: Option<TaskSlot>) -> Option<(Ns, TaskSlot)> {
-        let mut best: Option<(Ns, TaskSlot)> = None;
+        // A signal a PULSE or DLYSIG changes later (it may fire an interrupt, end an SWAIT).
+        let mut best: Option<(Ns, TaskSlot)> = self.timed_next().map(|t| (t, TaskSlot::ROBOT));
         let ints = if self.tasks.iter().any(|t| !t.interrupts.is_empty()) {
             self.interrupt_times()
         } else {
@@ -212,7 +213,27 @@ impl Interpreter {
         // The code never changes once loaded: one handle for the whole run.
         let code = Arc::clone(&self.code);
         let mut guard: u64 = 0;
-        while let Some((t, i, interrupt, horizon)) = self.next_event_and_horizon() {
+        loop {
+            let next = self.next_event_and_horizon();
+            let timed = self.timed_next();
+            if let Some(ts) = timed.filter(|&ts| ts <= until) {
+                if next.is_none_or(|(t, ..)| ts <= t) {
+                    // A signal PULSE or DLYSIG changes now, before any step at this time.
+                    if ts > self.now {
+                        self.now = ts;
+                        self.advance_sys(sys, ts);
+                    }
+                    self.apply_timed_signals();
+                    continue;
+                }
+            }
+            let Some((t, i, interrupt, horizon)) = next else {
+                break;
+            };
+            let horizon = match (horizon, timed) {
+                (Some(h), Some(ts)) => Some(h.min(ts)),
+                (h, ts) => h.or(ts),
+            };
             if t > until {
                 break;
             }

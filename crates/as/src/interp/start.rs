@@ -52,6 +52,13 @@ impl Interpreter {
     /// robot program). The robot's motion is the system's business.
     pub fn abort(&mut self, task: TaskId) {
         let i = TaskSlot::of(task);
+        if i.is_robot() && self.tasks[i].run != Run::Idle {
+            if !self.run_mask.is_empty() {
+                self.apply_run_mask();
+            }
+            // An OPEN/CLOSE/RELAX left for a motion that never came is dropped.
+            self.hand_pending.clear();
+        }
         self.release_frames(i, 0);
         self.set_run(i, Run::Idle);
         let t = &mut self.tasks[i];

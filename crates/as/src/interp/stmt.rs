@@ -289,6 +289,15 @@ impl Interpreter {
             }
             Op::Pause => Flow::Wait(Box::new(Wait::Paused)),
             Op::Signal(v) => self.signal_out(i, v, sys)?,
+            Op::Pulse(sig, t) => self.pulse(i, sig, t, sys, now)?,
+            Op::Dlysig(sig, t) => self.dlysig(i, sig, t, sys, now)?,
+            Op::RunMask(sig, count) => self.run_mask(i, sig, count, sys)?,
+            Op::Bits(wide, start, count, value) => {
+                self.bits_out(i, *wide, start, count, value, sys)?
+            }
+            Op::Hand(action, immediate, hand) => {
+                self.hand(i, *action, *immediate, hand, sys, pc)?
+            }
             Op::On {
                 immediate,
                 signal,
@@ -343,6 +352,11 @@ impl Interpreter {
             Op::HereT(l) => self.here_trans(i, l, sys)?,
             Op::Move(linear, l) => self.move_to(i, linear, l, sys, robot)?,
             Op::Home => self.home(i, sys, robot)?,
+            Op::Frame(base, t) => self.set_frame(i, *base, t, sys, pc)?,
+            Op::Posture(p) => self.set_posture(i, *p, sys, pc)?,
+            Op::Appro(linear, t, d) => self.appro(i, *linear, t, d, sys)?,
+            Op::Depart(linear, d) => self.depart(i, *linear, d, sys)?,
+            Op::Draw(tool, offset) => self.draw(i, *tool, offset, sys)?,
             Op::Delay(e) => self.delay(i, e, sys, robot)?,
             Op::Brake => {
                 sys.brake();
@@ -381,6 +395,7 @@ impl Interpreter {
                 None => return Ok(Flow::Shared),
             },
             Op::TcpClose(ret, sock) => self.tcp_close(i, ret, sock, sys)?,
+            Op::TcpStatus(ret, arrays) => self.tcp_status(i, ret, arrays, sys)?,
         };
         let t = &mut self.tasks[i];
         t.ready_at = now.saturating_add(cost);

@@ -175,6 +175,36 @@ impl Interpreter {
         Ok(Flow::Shared)
     }
 
+    /// `TCP_STATUS ret, port[i], sock[i], err[i], sub[i], $ip[i]`: `ret` is the number of open
+    /// sockets; element `i + k` of each array describes the k-th (sub-error always 0, the
+    /// address as `"a.b.c.d"`).
+    pub(super) fn tcp_status(
+        &mut self,
+        i: TaskSlot,
+        ret: &LRef,
+        arrays: &[LRef; 5],
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        let list = sys.tcp_status();
+        for (k, s) in list.iter().enumerate() {
+            let ip = format!("{}.{}.{}.{}", s.ip[0], s.ip[1], s.ip[2], s.ip[3]);
+            let values = [f32::from(s.port), s.sock as f32, s.error as f32, 0.0];
+            for (a, v) in arrays.iter().zip(values) {
+                let n = a.idx.len().clamp(1, 3);
+                let mut at = self.indices(i, a, sys)?;
+                at[0] += k as i32;
+                self.write_r_at(i, a.var, &at[..n], v)?;
+            }
+            let a = &arrays[4];
+            let n = a.idx.len().clamp(1, 3);
+            let mut at = self.indices(i, a, sys)?;
+            at[0] += k as i32;
+            self.write_s_at(i, a.var, &at[..n], Bytes::from(ip.as_bytes()))?;
+        }
+        self.write_r(i, ret, list.len() as f32, sys)?;
+        Ok(Flow::Next)
+    }
+
     pub(super) fn port(&mut self, i: TaskSlot, e: &RExpr, sys: &mut dyn System) -> R<u16> {
         let p = self.eval_r(i, e, sys)?.trunc();
         if !(8192.0..=65535.0).contains(&p) {

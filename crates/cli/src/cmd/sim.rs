@@ -152,9 +152,32 @@ async fn print_trace(emulators: Vec<fs020n_sim::Emulator>, as_json: bool) {
     }
 }
 
+/// `--signal N=1`: an input signal (1001–1999) and its state.
+fn input_signal(text: &str) -> CliResult<(i32, bool)> {
+    let bad = || {
+        CliError::input(format!(
+            "--signal {text}: expected N=1 or N=0 with N an input signal 1001–1999"
+        ))
+    };
+    let (n, v) = text.split_once('=').ok_or_else(bad)?;
+    let n: i32 = n.trim().parse().map_err(|_| bad())?;
+    let on = match v.trim().to_ascii_lowercase().as_str() {
+        "1" | "on" => true,
+        "0" | "off" => false,
+        _ => return Err(bad()),
+    };
+    if !(1001..=1999).contains(&n) {
+        return Err(bad());
+    }
+    Ok((n, on))
+}
+
 /// `sim`.
 pub(crate) fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
     let all = options(args, model)?;
+    let inputs = (args.signals.iter())
+        .map(|s| input_signal(s))
+        .collect::<CliResult<Vec<_>>>()?;
     let program = check_program(args)?;
     let rt = crate::fleet::runtime(args.threads)?;
     rt.block_on(async {
@@ -167,6 +190,11 @@ pub(crate) fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResul
                 .await
                 .map_err(|e| CliError::input(format!("cannot start the emulator: {e}")))?;
             robots.push(r);
+        }
+        for r in &robots {
+            for &(n, on) in &inputs {
+                r.emulator().with(|c| c.set_program_input(n, on));
+            }
         }
         for (i, r) in robots.iter().enumerate() {
             if as_json {

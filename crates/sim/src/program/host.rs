@@ -219,6 +219,53 @@ impl System for Host<'_> {
         Some([x.x_mm, x.y_mm, x.z_mm, x.o_deg, x.a_deg, x.t_deg])
     }
 
+    fn forward(&self, joints: &Joints) -> Option<Trans> {
+        let x = self
+            .m
+            .model()
+            .forward(&JointsDeg(*joints).to_rad())
+            .to_xyzoat();
+        Some([x.x_mm, x.y_mm, x.z_mm, x.o_deg, x.a_deg, x.t_deg])
+    }
+
+    fn inverse_all(&self, pose: &Trans) -> Vec<Joints> {
+        let pose = Pose::from_xyzoat(Xyzoat {
+            x_mm: pose[0],
+            y_mm: pose[1],
+            z_mm: pose[2],
+            o_deg: pose[3],
+            a_deg: pose[4],
+            t_deg: pose[5],
+        });
+        let model = self.m.model();
+        match model.inverse_all(&pose) {
+            Ok(all) => all
+                .iter()
+                .map(|q| q.to_deg())
+                .filter(|q| model.within_limits(q))
+                .map(|q| q.0)
+                .collect(),
+            Err(_) => Vec::new(),
+        }
+    }
+
+    fn inverse(&self, pose: &Trans, near: &Joints) -> Option<Joints> {
+        let pose = Pose::from_xyzoat(Xyzoat {
+            x_mm: pose[0],
+            y_mm: pose[1],
+            z_mm: pose[2],
+            o_deg: pose[3],
+            a_deg: pose[4],
+            t_deg: pose[5],
+        });
+        let model = self.m.model();
+        let q = model
+            .inverse_nearest(&pose, &JointsDeg(*near).to_rad())
+            .ok()?
+            .to_deg();
+        model.within_limits(&q).then_some(q.0)
+    }
+
     fn home(&self) -> Joints {
         self.m.model().home.0
     }
@@ -355,6 +402,10 @@ impl System for Host<'_> {
 
     fn tcp_close(&mut self, sock: i32) -> i32 {
         self.net.close(sock)
+    }
+
+    fn tcp_status(&self) -> Vec<fs020n_as::sockets::SocketStatus> {
+        self.net.status()
     }
 
     fn terminal(&mut self, task: TaskId, line: &str) {

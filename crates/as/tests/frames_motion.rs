@@ -1,0 +1,288 @@
+//! Frames and the motions they define, on virtual time: `TOOL`, `BASE`, `HERE` as a
+//! transformation, `POINT` between joint points and transformations, `APPRO`/`LAPPRO`/`JAPPRO`,
+//! `DEPART`/`LDEPART`, `DRAW`/`TDRAW`.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
+
+mod common;
+
+use common::{ms, pc, start};
+use fs020n_as::system::{MotionKind, System, Target};
+use fs020n_as::Interpreter;
+use fs020n_proto::ErrorCode;
+
+/// The six values a program DECOMPOSEd into the real array `name`.
+fn arr(i: &Interpreter, name: &str) -> [f32; 6] {
+    std::array::from_fn(|k| {
+        i.real_at(name, &[k as i32])
+            .unwrap_or_else(|| panic!("{name}[{k}] was not set"))
+    })
+}
+
+fn close(a: &[f32; 6], b: &[f32; 6], mm: f32, what: &str) {
+    for k in 0..6 {
+        assert!((a[k] - b[k]).abs() <= mm, "{what}: {a:?} vs {b:?}");
+    }
+}
+
+/// Runs `body` as the robot program `rob` for `secs` seconds.
+fn robot(body: &str, secs: u64) -> (Interpreter, fs020n_as::testing::VirtualSystem) {
+    let src = format!("{}.PROGRAM rob()\n{body}\n.END\n", pc("  MC EXECUTE rob"));
+    let (mut i, mut s) = start(&src);
+    i.run_until(&mut s, ms(secs * 1000));
+    assert!(s.raised.is_empty(), "{:?} {:?}", s.raised, s.terminal);
+    (i, s)
+}
+
+/// A pose of the tool pointing down, reachable from HOME.
+const PICK: &str = "TRANS(900, 100, 600, 0, 180, 0)";
+
+#[test]
+fn point_converts_between_joint_points_and_transformations() {
+    let (i, s) = robot(
+        "  POINT .t = #PPOINT(10, 20, -80, 5, -60, 15)\n  DECOMPOSE t[0] = .t\n  POINT #j = .t\n  DECOMPOSE j[0] = #j\n  HERE h\n  DECOMPOSE h[0] = h",
+        1,
+    );
+    close(
+        &arr(&i, "j"),
+        &[10.0, 20.0, -80.0, 5.0, -60.0, 15.0],
+        0.01,
+        "IK of the FK",
+    );
+    let fk = s
+        .forward(&[10.0, 20.0, -80.0, 5.0, -60.0, 15.0])
+        .expect("kinematics");
+    close(
+        &arr(&i, "t"),
+        &fk.map(|v| v as f32),
+        0.01,
+        "POINT t = #j is the FK",
+    );
+    let here = s.pose().expect("kinematics").map(|v| v as f32);
+    close(
+        &arr(&i, "h"),
+        &here,
+        0.01,
+        "HERE without TOOL or BASE is the flange",
+    );
+}
+
+#[test]
+fn point_to_a_joint_point_out_of_reach_stops_with_e1088() {
+    let src = format!(
+        "{}.PROGRAM rob()\n  POINT #j = TRANS(5000, 0, 0, 0, 0, 0)\n.END\n",
+        pc("  MC EXECUTE rob")
+    );
+    let (mut i, mut s) = start(&src);
+    i.run_until(&mut s, ms(100));
+    assert_eq!(s.raised, vec![ErrorCode(-31088)]);
+}
+
+#[test]
+fn tool_makes_here_the_tool_tip_and_moves_put_the_tip_on_the_target() {
+    let (i, s) = robot(
+        &format!("  HERE f\n  DECOMPOSE f[0] = f\n  TOOL TRANS(0, 0, 150)\n  HERE h\n  DECOMPOSE h[0] = h\n  LMOVE {PICK}\n  BREAK\n  HERE at\n  DECOMPOSE at[0] = at"),
+        10,
+    );
+    let f = arr(&i, "f");
+    let h = arr(&i, "h");
+    // At HOME the flange points down (A = 180): the tip is 150 mm below it.
+    assert!((f[4] - 180.0).abs() < 0.01, "{f:?}");
+    close(
+        &h,
+        &[f[0], f[1], f[2] - 150.0, f[3], f[4], f[5]],
+        0.05,
+        "TOOL 150 mm along Z",
+    );
+    close(
+        &arr(&i, "at"),
+        &[900.0, 100.0, 600.0, 0.0, 180.0, 0.0],
+        0.05,
+        "tip on the target",
+    );
+    // The system moved the flange: 150 mm above the target.
+    let flange = s.pose().expect("kinematics");
+    assert!((flange[2] - 750.0).abs() < 0.05, "{flange:?}");
+    match s.motions.last().map(|(_, m)| (m.kind, m.target)) {
+        Some((MotionKind::Linear, Target::Pose(p))) => assert!((p[2] - 750.0).abs() < 0.05),
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn base_moves_the_world_frame() {
+    let (i, s) = robot(
+        &format!("  BASE TRANS(100, -50, 20, 0, 0, 0)\n  JMOVE {PICK}\n  BREAK\n  HERE at\n  DECOMPOSE at[0] = at\n  BASE NULL\n  HERE raw\n  DECOMPOSE raw[0] = raw"),
+        10,
+    );
+    close(
+        &arr(&i, "at"),
+        &[900.0, 100.0, 600.0, 0.0, 180.0, 0.0],
+        0.05,
+        "in the world",
+    );
+    close(
+        &arr(&i, "raw"),
+        &[800.0, 150.0, 580.0, 0.0, 180.0, 0.0],
+        0.05,
+        "in the robot's frame",
+    );
+    let flange = s.pose().expect("kinematics");
+    assert!((flange[0] - 800.0).abs() < 0.05 && (flange[1] - 150.0).abs() < 0.05);
+}
+
+#[test]
+fn tool_waits_for_the_motion_to_end() {
+    let (i, _) = robot(
+        "  JMOVE #PPOINT(30, 0, -90, 0, -90, 0)\n  TOOL TRANS(0, 0, 100)\n  t = TIMER(0)",
+        2,
+    );
+    let t = i.real("t").expect("TOOL went on");
+    assert!(
+        (0.3..0.32).contains(&t),
+        "{t}: after the 30° move at 100 °/s"
+    );
+}
+
+#[test]
+fn appro_and_depart_move_along_the_tool_z_axis() {
+    let (i, s) = robot(
+        &format!("  TOOL TRANS(0, 0, 100)\n  JAPPRO {PICK}, 80\n  BREAK\n  HERE a\n  DECOMPOSE a[0] = a\n  LMOVE {PICK}\n  BREAK\n  LDEPART 120\n  BREAK\n  HERE d\n  DECOMPOSE d[0] = d\n  APPRO {PICK}, 10\n  LAPPRO {PICK}, 20\n  DEPART 30"),
+        20,
+    );
+    // The tool points down: "back along its Z axis" is up.
+    close(
+        &arr(&i, "a"),
+        &[900.0, 100.0, 680.0, 0.0, 180.0, 0.0],
+        0.05,
+        "JAPPRO 80 mm short",
+    );
+    close(
+        &arr(&i, "d"),
+        &[900.0, 100.0, 720.0, 0.0, 180.0, 0.0],
+        0.05,
+        "LDEPART 120 mm",
+    );
+    let kinds: Vec<MotionKind> = s.motions.iter().map(|(_, m)| m.kind).collect();
+    assert_eq!(
+        kinds,
+        [
+            MotionKind::Joint,
+            MotionKind::Linear,
+            MotionKind::Linear,
+            MotionKind::Joint,
+            MotionKind::Linear,
+            MotionKind::Joint
+        ]
+    );
+}
+
+#[test]
+fn draw_moves_along_the_base_axes_and_tdraw_along_the_tool_axes() {
+    let (i, s) = robot(
+        &format!("  LMOVE {PICK}\n  BREAK\n  DRAW 10, , -20\n  BREAK\n  HERE a\n  DECOMPOSE a[0] = a\n  TDRAW 0, 5, 30\n  BREAK\n  HERE b\n  DECOMPOSE b[0] = b"),
+        10,
+    );
+    close(
+        &arr(&i, "a"),
+        &[910.0, 100.0, 580.0, 0.0, 180.0, 0.0],
+        0.05,
+        "DRAW",
+    );
+    // Tool pointing down (O 0, A 180, T 0: a half turn about Y): tool Y is world Y, tool Z
+    // is world −Z.
+    close(
+        &arr(&i, "b"),
+        &[910.0, 105.0, 550.0, 0.0, 180.0, 0.0],
+        0.05,
+        "TDRAW",
+    );
+    assert!(s
+        .motions
+        .iter()
+        .skip(1)
+        .all(|(_, m)| m.kind == MotionKind::Linear));
+}
+
+#[test]
+fn draw_with_rotations_loads_as_not_emulated() {
+    let i = Interpreter::from_source(
+        "t.as",
+        ".PROGRAM rob()\n  DRAW 1, 2, 3, 10, 0, 0\n.END\n",
+        fs020n_as::Config::default(),
+    )
+    .expect("loads");
+    assert!(i.warnings().iter().any(|w| w
+        .message
+        .starts_with("DRAW (with rotations) loads but is not emulated")));
+}
+
+#[test]
+fn appro_in_a_pc_program_is_e0108() {
+    let (mut i, mut s) = start(&pc("  APPRO TRANS(900, 0, 600, 0, 180, 0), 10"));
+    i.run_until(&mut s, ms(10));
+    assert_eq!(s.raised, vec![ErrorCode(-30108)]);
+}
+
+#[test]
+fn shift_moves_a_location_along_the_base_axes() {
+    let (i, _) = robot(
+        &format!("  POINT p = SHIFT({PICK} BY 10, -20, 30)\n  DECOMPOSE a[0] = p\n  LMOVE SHIFT(p BY 0, 0, 5)\n  BREAK\n  HERE h\n  DECOMPOSE h[0] = h\n  POINT q = SHIFT(#PPOINT(0, 0, -90, 0, -90, 0) BY 1)\n  DECOMPOSE b[0] = q\n  HERE #j\n  POINT r = #PPOINT(0, 0, -90, 0, -90, 0)\n  DECOMPOSE c[0] = r"),
+        10,
+    );
+    close(
+        &arr(&i, "a"),
+        &[910.0, 80.0, 630.0, 0.0, 180.0, 0.0],
+        0.01,
+        "SHIFT",
+    );
+    close(
+        &arr(&i, "h"),
+        &[910.0, 80.0, 635.0, 0.0, 180.0, 0.0],
+        0.05,
+        "moved to a SHIFT",
+    );
+    let c = arr(&i, "c");
+    close(
+        &arr(&i, "b"),
+        &[c[0] + 1.0, c[1], c[2], c[3], c[4], c[5]],
+        0.01,
+        "SHIFT of a joint point",
+    );
+}
+
+#[test]
+fn shift_without_by_is_a_load_error() {
+    let e = Interpreter::from_source(
+        "t.as",
+        ".PROGRAM rob()\n  p = SHIFT(TRANS(1, 2, 3) 1, 2)\n.END\n",
+        fs020n_as::Config::default(),
+    )
+    .expect_err("does not load")
+    .to_string();
+    assert!(e.contains("t.as:2:"), "{e}");
+}
+
+#[test]
+fn dest_is_the_target_of_the_latest_motion_while_it_runs() {
+    let (i, _) = robot(
+        &format!("  TOOL TRANS(0, 0, 100)\n  LMOVE {PICK}\n  DECOMPOSE d[0] = DEST\n  HERE h\n  DECOMPOSE h[0] = h\n  JMOVE #PPOINT(10, 0, -90, 0, -90, 0)\n  DECOMPOSE j[0] = #DEST"),
+        10,
+    );
+    close(
+        &arr(&i, "d"),
+        &[900.0, 100.0, 600.0, 0.0, 180.0, 0.0],
+        0.05,
+        "DEST with the tool",
+    );
+    let h = arr(&i, "h");
+    assert!(
+        (h[2] - 600.0).abs() > 10.0,
+        "the robot was still on its way: {h:?}"
+    );
+    close(
+        &arr(&i, "j"),
+        &[10.0, 0.0, -90.0, 0.0, -90.0, 0.0],
+        0.001,
+        "#DEST",
+    );
+}
