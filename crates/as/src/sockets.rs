@@ -25,7 +25,7 @@
 use std::collections::{BTreeMap, VecDeque};
 use std::time::Duration;
 
-use crate::system::SockPoll;
+use crate::system::{SockPoll, SocketStatus};
 
 /// The AS result codes of the TCP instructions (AS error `E40nn` is code `−340nn`): what a
 /// `ret` variable holds when an instruction fails. See docs/AS.md, "TCP sockets".
@@ -148,19 +148,6 @@ pub struct ClientRead {
     pub closed: bool,
     /// When more bytes become due (a delayed or split reply).
     pub next_at: Option<Duration>,
-}
-
-/// One socket as `TCP_STATUS` reports it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SocketStatus {
-    /// The socket id.
-    pub sock: i32,
-    /// The port it was accepted on (0 for the connecting end of a local connection).
-    pub port: u16,
-    /// The peer's address.
-    pub ip: [u8; 4],
-    /// 0, or [`TcpCode::Broken`]'s code when the peer closed the connection.
-    pub error: i32,
 }
 
 #[derive(Debug, Clone)]

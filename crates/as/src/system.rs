@@ -277,10 +277,23 @@ pub trait System {
     fn tcp_close(&mut self, sock: i32) -> i32;
 
     /// `TCP_STATUS`: the sockets the program holds open.
-    fn tcp_status(&self) -> Vec<crate::sockets::SocketStatus>;
+    fn tcp_status(&self) -> Vec<SocketStatus>;
 
     // ------------------------------------------------------------------ terminal
 
     /// A line printed by `PRINT`/`TYPE` (without its line ending) or a controller message.
     fn terminal(&mut self, task: TaskId, line: &str);
+}
+
+/// One socket as `TCP_STATUS` reports it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SocketStatus {
+    /// The socket id.
+    pub sock: i32,
+    /// The port it was accepted on (0 for the connecting end of a local connection).
+    pub port: u16,
+    /// The peer's address.
+    pub ip: [u8; 4],
+    /// 0, or [`TcpCode::Broken`](crate::sockets::TcpCode::Broken)'s code when the peer closed the connection.
+    pub error: i32,
 }

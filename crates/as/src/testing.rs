@@ -489,7 +489,7 @@ impl System for VirtualSystem {
         self.net.close(sock)
     }
 
-    fn tcp_status(&self) -> Vec<crate::sockets::SocketStatus> {
+    fn tcp_status(&self) -> Vec<crate::system::SocketStatus> {
         let mut v = self.net.status();
         v.retain(|s| !self.clients.contains(&s.sock));
         v

@@ -404,7 +404,7 @@ impl System for Host<'_> {
         self.net.close(sock)
     }
 
-    fn tcp_status(&self) -> Vec<fs020n_as::sockets::SocketStatus> {
+    fn tcp_status(&self) -> Vec<fs020n_as::SocketStatus> {
         self.net.status()
     }
 
