@@ -484,6 +484,7 @@ async fn joint_state_loop(
     tf: &ros2_client::Publisher<TfMessage>,
 ) -> Result<(), Ros2Error> {
     let mut previous: Option<([f64; 6], f64)> = None;
+    let mut last_velocity: Vec<f64> = Vec::new();
     let period = Duration::from_secs_f64(1.0 / shared.config.joint_state_rate_hz);
     let mut ticker = tokio::time::interval(period);
     ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
@@ -505,7 +506,10 @@ async fn joint_state_loop(
         }
         // Every status passes the re-arm policy (a fault revokes it).
         lock(&shared.arming).handle_status(&s.status, s.received_at);
-        if last_seq == Some(s.seq) && s.age() > period * 2 {
+        // The same reply again (no newer one yet): published again while fresh, with the
+        // velocities it had (two publications of one reply are no measure of motion).
+        let same_reply = last_seq == Some(s.seq);
+        if same_reply && s.age() > period * 2 {
             continue;
         }
         last_seq = Some(s.seq);
@@ -514,14 +518,34 @@ async fn joint_state_loop(
             .map_or_else(Time::now, Time::from_system);
         let joints_deg: [f64; 6] = std::array::from_fn(|j| s.status.joints[j]);
         let timer_s = s.status.timer.seconds();
-        let velocity = match timer_s {
-            Some(t) => crate::tf::joint_velocities(
-                previous.as_ref().map(|(q, t0)| (q, *t0)),
-                (&joints_deg, t),
-            ),
-            None => Vec::new(),
+        let velocity = if same_reply {
+            last_velocity.clone()
+        } else {
+            let v = match timer_s {
+                // Another reply of the same controller millisecond: no new measure either.
+                Some(t)
+                    if previous
+                        .as_ref()
+                        .is_some_and(|(_, t0)| (t - t0).abs() <= 1e-6) =>
+                {
+                    last_velocity.clone()
+                }
+                Some(t) => {
+                    let v = crate::tf::joint_velocities(
+                        previous.as_ref().map(|(q, t0)| (q, *t0)),
+                        (&joints_deg, t),
+                    );
+                    previous = Some((joints_deg, t));
+                    v
+                }
+                None => {
+                    previous = None;
+                    Vec::new()
+                }
+            };
+            last_velocity = v.clone();
+            v
         };
-        previous = timer_s.map(|t| (joints_deg, t));
         let msg = JointState {
             header: Header {
                 stamp,
