@@ -47,6 +47,7 @@
 pub mod ast;
 mod compile;
 pub mod error;
+pub mod flange;
 mod interp;
 pub mod keywords;
 pub mod lexer;

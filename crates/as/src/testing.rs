@@ -11,9 +11,10 @@
 
 use std::time::Duration;
 
-use fs020n_kin::{Pose, RobotModel, Xyzoat};
+use fs020n_kin::RobotModel;
 use fs020n_proto::{ErrorCode, JointsDeg};
 
+use crate::flange;
 use crate::sockets::{Delivery, SocketLimits, SocketTable, TcpCode};
 use crate::system::{
     Issued, Joints, MotionKind, MotionRequest, PanelState, SockPoll, Speed, System, Target, TaskId,
@@ -290,54 +291,19 @@ impl System for VirtualSystem {
     }
 
     fn pose(&self) -> Option<Trans> {
-        let x = self
-            .model
-            .forward(&JointsDeg(self.joints()).to_rad())
-            .to_xyzoat();
-        Some([x.x_mm, x.y_mm, x.z_mm, x.o_deg, x.a_deg, x.t_deg])
+        Some(flange::forward(&self.model, &self.joints()))
     }
 
     fn forward(&self, joints: &Joints) -> Option<Trans> {
-        let x = self.model.forward(&JointsDeg(*joints).to_rad()).to_xyzoat();
-        Some([x.x_mm, x.y_mm, x.z_mm, x.o_deg, x.a_deg, x.t_deg])
+        Some(flange::forward(&self.model, joints))
     }
 
     fn inverse_all(&self, pose: &Trans) -> Vec<Joints> {
-        let pose = Pose::from_xyzoat(Xyzoat {
-            x_mm: pose[0],
-            y_mm: pose[1],
-            z_mm: pose[2],
-            o_deg: pose[3],
-            a_deg: pose[4],
-            t_deg: pose[5],
-        });
-        match self.model.inverse_all(&pose) {
-            Ok(all) => all
-                .iter()
-                .map(|q| q.to_deg())
-                .filter(|q| self.model.within_limits(q))
-                .map(|q| q.0)
-                .collect(),
-            Err(_) => Vec::new(),
-        }
+        flange::inverse_all(&self.model, pose)
     }
 
     fn inverse(&self, pose: &Trans, near: &Joints) -> Option<Joints> {
-        let pose = Pose::from_xyzoat(Xyzoat {
-            x_mm: pose[0],
-            y_mm: pose[1],
-            z_mm: pose[2],
-            o_deg: pose[3],
-            a_deg: pose[4],
-            t_deg: pose[5],
-        });
-        let q = self
-            .model
-            .inverse_nearest(&pose, &JointsDeg(*near).to_rad())
-            .ok()?
-            .to_deg()
-            .0;
-        self.model.within_limits(&JointsDeg(q)).then_some(q)
+        flange::inverse(&self.model, pose, near)
     }
 
     fn home(&self) -> Joints {
@@ -351,14 +317,7 @@ impl System for VirtualSystem {
             (MotionKind::Delay, _) => from,
             (_, Target::Joints(j)) => j,
             (_, Target::Pose(p)) => {
-                let pose = Pose::from_xyzoat(Xyzoat {
-                    x_mm: p[0],
-                    y_mm: p[1],
-                    z_mm: p[2],
-                    o_deg: p[3],
-                    a_deg: p[4],
-                    t_deg: p[5],
-                });
+                let pose = flange::pose_of(&p);
                 match self.model.inverse_nearest(&pose, &JointsDeg(from).to_rad()) {
                     Ok(q) => q.to_deg().0,
                     Err(_) => return Err(ErrorCode::DESTINATION_OUT_OF_RANGE),

@@ -178,6 +178,45 @@ impl Shared {
     }
 }
 
+/// A publisher on `name` (resolved under the node's namespace and remappings) of the message
+/// type `(package, type)`.
+fn publisher<D: serde::Serialize>(
+    node: &mut ros2_client::Node,
+    config: &NodeConfig,
+    name: &str,
+    (package, type_name): (&str, &str),
+    qos: QosProfile,
+) -> Result<ros2_client::Publisher<D>, Ros2Error> {
+    let topic = node
+        .create_topic(
+            &split_name(&config.resolve(name))?,
+            MessageTypeName::new(package, type_name),
+            &qos,
+        )
+        .map_err(dds(name))?;
+    node.create_publisher::<D>(&topic, Some(qos))
+        .map_err(dds(name))
+}
+
+/// A subscription to `name`, as [`publisher`].
+fn subscription<D: 'static>(
+    node: &mut ros2_client::Node,
+    config: &NodeConfig,
+    name: &str,
+    (package, type_name): (&str, &str),
+    qos: QosProfile,
+) -> Result<ros2_client::Subscription<D>, Ros2Error> {
+    let topic = node
+        .create_topic(
+            &split_name(&config.resolve(name))?,
+            MessageTypeName::new(package, type_name),
+            &qos,
+        )
+        .map_err(dds(name))?;
+    node.create_subscription::<D>(&topic, Some(qos))
+        .map_err(dds(name))
+}
+
 fn joint_state_qos() -> QosProfile {
     QosProfile::publisher_default()
         .reliability(Reliability::Reliable {
@@ -274,88 +313,60 @@ pub async fn run(
     let mapping = config.dds.service_mapping.to_client();
 
     // Topics.
-    let joint_states = {
-        let topic = node
-            .create_topic(
-                &split_name(&config.resolve("joint_states"))?,
-                MessageTypeName::new("sensor_msgs", "JointState"),
-                &joint_state_qos(),
-            )
-            .map_err(dds("/joint_states"))?;
-        node.create_publisher::<JointState>(&topic, Some(joint_state_qos()))
-            .map_err(dds("/joint_states"))?
-    };
-    let description = {
-        let topic = node
-            .create_topic(
-                &split_name(&config.resolve("robot_description"))?,
-                MessageTypeName::new("std_msgs", "String"),
-                &latched_qos(),
-            )
-            .map_err(dds("/robot_description"))?;
-        node.create_publisher::<StringMsg>(&topic, Some(latched_qos()))
-            .map_err(dds("/robot_description"))?
-    };
-    let diagnostics = {
-        let topic = node
-            .create_topic(
-                &split_name(&config.resolve("/diagnostics"))?,
-                MessageTypeName::new("diagnostic_msgs", "DiagnosticArray"),
-                &joint_state_qos(),
-            )
-            .map_err(dds("/diagnostics"))?;
-        node.create_publisher::<DiagnosticArray>(&topic, Some(joint_state_qos()))
-            .map_err(dds("/diagnostics"))?
-    };
+    let joint_states = publisher::<JointState>(
+        &mut node,
+        &config,
+        "joint_states",
+        ("sensor_msgs", "JointState"),
+        joint_state_qos(),
+    )?;
+    let description = publisher::<StringMsg>(
+        &mut node,
+        &config,
+        "robot_description",
+        ("std_msgs", "String"),
+        latched_qos(),
+    )?;
+    let diagnostics = publisher::<DiagnosticArray>(
+        &mut node,
+        &config,
+        "/diagnostics",
+        ("diagnostic_msgs", "DiagnosticArray"),
+        joint_state_qos(),
+    )?;
 
-    let tf = {
-        let topic = node
-            .create_topic(
-                &split_name(&config.resolve("/tf"))?,
-                MessageTypeName::new("tf2_msgs", "TFMessage"),
-                &joint_state_qos(),
-            )
-            .map_err(dds("/tf"))?;
-        node.create_publisher::<TfMessage>(&topic, Some(joint_state_qos()))
-            .map_err(dds("/tf"))?
-    };
-    let tf_static = {
-        let topic = node
-            .create_topic(
-                &split_name(&config.resolve("/tf_static"))?,
-                MessageTypeName::new("tf2_msgs", "TFMessage"),
-                &latched_qos(),
-            )
-            .map_err(dds("/tf_static"))?;
-        node.create_publisher::<TfMessage>(&topic, Some(latched_qos()))
-            .map_err(dds("/tf_static"))?
-    };
+    let tf = publisher::<TfMessage>(
+        &mut node,
+        &config,
+        "/tf",
+        ("tf2_msgs", "TFMessage"),
+        joint_state_qos(),
+    )?;
+    let tf_static = publisher::<TfMessage>(
+        &mut node,
+        &config,
+        "/tf_static",
+        ("tf2_msgs", "TFMessage"),
+        latched_qos(),
+    )?;
 
     // Streaming input: a trajectory on a topic replaces the running one (as JTC's).
-    let trajectory_topic = {
-        let topic = node
-            .create_topic(
-                &split_name(&config.resolve("~/joint_trajectory"))?,
-                MessageTypeName::new("trajectory_msgs", "JointTrajectory"),
-                &joint_state_qos(),
-            )
-            .map_err(dds("~/joint_trajectory"))?;
-        node.create_subscription::<JointTrajectory>(&topic, Some(joint_state_qos()))
-            .map_err(dds("~/joint_trajectory"))?
-    };
+    let trajectory_topic = subscription::<JointTrajectory>(
+        &mut node,
+        &config,
+        "~/joint_trajectory",
+        ("trajectory_msgs", "JointTrajectory"),
+        joint_state_qos(),
+    )?;
 
     // Streaming input: forward positions for the client's servo (MoveIt Servo, teleoperation).
-    let commands_topic = {
-        let topic = node
-            .create_topic(
-                &split_name(&config.resolve("~/commands"))?,
-                MessageTypeName::new("std_msgs", "Float64MultiArray"),
-                &joint_state_qos(),
-            )
-            .map_err(dds("~/commands"))?;
-        node.create_subscription::<Float64MultiArray>(&topic, Some(joint_state_qos()))
-            .map_err(dds("~/commands"))?
-    };
+    let commands_topic = subscription::<Float64MultiArray>(
+        &mut node,
+        &config,
+        "~/commands",
+        ("std_msgs", "Float64MultiArray"),
+        joint_state_qos(),
+    )?;
 
     // Services.
     let trigger = ServiceTypeName::new("std_srvs", "Trigger");

@@ -6,12 +6,13 @@
 
 use std::time::Duration;
 
+use fs020n_as::flange;
 use fs020n_as::sockets::{SocketTable, TcpCode};
 use fs020n_as::{
     Issued, Joints, MotionKind, MotionRequest, PanelState, SockPoll, Speed, System, Target, TaskId,
     Trans,
 };
-use fs020n_kin::{JointMove, Pose, Xyzoat};
+use fs020n_kin::JointMove;
 use fs020n_proto::{ErrorCode, JointsDeg};
 
 use super::net::delivery_of;
@@ -76,17 +77,6 @@ pub(crate) struct Host<'a> {
     pub(crate) link: &'a mut MotionLink,
 }
 
-fn xyzoat(p: &Trans) -> Xyzoat {
-    Xyzoat {
-        x_mm: p[0],
-        y_mm: p[1],
-        z_mm: p[2],
-        o_deg: p[3],
-        a_deg: p[4],
-        t_deg: p[5],
-    }
-}
-
 impl Host<'_> {
     /// The program speed as a fraction of the joints' maximum speeds, with the monitor speed
     /// (product, or minimum with ABS.SPEED).
@@ -149,7 +139,7 @@ impl Host<'_> {
             (MotionKind::Delay, _) => from,
             (_, Target::Joints(j)) => JointsDeg(j),
             (_, Target::Pose(p)) => model
-                .inverse_nearest(&Pose::from_xyzoat(xyzoat(&p)), &from.to_rad())
+                .inverse_nearest(&flange::pose_of(&p), &from.to_rad())
                 .map(|q| q.to_deg())
                 .map_err(|_| ErrorCode::DESTINATION_OUT_OF_RANGE)?,
         };
@@ -211,59 +201,19 @@ impl System for Host<'_> {
     }
 
     fn pose(&self) -> Option<Trans> {
-        let x = self
-            .m
-            .model()
-            .forward(&self.m.arm().joints().to_rad())
-            .to_xyzoat();
-        Some([x.x_mm, x.y_mm, x.z_mm, x.o_deg, x.a_deg, x.t_deg])
+        Some(flange::forward(self.m.model(), &self.m.arm().joints().0))
     }
 
     fn forward(&self, joints: &Joints) -> Option<Trans> {
-        let x = self
-            .m
-            .model()
-            .forward(&JointsDeg(*joints).to_rad())
-            .to_xyzoat();
-        Some([x.x_mm, x.y_mm, x.z_mm, x.o_deg, x.a_deg, x.t_deg])
+        Some(flange::forward(self.m.model(), joints))
     }
 
     fn inverse_all(&self, pose: &Trans) -> Vec<Joints> {
-        let pose = Pose::from_xyzoat(Xyzoat {
-            x_mm: pose[0],
-            y_mm: pose[1],
-            z_mm: pose[2],
-            o_deg: pose[3],
-            a_deg: pose[4],
-            t_deg: pose[5],
-        });
-        let model = self.m.model();
-        match model.inverse_all(&pose) {
-            Ok(all) => all
-                .iter()
-                .map(|q| q.to_deg())
-                .filter(|q| model.within_limits(q))
-                .map(|q| q.0)
-                .collect(),
-            Err(_) => Vec::new(),
-        }
+        flange::inverse_all(self.m.model(), pose)
     }
 
     fn inverse(&self, pose: &Trans, near: &Joints) -> Option<Joints> {
-        let pose = Pose::from_xyzoat(Xyzoat {
-            x_mm: pose[0],
-            y_mm: pose[1],
-            z_mm: pose[2],
-            o_deg: pose[3],
-            a_deg: pose[4],
-            t_deg: pose[5],
-        });
-        let model = self.m.model();
-        let q = model
-            .inverse_nearest(&pose, &JointsDeg(*near).to_rad())
-            .ok()?
-            .to_deg();
-        model.within_limits(&q).then_some(q.0)
+        flange::inverse(self.m.model(), pose, near)
     }
 
     fn home(&self) -> Joints {
