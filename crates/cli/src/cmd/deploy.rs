@@ -54,6 +54,42 @@ pub(crate) fn deploy(ctx: &Ctx, args: &DeployArgs) -> CliResult {
             "--block-bytes must be from 16 to 3000 (480 is safe on every controller)",
         ));
     }
+    let mut steps = Steps::new(ctx.json);
+    let plan = check(args, &mut steps)?;
+
+    let robot_addr = ctx.addr_or_default();
+    let terminal = terminal_addr(args.terminal.as_deref(), &robot_addr);
+    let rt = runtime()?;
+    rt.block_on(async {
+        let mut term = match open_terminal(&terminal, args.block_bytes, ctx.connect_timeout).await {
+            Ok(t) => t,
+            Err(e) => {
+                return Err(steps.fail("terminal", Exit::Link, e.to_string(), terminal_remedy(&e)));
+            }
+        };
+        let result = walk(ctx, args, &mut steps, &mut term, &plan, &robot_addr).await;
+        if let Some(path) = &args.transcript {
+            write_transcript(path, &term)?;
+        }
+        result
+    })
+}
+
+/// What step 1 found: the file, its programs and the one to start.
+struct Plan {
+    /// The file's name as the controller will know it (`LOAD name`).
+    name: String,
+    /// The file's bytes, sent as they are.
+    bytes: Vec<u8>,
+    /// The programs the file defines, lower case.
+    programs: Vec<String>,
+    /// The program `PCEXECUTE` starts.
+    start: String,
+}
+
+/// Step 1: the file read, checked as the emulator loads it against the controller's limits, and
+/// the program to start chosen.
+fn check(args: &DeployArgs, steps: &mut Steps) -> Result<Plan, CliError> {
     let generation: Generation = args.controller.parse().map_err(CliError::input)?;
     let (name, bytes) = match &args.file {
         Some(path) => (
@@ -66,8 +102,6 @@ pub(crate) fn deploy(ctx: &Ctx, args: &DeployArgs) -> CliResult {
             fs020n_as::SERVER_1040.as_bytes().to_vec(),
         ),
     };
-    let mut steps = Steps::new(ctx.json);
-
     // 1. The check, as the emulator loads it, against the controller's limits.
     let opts = (args.stubs.iter()).fold(LoadOptions::new(), |o, s| o.stub(s));
     let report = fs020n_as::check(&name, &bytes, &opts, Some(generation));
@@ -126,49 +160,29 @@ pub(crate) fn deploy(ctx: &Ctx, args: &DeployArgs) -> CliResult {
             args.controller
         ),
     );
-
-    let robot_addr = ctx.addr_or_default();
-    let terminal = terminal_addr(args.terminal.as_deref(), &robot_addr);
-    let rt = runtime()?;
-    rt.block_on(async {
-        let mut term = match open_terminal(&terminal, args.block_bytes, ctx.connect_timeout).await {
-            Ok(t) => t,
-            Err(e) => {
-                return Err(steps.fail("terminal", Exit::Link, e.to_string(), terminal_remedy(&e)));
-            }
-        };
-        let result = walk(
-            ctx,
-            args,
-            &mut steps,
-            &mut term,
-            &name,
-            &bytes,
-            &programs,
-            &start,
-            &robot_addr,
-        )
-        .await;
-        if let Some(path) = &args.transcript {
-            write_transcript(path, &term)?;
-        }
-        result
+    Ok(Plan {
+        name,
+        bytes,
+        programs,
+        start,
     })
 }
 
 /// Steps 2 to 6 on a logged-in terminal.
-#[allow(clippy::too_many_arguments)]
 async fn walk(
     ctx: &Ctx,
     args: &DeployArgs,
     steps: &mut Steps,
     term: &mut TerminalConnection,
-    name: &str,
-    bytes: &[u8],
-    programs: &[String],
-    start: &str,
+    plan: &Plan,
     robot_addr: &str,
 ) -> CliResult {
+    let Plan {
+        name,
+        bytes,
+        programs,
+        start,
+    } = plan;
     let step_err = |e: fs020n_term::connection::ConnectionError| e.to_string();
     macro_rules! cmd {
         ($step:expr, $line:expr, $confirm:expr) => {
