@@ -224,11 +224,12 @@ impl ProgramServer {
         &mut self.interp
     }
 
-    /// `EXECUTE program` in robot task 1, with the controller's checks.
+    /// `EXECUTE program, cycles` in robot task 1, with the controller's checks.
     pub(crate) fn execute(
         &mut self,
         m: &mut Machine,
         program: &str,
+        cycles: i64,
     ) -> Result<(), fs020n_as::Refusal> {
         let mut host = Host {
             m,
@@ -236,7 +237,7 @@ impl ProgramServer {
             planned: &mut self.planned,
             link: &mut self.link,
         };
-        self.interp.execute(program, &mut host)
+        self.interp.execute_cycles(program, cycles, &mut host)
     }
 
     /// Runs the program's tasks up to `t`; they advance the machine up to each of their steps.

@@ -596,3 +596,59 @@ fn the_native_server_refuses_loads_and_says_how_to_load() {
     }
     assert!(t.c.loaded_programs().is_empty());
 }
+
+#[test]
+fn pcexecute_runs_the_program_as_many_cycles_as_asked_and_pcstatus_counts_them() {
+    let mut t = Term::new(bare());
+    let p = ".PROGRAM count()\n  n = n + 1\n  TWAIT 0.1\n.END\n.REALS\nn = 0\n.END\n";
+    loaded_ok(&t.load("count.as", p));
+    t.cmd("PCEXECUTE 2: count, 3", false);
+    t.advance(Duration::from_millis(150));
+    let status = t.cmd("PCSTATUS 2:", false);
+    assert!(status.contains("Completed cycles: 1"), "{status}");
+    assert!(status.contains("Remaining cycles: 2"), "{status}");
+    t.advance(Duration::from_millis(2000));
+    assert_eq!(t.cmd("TYPE n", false), "3");
+    assert!(!t.c.task_running(TaskId::Pc(2)));
+    // A count that is not a number is refused and nothing starts.
+    let refused = t.cmd("PCEXECUTE 2: count, many", false);
+    assert!(refused.contains("whole number"), "{refused}");
+    assert!(!t.c.task_running(TaskId::Pc(2)));
+}
+
+#[test]
+fn pcexecute_minus_one_runs_until_pcabort() {
+    let mut t = Term::new(bare());
+    let p = ".PROGRAM count()\n  n = n + 1\n  TWAIT 0.1\n.END\n.REALS\nn = 0\n.END\n";
+    loaded_ok(&t.load("count.as", p));
+    t.cmd("PCEXECUTE 3: count, -1", false);
+    t.advance(Duration::from_millis(5050));
+    assert!(t.c.task_running(TaskId::Pc(3)));
+    let status = t.cmd("PCSTATUS 3:", false);
+    assert!(status.contains("Remaining cycles: Infinite"), "{status}");
+    let n: u32 = t.cmd("TYPE n", false).parse().unwrap();
+    assert!((45..=51).contains(&n), "{n} cycles of 0.1 s in 5 s");
+    t.cmd("PCABORT 3:", false);
+    t.advance(Duration::from_millis(500));
+    assert!(!t.c.task_running(TaskId::Pc(3)));
+    let after: u32 = t.cmd("TYPE n", false).parse().unwrap();
+    t.advance(Duration::from_millis(1000));
+    assert_eq!(
+        t.cmd("TYPE n", false).parse::<u32>().unwrap(),
+        after,
+        "no cycle after PCABORT"
+    );
+    assert!(after <= n + 1, "{after} after {n}");
+}
+
+#[test]
+fn execute_with_a_cycle_count_repeats_the_robot_program() {
+    let mut t = Term::new(bare());
+    let p = ".PROGRAM rob()\n  m = m + 1\n  TWAIT 0.1\n.END\n.REALS\nm = 0\n.END\n";
+    loaded_ok(&t.load("rob.as", p));
+    t.c.set_power(true).unwrap();
+    t.cmd("EXECUTE rob, 4", false);
+    t.advance(Duration::from_millis(2000));
+    assert_eq!(t.cmd("TYPE m", false), "4");
+    assert!(!t.c.task_running(TaskId::Robot));
+}

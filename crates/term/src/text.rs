@@ -316,13 +316,25 @@ pub const EMULATOR_AS_VERSION: &str = "EMULATOR-FS020N-AS";
 pub const EMULATOR_NATIVE_NO_LOAD: &str = "(emulator) this controller runs the native server: \
      start it with --bare or --as-program to load AS programs";
 
-/// `PCSTATUS`'s cycle lines (**H** for the wording of the manual's example).
-pub fn cycle_lines(completed: u32, remaining: u32) -> [String; 2] {
+/// `PCSTATUS`'s cycle lines (**H** for the wording of the manual's example). A negative
+/// remaining count (a task started with `-1`, for ever) prints as `Infinite` (**L**: the
+/// manual's example shows only counts; the word is the emulator's).
+pub fn cycle_lines(completed: u32, remaining: i64) -> [String; 2] {
+    let remaining = if remaining < 0 {
+        "Infinite".to_owned()
+    } else {
+        remaining.to_string()
+    };
     [
         format!("Completed cycles: {completed}"),
         format!("Remaining cycles: {remaining}"),
     ]
 }
+
+/// The emulator's answer to `PCEXECUTE n: prog, cycles` whose count is not a whole number
+/// (emulator only: the controller evaluates an expression there).
+pub const EMULATOR_CYCLES_NOT_A_NUMBER: &str =
+    "(emulator) give the cycle count as a whole number (-1: until PCABORT)";
 
 /// The emulator's answer to `ERESET` while the emergency stop is pressed (emulator only).
 pub const EMULATOR_ESTOP_PRESSED: &str =

@@ -28,24 +28,55 @@ impl Interpreter {
     }
 
     /// `EXECUTE program` from outside (the pendant): starts it in robot task 1, with the
-    /// controller's checks.
+    /// controller's checks, for one cycle.
     pub fn execute(&mut self, program: &str, sys: &mut dyn System) -> Result<(), Refusal> {
-        let p = *self
-            .code
-            .by_name
-            .get(program)
-            .ok_or_else(|| Refusal::NoProgram(program.to_owned()))?;
-        self.execute_robot(p, Vec::new(), 1, sys)
+        self.execute_cycles(program, 1, sys)
     }
 
-    /// `PCEXECUTE n: program` from outside.
-    pub fn pc_execute(&mut self, task: u8, program: &str) -> Result<(), Refusal> {
+    /// `EXECUTE program, cycles`: as [`Interpreter::execute`], the program run `cycles` times
+    /// (0 counts as 1; a negative count runs it until it is aborted).
+    pub fn execute_cycles(
+        &mut self,
+        program: &str,
+        cycles: i64,
+        sys: &mut dyn System,
+    ) -> Result<(), Refusal> {
         let p = *self
             .code
             .by_name
             .get(program)
             .ok_or_else(|| Refusal::NoProgram(program.to_owned()))?;
-        self.pc_execute_at(task, p, Vec::new(), 1)
+        self.execute_robot(p, Vec::new(), cycles, sys)
+    }
+
+    /// `PCEXECUTE n: program` from outside, for one cycle.
+    pub fn pc_execute(&mut self, task: u8, program: &str) -> Result<(), Refusal> {
+        self.pc_execute_cycles(task, program, 1)
+    }
+
+    /// `PCEXECUTE n: program, cycles`: the program run `cycles` times in PC task `n` (0 counts
+    /// as 1; a negative count, the usual `-1`, runs it until `PCABORT`).
+    pub fn pc_execute_cycles(
+        &mut self,
+        task: u8,
+        program: &str,
+        cycles: i64,
+    ) -> Result<(), Refusal> {
+        let p = *self
+            .code
+            .by_name
+            .get(program)
+            .ok_or_else(|| Refusal::NoProgram(program.to_owned()))?;
+        self.pc_execute_at(task, p, Vec::new(), cycles)
+    }
+
+    /// A task's cycle counts as `PCSTATUS`/`STATUS` show them: `(completed, remaining)`, the
+    /// remaining count negative for a task started to run for ever. `(0, 0)` for a task never
+    /// started.
+    pub fn cycles(&self, task: TaskId) -> (u32, i64) {
+        let t = &self.tasks[TaskSlot::of(task)];
+        let remaining = if t.run == Run::Idle { 0 } else { t.cycles_left };
+        (t.cycles_done, remaining)
     }
 
     /// Stops a task at once (`ABORT`/`PCABORT` from outside, a panel switch that stops the
@@ -177,6 +208,7 @@ impl Interpreter {
             t.pending_on = None;
             t.ready_at = now;
             t.cycles_left = if cycles == 0 { 1 } else { cycles };
+            t.cycles_done = 0;
             t.motion = MotionParams::default();
             t.last_error = None;
             t.line_buf.clear();
@@ -256,6 +288,9 @@ impl Interpreter {
     /// interrupts stay armed until the motion is done.
     pub(super) fn end_program(&mut self, i: TaskSlot, sys: &mut dyn System, repeat: bool) {
         let t = &mut self.tasks[i];
+        if repeat {
+            t.cycles_done = t.cycles_done.saturating_add(1);
+        }
         if repeat && t.cycles_left != 1 {
             if t.cycles_left > 1 {
                 t.cycles_left -= 1;

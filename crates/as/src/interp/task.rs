@@ -142,7 +142,10 @@ pub(super) struct Task {
     pub(super) kick: bool,
     /// Next poll of a polled wait (a grid point of the poll period).
     pub(super) poll_at: Ns,
+    /// Cycles still to run, this one included; negative: for ever (`PCEXECUTE n: p, -1`).
     pub(super) cycles_left: i64,
+    /// Cycles the task has completed since it was started.
+    pub(super) cycles_done: u32,
     pub(super) motion: MotionParams,
     pub(super) interrupts: Vec<Interrupt>,
     pub(super) pending_on: Option<Interrupt>,
@@ -162,6 +165,7 @@ impl Task {
             kick: false,
             poll_at: 0,
             cycles_left: 0,
+            cycles_done: 0,
             motion: MotionParams::default(),
             interrupts: Vec::new(),
             pending_on: None,

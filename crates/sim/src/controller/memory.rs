@@ -292,6 +292,12 @@ impl Controller {
         self.task_facts(task_index(task)).0
     }
 
+    /// `task`'s cycle counts as `PCSTATUS` shows them: `(completed, remaining)`, remaining
+    /// negative for a task started to run until aborted; `(0, 0)` without AS programs.
+    pub fn task_cycles(&self, task: TaskId) -> (u32, i64) {
+        self.interpreter().map_or((0, 0), |i| i.cycles(task))
+    }
+
     /// The program on `task`'s stack: started and not killed (and not completed).
     pub fn task_program(&self, task: TaskId) -> Option<String> {
         self.stack_program(task_index(task))

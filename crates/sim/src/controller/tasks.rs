@@ -13,9 +13,21 @@ use crate::store::AUTOSTART_SWITCHES;
 impl Controller {
     // ----------------------------------------------------------------- tasks
 
-    /// `PCEXECUTE task: program`: P1019 while the task runs, P1038 without the program, P1014
-    /// when the program runs in another task (or programs loaded while tasks ran wait).
+    /// `PCEXECUTE task: program`, one cycle: P1019 while the task runs, P1038 without the
+    /// program, P1014 when the program runs in another task (or programs loaded while tasks
+    /// ran wait).
     pub fn pc_execute(&mut self, task: u8, program: &str) -> Result<(), MonitorError> {
+        self.pc_execute_cycles(task, program, 1)
+    }
+
+    /// `PCEXECUTE task: program, cycles`: as [`Controller::pc_execute`], the program run
+    /// `cycles` times (0 counts as 1; negative, the usual `-1`, until `PCABORT`).
+    pub fn pc_execute_cycles(
+        &mut self,
+        task: u8,
+        program: &str,
+        cycles: i64,
+    ) -> Result<(), MonitorError> {
         let name = program.to_ascii_lowercase();
         if !(1..=5).contains(&task) {
             return Err(text::P1019_PC_RUNNING);
@@ -33,7 +45,7 @@ impl Controller {
         self.sync_runtime()?;
         let p = self.program_mut().ok_or(text::P1038_NO_PROGRAM)?;
         p.interpreter_mut()
-            .pc_execute(task, &name)
+            .pc_execute_cycles(task, &name, cycles)
             .map_err(|r| refusal_error(&r))?;
         let i = usize::from(task);
         self.monitor.stacks[i] = Some(name);
@@ -75,9 +87,19 @@ impl Controller {
         Ok(())
     }
 
-    /// `EXECUTE program` in robot task 1, with the controller's checks (power, REPEAT, teach
-    /// lock, error, already running).
+    /// `EXECUTE program` in robot task 1, one cycle, with the controller's checks (power,
+    /// REPEAT, teach lock, error, already running).
     pub fn execute_program(&mut self, program: &str) -> Result<(), MonitorError> {
+        self.execute_program_cycles(program, 1)
+    }
+
+    /// `EXECUTE program, cycles`: as [`Controller::execute_program`], the program run `cycles`
+    /// times (0 counts as 1; negative until `ABORT`).
+    pub fn execute_program_cycles(
+        &mut self,
+        program: &str,
+        cycles: i64,
+    ) -> Result<(), MonitorError> {
         let name = program.to_ascii_lowercase();
         if self.task_facts(0).0 {
             return Err(text::P1009_ALREADY_RUNNING);
@@ -89,7 +111,7 @@ impl Controller {
         let Server::Program(p) = &mut self.server else {
             return Err(text::P1038_NO_PROGRAM);
         };
-        p.execute(&mut self.machine, &name)
+        p.execute(&mut self.machine, &name, cycles)
             .map_err(|r| refusal_error(&r))?;
         self.monitor.stacks[0] = Some(name);
         self.monitor.kept[0] = false;

@@ -56,6 +56,27 @@ fn done(r: Result<(), MonitorError>) -> Reply {
 }
 
 /// `n: rest` → (n, rest); without a task number, task 1.
+/// `program[, cycles[, step]]` of `EXECUTE`/`PCEXECUTE`: the name (arguments in parentheses
+/// dropped) and the cycle count, 1 when not given. The step is not modelled: a program starts
+/// at its first step. A count that is not a whole number is refused (the emulator does not
+/// evaluate expressions at the monitor).
+fn program_and_cycles(spec: &str) -> Result<(&str, i64), Reply> {
+    let mut parts = spec.splitn(3, ',');
+    let name = parts.next().unwrap_or("").trim();
+    let name = name.split('(').next().unwrap_or("").trim();
+    if name.is_empty() {
+        return Err(Reply::Error(text::P1038_NO_PROGRAM));
+    }
+    let cycles = match parts.next().map(str::trim) {
+        None | Some("") => 1,
+        Some(n) => match n.parse::<i64>() {
+            Ok(n) => n,
+            Err(_) => return Err(lines([text::EMULATOR_CYCLES_NOT_A_NUMBER])),
+        },
+    };
+    Ok((name, cycles))
+}
+
 fn task_and_rest(rest: &str) -> Result<(u8, &str), MonitorError> {
     let rest = rest.trim();
     match rest.split_once(':') {
@@ -118,10 +139,10 @@ impl ControllerMonitor<'_> {
                 Err(e) => Reply::Error(e),
             },
             "STATUS" => self.status(),
-            "EXECUTE" => {
-                let name = rest.split(',').next().unwrap_or("").trim();
-                done(self.c.execute_program(name))
-            }
+            "EXECUTE" => match program_and_cycles(rest) {
+                Ok((name, cycles)) => done(self.c.execute_program_cycles(name, cycles)),
+                Err(reply) => reply,
+            },
             "ABORT" => {
                 self.c.abort_program();
                 Reply::Lines(Vec::new())
@@ -230,13 +251,10 @@ impl ControllerMonitor<'_> {
             Ok(t) => t,
             Err(e) => return Reply::Error(e),
         };
-        // `prog[,cycles]`: the emulator runs one cycle whatever is asked (docs/EMULATOR.md).
-        let name = tail.split(',').next().unwrap_or("").trim();
-        let name = name.split('(').next().unwrap_or("").trim();
-        if name.is_empty() {
-            return Reply::Error(text::P1038_NO_PROGRAM);
+        match program_and_cycles(tail) {
+            Ok((name, cycles)) => done(self.c.pc_execute_cycles(task, name, cycles)),
+            Err(reply) => reply,
         }
-        done(self.c.pc_execute(task, name))
     }
 
     /// The program line of `STATUS`/`PCSTATUS`: its name, priority 0 and step.
@@ -272,7 +290,8 @@ impl ControllerMonitor<'_> {
     fn pc_status(&self, n: u8) -> Reply {
         let running = self.c.task_running(TaskId::Pc(n));
         let mut out = vec![text::pc_status_line(running).to_owned()];
-        out.extend(text::cycle_lines(0, u32::from(running)));
+        let (completed, remaining) = self.c.task_cycles(TaskId::Pc(n));
+        out.extend(text::cycle_lines(completed, remaining));
         out.extend(self.program_table(TaskId::Pc(n)));
         Reply::Lines(out)
     }
@@ -319,7 +338,8 @@ impl ControllerMonitor<'_> {
                 "Program is not running."
             }
         ));
-        out.extend(text::cycle_lines(0, u32::from(running)));
+        let (completed, remaining) = self.c.task_cycles(TaskId::Robot);
+        out.extend(text::cycle_lines(completed, remaining));
         out.extend(self.program_table(TaskId::Robot));
         Reply::Lines(out)
     }
