@@ -449,8 +449,10 @@ pub(crate) struct SimArgs {
     /// With --as-program: print every executed program line (time, task, program:line, text).
     #[arg(long, requires = "as_program")]
     pub trace: bool,
-    /// With --as-program: declare an instruction a no-op (repeatable), as `as check --stub`.
-    #[arg(long = "stub", value_name = "INSTR", requires = "as_program")]
+    /// With --as-program or --bare: declare an instruction a no-op (repeatable), as
+    /// `as check --stub`; on a bare controller it holds for every program loaded through the
+    /// terminal and at every power cycle.
+    #[arg(long = "stub", value_name = "INSTR")]
     pub stubs: Vec<String>,
     /// Start a new controller with nothing loaded: no protocol port answers until a program is
     /// loaded through the terminal (--terminal) and started; then the first port it listens

@@ -257,3 +257,14 @@ fn the_pick_and_place_example_loads_without_warnings() {
         "every instruction it uses runs: {text}"
     );
 }
+
+#[test]
+fn sim_refuses_stub_without_an_as_program_or_a_bare_controller() {
+    let out = Command::new(bin())
+        .args(["sim", "--listen", "127.0.0.1:0", "--stub", "GUNON"])
+        .output()
+        .expect("runs");
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--stub applies to AS programs"), "{err}");
+}

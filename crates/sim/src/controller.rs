@@ -131,7 +131,7 @@ impl Controller {
         Controller {
             machine: Machine::new(config),
             server: Server::Native(NativeServer::new()),
-            memory: ProgramStore::new(fs020n_as::Config::default()),
+            memory: ProgramStore::new(fs020n_as::Config::default(), fs020n_as::LoadOptions::new()),
             monitor: MonitorState::default(),
         }
     }
@@ -144,7 +144,11 @@ impl Controller {
     /// cycle starts them again.
     pub fn with_program(config: ControllerConfig, program: ServerProgram) -> Controller {
         let mut machine = Machine::new(config);
-        let memory = ProgramStore::seeded(program.text(), program.config().clone());
+        let memory = ProgramStore::seeded(
+            program.bytes(),
+            program.config().clone(),
+            program.load_options().clone(),
+        );
         let mut monitor = MonitorState::default();
         for (_, name, task) in AUTOSTART_SWITCHES {
             if memory.program(name).is_some() {
@@ -165,10 +169,16 @@ impl Controller {
     /// port answers until a program is loaded through the terminal and started; every
     /// AUTOSTART switch is OFF.
     pub fn bare(config: ControllerConfig) -> Controller {
+        Controller::bare_with(config, fs020n_as::LoadOptions::new())
+    }
+
+    /// [`Controller::bare`] whose programs load with `load` (instructions declared no-ops,
+    /// `fs020n sim --bare --stub …`), at every `LOAD` and rebuild.
+    pub fn bare_with(config: ControllerConfig, load: fs020n_as::LoadOptions) -> Controller {
         Controller {
             machine: Machine::new(config),
             server: Server::Empty,
-            memory: ProgramStore::new(fs020n_as::Config::default()),
+            memory: ProgramStore::new(fs020n_as::Config::default(), load),
             monitor: MonitorState::default(),
         }
     }

@@ -52,8 +52,10 @@ pub const SNAPSHOT_TERMINAL_LINES: usize = 50;
 pub struct ServerProgram {
     interp: Interpreter,
     name: String,
-    /// The text it was loaded from (the controller's program store keeps it).
-    text: String,
+    /// The bytes it was loaded from (the controller's program store keeps them).
+    bytes: Vec<u8>,
+    /// How it was loaded (the store rebuilds with the same options).
+    load: fs020n_as::LoadOptions,
 }
 
 /// Why a program file could not be loaded.
@@ -87,7 +89,8 @@ impl ServerProgram {
         Ok(ServerProgram {
             interp: Interpreter::from_source(name, text, config)?,
             name: name.to_owned(),
-            text: text.to_owned(),
+            bytes: text.as_bytes().to_vec(),
+            load: fs020n_as::LoadOptions::new(),
         })
     }
 
@@ -111,7 +114,8 @@ impl ServerProgram {
         Ok(ServerProgram {
             interp: loaded.interpreter,
             name,
-            text: String::from_utf8_lossy(&bytes).into_owned(),
+            bytes,
+            load: opts.clone(),
         })
     }
 
@@ -130,9 +134,19 @@ impl ServerProgram {
         self.interp.config()
     }
 
-    /// The text it was loaded from.
-    pub fn text(&self) -> &str {
-        &self.text
+    /// The text it was loaded from (bytes outside UTF-8 shown as U+FFFD).
+    pub fn text(&self) -> std::borrow::Cow<'_, str> {
+        String::from_utf8_lossy(&self.bytes)
+    }
+
+    /// The bytes it was loaded from, in the file's own code page.
+    pub fn bytes(&self) -> &[u8] {
+        &self.bytes
+    }
+
+    /// How it was loaded (instructions declared no-ops).
+    pub fn load_options(&self) -> &fs020n_as::LoadOptions {
+        &self.load
     }
 
     /// What loaded but is worth knowing (instructions not emulated, sections kept opaque), as

@@ -9,6 +9,7 @@ use fs020n_kin::RobotModel;
 use fs020n_proto::DEFAULT_PORT;
 use fs020n_proto::{ErrorCode, JointsDeg};
 
+use crate::controller::Controller;
 use crate::machine::ControllerConfig;
 use crate::panel::Panel;
 #[cfg(feature = "pendant")]
@@ -268,7 +269,8 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
     }
     let (emulator, robot) = match &opts.program {
         None if opts.bare => {
-            let emulator = Emulator::bare(config);
+            let load = opts.program_load.clone();
+            let emulator = Emulator::driven(Controller::bare_with(config, load));
             let robot = emulator.serve_program_tcp(opts.listen).await;
             (emulator, robot)
         }

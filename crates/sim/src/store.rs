@@ -11,9 +11,13 @@
 //!   refused with P1014, the file's other programs load.
 //! - The interpreter is rebuilt from the whole memory when programs change; the global
 //!   variables then start again from the data sections (a real controller keeps them).
+//! - The memory holds the **bytes** of what was loaded, in whatever code page the file was
+//!   written (Shift-JIS comments, Windows-1250 strings…): `SAVE` gives back what `LOAD` took,
+//!   line ends aside. Only names and headers are read as text.
+//! - The interpreter is built with the memory's load options (`--stub`), at every rebuild.
 
 use fs020n_as::keywords::SYSTEM_SWITCHES;
-use fs020n_as::{Config, Interpreter, LoadError};
+use fs020n_as::{Config, Interpreter, LoadError, LoadOptions, Loaded};
 
 /// `true`: a `LOAD` overwrites a program of the same name (K-ROSET); `false` would refuse it
 /// (the E manual). The emulator implements the first.
@@ -29,12 +33,12 @@ pub const AUTOSTART_SWITCHES: [(&str, &str, u8); 5] = [
 ];
 
 /// One program as loaded: its name (lower case), the parameter text of its header and its
-/// whole text from `.PROGRAM` to `.END`.
+/// whole text from `.PROGRAM` to `.END`, as bytes with LF line ends.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(crate) struct StoredProgram {
     pub(crate) name: String,
     pub(crate) params: String,
-    pub(crate) text: String,
+    pub(crate) text: Vec<u8>,
 }
 
 /// A file cut into its programs and data sections (lines outside them, such as `.*` headers,
@@ -42,11 +46,12 @@ pub(crate) struct StoredProgram {
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub(crate) struct Sections {
     pub(crate) programs: Vec<StoredProgram>,
-    pub(crate) data: Vec<String>,
+    pub(crate) data: Vec<Vec<u8>>,
 }
 
 /// The name and parameters of a `.PROGRAM name(params)` line.
-fn header(line: &str) -> Option<(String, String)> {
+fn header(line: &[u8]) -> Option<(String, String)> {
+    let line = String::from_utf8_lossy(line);
     let t = line.trim();
     let head = t.get(..8)?;
     if !head.eq_ignore_ascii_case(".PROGRAM") {
@@ -63,25 +68,29 @@ fn header(line: &str) -> Option<(String, String)> {
     Some((name.trim().to_ascii_lowercase(), params.to_owned()))
 }
 
-/// Cuts a file into `.PROGRAM` … `.END` blocks and other `.SECTION` … `.END` blocks.
-pub(crate) fn sections(text: &str) -> Sections {
+/// A block being read: the program header (`None` for a data section) and the bytes so far.
+type OpenBlock = (Option<(String, String)>, Vec<u8>);
+
+/// Cuts a file into `.PROGRAM` … `.END` blocks and other `.SECTION` … `.END` blocks (bytes
+/// kept as they are; CR LF becomes LF).
+pub(crate) fn sections(bytes: &[u8]) -> Sections {
     let mut out = Sections::default();
-    let mut current: Option<(Option<(String, String)>, String)> = None;
-    for raw in text.split('\n') {
-        let line = raw.strip_suffix('\r').unwrap_or(raw);
-        let t = line.trim();
+    let mut current: Option<OpenBlock> = None;
+    for raw in bytes.split(|&b| b == b'\n') {
+        let line = raw.strip_suffix(b"\r").unwrap_or(raw);
+        let t = line.trim_ascii();
         match &mut current {
             None => {
                 if let Some(h) = header(t) {
-                    current = Some((Some(h), format!("{line}\n")));
-                } else if t.starts_with('.') && !t.starts_with(".*") && t.len() > 1 {
-                    current = Some((None, format!("{line}\n")));
+                    current = Some((Some(h), [line, b"\n"].concat()));
+                } else if t.starts_with(b".") && !t.starts_with(b".*") && t.len() > 1 {
+                    current = Some((None, [line, b"\n"].concat()));
                 }
             }
             Some((_, body)) => {
-                body.push_str(line);
-                body.push('\n');
-                if t.eq_ignore_ascii_case(".END") {
+                body.extend_from_slice(line);
+                body.push(b'\n');
+                if t.eq_ignore_ascii_case(b".END") {
                     if let Some((h, body)) = current.take() {
                         match h {
                             Some((name, params)) => out.programs.push(StoredProgram {
@@ -105,20 +114,22 @@ pub(crate) struct ProgramStore {
     /// In load order (the order `DIRECTORY` lists them).
     programs: Vec<StoredProgram>,
     /// Data sections, in load order.
-    data: Vec<String>,
+    data: Vec<Vec<u8>>,
     /// AUTOSTART.PC … AUTOSTART5.PC.
     autostart: [bool; 5],
     /// The interpreter's system switches (`ABS.SPEED`, `CP`, …) while no interpreter holds them.
     system: Vec<(String, bool)>,
     /// Interpreter settings.
     config: Config,
+    /// How programs load (instructions declared no-ops, `--stub`).
+    load: LoadOptions,
     /// Bumped at every change of the programs: the interpreter must be rebuilt.
     generation: u64,
 }
 
 impl ProgramStore {
     /// An empty memory, every AUTOSTART switch OFF (a new controller).
-    pub(crate) fn new(config: Config) -> ProgramStore {
+    pub(crate) fn new(config: Config, load: LoadOptions) -> ProgramStore {
         ProgramStore {
             programs: Vec::new(),
             data: Vec::new(),
@@ -128,15 +139,16 @@ impl ProgramStore {
                 .map(|(n, v)| ((*n).to_owned(), *v))
                 .collect(),
             config,
+            load,
             generation: 0,
         }
     }
 
-    /// A memory holding the programs and data of `text`, with the AUTOSTART switch of each
+    /// A memory holding the programs and data of `bytes`, with the AUTOSTART switch of each
     /// autostart program it holds ON (`--as-program`: they start at every power-on).
-    pub(crate) fn seeded(text: &str, config: Config) -> ProgramStore {
-        let mut store = ProgramStore::new(config);
-        let s = sections(text);
+    pub(crate) fn seeded(bytes: &[u8], config: Config, load: LoadOptions) -> ProgramStore {
+        let mut store = ProgramStore::new(config, load);
+        let s = sections(bytes);
         for p in s.programs {
             store.put(p);
         }
@@ -164,7 +176,7 @@ impl ProgramStore {
         self.programs.iter().find(|p| p.name == name)
     }
 
-    pub(crate) fn data(&self) -> &[String] {
+    pub(crate) fn data(&self) -> &[Vec<u8>] {
         &self.data
     }
 
@@ -180,7 +192,7 @@ impl ProgramStore {
 
     /// Adds a data section (one already held word for word is not added again, so that
     /// loading the same file twice does not grow the memory).
-    pub(crate) fn put_data(&mut self, section: String) {
+    pub(crate) fn put_data(&mut self, section: Vec<u8>) {
         if !self.data.contains(&section) {
             self.data.push(section);
             self.generation += 1;
@@ -199,28 +211,35 @@ impl ProgramStore {
         removed
     }
 
-    /// The whole memory as one AS text, leaving out the programs named in `except`.
-    pub(crate) fn text_without(&self, except: &[&str]) -> String {
-        let mut text = String::new();
+    /// The whole memory as one AS file, leaving out the programs named in `except`.
+    pub(crate) fn text_without(&self, except: &[&str]) -> Vec<u8> {
+        let mut text = Vec::new();
         for p in &self.programs {
             if !except.contains(&p.name.as_str()) {
-                text.push_str(&p.text);
+                text.extend_from_slice(&p.text);
             }
         }
         for d in &self.data {
-            text.push_str(d);
+            text.extend_from_slice(d);
         }
         text
     }
 
-    /// An interpreter over the whole memory.
+    /// An interpreter over the whole memory, loaded as `fs020n as check` loads a file.
     pub(crate) fn build(&self) -> Result<Interpreter, LoadError> {
-        Interpreter::from_source("controller", &self.text_without(&[]), self.config.clone())
+        let bytes = self.text_without(&[]);
+        Loaded::from_bytes("controller", &bytes, &self.load, self.config.clone())
+            .map(|l| l.interpreter)
     }
 
     /// The interpreter settings.
     pub(crate) fn config(&self) -> &Config {
         &self.config
+    }
+
+    /// How programs load (`--stub`).
+    pub(crate) fn load_options(&self) -> &LoadOptions {
+        &self.load
     }
 
     /// AUTOSTART*n*.PC (`n` from 1 to 5).

@@ -652,3 +652,53 @@ fn execute_with_a_cycle_count_repeats_the_robot_program() {
     assert_eq!(t.cmd("TYPE m", false), "4");
     assert!(!t.c.task_running(TaskId::Robot));
 }
+
+/// A file as bytes: a Shift-JIS comment (「あ」 is 82 A0), a Windows-1250 string (`Łódź` is
+/// A3 F3 64 9F), CR LF line ends.
+const CODE_PAGE_FILE: &[u8] = b".PROGRAM enc()\r\n  ; \x82\xa0 comment\r\n  $s = \"\xa3\xf3d\x9f\"\r\n  n = LEN($s)\r\n  a = ASC($s)\r\n.END\r\n.STRINGS\r\n$t = \"\x82\xa0\"\r\n.END\r\n";
+
+#[test]
+fn a_file_in_any_code_page_loads_runs_and_saves_back_byte_for_byte() {
+    let mut t = Term::new(bare());
+    t.client.load(t.now, "enc.as", CODE_PAGE_FILE).unwrap();
+    loaded_ok(&t.settle().pop().expect("an event"));
+    t.cmd("PCEXECUTE 2: enc", false);
+    t.advance(Duration::from_millis(50));
+    // The string holds the file's four bytes, not their replacement characters.
+    assert_eq!(t.cmd("TYPE n", false), "4");
+    assert_eq!(t.cmd("TYPE a", false), "163");
+    t.client.save(t.now, "enc.as").unwrap();
+    match t.settle().pop() {
+        Some(Event::Saved { file, .. }) => assert_eq!(file, CODE_PAGE_FILE),
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn instructions_stubbed_for_a_bare_controller_stay_stubbed_through_loads_and_power_cycles() {
+    let load = fs020n_as::LoadOptions::new().stub("FROBNICATE");
+    let mut t = Term::new(Controller::bare_with(ControllerConfig::default(), load));
+    let file = ".PROGRAM autostart.pc()\n  FROBNICATE 3\n  done = 1\n.END\n";
+    loaded_ok(&t.load("s.as", file));
+    t.cmd("PCEXECUTE 1: autostart.pc", false);
+    t.advance(Duration::from_millis(50));
+    assert_eq!(t.cmd("TYPE done", false), "1");
+    t.cmd("SWITCH AUTOSTART.PC = ON", false);
+    t.c.power_cycle();
+    t.advance(Duration::from_millis(50));
+    assert_eq!(
+        t.cmd("TYPE done", false),
+        "1",
+        "the rebuilt program ran past the stub"
+    );
+    // Without the stub the controller does not know the word: a syntax error, nothing loads.
+    let mut plain = Term::new(bare());
+    match plain.load("s.as", file) {
+        Event::Loaded {
+            syntax_error: Some(line),
+            ..
+        } => assert_eq!(line, "FROBNICATE 3"),
+        other => panic!("{other:?}"),
+    }
+    assert!(plain.c.loaded_programs().is_empty());
+}

@@ -73,6 +73,12 @@ pub(crate) fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOp
         .as_deref()
         .map(|t| resolve(t, "--terminal"))
         .transpose()?;
+    if !args.stubs.is_empty() && args.as_program.is_none() && !args.bare {
+        return Err(CliError::input(
+            "--stub applies to AS programs: give it with --as-program FILE or --bare \
+             (the native server runs no AS program)",
+        ));
+    }
     let mut out = Vec::new();
     let robots = crate::fleet::expand(&listen, &pendant, args.robots)?;
     if terminal.is_some() && robots.len() > 1 {

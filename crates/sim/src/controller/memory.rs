@@ -130,15 +130,15 @@ pub(super) fn refusal_error(r: &Refusal) -> MonitorError {
 }
 
 /// The lines of a syntax check: `(line, text)` of each error in `file`'s text.
-fn error_lines(err: &fs020n_as::LoadError, file: &str, text: &str) -> Vec<(u32, String)> {
-    let lines: Vec<&str> = text.split('\n').collect();
+fn error_lines(err: &fs020n_as::LoadError, file: &str, text: &[u8]) -> Vec<(u32, String)> {
+    let lines: Vec<&[u8]> = text.split(|&b| b == b'\n').collect();
     err.errors
         .iter()
         .map(|e| {
             let quoted = if &*e.file == file {
                 lines
                     .get(e.span.line.saturating_sub(1) as usize)
-                    .map(|l| l.trim().to_owned())
+                    .map(|l| String::from_utf8_lossy(l.trim_ascii()).into_owned())
                     .unwrap_or_else(|| e.message.clone())
             } else {
                 e.message.clone()
@@ -163,21 +163,42 @@ impl Controller {
             .collect()
     }
 
-    /// A program's text, `.PROGRAM` to `.END`.
+    /// A program's text, `.PROGRAM` to `.END` (bytes outside UTF-8 shown as U+FFFD; the
+    /// bytes themselves: [`Controller::program_bytes`]).
     pub fn program_text(&self, name: &str) -> Option<String> {
+        self.program_bytes(name)
+            .map(|b| String::from_utf8_lossy(&b).into_owned())
+    }
+
+    /// A program's bytes as loaded, `.PROGRAM` to `.END`, LF line ends.
+    pub fn program_bytes(&self, name: &str) -> Option<Vec<u8>> {
         self.memory.program(name).map(|p| p.text.clone())
     }
 
-    /// The data sections in memory (`.REALS` … `.END`, …).
+    /// The data sections in memory (`.REALS` … `.END`, …), as text (see
+    /// [`Controller::data_section_bytes`]).
     pub fn data_sections(&self) -> Vec<String> {
+        (self.memory.data().iter())
+            .map(|d| String::from_utf8_lossy(d).into_owned())
+            .collect()
+    }
+
+    /// The data sections in memory, as the bytes loaded (LF line ends).
+    pub fn data_section_bytes(&self) -> Vec<Vec<u8>> {
         self.memory.data().to_vec()
     }
 
-    /// The syntax errors of an AS file as the controller's `LOAD` finds them, with the
-    /// programs in memory it would join: `(line, text)` each, in file order; empty when it
-    /// loads.
+    /// [`Controller::check_program_bytes`] of a text.
     pub fn check_program_text(&self, text: &str) -> Vec<(u32, String)> {
-        let m = match fs020n_as::parse(LOAD_FILE, text) {
+        self.check_program_bytes(text.as_bytes())
+    }
+
+    /// The syntax errors of an AS file (its bytes, in any code page) as the controller's
+    /// `LOAD` finds them, with the programs in memory it would join: `(line, text)` each, in
+    /// file order; empty when it loads.
+    pub fn check_program_bytes(&self, text: &[u8]) -> Vec<(u32, String)> {
+        let load = self.memory.load_options();
+        let m = match fs020n_as::parse_bytes(LOAD_FILE, text, load) {
             Ok(m) => m,
             Err(e) => return error_lines(&e, LOAD_FILE, text),
         };
@@ -188,7 +209,7 @@ impl Controller {
             .collect();
         let replaced: Vec<&str> = replaced.iter().map(String::as_str).collect();
         let rest = self.memory.text_without(&replaced);
-        let rest = match fs020n_as::parse("controller", &rest) {
+        let rest = match fs020n_as::parse_bytes("controller", &rest, load) {
             Ok(r) => r,
             Err(e) => return error_lines(&e, LOAD_FILE, text),
         };
@@ -204,30 +225,36 @@ impl Controller {
     /// answer `0` to the controller's question); without, a file with syntax errors loads
     /// nothing. The interpreter is rebuilt now if no task runs (else when they have stopped).
     pub fn load_program_text(&mut self, text: &str, comment_out: bool) -> LoadReport {
+        self.load_program_bytes(text.as_bytes(), comment_out)
+    }
+
+    /// [`Controller::load_program_text`] of a file's bytes, in any code page: the memory keeps
+    /// the bytes (CR LF as LF), so `SAVE` gives back what was loaded.
+    pub fn load_program_bytes(&mut self, text: &[u8], comment_out: bool) -> LoadReport {
         let mut report = LoadReport::default();
         if matches!(self.server, Server::Native(_)) {
             report.errors = 1;
             report.notes.push(text::EMULATOR_NATIVE_NO_LOAD.to_owned());
             return report;
         }
-        let mut text = text.replace('\r', "");
-        let errors = self.check_program_text(&text);
+        let mut text: Vec<u8> = text.iter().copied().filter(|&b| b != b'\r').collect();
+        let errors = self.check_program_bytes(&text);
         if !errors.is_empty() {
             if !comment_out {
                 report.errors = errors.len();
                 return report;
             }
             report.errors = errors.len();
-            let mut lines: Vec<String> = text.split('\n').map(str::to_owned).collect();
+            let mut lines: Vec<Vec<u8>> = text.split(|&b| b == b'\n').map(<[u8]>::to_vec).collect();
             for (line, _) in &errors {
                 if let Some(l) = lines.get_mut(line.saturating_sub(1) as usize) {
-                    if !l.trim_start().starts_with('.') {
-                        *l = format!("; {l}");
+                    if !l.trim_ascii_start().starts_with(b".") {
+                        l.splice(0..0, *b"; ");
                     }
                 }
             }
-            text = lines.join("\n");
-            if !self.check_program_text(&text).is_empty() {
+            text = lines.join(&b'\n');
+            if !self.check_program_bytes(&text).is_empty() {
                 return report;
             }
         }

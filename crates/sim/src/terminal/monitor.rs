@@ -278,7 +278,7 @@ impl ControllerMonitor<'_> {
             if p.name == name {
                 break;
             }
-            start += p.text.matches('\n').count() as u32;
+            start += p.text.iter().filter(|&&b| b == b'\n').count() as u32;
         }
         let step = line.saturating_sub(start);
         vec![
@@ -430,16 +430,24 @@ impl ControllerMonitor<'_> {
             Some((_, list)) => list.split(',').map(|n| n.trim().to_owned()).collect(),
             None => self.c.loaded_programs(),
         };
-        let mut text = String::new();
+        let mut bytes = Vec::new();
         for n in &names {
-            text.push_str(&self.c.program_text(n).ok_or(text::P1038_NO_PROGRAM)?);
+            bytes.extend(self.c.program_bytes(n).ok_or(text::P1038_NO_PROGRAM)?);
         }
         if !programs_only {
-            for d in self.c.data_sections() {
-                text.push_str(&d);
+            for d in self.c.data_section_bytes() {
+                bytes.extend(d);
             }
         }
-        Ok(text.replace('\n', "\r\n").into_bytes())
+        // The memory holds LF line ends; the file gets CR LF, as the controller saves.
+        let mut file = Vec::with_capacity(bytes.len() + bytes.len() / 16);
+        for b in bytes {
+            if b == b'\n' {
+                file.push(b'\r');
+            }
+            file.push(b);
+        }
+        Ok(file)
     }
 }
 
@@ -488,7 +496,7 @@ impl Monitor for ControllerMonitor<'_> {
 
     fn check_load(&mut self, file: &[u8]) -> Vec<SyntaxError> {
         self.c
-            .check_program_text(&String::from_utf8_lossy(file))
+            .check_program_bytes(file)
             .into_iter()
             .map(|(_, line)| SyntaxError { line })
             .collect()
@@ -498,9 +506,7 @@ impl Monitor for ControllerMonitor<'_> {
         if answer == LoadAnswer::Abort {
             return (Vec::new(), 0);
         }
-        let report = self
-            .c
-            .load_program_text(&String::from_utf8_lossy(file), true);
+        let report = self.c.load_program_bytes(file, true);
         let mut out: Vec<String> = report
             .loaded
             .iter()
