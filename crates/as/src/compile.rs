@@ -321,10 +321,39 @@ pub(crate) enum Op {
         ip: LRef,
         timeout: Option<RExpr>,
     },
+    /// `UDP_SENDTO` (boxed: the op stays small).
+    UdpSendTo(Box<UdpSendTo>),
+    /// `UDP_RECVFROM` (boxed).
+    UdpRecvFrom(Box<UdpRecvFrom>),
+    /// `ONE program`: the task's error program (`None`: none).
+    OnError(Option<usize>),
     /// An instruction that loads but is not emulated: the task stops with E0111 naming it.
     NotEmulated(Box<str>),
     /// The end of the program (`.END`).
     End,
+}
+
+/// `UDP_SENDTO ret, ip[i], port, $buf[i], n[, timeout]`, compiled.
+#[derive(Debug, Clone)]
+pub(crate) struct UdpSendTo {
+    pub(crate) ret: LRef,
+    pub(crate) ip: LRef,
+    pub(crate) port: RExpr,
+    pub(crate) buf: LRef,
+    pub(crate) n: RExpr,
+    pub(crate) timeout: Option<RExpr>,
+}
+
+/// `UDP_RECVFROM ret, port, $buf[i], count[, timeout[, ip[i][, max]]]`, compiled.
+#[derive(Debug, Clone)]
+pub(crate) struct UdpRecvFrom {
+    pub(crate) ret: LRef,
+    pub(crate) port: RExpr,
+    pub(crate) buf: LRef,
+    pub(crate) count: LRef,
+    pub(crate) timeout: Option<RExpr>,
+    pub(crate) ip: Option<LRef>,
+    pub(crate) max: Option<RExpr>,
 }
 
 /// A parameter of a compiled program.
@@ -1093,6 +1122,17 @@ impl Compiler {
                 let op = self.tcp(t)?;
                 self.emit(op, line);
             }
+            StmtKind::Udp(u) => {
+                let op = self.udp(u)?;
+                self.emit(op, line);
+            }
+            StmtKind::OnError(program) => {
+                let p = program
+                    .as_deref()
+                    .map(|name| self.program_ref(name, s.span))
+                    .transpose()?;
+                self.emit(Op::OnError(p), line);
+            }
         }
         Ok(())
     }
@@ -1171,6 +1211,43 @@ impl Compiler {
                 ip: self.lref(ip, Ty::Real)?,
                 timeout: timeout.as_ref().map(|e| self.real(e)).transpose()?,
             },
+        })
+    }
+
+    fn udp(&mut self, u: &UdpStmt) -> CResult<Op> {
+        Ok(match u {
+            UdpStmt::SendTo {
+                ret,
+                ip,
+                port,
+                buf,
+                n,
+                timeout,
+            } => Op::UdpSendTo(Box::new(UdpSendTo {
+                ret: self.lref(ret, Ty::Real)?,
+                ip: self.lref(ip, Ty::Real)?,
+                port: self.real(port)?,
+                buf: self.lref(buf, Ty::Str)?,
+                n: self.real(n)?,
+                timeout: timeout.as_ref().map(|e| self.real(e)).transpose()?,
+            })),
+            UdpStmt::RecvFrom {
+                ret,
+                port,
+                buf,
+                count,
+                timeout,
+                ip,
+                max,
+            } => Op::UdpRecvFrom(Box::new(UdpRecvFrom {
+                ret: self.lref(ret, Ty::Real)?,
+                port: self.real(port)?,
+                buf: self.lref(buf, Ty::Str)?,
+                count: self.lref(count, Ty::Real)?,
+                timeout: timeout.as_ref().map(|e| self.real(e)).transpose()?,
+                ip: ip.as_ref().map(|l| self.lref(l, Ty::Real)).transpose()?,
+                max: max.as_ref().map(|e| self.real(e)).transpose()?,
+            })),
         })
     }
 

@@ -73,7 +73,7 @@ pub use options::LoadOptions;
 pub use parser::{parse, parse_bytes};
 pub use span::Span;
 pub use system::{
-    Issued, Joints, MotionKind, MotionRequest, PanelState, SockPoll, SocketStatus, Speed, System,
+    Datagram, Issued, Joints, MotionKind, MotionRequest, PanelState, SockPoll, SocketStatus, Speed, System,
     Target, TaskId, Trans,
 };
 

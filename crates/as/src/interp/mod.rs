@@ -21,6 +21,8 @@
 //! | `posture.rs` | `LEFTY`, `RIGHTY`, `ABOVE`, `BELOW`, `UWRIST`, `DWRIST`: the IK branch |
 //! | `hands.rs` | `OPEN`/`CLOSE`/`RELAX` and their `I` forms on the hands' signals |
 //! | `expr.rs` | expressions (reals, strings, locations, functions, `PRINT` encoding) |
+//! | `tcp.rs`, `udp.rs` | the `TCP_…` and `UDP_…` statements on the system's socket table |
+//! | `on_error.rs` | `ONE`: a task's error program, and its stop after it |
 //! | `stmt.rs` | one step: the hot path of pure computation, then every other op |
 //! | `arith.rs`, `strings.rs` | free helpers: numbers and overflow, string functions |
 //!
@@ -36,6 +38,7 @@ mod hands;
 mod monitor;
 mod motion;
 mod observers;
+mod on_error;
 mod posture;
 mod print;
 mod report;
@@ -46,6 +49,7 @@ mod stmt;
 mod strings;
 mod task;
 mod tcp;
+mod udp;
 mod vars;
 
 use std::collections::{HashMap, VecDeque};
