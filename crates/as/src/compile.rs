@@ -1127,10 +1127,22 @@ impl Compiler {
                 self.emit(op, line);
             }
             StmtKind::OnError(program) => {
-                let p = program
-                    .as_deref()
-                    .map(|name| self.program_ref(name, s.span))
-                    .transpose()?;
+                // An error program that is not loaded is a warning, not a load error (it may
+                // be in another file): a task that fails then stops as without ONE.
+                let p = match program.as_deref() {
+                    Some(name) => {
+                        let p = self.by_name.get(name).copied();
+                        if p.is_none() {
+                            self.warnings.push(ParseError::new(
+                                &self.file,
+                                s.span,
+                                format!("ONE {name}: program {name} is not defined (load the file that holds it); a task that fails stops as without ONE"),
+                            ));
+                        }
+                        p
+                    }
+                    None => None,
+                };
                 self.emit(Op::OnError(p), line);
             }
         }

@@ -82,3 +82,19 @@ fn the_robot_tasks_error_program_runs_but_cannot_move_the_arm() {
     assert_eq!(s.joints_now(), s.model.home.0);
     assert!(i.task_state(TaskId::Robot, &s) == TaskState::Idle, "stopped");
 }
+
+#[test]
+fn one_naming_a_program_not_loaded_loads_with_a_warning_and_the_task_stops_as_without_it() {
+    let src = ".PROGRAM autostart.pc()\n  ONE elsewhere\n  x = SQRT(-1)\n  after = 1\n.END\n";
+    let (mut i, mut s) = start(src);
+    assert!(
+        i.warnings()
+            .iter()
+            .any(|w| w.message.contains("ONE elsewhere: program elsewhere is not defined")),
+        "{:?}",
+        i.warnings()
+    );
+    i.run_until(&mut s, ms(50));
+    assert_eq!(i.real("after"), None);
+    assert_eq!(s.raised.len(), 1);
+}
