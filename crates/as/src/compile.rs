@@ -67,6 +67,29 @@ pub(crate) enum RExpr {
     Dext(Box<Loc>, Box<RExpr>),
     Switch(SwitchRef),
     Error,
+    /// `DISTANCE(t1, t2)`, `DX(t)`, `DY(t)`, `DZ(t)`.
+    Loc(LocFn, Box<[TExpr]>),
+    /// `EXISTREAL("name")` …: whether the named thing exists.
+    Exist(Exist, Box<SExpr>),
+}
+
+/// Real functions of transformations.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum LocFn {
+    Distance,
+    Dx,
+    Dy,
+    Dz,
+}
+
+/// What an `EXIST…` function looks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Exist {
+    Real,
+    Char,
+    Joint,
+    Trans,
+    Program,
 }
 
 /// Real functions of real arguments.
@@ -86,6 +109,7 @@ pub(crate) enum RFunc {
     Bits32,
     Task,
     Timer,
+    Round,
 }
 
 /// A switch read by `SWITCH(name)`.
@@ -142,6 +166,8 @@ pub(crate) enum TExpr {
     Dest,
     /// `SHIFT(t BY dx, dy, dz)`: `t` moved along the base axes.
     Shift(Box<TExpr>, Box<[RExpr]>),
+    /// `FRAME(t1, t2, t3, t4)`: origin t4, X from t1 toward t2, t3 on the XY plane's +Y side.
+    Frame(Box<[TExpr; 4]>),
 }
 
 /// A location: joint point or transformation.
@@ -1583,6 +1609,55 @@ impl Compiler {
                 };
                 Ok(CExpr::R(RExpr::Func(func, vec![a].into())))
             }
+            (Sigil::None, "round") => {
+                self.arity(name, args, 1, 1, span)?;
+                let a = self.arg_real(&args[0])?;
+                Ok(CExpr::R(RExpr::Func(RFunc::Round, vec![a].into())))
+            }
+            (Sigil::None, f @ ("distance" | "dx" | "dy" | "dz")) => {
+                let (n, func) = match f {
+                    "distance" => (2, LocFn::Distance),
+                    "dx" => (1, LocFn::Dx),
+                    "dy" => (1, LocFn::Dy),
+                    _ => (1, LocFn::Dz),
+                };
+                self.arity(name, args, n, n, span)?;
+                let t = args
+                    .iter()
+                    .map(|a| {
+                        let e = self.arg_expr(a)?.clone();
+                        self.trans_loc(&e)
+                    })
+                    .collect::<CResult<Vec<_>>>()?;
+                Ok(CExpr::R(RExpr::Loc(func, t.into())))
+            }
+            (Sigil::None, "frame") => {
+                self.arity(name, args, 4, 4, span)?;
+                let mut t = Vec::new();
+                for a in args {
+                    let e = self.arg_expr(a)?.clone();
+                    t.push(self.trans_loc(&e)?);
+                }
+                let [a, b, c, d]: [TExpr; 4] = t
+                    .try_into()
+                    .map_err(|_| self.err(span, "FRAME takes 4 locations"))?;
+                Ok(CExpr::T(TExpr::Frame(Box::new([a, b, c, d]))))
+            }
+            (
+                Sigil::None,
+                f @ ("existreal" | "existchar" | "existjoint" | "existtrans" | "existprogram"),
+            ) => {
+                self.arity(name, args, 1, 1, span)?;
+                let kind = match f {
+                    "existreal" => Exist::Real,
+                    "existchar" => Exist::Char,
+                    "existjoint" => Exist::Joint,
+                    "existtrans" => Exist::Trans,
+                    _ => Exist::Program,
+                };
+                let s = self.arg_str(&args[0])?;
+                Ok(CExpr::R(RExpr::Exist(kind, Box::new(s))))
+            }
             (Sigil::None, "atan2") => {
                 self.arity(name, args, 2, 2, span)?;
                 let v = vec![self.arg_real(&args[0])?, self.arg_real(&args[1])?];
@@ -1825,7 +1900,8 @@ fn r_touches(e: &RExpr) -> bool {
             a.as_deref().is_some_and(r_touches) || s_touches(b) || s_touches(c)
         }
         RExpr::Dext(l, n) => loc_touches(l) || r_touches(n),
-        RExpr::Switch(_) | RExpr::Error => true,
+        RExpr::Switch(_) | RExpr::Error | RExpr::Exist(..) => true,
+        RExpr::Loc(_, t) => t.iter().any(t_touches),
     }
 }
 
@@ -1872,6 +1948,7 @@ fn t_touches(e: &TExpr) -> bool {
         TExpr::Here | TExpr::Forward(_) | TExpr::Dest => true,
         TExpr::Compose(a, b) => t_touches(a) || t_touches(b),
         TExpr::Shift(t, d) => t_touches(t) || any_r(d),
+        TExpr::Frame(t) => t.iter().any(t_touches),
     }
 }
 

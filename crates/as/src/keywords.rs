@@ -133,21 +133,7 @@ pub const BLOCK_TEACHING: &[&str] = &[
 
 /// Functions the controller has but the emulator does not compute: a statement that uses
 /// one loads as not emulated.
-pub const UNSUPPORTED_FUNCTIONS: &[&str] = &[
-    "distance",
-    "dx",
-    "dy",
-    "dz",
-    "existchar",
-    "existjoint",
-    "existprogram",
-    "existreal",
-    "existtrans",
-    "frame",
-    "round",
-    "strtopos",
-    "time",
-];
+pub const UNSUPPORTED_FUNCTIONS: &[&str] = &["strtopos", "time"];
 
 /// Whether `word` (lower case, at the start of a statement) is an instruction that loads as
 /// not emulated: in [`UNSUPPORTED`] or one of the [`UNSUPPORTED_PREFIXES`] families, and not

@@ -20,6 +20,7 @@
 //! | `frames.rs` | `TOOL`, `BASE`, kinematic conversions, `APPRO`, `DEPART`, `DRAW` |
 //! | `posture.rs` | `LEFTY`, `RIGHTY`, `ABOVE`, `BELOW`, `UWRIST`, `DWRIST`: the IK branch |
 //! | `hands.rs` | `OPEN`/`CLOSE`/`RELAX` and their `I` forms on the hands' signals |
+//! | `locations.rs`, `exist.rs` | `DISTANCE`, `DX`/`DY`/`DZ`, `FRAME`; `EXISTREAL` … `EXISTPROGRAM` |
 //! | `expr.rs` | expressions (reals, strings, locations, functions, `PRINT` encoding) |
 //! | `tcp.rs`, `udp.rs` | the `TCP_…` and `UDP_…` statements on the system's socket table |
 //! | `on_error.rs` | `ONE`: a task's error program, and its stop after it |
@@ -31,10 +32,12 @@
 
 mod arith;
 mod config;
+mod exist;
 mod expr;
 mod flow;
 mod frames;
 mod hands;
+mod locations;
 mod monitor;
 mod motion;
 mod observers;
