@@ -17,8 +17,8 @@ use fs020n_proto::{ErrorCode, JointsDeg};
 use crate::flange;
 use crate::sockets::{Delivery, SocketLimits, SocketTable, TcpCode};
 use crate::system::{
-    Datagram, Issued, Joints, MotionKind, MotionRequest, PanelState, SockPoll, Speed, System, Target, TaskId,
-    Trans,
+    Datagram, Issued, Joints, MotionKind, MotionRequest, PanelState, SockPoll, Speed, System,
+    Target, TaskId, Trans,
 };
 
 #[derive(Debug, Clone)]
@@ -212,8 +212,9 @@ impl VirtualSystem {
         if self.udp_script.is_empty() {
             return;
         }
-        let (due, later): (Vec<_>, Vec<_>) =
-            std::mem::take(&mut self.udp_script).into_iter().partition(|(at, ..)| *at <= t);
+        let (due, later): (Vec<_>, Vec<_>) = std::mem::take(&mut self.udp_script)
+            .into_iter()
+            .partition(|(at, ..)| *at <= t);
         self.udp_script = later;
         for (_, port, d) in due {
             self.net.udp_deliver(port, d);

@@ -66,13 +66,7 @@ fn every_instruction_the_issue_lists_loads_as_not_emulated() {
         .iter()
         .map(|w| w.message.clone())
         .collect();
-    for word in [
-        "C1MOVE",
-        "C2MOVE",
-        "INTFCHK",
-        "L3JMOVE",
-        "RTC_SW",
-    ] {
+    for word in ["C1MOVE", "C2MOVE", "INTFCHK", "L3JMOVE", "RTC_SW"] {
         assert!(
             warnings
                 .iter()

@@ -29,10 +29,19 @@ fn a_failed_statement_runs_the_error_program_with_error_giving_its_code() {
     assert_eq!(code, s.raised[0].raw() as f32);
     // Fail closed: the failed step is not resumed, the task stops.
     assert_eq!(i.real("after"), None);
-    assert!(i.task_state(TaskId::Pc(1), &s) == TaskState::Idle, "the task stopped");
+    assert!(
+        i.task_state(TaskId::Pc(1), &s) == TaskState::Idle,
+        "the task stopped"
+    );
     let lines = s.lines_of(TaskId::Pc(1)).join("\n");
-    assert!(lines.contains("error program recover.pc runs (ONE)"), "{lines}");
-    assert!(lines.contains("program stopped after its error program"), "{lines}");
+    assert!(
+        lines.contains("error program recover.pc runs (ONE)"),
+        "{lines}"
+    );
+    assert!(
+        lines.contains("program stopped after its error program"),
+        "{lines}"
+    );
 }
 
 #[test]
@@ -80,7 +89,10 @@ fn the_robot_tasks_error_program_runs_but_cannot_move_the_arm() {
     // Only the failed motion was asked for; the arm stands where it was.
     assert_eq!(s.motions.len(), 1, "{:?}", s.motions);
     assert_eq!(s.joints_now(), s.model.home.0);
-    assert!(i.task_state(TaskId::Robot, &s) == TaskState::Idle, "stopped");
+    assert!(
+        i.task_state(TaskId::Robot, &s) == TaskState::Idle,
+        "stopped"
+    );
 }
 
 #[test]
@@ -88,9 +100,9 @@ fn one_naming_a_program_not_loaded_loads_with_a_warning_and_the_task_stops_as_wi
     let src = ".PROGRAM autostart.pc()\n  ONE elsewhere\n  x = SQRT(-1)\n  after = 1\n.END\n";
     let (mut i, mut s) = start(src);
     assert!(
-        i.warnings()
-            .iter()
-            .any(|w| w.message.contains("ONE elsewhere: program elsewhere is not defined")),
+        i.warnings().iter().any(|w| w
+            .message
+            .contains("ONE elsewhere: program elsewhere is not defined")),
         "{:?}",
         i.warnings()
     );

@@ -91,7 +91,11 @@ fn udp_recvfrom_times_out_with_34024_and_the_task_keeps_running() {
     assert_eq!(i.real("after"), Some(1.0));
     let at = i.real("at").expect("went on");
     assert!((2.0..2.01).contains(&at), "timed out at {at} s");
-    assert!(s.raised.is_empty(), "a timeout raises no error: {:?}", s.raised);
+    assert!(
+        s.raised.is_empty(),
+        "a timeout raises no error: {:?}",
+        s.raised
+    );
     assert!(!s.udp_receiving(10010));
 }
 
@@ -101,7 +105,11 @@ fn a_datagram_sent_while_no_udp_recvfrom_waits_is_lost() {
     i.run_until(&mut s, ms(500));
     assert!(!s.deliver_datagram(10010, datagram([127, 0, 0, 1], 9, b"early")));
     i.run_until(&mut s, ms(2100));
-    assert_eq!(i.real("ret"), Some(-34024.0), "the early datagram was not kept");
+    assert_eq!(
+        i.real("ret"),
+        Some(-34024.0),
+        "the early datagram was not kept"
+    );
 }
 
 #[test]

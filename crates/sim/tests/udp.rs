@@ -50,7 +50,11 @@ fn a_loopback_peer_and_the_program_exchange_datagrams() {
         std::thread::sleep(Duration::from_millis(1));
     }
     assert_eq!(c.program_real("ret"), Some(0.0));
-    assert_eq!(c.program_real("n"), Some(2.0), "hello in elements of 4 bytes");
+    assert_eq!(
+        c.program_real("n"),
+        Some(2.0),
+        "hello in elements of 4 bytes"
+    );
     assert_eq!(c.program_real("sret"), Some(0.0));
     assert_eq!(c.program_real("done"), Some(1.0));
     let mut buf = [0u8; 64];
@@ -108,5 +112,9 @@ fn garbage_datagrams_do_not_disturb_the_program() {
         c.advance_by(Duration::from_millis(20));
     }
     assert_eq!(c.program_real("count"), Some(3.0));
-    assert_eq!(c.program_real("n"), Some(17.0), "4096 bytes kept, in 255-byte elements");
+    assert_eq!(
+        c.program_real("n"),
+        Some(17.0),
+        "4096 bytes kept, in 255-byte elements"
+    );
 }

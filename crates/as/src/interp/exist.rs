@@ -28,10 +28,22 @@ impl Interpreter {
         };
         let g = &self.globals;
         as_bool(match ty {
-            Ty::Real => g.reals.get(s).is_some_and(|v| v.scalar.is_some() || v.element_count() > 0),
-            Ty::Str => g.strs.get(s).is_some_and(|v| v.scalar.is_some() || v.element_count() > 0),
-            Ty::Joint => g.joints.get(s).is_some_and(|v| v.scalar.is_some() || v.element_count() > 0),
-            Ty::Trans => g.trans.get(s).is_some_and(|v| v.scalar.is_some() || v.element_count() > 0),
+            Ty::Real => g
+                .reals
+                .get(s)
+                .is_some_and(|v| v.scalar.is_some() || v.element_count() > 0),
+            Ty::Str => g
+                .strs
+                .get(s)
+                .is_some_and(|v| v.scalar.is_some() || v.element_count() > 0),
+            Ty::Joint => g
+                .joints
+                .get(s)
+                .is_some_and(|v| v.scalar.is_some() || v.element_count() > 0),
+            Ty::Trans => g
+                .trans
+                .get(s)
+                .is_some_and(|v| v.scalar.is_some() || v.element_count() > 0),
         })
     }
 }

@@ -34,7 +34,10 @@ impl Interpreter {
         }
         let [a, b] = v;
         Ok(match f {
-            LocFn::Distance => check((position_mm(&a) - position_mm(&b)).norm() as f32, "DISTANCE")?,
+            LocFn::Distance => check(
+                (position_mm(&a) - position_mm(&b)).norm() as f32,
+                "DISTANCE",
+            )?,
             LocFn::Dx => a[0],
             LocFn::Dy => a[1],
             LocFn::Dz => a[2],

@@ -26,7 +26,9 @@ impl Interpreter {
         };
         // An error inside the error program stops the task; so does one with no room left
         // on the call stack.
-        if t.error_depth.is_some() || t.frames.is_empty() || t.frames.len() >= self.cfg.max_call_depth
+        if t.error_depth.is_some()
+            || t.frames.is_empty()
+            || t.frames.len() >= self.cfg.max_call_depth
         {
             return false;
         }

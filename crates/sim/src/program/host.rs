@@ -10,8 +10,8 @@ use std::time::Duration;
 use fs020n_as::flange;
 use fs020n_as::sockets::{SocketTable, TcpCode};
 use fs020n_as::{
-    Datagram, Issued, Joints, MotionKind, MotionRequest, PanelState, SockPoll, Speed, System, Target, TaskId,
-    Trans,
+    Datagram, Issued, Joints, MotionKind, MotionRequest, PanelState, SockPoll, Speed, System,
+    Target, TaskId, Trans,
 };
 use fs020n_kin::JointMove;
 use fs020n_proto::{ErrorCode, JointsDeg};

@@ -143,8 +143,8 @@ impl UdpPorts {
     /// `UDP_SENDTO`: one datagram from a socket of its own; −34021 when the host refuses it.
     pub(crate) fn send(&self, ip: [u8; 4], port: u16, data: &[u8]) -> i32 {
         let to = SocketAddrV4::new(Ipv4Addr::from(ip), port);
-        let sent = UdpSocket::bind(SocketAddrV4::new(self.address, 0))
-            .and_then(|s| s.send_to(data, to));
+        let sent =
+            UdpSocket::bind(SocketAddrV4::new(self.address, 0)).and_then(|s| s.send_to(data, to));
         match sent {
             Ok(_) => 0,
             Err(e) => {
