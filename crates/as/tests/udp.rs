@@ -152,3 +152,34 @@ fn udp_recvfrom_element_size_outside_1_to_255_stops_the_task() {
     assert_eq!(i.real("ret"), None);
     assert!(!s.raised.is_empty(), "a parameter error stops the program");
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+    /// Any datagram (any bytes, empty, over 4096 bytes) is received as data: the elements
+    /// hold its first 4096 bytes in order, each at most `max` bytes.
+    #[test]
+    fn any_datagram_is_received_as_data_split_into_elements(
+        bytes in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..5000),
+        max in 1u32..=255,
+    ) {
+        let (mut i, mut s) = start(&pc(&format!(
+            "  UDP_RECVFROM ret, 10010, $in[0], n, 5, ip[0], {max}"
+        )));
+        i.run_until(&mut s, ms(10));
+        proptest::prop_assert!(s.deliver_datagram(10010, datagram([1, 2, 3, 4], 5, &bytes)));
+        i.run_until(&mut s, ms(20));
+        proptest::prop_assert_eq!(i.real("ret"), Some(0.0));
+        let kept = &bytes[..bytes.len().min(4096)];
+        let n = i.real("n").expect("count") as i32;
+        proptest::prop_assert_eq!(n as usize, kept.len().div_ceil(max as usize));
+        let mut got = Vec::new();
+        for k in 0..n {
+            let e = i.string_at("in", &[k]).expect("element");
+            proptest::prop_assert!(e.len() <= max as usize);
+            got.extend(e);
+        }
+        proptest::prop_assert_eq!(&got[..], kept);
+        proptest::prop_assert!(s.raised.is_empty());
+    }
+}
