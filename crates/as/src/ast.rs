@@ -405,6 +405,11 @@ pub enum StmtKind {
     Cp(bool),
     /// A `TCP_…` instruction.
     Tcp(TcpStmt),
+    /// `UDP_SENDTO` or `UDP_RECVFROM`.
+    Udp(UdpStmt),
+    /// `ONE program` (`None`: `ONE` alone, or `ONE OFF`): the program this task runs when one
+    /// of its statements fails (docs/AS.md, "ONE").
+    OnError(Option<String>),
     /// An instruction that loads but is not emulated (`TOOL`, `JAPPRO`, a block-teaching
     /// step, …): a task that reaches it stops with E0111 naming it — unless it is stubbed,
     /// when it does nothing. Modelling one is local: the parser gives it its own statement.
@@ -755,4 +760,42 @@ pub enum DataValue {
     Joints([f64; 6]),
     /// `.TRANS`: `name x y z o a t` (mm, degrees).
     Trans([f64; 6]),
+}
+
+/// The UDP instructions: each opens its own socket and closes it when it ends, and stores its
+/// result (0 or a negative code) in `ret`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum UdpStmt {
+    /// `UDP_SENDTO ret, ip_array[start], port, $array[start], n[, timeout]`.
+    SendTo {
+        /// Result.
+        ret: LValue,
+        /// 4 elements holding the destination's IPv4 address.
+        ip: LValue,
+        /// Destination port.
+        port: Expr,
+        /// First string element to send.
+        buf: LValue,
+        /// Number of elements.
+        n: Expr,
+        /// Seconds (default 1).
+        timeout: Option<Expr>,
+    },
+    /// `UDP_RECVFROM ret, port, $array[start], count[, timeout[, ip_array[start][, max_bytes]]]`.
+    RecvFrom {
+        /// Result.
+        ret: LValue,
+        /// The port it receives on.
+        port: Expr,
+        /// First string element to fill.
+        buf: LValue,
+        /// Receives the number of elements filled.
+        count: LValue,
+        /// Seconds (default 1).
+        timeout: Option<Expr>,
+        /// Receives the sender's address in 4 elements.
+        ip: Option<LValue>,
+        /// Bytes per element, 1–255 (default 255).
+        max: Option<Expr>,
+    },
 }

@@ -67,6 +67,29 @@ pub(crate) enum RExpr {
     Dext(Box<Loc>, Box<RExpr>),
     Switch(SwitchRef),
     Error,
+    /// `DISTANCE(t1, t2)`, `DX(t)`, `DY(t)`, `DZ(t)`.
+    Loc(LocFn, Box<[TExpr]>),
+    /// `EXISTREAL("name")` …: whether the named thing exists.
+    Exist(Exist, Box<SExpr>),
+}
+
+/// Real functions of transformations.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum LocFn {
+    Distance,
+    Dx,
+    Dy,
+    Dz,
+}
+
+/// What an `EXIST…` function looks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Exist {
+    Real,
+    Char,
+    Joint,
+    Trans,
+    Program,
 }
 
 /// Real functions of real arguments.
@@ -86,6 +109,7 @@ pub(crate) enum RFunc {
     Bits32,
     Task,
     Timer,
+    Round,
 }
 
 /// A switch read by `SWITCH(name)`.
@@ -142,6 +166,8 @@ pub(crate) enum TExpr {
     Dest,
     /// `SHIFT(t BY dx, dy, dz)`: `t` moved along the base axes.
     Shift(Box<TExpr>, Box<[RExpr]>),
+    /// `FRAME(t1, t2, t3, t4)`: origin t4, X from t1 toward t2, t3 on the XY plane's +Y side.
+    Frame(Box<[TExpr; 4]>),
 }
 
 /// A location: joint point or transformation.
@@ -321,10 +347,39 @@ pub(crate) enum Op {
         ip: LRef,
         timeout: Option<RExpr>,
     },
+    /// `UDP_SENDTO` (boxed: the op stays small).
+    UdpSendTo(Box<UdpSendTo>),
+    /// `UDP_RECVFROM` (boxed).
+    UdpRecvFrom(Box<UdpRecvFrom>),
+    /// `ONE program`: the task's error program (`None`: none).
+    OnError(Option<usize>),
     /// An instruction that loads but is not emulated: the task stops with E0111 naming it.
     NotEmulated(Box<str>),
     /// The end of the program (`.END`).
     End,
+}
+
+/// `UDP_SENDTO ret, ip[i], port, $buf[i], n[, timeout]`, compiled.
+#[derive(Debug, Clone)]
+pub(crate) struct UdpSendTo {
+    pub(crate) ret: LRef,
+    pub(crate) ip: LRef,
+    pub(crate) port: RExpr,
+    pub(crate) buf: LRef,
+    pub(crate) n: RExpr,
+    pub(crate) timeout: Option<RExpr>,
+}
+
+/// `UDP_RECVFROM ret, port, $buf[i], count[, timeout[, ip[i][, max]]]`, compiled.
+#[derive(Debug, Clone)]
+pub(crate) struct UdpRecvFrom {
+    pub(crate) ret: LRef,
+    pub(crate) port: RExpr,
+    pub(crate) buf: LRef,
+    pub(crate) count: LRef,
+    pub(crate) timeout: Option<RExpr>,
+    pub(crate) ip: Option<LRef>,
+    pub(crate) max: Option<RExpr>,
 }
 
 /// A parameter of a compiled program.
@@ -1093,6 +1148,29 @@ impl Compiler {
                 let op = self.tcp(t)?;
                 self.emit(op, line);
             }
+            StmtKind::Udp(u) => {
+                let op = self.udp(u)?;
+                self.emit(op, line);
+            }
+            StmtKind::OnError(program) => {
+                // An error program that is not loaded is a warning, not a load error (it may
+                // be in another file): a task that fails then stops as without ONE.
+                let p = match program.as_deref() {
+                    Some(name) => {
+                        let p = self.by_name.get(name).copied();
+                        if p.is_none() {
+                            self.warnings.push(ParseError::new(
+                                &self.file,
+                                s.span,
+                                format!("ONE {name}: program {name} is not defined (load the file that holds it); a task that fails stops as without ONE"),
+                            ));
+                        }
+                        p
+                    }
+                    None => None,
+                };
+                self.emit(Op::OnError(p), line);
+            }
         }
         Ok(())
     }
@@ -1171,6 +1249,43 @@ impl Compiler {
                 ip: self.lref(ip, Ty::Real)?,
                 timeout: timeout.as_ref().map(|e| self.real(e)).transpose()?,
             },
+        })
+    }
+
+    fn udp(&mut self, u: &UdpStmt) -> CResult<Op> {
+        Ok(match u {
+            UdpStmt::SendTo {
+                ret,
+                ip,
+                port,
+                buf,
+                n,
+                timeout,
+            } => Op::UdpSendTo(Box::new(UdpSendTo {
+                ret: self.lref(ret, Ty::Real)?,
+                ip: self.lref(ip, Ty::Real)?,
+                port: self.real(port)?,
+                buf: self.lref(buf, Ty::Str)?,
+                n: self.real(n)?,
+                timeout: timeout.as_ref().map(|e| self.real(e)).transpose()?,
+            })),
+            UdpStmt::RecvFrom {
+                ret,
+                port,
+                buf,
+                count,
+                timeout,
+                ip,
+                max,
+            } => Op::UdpRecvFrom(Box::new(UdpRecvFrom {
+                ret: self.lref(ret, Ty::Real)?,
+                port: self.real(port)?,
+                buf: self.lref(buf, Ty::Str)?,
+                count: self.lref(count, Ty::Real)?,
+                timeout: timeout.as_ref().map(|e| self.real(e)).transpose()?,
+                ip: ip.as_ref().map(|l| self.lref(l, Ty::Real)).transpose()?,
+                max: max.as_ref().map(|e| self.real(e)).transpose()?,
+            })),
         })
     }
 
@@ -1494,6 +1609,55 @@ impl Compiler {
                 };
                 Ok(CExpr::R(RExpr::Func(func, vec![a].into())))
             }
+            (Sigil::None, "round") => {
+                self.arity(name, args, 1, 1, span)?;
+                let a = self.arg_real(&args[0])?;
+                Ok(CExpr::R(RExpr::Func(RFunc::Round, vec![a].into())))
+            }
+            (Sigil::None, f @ ("distance" | "dx" | "dy" | "dz")) => {
+                let (n, func) = match f {
+                    "distance" => (2, LocFn::Distance),
+                    "dx" => (1, LocFn::Dx),
+                    "dy" => (1, LocFn::Dy),
+                    _ => (1, LocFn::Dz),
+                };
+                self.arity(name, args, n, n, span)?;
+                let t = args
+                    .iter()
+                    .map(|a| {
+                        let e = self.arg_expr(a)?.clone();
+                        self.trans_loc(&e)
+                    })
+                    .collect::<CResult<Vec<_>>>()?;
+                Ok(CExpr::R(RExpr::Loc(func, t.into())))
+            }
+            (Sigil::None, "frame") => {
+                self.arity(name, args, 4, 4, span)?;
+                let mut t = Vec::new();
+                for a in args {
+                    let e = self.arg_expr(a)?.clone();
+                    t.push(self.trans_loc(&e)?);
+                }
+                let [a, b, c, d]: [TExpr; 4] = t
+                    .try_into()
+                    .map_err(|_| self.err(span, "FRAME takes 4 locations"))?;
+                Ok(CExpr::T(TExpr::Frame(Box::new([a, b, c, d]))))
+            }
+            (
+                Sigil::None,
+                f @ ("existreal" | "existchar" | "existjoint" | "existtrans" | "existprogram"),
+            ) => {
+                self.arity(name, args, 1, 1, span)?;
+                let kind = match f {
+                    "existreal" => Exist::Real,
+                    "existchar" => Exist::Char,
+                    "existjoint" => Exist::Joint,
+                    "existtrans" => Exist::Trans,
+                    _ => Exist::Program,
+                };
+                let s = self.arg_str(&args[0])?;
+                Ok(CExpr::R(RExpr::Exist(kind, Box::new(s))))
+            }
             (Sigil::None, "atan2") => {
                 self.arity(name, args, 2, 2, span)?;
                 let v = vec![self.arg_real(&args[0])?, self.arg_real(&args[1])?];
@@ -1736,7 +1900,8 @@ fn r_touches(e: &RExpr) -> bool {
             a.as_deref().is_some_and(r_touches) || s_touches(b) || s_touches(c)
         }
         RExpr::Dext(l, n) => loc_touches(l) || r_touches(n),
-        RExpr::Switch(_) | RExpr::Error => true,
+        RExpr::Switch(_) | RExpr::Error | RExpr::Exist(..) => true,
+        RExpr::Loc(_, t) => t.iter().any(t_touches),
     }
 }
 
@@ -1783,6 +1948,7 @@ fn t_touches(e: &TExpr) -> bool {
         TExpr::Here | TExpr::Forward(_) | TExpr::Dest => true,
         TExpr::Compose(a, b) => t_touches(a) || t_touches(b),
         TExpr::Shift(t, d) => t_touches(t) || any_r(d),
+        TExpr::Frame(t) => t.iter().any(t_touches),
     }
 }
 

@@ -54,6 +54,7 @@ pub const STATEMENTS: &[(&str, usize)] = &[
     ("lmove", 2),
     ("mc", 2),
     ("on", 2),
+    ("one", 3),
     ("oni", 3),
     ("open", 4),
     ("openi", 5),
@@ -88,6 +89,8 @@ pub const STATEMENTS: &[(&str, usize)] = &[
     ("twait", 2),
     ("type", 2),
     ("until", 2),
+    ("udp_recvfrom", 12),
+    ("udp_sendto", 10),
     ("uwrist", 6),
     ("value", 3),
     ("wait", 2),
@@ -107,10 +110,7 @@ pub const UNSUPPORTED: &[&str] = &[
     "hmove",
     "intfchk",
     "japro",
-    "one",
     "prefetch.sigins",
-    "udp_recvfrom",
-    "udp_sendto",
     "xmove",
 ];
 
@@ -133,21 +133,7 @@ pub const BLOCK_TEACHING: &[&str] = &[
 
 /// Functions the controller has but the emulator does not compute: a statement that uses
 /// one loads as not emulated.
-pub const UNSUPPORTED_FUNCTIONS: &[&str] = &[
-    "distance",
-    "dx",
-    "dy",
-    "dz",
-    "existchar",
-    "existjoint",
-    "existprogram",
-    "existreal",
-    "existtrans",
-    "frame",
-    "round",
-    "strtopos",
-    "time",
-];
+pub const UNSUPPORTED_FUNCTIONS: &[&str] = &["strtopos", "time"];
 
 /// Whether `word` (lower case, at the start of a statement) is an instruction that loads as
 /// not emulated: in [`UNSUPPORTED`] or one of the [`UNSUPPORTED_PREFIXES`] families, and not

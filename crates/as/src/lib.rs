@@ -73,8 +73,8 @@ pub use options::LoadOptions;
 pub use parser::{parse, parse_bytes};
 pub use span::Span;
 pub use system::{
-    Issued, Joints, MotionKind, MotionRequest, PanelState, SockPoll, SocketStatus, Speed, System,
-    Target, TaskId, Trans,
+    Datagram, Issued, Joints, MotionKind, MotionRequest, PanelState, SockPoll, SocketStatus, Speed,
+    System, Target, TaskId, Trans,
 };
 
 /// This project's AS text of the protocol-1040 server (`crates/as/programs/server1040.as`):

@@ -1638,6 +1638,14 @@ impl<'a> Cur<'a> {
             }
             "cp" => LineKind::Stmt(StmtKind::Cp(self.on_off("CP")?)),
             k if k.starts_with("tcp_") => LineKind::Stmt(StmtKind::Tcp(self.tcp(k)?)),
+            k if k.starts_with("udp_") => LineKind::Stmt(StmtKind::Udp(self.udp(k)?)),
+            "one" => {
+                if self.peek().is_none() || self.eat_word("off") {
+                    LineKind::Stmt(StmtKind::OnError(None))
+                } else {
+                    LineKind::Stmt(StmtKind::OnError(Some(self.program_name("ONE")?)))
+                }
+            }
             other => {
                 return Err(ParseError::new(
                     self.file,
@@ -1846,6 +1854,66 @@ impl<'a> Cur<'a> {
                     port,
                     ip,
                     timeout,
+                }
+            }
+            other => return Err(self.err(format!("{} is not supported", other.to_uppercase()))),
+        })
+    }
+
+    fn udp(&mut self, kw: &str) -> PResult<UdpStmt> {
+        let ret = self.lvalue()?;
+        let comma = |c: &mut Cur, what: &str| c.expect(&Tok::Comma, &format!("\",\" then {what}"));
+        Ok(match kw {
+            "udp_sendto" => {
+                comma(self, "the IP address array element")?;
+                let ip = self.lvalue()?;
+                comma(self, "the port")?;
+                let port = self.expr()?;
+                comma(self, "the string array element to send")?;
+                let buf = self.lvalue()?;
+                comma(self, "the number of elements")?;
+                let n = self.expr()?;
+                let timeout = if self.eat(&Tok::Comma) {
+                    Some(self.expr()?)
+                } else {
+                    None
+                };
+                UdpStmt::SendTo {
+                    ret,
+                    ip,
+                    port,
+                    buf,
+                    n,
+                    timeout,
+                }
+            }
+            "udp_recvfrom" => {
+                comma(self, "the port")?;
+                let port = self.expr()?;
+                comma(self, "the string array element to fill")?;
+                let buf = self.lvalue()?;
+                comma(self, "the variable that receives the element count")?;
+                let count = self.lvalue()?;
+                let mut timeout = None;
+                let mut ip = None;
+                let mut max = None;
+                if self.eat(&Tok::Comma) {
+                    timeout = Some(self.expr()?);
+                    if self.eat(&Tok::Comma) {
+                        ip = Some(self.lvalue()?);
+                        if self.eat(&Tok::Comma) {
+                            max = Some(self.expr()?);
+                        }
+                    }
+                }
+                UdpStmt::RecvFrom {
+                    ret,
+                    port,
+                    buf,
+                    count,
+                    timeout,
+                    ip,
+                    max,
                 }
             }
             other => return Err(self.err(format!("{} is not supported", other.to_uppercase()))),

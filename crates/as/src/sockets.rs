@@ -18,6 +18,13 @@
 //! [`SocketTable::generation`] (bumped on every change an outside client can see) to know
 //! when to read again.
 //!
+//! **UDP** (`UDP_SENDTO`, `UDP_RECVFROM`) has no connection: each instruction opens its own
+//! socket and closes it when it ends. While a `UDP_RECVFROM` waits, its port is open in the
+//! table ([`SocketTable::udp_open`]) and datagrams delivered to it ([`SocketTable::udp_deliver`],
+//! from a test or the emulator's real UDP socket) queue there; a datagram for a port no
+//! `UDP_RECVFROM` waits on is lost, as on a network. What `UDP_SENDTO` sends waits in an
+//! outbox ([`SocketTable::udp_take_sent`]) for the driver to deliver.
+//!
 //! Socket ids start at 1 and are never reused. A local connection takes two ids (the
 //! connecting end, then the accepted end); an outside client takes one (the accepted end; the
 //! client names its connection by the same id).
@@ -25,7 +32,7 @@
 use std::collections::{BTreeMap, VecDeque};
 use std::time::Duration;
 
-use crate::system::{SockPoll, SocketStatus};
+use crate::system::{Datagram, SockPoll, SocketStatus};
 
 /// The AS result codes of the TCP instructions (AS error `E40nn` is code `−340nn`): what a
 /// `ret` variable holds when an instruction fails. See docs/AS.md, "TCP sockets".
@@ -224,6 +231,10 @@ pub struct SocketTable {
     served_port: Option<u16>,
     generation: u64,
     limits: SocketLimits,
+    /// Ports a `UDP_RECVFROM` has open, with the datagrams that reached each.
+    udp_ports: BTreeMap<u16, VecDeque<Datagram>>,
+    /// Datagrams `UDP_SENDTO` sent, not yet taken by the driver.
+    udp_sent: VecDeque<Datagram>,
 }
 
 impl SocketTable {
@@ -236,6 +247,8 @@ impl SocketTable {
             served_port: None,
             generation: 0,
             limits,
+            udp_ports: BTreeMap::new(),
+            udp_sent: VecDeque::new(),
         }
     }
 
@@ -607,5 +620,67 @@ impl SocketTable {
             }
         }
         self.generation += 1;
+    }
+
+    // ------------------------------------------------------------------ UDP
+
+    /// `UDP_RECVFROM` begins: opens its socket on `port` (datagrams delivered from now on
+    /// queue there); 0, or [`TcpCode::PortInUse`] while another `UDP_RECVFROM` has it open.
+    pub fn udp_open(&mut self, port: u16) -> i32 {
+        if self.udp_ports.contains_key(&port) {
+            return TcpCode::PortInUse.code();
+        }
+        self.udp_ports.insert(port, VecDeque::new());
+        self.generation += 1;
+        0
+    }
+
+    /// `true` while a `UDP_RECVFROM` has `port` open.
+    pub fn udp_receiving(&self, port: u16) -> bool {
+        self.udp_ports.contains_key(&port)
+    }
+
+    /// A datagram reaches `port`: queued while a `UDP_RECVFROM` has it open, else lost
+    /// (`false`).
+    pub fn udp_deliver(&mut self, port: u16, datagram: Datagram) -> bool {
+        match self.udp_ports.get_mut(&port) {
+            Some(q) => {
+                q.push_back(datagram);
+                self.generation += 1;
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// `UDP_RECVFROM` waits: the oldest datagram that reached `port`, `Pending` when none,
+    /// [`TcpCode::UnknownSocket`] when the port is not open.
+    pub fn udp_recv(&mut self, port: u16) -> SockPoll<Datagram> {
+        match self.udp_ports.get_mut(&port).map(VecDeque::pop_front) {
+            Some(Some(d)) => SockPoll::Ready(Ok(d)),
+            Some(None) => SockPoll::Pending,
+            None => SockPoll::Ready(Err(TcpCode::UnknownSocket.code())),
+        }
+    }
+
+    /// `UDP_RECVFROM` ends (it received, timed out, or its task stopped): the port closes and
+    /// datagrams still queued there are lost.
+    pub fn udp_close(&mut self, port: u16) {
+        if self.udp_ports.remove(&port).is_some() {
+            self.generation += 1;
+        }
+    }
+
+    /// `UDP_SENDTO`: the datagram waits in the outbox for the driver; always 0 (a datagram
+    /// is never refused: whether it arrives is the network's business).
+    pub fn udp_send(&mut self, datagram: Datagram) -> i32 {
+        self.udp_sent.push_back(datagram);
+        self.generation += 1;
+        0
+    }
+
+    /// Takes every datagram sent since the last call, oldest first (the driver delivers them).
+    pub fn udp_take_sent(&mut self) -> Vec<Datagram> {
+        self.udp_sent.drain(..).collect()
     }
 }

@@ -205,7 +205,9 @@ pub trait System {
     fn home(&self) -> Joints;
 
     /// A motion instruction (see the module documentation). `Err` is a controller error
-    /// (e.g. E1088 "destination out of motion range"): the program stops with it.
+    /// (e.g. E1088 "destination out of motion range"): the program stops with it. While the
+    /// controller is in error (an error program of `ONE` runs) a motion is refused with that
+    /// error: the arm does not move again before `MC ERESET`.
     fn issue_motion(&mut self, motion: &MotionRequest) -> Result<Issued, ErrorCode>;
 
     /// `true` while a motion issued as [`Issued::Planned`] still waits to blend in.
@@ -279,6 +281,21 @@ pub trait System {
     /// `TCP_STATUS`: the sockets the program holds open.
     fn tcp_status(&self) -> Vec<SocketStatus>;
 
+    /// `UDP_RECVFROM` begins: opens its socket on `port`; 0, or a negative code (−34019 the
+    /// socket cannot be opened, −34055 the port is in use).
+    fn udp_open(&mut self, port: u16) -> i32;
+
+    /// `UDP_RECVFROM` waits: the oldest datagram that reached `port` since it opened,
+    /// `Pending` when none (the interpreter asks again until its timeout, then −34024).
+    fn udp_recv(&mut self, port: u16) -> SockPoll<Datagram>;
+
+    /// `UDP_RECVFROM` ends (received, timed out, or its task stopped): closes its socket.
+    fn udp_close(&mut self, port: u16);
+
+    /// `UDP_SENDTO`: sends one datagram to `ip:port`; 0 or a negative code (−34021 the
+    /// network refused it).
+    fn udp_send(&mut self, ip: [u8; 4], port: u16, data: &[u8]) -> i32;
+
     // ------------------------------------------------------------------ terminal
 
     /// A line printed by `PRINT`/`TYPE` (without its line ending) or a controller message.
@@ -296,4 +313,16 @@ pub struct SocketStatus {
     pub ip: [u8; 4],
     /// 0, or [`TcpCode::Broken`](crate::sockets::TcpCode::Broken)'s code when the peer closed the connection.
     pub error: i32,
+}
+
+/// One UDP datagram: the bytes and the other end's address (the sender of one received, the
+/// destination of one sent).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Datagram {
+    /// The other end's IPv4 address.
+    pub ip: [u8; 4],
+    /// The other end's port.
+    pub port: u16,
+    /// The payload.
+    pub bytes: Vec<u8>,
 }

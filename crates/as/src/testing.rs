@@ -17,8 +17,8 @@ use fs020n_proto::{ErrorCode, JointsDeg};
 use crate::flange;
 use crate::sockets::{Delivery, SocketLimits, SocketTable, TcpCode};
 use crate::system::{
-    Issued, Joints, MotionKind, MotionRequest, PanelState, SockPoll, Speed, System, Target, TaskId,
-    Trans,
+    Datagram, Issued, Joints, MotionKind, MotionRequest, PanelState, SockPoll, Speed, System,
+    Target, TaskId, Trans,
 };
 
 #[derive(Debug, Clone)]
@@ -104,6 +104,8 @@ pub struct VirtualSystem {
     /// The sockets of the test clients (local peers, not the program's: `TCP_STATUS` omits
     /// them).
     clients: Vec<i32>,
+    /// Datagrams due at a time, for a port ([`VirtualSystem::script_datagram`]).
+    udp_script: Vec<(Duration, u16, Datagram)>,
 }
 
 impl Default for VirtualSystem {
@@ -138,6 +140,7 @@ impl VirtualSystem {
             current: None,
             planned: None,
             clients: Vec::new(),
+            udp_script: Vec::new(),
             net: SocketTable::new(SocketLimits {
                 local_buffer: 64 * 1024,
                 client_buffer: 64 * 1024,
@@ -179,6 +182,43 @@ impl VirtualSystem {
     /// A test client closes its connection.
     pub fn close(&mut self, client: i32) {
         self.net.close(client);
+    }
+
+    /// A datagram reaches `port` now: `false` when no `UDP_RECVFROM` has the port open (it
+    /// is lost, as on a network).
+    pub fn deliver_datagram(&mut self, port: u16, datagram: Datagram) -> bool {
+        self.net.udp_deliver(port, datagram)
+    }
+
+    /// A datagram will reach `port` at virtual time `at` (lost if no `UDP_RECVFROM` has the
+    /// port open then).
+    pub fn script_datagram(&mut self, at: Duration, port: u16, datagram: Datagram) {
+        self.udp_script.push((at, port, datagram));
+    }
+
+    /// Takes the datagrams the program sent (`UDP_SENDTO`) since the last call, oldest first;
+    /// each names its destination.
+    pub fn sent_datagrams(&mut self) -> Vec<Datagram> {
+        self.net.udp_take_sent()
+    }
+
+    /// `true` while a `UDP_RECVFROM` has `port` open.
+    pub fn udp_receiving(&self, port: u16) -> bool {
+        self.net.udp_receiving(port)
+    }
+
+    /// Delivers the scripted datagrams due by `t`.
+    fn deliver_scripted(&mut self, t: Duration) {
+        if self.udp_script.is_empty() {
+            return;
+        }
+        let (due, later): (Vec<_>, Vec<_>) = std::mem::take(&mut self.udp_script)
+            .into_iter()
+            .partition(|(at, ..)| *at <= t);
+        self.udp_script = later;
+        for (_, port, d) in due {
+            self.net.udp_deliver(port, d);
+        }
     }
 
     /// The joint angles now.
@@ -266,6 +306,7 @@ impl VirtualSystem {
 
 impl System for VirtualSystem {
     fn advance_to(&mut self, t: Duration) {
+        self.deliver_scripted(t);
         if t <= self.now {
             return;
         }
@@ -311,6 +352,10 @@ impl System for VirtualSystem {
     }
 
     fn issue_motion(&mut self, req: &MotionRequest) -> Result<Issued, ErrorCode> {
+        if !self.error.is_none() {
+            // In error (an error program runs): the arm does not move before a reset.
+            return Err(self.error);
+        }
         self.motions.push((self.now, *req));
         let from = self.final_target();
         let to = match (req.kind, req.target) {
@@ -452,6 +497,26 @@ impl System for VirtualSystem {
         let mut v = self.net.status();
         v.retain(|s| !self.clients.contains(&s.sock));
         v
+    }
+
+    fn udp_open(&mut self, port: u16) -> i32 {
+        self.net.udp_open(port)
+    }
+
+    fn udp_recv(&mut self, port: u16) -> SockPoll<Datagram> {
+        self.net.udp_recv(port)
+    }
+
+    fn udp_close(&mut self, port: u16) {
+        self.net.udp_close(port);
+    }
+
+    fn udp_send(&mut self, ip: [u8; 4], port: u16, data: &[u8]) -> i32 {
+        self.net.udp_send(Datagram {
+            ip,
+            port,
+            bytes: data.to_vec(),
+        })
     }
 
     fn terminal(&mut self, task: TaskId, line: &str) {

@@ -623,6 +623,24 @@ impl Controller {
         self.program().and_then(|p| p.real(name))
     }
 
+    /// The address the AS program's UDP sockets (`UDP_SENDTO`, `UDP_RECVFROM`) bind to on
+    /// this machine: 127.0.0.1 (loopback only) unless set; `None` without an AS program.
+    pub fn program_udp_address(&self) -> Option<std::net::Ipv4Addr> {
+        self.program().map(ProgramServer::udp_address)
+    }
+
+    /// Binds the AS program's UDP sockets to `address` from their next use on (e.g.
+    /// 0.0.0.0 to let other machines reach `UDP_RECVFROM`); `false` without an AS program.
+    pub fn set_program_udp_address(&mut self, address: std::net::Ipv4Addr) -> bool {
+        match self.program_mut() {
+            Some(p) => {
+                p.set_udp_address(address);
+                true
+            }
+            None => false,
+        }
+    }
+
     /// Counts every change a client can see (listening, data, a close): a network layer waits
     /// for it to change.
     pub fn program_io_generation(&self) -> u64 {

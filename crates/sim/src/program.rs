@@ -41,7 +41,7 @@ use crate::machine::{Machine, ServerPicture};
 use crate::snapshot::{CommandInfo, MotionTaskState, ProgramInfo, Refused, SessionInfo, Snapshot};
 pub use host::MAX_TOOL_SPEED_MM_S;
 use host::{panel_of, Host, MotionLink};
-use net::socket_table;
+use net::{socket_table, UdpPorts};
 pub use net::{ClientId, ClientRead, CLIENT_BUFFER};
 
 /// Terminal lines shown in the snapshot.
@@ -170,6 +170,8 @@ pub(crate) struct ProgramServer {
     /// The planned motion (re-planned after a BRAKE when the behaviour is to execute it).
     planned: Option<(MotionRequest, JointsDeg)>,
     link: MotionLink,
+    /// The host's UDP sockets behind `UDP_SENDTO`/`UDP_RECVFROM`.
+    udp: UdpPorts,
     /// The robot task's state after the latest step.
     task: MotionTaskState,
 }
@@ -184,6 +186,7 @@ impl ProgramServer {
             net: socket_table(),
             planned: None,
             link: MotionLink::default(),
+            udp: UdpPorts::default(),
             task: MotionTaskState::NotRunning,
         };
         let mut host = Host {
@@ -191,6 +194,7 @@ impl ProgramServer {
             net: &mut p.net,
             planned: &mut p.planned,
             link: &mut p.link,
+            udp: &mut p.udp,
         };
         p.interp.start(&mut host);
         p
@@ -205,6 +209,7 @@ impl ProgramServer {
             net: socket_table(),
             planned: None,
             link: MotionLink::default(),
+            udp: UdpPorts::default(),
             task: MotionTaskState::NotRunning,
         };
         p.run_until(m, m.now());
@@ -223,9 +228,20 @@ impl ProgramServer {
     /// A controller restart: every socket closes and `interp` replaces the programs.
     pub(crate) fn restart(&mut self, interp: Interpreter, m: &mut Machine) {
         self.net.restart();
+        self.udp.close_all();
         self.link = MotionLink::default();
         self.task = MotionTaskState::NotRunning;
         self.replace_interpreter(interp, m);
+    }
+
+    /// The address the program's UDP sockets bind to.
+    pub(crate) fn udp_address(&self) -> std::net::Ipv4Addr {
+        self.udp.address()
+    }
+
+    /// Binds the program's UDP sockets to `address` from their next use on.
+    pub(crate) fn set_udp_address(&mut self, address: std::net::Ipv4Addr) {
+        self.udp.set_address(address);
     }
 
     /// The interpreter (the terminal's commands act on it).
@@ -250,6 +266,7 @@ impl ProgramServer {
             net: &mut self.net,
             planned: &mut self.planned,
             link: &mut self.link,
+            udp: &mut self.udp,
         };
         self.interp.execute_cycles(program, cycles, &mut host)
     }
@@ -261,6 +278,7 @@ impl ProgramServer {
             net: &mut self.net,
             planned: &mut self.planned,
             link: &mut self.link,
+            udp: &mut self.udp,
         };
         self.interp.run_until(&mut host, t);
         let task = self.interp.task_state(TaskId::Robot, &host);

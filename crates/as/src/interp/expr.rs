@@ -137,6 +137,11 @@ impl Interpreter {
                 })
             }
             RExpr::Error => sys.error().raw() as f32,
+            RExpr::Loc(f, t) => self.eval_loc_fn(i, *f, t, sys)?,
+            RExpr::Exist(kind, name) => {
+                let name = self.eval_s(i, name, sys)?;
+                self.exists(*kind, &name)
+            }
         })
     }
 
@@ -205,6 +210,8 @@ impl Interpreter {
                     None => 0.0,
                 }
             }
+            // Half away from zero (our choice; the manuals say "nearest integer").
+            RFunc::Round => x.round(),
             RFunc::Timer => {
                 let n = x.trunc();
                 if !(0.0..=10.0).contains(&n) {
@@ -365,6 +372,7 @@ impl Interpreter {
                 }
                 v
             }
+            TExpr::Frame(t) => self.eval_frame(i, t, sys)?,
             TExpr::Compose(a, b) => {
                 let x = self.eval_t(i, a, sys)?;
                 let y = self.eval_t(i, b, sys)?;

@@ -212,6 +212,7 @@ impl Interpreter {
         // A CALL's caller resumes after its CALL (its pc moved when it executed it); an
         // `ON … CALL` returns to where the interrupt found the task.
         self.release(i, frame);
+        self.after_return(i, self.tasks[i].frames.len(), sys);
         result
     }
 }

@@ -20,7 +20,10 @@
 //! | `frames.rs` | `TOOL`, `BASE`, kinematic conversions, `APPRO`, `DEPART`, `DRAW` |
 //! | `posture.rs` | `LEFTY`, `RIGHTY`, `ABOVE`, `BELOW`, `UWRIST`, `DWRIST`: the IK branch |
 //! | `hands.rs` | `OPEN`/`CLOSE`/`RELAX` and their `I` forms on the hands' signals |
+//! | `locations.rs`, `exist.rs` | `DISTANCE`, `DX`/`DY`/`DZ`, `FRAME`; `EXISTREAL` … `EXISTPROGRAM` |
 //! | `expr.rs` | expressions (reals, strings, locations, functions, `PRINT` encoding) |
+//! | `tcp.rs`, `udp.rs` | the `TCP_…` and `UDP_…` statements on the system's socket table |
+//! | `on_error.rs` | `ONE`: a task's error program, and its stop after it |
 //! | `stmt.rs` | one step: the hot path of pure computation, then every other op |
 //! | `arith.rs`, `strings.rs` | free helpers: numbers and overflow, string functions |
 //!
@@ -29,13 +32,16 @@
 
 mod arith;
 mod config;
+mod exist;
 mod expr;
 mod flow;
 mod frames;
 mod hands;
+mod locations;
 mod monitor;
 mod motion;
 mod observers;
+mod on_error;
 mod posture;
 mod print;
 mod report;
@@ -46,6 +52,7 @@ mod stmt;
 mod strings;
 mod task;
 mod tcp;
+mod udp;
 mod vars;
 
 use std::collections::{HashMap, VecDeque};

@@ -44,7 +44,8 @@ impl Interpreter {
             Wait::Accept { deadline, .. }
             | Wait::Connect { deadline, .. }
             | Wait::Recv { deadline, .. }
-            | Wait::Send { deadline, .. } => Some((*deadline).max(t.ready_at)),
+            | Wait::Send { deadline, .. }
+            | Wait::UdpRecv { deadline, .. } => Some((*deadline).max(t.ready_at)),
             _ => None,
         };
         // The robot task also watches the panel and the error while it waits.
@@ -257,6 +258,7 @@ impl Interpreter {
             self.now = until;
             self.advance_sys(sys, until);
         }
+        self.close_left_udp_ports(sys);
     }
 
     /// Brings the system to `t` (once: a second call for the same time does nothing).
@@ -426,7 +428,12 @@ impl Interpreter {
     /// teach lock); `true` when it may go on.
     pub(super) fn robot_allowed(&mut self, sys: &mut dyn System) -> bool {
         let panel = sys.panel();
-        let err = sys.error();
+        // The robot task's own error program (ONE) runs while the controller is in error.
+        let err = if self.in_error_program(TaskSlot::ROBOT) {
+            fs020n_proto::ErrorCode::NONE
+        } else {
+            sys.error()
+        };
         if !err.is_none() || !panel.power || !panel.repeat || panel.teach_lock {
             let why = if !err.is_none() {
                 format!("program stopped: controller error {err}")
@@ -549,6 +556,25 @@ impl Interpreter {
                         deadline,
                     }),
                 },
+                Wait::UdpRecv {
+                    port,
+                    max,
+                    deadline,
+                } => match sys.udp_recv(port) {
+                    SockPoll::Ready(r) => {
+                        self.finish_udp_recv(i, r, max, sys)?;
+                        None
+                    }
+                    SockPoll::Pending if now >= deadline => {
+                        self.finish_udp_recv(i, Err(TcpCode::Timeout.code()), max, sys)?;
+                        None
+                    }
+                    SockPoll::Pending => Some(Wait::UdpRecv {
+                        port,
+                        max,
+                        deadline,
+                    }),
+                },
             })
         })();
         match done {
@@ -650,6 +676,9 @@ impl Interpreter {
             Some(w) => format!("{e} ({w})"),
             None => e.to_string(),
         };
+        if self.enter_error_program(i, &text, e.code(), sys) {
+            return;
+        }
         self.abort(id);
         self.tasks[i].last_error = Some(text.clone());
         self.message(sys, id, text);

@@ -96,6 +96,7 @@ impl Interpreter {
         t.wait = None;
         t.interrupts.clear();
         t.pending_on = None;
+        t.error_depth = None;
         self.int_epoch += 1;
     }
 
@@ -212,6 +213,8 @@ impl Interpreter {
             t.motion = MotionParams::default();
             t.last_error = None;
             t.line_buf.clear();
+            t.error_program = None;
+            t.error_depth = None;
         }
         self.int_epoch += 1;
         match self.push_frame(i, prog, args) {

@@ -396,6 +396,12 @@ impl Interpreter {
             },
             Op::TcpClose(ret, sock) => self.tcp_close(i, ret, sock, sys)?,
             Op::TcpStatus(ret, arrays) => self.tcp_status(i, ret, arrays, sys)?,
+            Op::UdpSendTo(op) => self.udp_sendto(i, op, sys)?,
+            Op::UdpRecvFrom(op) => self.udp_recvfrom(i, op, sys, pc, now)?,
+            Op::OnError(program) => {
+                self.tasks[i].error_program = *program;
+                Flow::Next
+            }
         };
         let t = &mut self.tasks[i];
         t.ready_at = now.saturating_add(cost);

@@ -51,20 +51,34 @@ pub(super) enum Wait {
         data: Vec<u8>,
         deadline: Ns,
     },
+    UdpRecv {
+        port: u16,
+        max: usize,
+        deadline: Ns,
+    },
 }
 
 impl Wait {
     pub(super) fn polled(&self) -> bool {
         matches!(
             self,
-            Wait::Cond | Wait::MotionPlanned | Wait::MotionDone | Wait::Held
+            Wait::Cond
+                | Wait::MotionPlanned
+                | Wait::MotionDone
+                | Wait::Held
+                // A datagram may come from outside at any time (no generation to watch).
+                | Wait::UdpRecv { .. }
         )
     }
 
     pub(super) fn socket(&self) -> bool {
         matches!(
             self,
-            Wait::Accept { .. } | Wait::Connect { .. } | Wait::Recv { .. } | Wait::Send { .. }
+            Wait::Accept { .. }
+                | Wait::Connect { .. }
+                | Wait::Recv { .. }
+                | Wait::Send { .. }
+                | Wait::UdpRecv { .. }
         )
     }
 
@@ -82,6 +96,7 @@ impl Wait {
             Wait::Connect { port, .. } => format!("TCP_CONNECT to port {port}"),
             Wait::Recv { sock, .. } => format!("TCP_RECV on socket {sock}"),
             Wait::Send { sock, .. } => format!("TCP_SEND on socket {sock}"),
+            Wait::UdpRecv { port, .. } => format!("UDP_RECVFROM on port {port}"),
         }
     }
 }
@@ -152,6 +167,12 @@ pub(super) struct Task {
     pub(super) last_error: Option<String>,
     pub(super) steps: u64,
     pub(super) line_buf: String,
+    /// The port its `UDP_RECVFROM` has open.
+    pub(super) udp_port: Option<u16>,
+    /// `ONE`: the program it runs when one of its statements fails.
+    pub(super) error_program: Option<usize>,
+    /// While that program runs: the depth of its frame (the task stops when it returns).
+    pub(super) error_depth: Option<usize>,
 }
 
 impl Task {
@@ -172,6 +193,9 @@ impl Task {
             last_error: None,
             steps: 0,
             line_buf: String::new(),
+            udp_port: None,
+            error_program: None,
+            error_depth: None,
         }
     }
 }

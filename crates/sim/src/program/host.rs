@@ -1,6 +1,7 @@
 //! The machine as an AS interpreter's [`System`], for one `run_until`: motions go to the
 //! machine's planner (the same joint moves, straight lines, blending, braking and limits as the
-//! native server), `SWITCH(…)`, `ERROR` and `MC …` read and operate its panel, and the
+//! native server), `SWITCH(…)`, `ERROR` and `MC …` read and operate its panel, the `UDP_…`
+//! instructions real UDP sockets ([`UdpPorts`]), and the
 //! `TCP_…` instructions use the program's [`SocketTable`] (the emulator keeps only its fault
 //! hooks: reply faults, paused reading, counting sessions).
 
@@ -9,13 +10,13 @@ use std::time::Duration;
 use fs020n_as::flange;
 use fs020n_as::sockets::{SocketTable, TcpCode};
 use fs020n_as::{
-    Issued, Joints, MotionKind, MotionRequest, PanelState, SockPoll, Speed, System, Target, TaskId,
-    Trans,
+    Datagram, Issued, Joints, MotionKind, MotionRequest, PanelState, SockPoll, Speed, System,
+    Target, TaskId, Trans,
 };
 use fs020n_kin::JointMove;
 use fs020n_proto::{ErrorCode, JointsDeg};
 
-use super::net::delivery_of;
+use super::net::{delivery_of, UdpPorts};
 use crate::machine::{Machine, OnTick, PlannedAfterBrake};
 use crate::motion::{LinearPath, Motion, Shape};
 
@@ -75,6 +76,7 @@ pub(crate) struct Host<'a> {
     pub(crate) net: &'a mut SocketTable,
     pub(crate) planned: &'a mut Option<(MotionRequest, JointsDeg)>,
     pub(crate) link: &'a mut MotionLink,
+    pub(crate) udp: &'a mut UdpPorts,
 }
 
 impl Host<'_> {
@@ -221,6 +223,11 @@ impl System for Host<'_> {
     }
 
     fn issue_motion(&mut self, req: &MotionRequest) -> Result<Issued, ErrorCode> {
+        let error = self.m.error();
+        if !error.is_none() {
+            // In error (an error program runs): the arm does not move before a reset.
+            return Err(error);
+        }
         let from = self.m.arm().target();
         let (m, target) = self.build(req, from)?;
         let accuracy = Host::accuracy_of(req);
@@ -356,6 +363,23 @@ impl System for Host<'_> {
 
     fn tcp_status(&self) -> Vec<fs020n_as::SocketStatus> {
         self.net.status()
+    }
+
+    fn udp_open(&mut self, port: u16) -> i32 {
+        self.udp.open(self.net, port)
+    }
+
+    fn udp_recv(&mut self, port: u16) -> SockPoll<Datagram> {
+        self.udp.pump(self.net, port);
+        self.net.udp_recv(port)
+    }
+
+    fn udp_close(&mut self, port: u16) {
+        self.udp.close(self.net, port);
+    }
+
+    fn udp_send(&mut self, ip: [u8; 4], port: u16, data: &[u8]) -> i32 {
+        self.udp.send(ip, port, data)
     }
 
     fn terminal(&mut self, task: TaskId, line: &str) {

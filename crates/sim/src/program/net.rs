@@ -1,9 +1,15 @@
-//! The program's TCP stack as the emulator uses it: the controller's socket table
+//! The program's TCP/IP stack as the emulator uses it: the controller's socket table
 //! ([`fs020n_as::sockets::SocketTable`], shared with the interpreter's test system) with the
-//! emulator's buffer sizes, the id a client of the controller is known by, and the mapping
-//! from a reply fault to how the table delivers a reply.
+//! emulator's buffer sizes, the id a client of the controller is known by, the mapping
+//! from a reply fault to how the table delivers a reply, and the real UDP sockets behind
+//! `UDP_SENDTO`/`UDP_RECVFROM` ([`UdpPorts`]).
 
-use fs020n_as::sockets::{Delivery, SocketLimits, SocketTable};
+use std::collections::BTreeMap;
+use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, UdpSocket};
+use std::sync::Arc;
+
+use fs020n_as::sockets::{Delivery, SocketLimits, SocketTable, TcpCode};
+use fs020n_as::{Datagram, MAX_TRANSFER};
 use serde::Serialize;
 
 pub use fs020n_as::sockets::ClientRead;
@@ -36,5 +42,115 @@ pub(crate) fn delivery_of(fault: Option<ReplyFault>) -> Delivery {
         Some(ReplyFault::Garbage(b)) => Delivery::Replace(b),
         Some(ReplyFault::Delay(d)) => Delivery::Delay(d),
         Some(ReplyFault::Split { parts, gap }) => Delivery::Split { parts, gap },
+    }
+}
+
+/// The program's UDP sockets on the host: a real socket bound to `address:port` while a
+/// `UDP_RECVFROM` has the port open (datagrams read from it are delivered to the socket
+/// table), and one bound to `address:0` for each `UDP_SENDTO`. Loopback by default: the
+/// emulator talks to programs on this machine unless told otherwise.
+#[derive(Debug, Clone)]
+pub(crate) struct UdpPorts {
+    address: Ipv4Addr,
+    /// The receiving sockets, by port (shared by clones of the controller: one host socket).
+    open: BTreeMap<u16, Arc<UdpSocket>>,
+}
+
+impl Default for UdpPorts {
+    fn default() -> Self {
+        UdpPorts {
+            address: Ipv4Addr::LOCALHOST,
+            open: BTreeMap::new(),
+        }
+    }
+}
+
+impl UdpPorts {
+    /// The address the sockets bind to (from the next open or send on).
+    pub(crate) fn set_address(&mut self, address: Ipv4Addr) {
+        self.address = address;
+    }
+
+    /// The address the sockets bind to.
+    pub(crate) fn address(&self) -> Ipv4Addr {
+        self.address
+    }
+
+    /// `UDP_RECVFROM` opens `port`: the table's port and a host socket on it; −34055 when the
+    /// table has it open, −34019 when the host refuses the socket (the port is taken).
+    pub(crate) fn open(&mut self, net: &mut SocketTable, port: u16) -> i32 {
+        let r = net.udp_open(port);
+        if r < 0 {
+            return r;
+        }
+        let socket = UdpSocket::bind(SocketAddrV4::new(self.address, port))
+            .and_then(|s| s.set_nonblocking(true).map(|()| s));
+        match socket {
+            Ok(s) => {
+                self.open.insert(port, Arc::new(s));
+                0
+            }
+            Err(e) => {
+                tracing::warn!(port, error = %e, "UDP_RECVFROM: cannot open the port");
+                net.udp_close(port);
+                TcpCode::OpenFailed.code()
+            }
+        }
+    }
+
+    /// Moves the datagrams waiting on `port`'s host socket into the table (IPv4 senders only;
+    /// at most [`MAX_TRANSFER`] bytes of each are kept).
+    pub(crate) fn pump(&mut self, net: &mut SocketTable, port: u16) {
+        let Some(s) = self.open.get(&port) else {
+            return;
+        };
+        let mut buf = vec![0u8; 65536];
+        // Bounded: a flood cannot keep the controller here.
+        for _ in 0..64 {
+            match s.recv_from(&mut buf) {
+                Ok((n, SocketAddr::V4(from))) => {
+                    let bytes = buf[..n.min(MAX_TRANSFER).min(buf.len())].to_vec();
+                    net.udp_deliver(
+                        port,
+                        Datagram {
+                            ip: from.ip().octets(),
+                            port: from.port(),
+                            bytes,
+                        },
+                    );
+                }
+                Ok((_, SocketAddr::V6(_))) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
+                Err(e) => {
+                    tracing::debug!(port, error = %e, "UDP receive error");
+                    break;
+                }
+            }
+        }
+    }
+
+    /// `UDP_RECVFROM` ends: the table's port and the host socket close.
+    pub(crate) fn close(&mut self, net: &mut SocketTable, port: u16) {
+        net.udp_close(port);
+        self.open.remove(&port);
+    }
+
+    /// Every host socket closes (a controller restart).
+    pub(crate) fn close_all(&mut self) {
+        self.open.clear();
+    }
+
+    /// `UDP_SENDTO`: one datagram from a socket of its own; −34021 when the host refuses it.
+    pub(crate) fn send(&self, ip: [u8; 4], port: u16, data: &[u8]) -> i32 {
+        let to = SocketAddrV4::new(Ipv4Addr::from(ip), port);
+        let sent =
+            UdpSocket::bind(SocketAddrV4::new(self.address, 0)).and_then(|s| s.send_to(data, to));
+        match sent {
+            Ok(_) => 0,
+            Err(e) => {
+                tracing::warn!(%to, error = %e, "UDP_SENDTO: the host refused the datagram");
+                TcpCode::Communication.code()
+            }
+        }
     }
 }

@@ -1,0 +1,127 @@
+//! Functions of locations and names: `DISTANCE`, `DX`/`DY`/`DZ`, `FRAME`, `ROUND`, and
+//! `EXISTREAL`/`EXISTCHAR`/`EXISTJOINT`/`EXISTTRANS`/`EXISTPROGRAM`, with exact values.
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
+
+mod common;
+
+use common::run_pc;
+
+fn close(a: f32, b: f32) -> bool {
+    (a - b).abs() < 1.0e-3
+}
+
+#[test]
+fn distance_is_the_straight_line_between_two_positions_in_mm() {
+    let (i, _) = run_pc(
+        "  d = DISTANCE(TRANS(1, 2, 3, 10, 20, 30), TRANS(4, 6, 15, 0, 0, 0))\n\
+  POINT a = TRANS(-5, 0, 0)\n\
+  z = DISTANCE(a, a)",
+        0.1,
+    );
+    assert_eq!(i.real("d"), Some(13.0));
+    assert_eq!(i.real("z"), Some(0.0));
+}
+
+#[test]
+fn dx_dy_dz_are_the_position_components() {
+    let (i, _) = run_pc(
+        "  POINT t = TRANS(12.5, -7, 300, 90, 45, 0)\n\
+  x = DX(t)\n\
+  y = DY(t)\n\
+  z = DZ(SHIFT(t BY 0, 0, 10))",
+        0.1,
+    );
+    assert_eq!(i.real("x"), Some(12.5));
+    assert_eq!(i.real("y"), Some(-7.0));
+    assert_eq!(i.real("z"), Some(310.0));
+}
+
+fn frame_of(args: &str) -> [f32; 6] {
+    let (i, _) = run_pc(
+        &format!("  POINT f = FRAME({args})\n  DECOMPOSE v[0] = f"),
+        0.1,
+    );
+    std::array::from_fn(|k| i.real_at("v", &[k as i32]).expect("decomposed"))
+}
+
+#[test]
+fn frame_with_x_along_base_x_and_the_third_point_on_plus_y_is_unrotated() {
+    let f = frame_of("TRANS(0, 0, 0), TRANS(100, 0, 0), TRANS(30, 100, 0), TRANS(500, 200, 300)");
+    assert_eq!(f, [500.0, 200.0, 300.0, 0.0, 0.0, 0.0]);
+}
+
+#[test]
+fn frame_with_x_along_base_y_is_turned_90_degrees_about_z() {
+    let f = frame_of("TRANS(10, 10, 0), TRANS(10, 60, 0), TRANS(-20, 0, 0), TRANS(0, 0, 0)");
+    let want = [0.0, 0.0, 0.0, 0.0, 0.0, 90.0];
+    assert!(f.iter().zip(want).all(|(a, b)| close(*a, b)), "{f:?}");
+}
+
+#[test]
+fn frame_with_x_along_base_z_and_y_along_base_x() {
+    // X = (0,0,1), Y = (1,0,0), Z = X × Y = (0,1,0): O 90, A 90, T 180 (Z-Y-Z).
+    let f = frame_of("TRANS(0, 0, 0), TRANS(0, 0, 10), TRANS(10, 0, 5), TRANS(1, 2, 3)");
+    let want = [1.0, 2.0, 3.0, 90.0, 90.0, 180.0];
+    assert!(f.iter().zip(want).all(|(a, b)| close(*a, b)), "{f:?}");
+}
+
+#[test]
+fn frame_of_points_on_one_line_stops_the_task() {
+    let (i, s) = run_pc(
+        "  POINT f = FRAME(TRANS(0, 0, 0), TRANS(10, 0, 0), TRANS(20, 0, 0), TRANS(0, 0, 0))\n\
+  after = 1",
+        0.1,
+    );
+    assert_eq!(i.real("after"), None);
+    assert_eq!(s.raised.len(), 1, "{:?}", s.raised);
+    assert!(
+        s.terminal
+            .iter()
+            .any(|(_, l)| l.contains("FRAME: the first three points")),
+        "{:?}",
+        s.terminal
+    );
+}
+
+#[test]
+fn round_goes_to_the_nearest_integer_halves_away_from_zero() {
+    let (i, _) = run_pc(
+        "  a = ROUND(2.4)\n  b = ROUND(2.5)\n  c = ROUND(-2.5)\n  d = ROUND(-0.6)\n  e = ROUND(7)",
+        0.1,
+    );
+    assert_eq!(
+        ["a", "b", "c", "d", "e"].map(|n| i.real(n)),
+        [Some(2.0), Some(3.0), Some(-3.0), Some(-1.0), Some(7.0)]
+    );
+}
+
+#[test]
+fn exist_functions_say_whether_a_global_or_a_program_exists() {
+    let (i, _) = run_pc(
+        "  IF FALSE THEN\n    never = 1\n  END\n\
+  a = 1\n\
+  arr[3] = 2\n\
+  $s = \"x\"\n\
+  POINT #j = #PPOINT(0, 0, 0, 0, 0, 0)\n\
+  POINT t = TRANS(0, 0, 0)\n\
+  r1 = EXISTREAL(\"a\")\n\
+  r2 = EXISTREAL(\"ARR\")\n\
+  r3 = EXISTREAL(\"never\")\n\
+  r4 = EXISTREAL(\"unknown\")\n\
+  c1 = EXISTCHAR(\"$s\")\n\
+  c2 = EXISTCHAR(\"s\")\n\
+  c3 = EXISTCHAR(\"a\")\n\
+  j1 = EXISTJOINT(\"#j\")\n\
+  j2 = EXISTJOINT(\"t\")\n\
+  t1 = EXISTTRANS(\"t\")\n\
+  t2 = EXISTTRANS(\"j\")\n\
+  p1 = EXISTPROGRAM(\"autostart.pc\")\n\
+  p2 = EXISTPROGRAM(\"elsewhere\")",
+        0.1,
+    );
+    let v = |n: &str| i.real(n).expect(n);
+    assert_eq!([v("r1"), v("r2"), v("r3"), v("r4")], [-1.0, -1.0, 0.0, 0.0]);
+    assert_eq!([v("c1"), v("c2"), v("c3")], [-1.0, -1.0, 0.0]);
+    assert_eq!([v("j1"), v("j2"), v("t1"), v("t2")], [-1.0, 0.0, -1.0, 0.0]);
+    assert_eq!([v("p1"), v("p2")], [-1.0, 0.0]);
+}
