@@ -65,8 +65,8 @@ def peer_binary():
 class FastDdsPeer:
     """One `fastdds_peer` process: one Fast DDS participant, one action client."""
 
-    def __init__(self, binary, domain):
-        self.proc = subprocess.Popen([binary, str(domain), ACTION], stdin=subprocess.PIPE,
+    def __init__(self, binary, domain, *extra):
+        self.proc = subprocess.Popen([binary, str(domain), ACTION, *extra], stdin=subprocess.PIPE,
                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         self.events = []
         self.stderr = []
@@ -163,8 +163,8 @@ def node(domain):
 def peers(peer_binary, domain):
     started = []
 
-    def start():
-        p = FastDdsPeer(peer_binary, domain)
+    def start(*extra):
+        p = FastDdsPeer(peer_binary, domain, *extra)
         started.append(p)
         return p
 
@@ -254,4 +254,19 @@ def test_cancel_return_codes_through_fast_dds(node, peers):
     assert peer.reply("result")["status"] == STATUS_CANCELED
     peer.command(f"cancel again {running} 0 0")
     assert peer.reply("again")["return_code"] == CANCEL_GOAL_TERMINATED
+    assert peer.of("stray") == [] and peer.of("error") == []
+
+
+def test_a_reply_waits_until_the_requesters_reply_reader_is_matched(node, peers):
+    """rmw_fastrtps answers only once the client's reply reader (named in the request's
+    related-sample-identity) is matched, so that a call right after discovery is not lost. Here
+    the reply reader comes up a second after the request was written: the reply, sent to a
+    volatile reader, arrives only if the node held it until it matched that reader."""
+    peer = peers("1.0")
+    assert peer.identity["send_goal"]["reply_reader"] != "0" * 24 + ".00000000"
+    peer.command(goal_line("send_goal_on_match", "goal", new_id(), jt1(3.0), 4.0))  # rejected at once
+    reply = peer.reply("goal")
+    assert reply["accepted"] is False and reply["addressed_to"] == "reply_reader"
+    kinds = [e["event"] for e in peer.events]
+    assert kinds.index("reader_enabled") < kinds.index("reply")
     assert peer.of("stray") == [] and peer.of("error") == []

@@ -20,7 +20,11 @@
 // DDS stays on 127.0.0.1: no builtin transports, one UDPv4 transport whitelisting 127.0.0.1, the
 // initial peers 127.0.0.1.
 //
-// Usage: fastdds_peer DOMAIN_ID ACTION_NAME   (ACTION_NAME without the leading slash)
+// Usage: fastdds_peer DOMAIN_ID ACTION_NAME [LATE_READER_S]   (ACTION_NAME without the leading
+// slash). With LATE_READER_S the send_goal reply reader is created disabled (its GUID is known, the
+// node cannot see it yet) and enabled LATE_READER_S seconds after the first goal request is
+// written ({"event":"reader_enabled"}): a server that answers before the requester's reply reader
+// is matched loses that reply; one that waits (as rmw_fastrtps does) delivers it.
 //
 // Commands on stdin, one a line; events on stdout, one JSON object a line:
 //
@@ -396,6 +400,16 @@ public:
 
     const std::string& name() const { return name_; }
 
+    // Enables the reply reader (created disabled by a subscriber that does not enable its
+    // entities).
+    void enable_reader() {
+        if (reader_->enable() == ReturnCode_t::RETCODE_OK) {
+            emit("{\"event\":\"reader_enabled\",\"service\":\"" + name_ + "\"}");
+        } else {
+            emit("{\"event\":\"error\",\"what\":\"the reply reader of " + name_ + " was not enabled\"}");
+        }
+    }
+
     virtual std::string take_one(fdds::DataReader* reader, fdds::SampleInfo& info, bool& taken) = 0;
 
     void on_data_available(fdds::DataReader* reader) override {
@@ -499,12 +513,13 @@ bool parse_goal(std::istringstream& in, SendGoalRequest& req) {
 }
 
 int main(int argc, char** argv) {
-    if (argc != 3) {
-        std::cerr << "usage: fastdds_peer DOMAIN_ID ACTION_NAME (e.g. 17 fs020n_controller/follow_joint_trajectory)\n";
+    if (argc != 3 && argc != 4) {
+        std::cerr << "usage: fastdds_peer DOMAIN_ID ACTION_NAME [LATE_READER_S] (e.g. 17 fs020n_controller/follow_joint_trajectory)\n";
         return 2;
     }
     const int domain = std::atoi(argv[1]);
     const std::string action = argv[2];
+    const double late_reader_s = argc == 4 ? std::atof(argv[3]) : -1.0;
 
     fdds::DomainParticipantQos pqos = fdds::PARTICIPANT_QOS_DEFAULT;
     pqos.name("fs020n_fastdds_peer");
@@ -523,11 +538,14 @@ int main(int argc, char** argv) {
     }
     fdds::Publisher* pub = participant->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
     fdds::Subscriber* sub = participant->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
+    fdds::SubscriberQos late_qos = fdds::SUBSCRIBER_QOS_DEFAULT;
+    late_qos.entity_factory().autoenable_created_entities = false;
+    fdds::Subscriber* late = late_reader_s >= 0 ? participant->create_subscriber(late_qos) : sub;
 
     const std::string a = action + "/_action/";
     const std::string fjt = "control_msgs::action::dds_::FollowJointTrajectory_";
     TypedClient<SendGoalResponse> send_goal(
-        participant, pub, sub, "send_goal", "rq/" + a + "send_goalRequest", "rr/" + a + "send_goalReply",
+        participant, pub, late, "send_goal", "rq/" + a + "send_goalRequest", "rr/" + a + "send_goalReply",
         new CdrType<SendGoalRequest, true>(fjt + "SendGoal_Request_"),
         new CdrType<SendGoalResponse, false>(fjt + "SendGoal_Response_"));
     TypedClient<GetResultResponse> get_result(
@@ -543,6 +561,7 @@ int main(int argc, char** argv) {
     emit("{\"event\":\"ready\",\"send_goal\":" + send_goal.identity_json() +
          ",\"get_result\":" + get_result.identity_json() + ",\"cancel_goal\":" + cancel_goal.identity_json() + "}");
 
+    std::thread enabler;
     std::string line;
     while (std::getline(std::cin, line)) {
         std::istringstream in(line);
@@ -578,6 +597,12 @@ int main(int argc, char** argv) {
                 }
             }
             send_goal.send(tag, &req);
+            if (late_reader_s >= 0 && !enabler.joinable()) {
+                enabler = std::thread([&send_goal, late_reader_s]() {
+                    std::this_thread::sleep_for(std::chrono::duration<double>(late_reader_s));
+                    send_goal.enable_reader();
+                });
+            }
         } else if (cmd == "get_result") {
             GetResultRequest req;
             std::string uuid;
@@ -599,6 +624,7 @@ int main(int argc, char** argv) {
             emit("{\"event\":\"error\",\"what\":\"unknown command " + cmd + "\"}");
         }
     }
+    if (enabler.joinable()) enabler.join();
     participant->delete_contained_entities();
     fdds::DomainParticipantFactory::get_instance()->delete_participant(participant);
     return 0;
