@@ -467,6 +467,7 @@ pub async fn run(
         ),
     );
 
+    let participant = context.domain_participant();
     let spin = async {
         let _ = spinner.spin().await;
         std::future::pending::<Result<(), Ros2Error>>().await
@@ -475,10 +476,10 @@ pub async fn run(
         tokio::try_join!(
             joint_state_loop(shared, &joint_states, &tf),
             diagnostics_loop(shared, &diagnostics),
-            trigger_loop(shared, &start_srv, Trigger::Start),
-            trigger_loop(shared, &stop_srv, Trigger::Stop),
-            trigger_loop(shared, &cancel_srv, Trigger::Cancel),
-            speed_loop(shared, &speed_srv),
+            trigger_loop(shared, &participant, &start_srv, Trigger::Start),
+            trigger_loop(shared, &participant, &stop_srv, Trigger::Stop),
+            trigger_loop(shared, &participant, &cancel_srv, Trigger::Cancel),
+            speed_loop(shared, &participant, &speed_srv),
             action_loop(
                 shared,
                 &action,
@@ -632,6 +633,7 @@ enum Trigger {
 
 async fn trigger_loop(
     shared: &Shared,
+    participant: &DomainParticipant,
     server: &Server<TriggerRequest, TriggerResponse>,
     which: Trigger,
 ) -> Result<(), Ros2Error> {
@@ -703,6 +705,7 @@ async fn trigger_loop(
             },
             &format!("~/{which:?}: {}", response.message).to_lowercase(),
         );
+        let response = when_reader_matched(participant, &id, response).await;
         if let Err(e) = server.async_send_response(id, response).await {
             tracing::warn!("{which:?} response not sent: {e:?}");
         }
@@ -711,6 +714,7 @@ async fn trigger_loop(
 
 async fn speed_loop(
     shared: &Shared,
+    participant: &DomainParticipant,
     server: &Server<SetSpeedRequest, SetSpeedResponse>,
 ) -> Result<(), Ros2Error> {
     loop {
@@ -746,6 +750,7 @@ async fn speed_loop(
                 },
             },
         };
+        let response = when_reader_matched(participant, &id, response).await;
         if let Err(e) = server.async_send_response(id, response).await {
             tracing::warn!("set_speed response not sent: {e:?}");
         }
@@ -991,6 +996,31 @@ impl ActionReplies<'_> {
                 );
             }
             reply.send(self.server);
+        }
+    }
+}
+
+/// Gives `reply` back once the reply reader the request `id` named is discovered (at once
+/// when it named none), as [`ActionReplies`] does for the action's replies.
+async fn when_reader_matched<R>(participant: &DomainParticipant, id: &RmwRequestId, reply: R) -> R {
+    let mut gate = ReplyGate::new(DEFAULT_READER_WAIT);
+    let known = |g: &Guid| discovered_reader(participant, g);
+    let now = tokio::time::Instant::now();
+    if let Some(reply) = gate.handle_reply(id.writer_gid.to_bytes16(), reply, known, now) {
+        return reply;
+    }
+    loop {
+        tokio::time::sleep(ACTION_POLL).await;
+        let now = tokio::time::Instant::now();
+        if let Some((reply, why)) = gate.poll_released(known, now).pop() {
+            if why == Released::WaitedOut {
+                tracing::warn!(
+                    "the reply reader a request named was not discovered within {:?}: replying \
+                     anyway",
+                    DEFAULT_READER_WAIT
+                );
+            }
+            return reply;
         }
     }
 }
