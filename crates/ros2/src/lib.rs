@@ -41,6 +41,7 @@ pub mod goal;
 pub mod moveit;
 pub mod msg;
 mod node;
+pub mod reply_gate;
 pub mod ros_args;
 pub mod srdf;
 pub mod tf;

@@ -15,7 +15,7 @@ use ros2_client::action_msgs::{
     GoalStatusArray, GoalStatusEnum,
 };
 use ros2_client::builtin_interfaces::Time as RosTime;
-use ros2_client::dds::rustdds::DomainParticipantBuilder;
+use ros2_client::dds::rustdds::{DomainParticipant, DomainParticipantBuilder};
 use ros2_client::log::LogLevel;
 use ros2_client::qos::{Durability, History, Reliability, WhenFull};
 use ros2_client::service::request_id::RmwRequestId;
@@ -38,6 +38,7 @@ use crate::msg::{
     FollowJointTrajectoryGoal, FollowJointTrajectoryResult, Header, JointState, JointTrajectory,
     SetSpeedRequest, SetSpeedResponse, StringMsg, TfMessage, Time, TriggerRequest, TriggerResponse,
 };
+use crate::reply_gate::{Guid, Released, ReplyGate, DEFAULT_READER_WAIT};
 use crate::urdf;
 
 /// Where the node gets its robot session. The standalone node holds one
@@ -466,6 +467,7 @@ pub async fn run(
         ),
     );
 
+    let participant = context.domain_participant();
     let spin = async {
         let _ = spinner.spin().await;
         std::future::pending::<Result<(), Ros2Error>>().await
@@ -474,11 +476,17 @@ pub async fn run(
         tokio::try_join!(
             joint_state_loop(shared, &joint_states, &tf),
             diagnostics_loop(shared, &diagnostics),
-            trigger_loop(shared, &start_srv, Trigger::Start),
-            trigger_loop(shared, &stop_srv, Trigger::Stop),
-            trigger_loop(shared, &cancel_srv, Trigger::Cancel),
-            speed_loop(shared, &speed_srv),
-            action_loop(shared, &action, &trajectory_topic, &commands_topic),
+            trigger_loop(shared, &participant, &start_srv, Trigger::Start),
+            trigger_loop(shared, &participant, &stop_srv, Trigger::Stop),
+            trigger_loop(shared, &participant, &cancel_srv, Trigger::Cancel),
+            speed_loop(shared, &participant, &speed_srv),
+            action_loop(
+                shared,
+                &action,
+                context.domain_participant(),
+                &trajectory_topic,
+                &commands_topic
+            ),
             spin,
         )
         .map(|_| ())
@@ -625,6 +633,7 @@ enum Trigger {
 
 async fn trigger_loop(
     shared: &Shared,
+    participant: &DomainParticipant,
     server: &Server<TriggerRequest, TriggerResponse>,
     which: Trigger,
 ) -> Result<(), Ros2Error> {
@@ -696,6 +705,7 @@ async fn trigger_loop(
             },
             &format!("~/{which:?}: {}", response.message).to_lowercase(),
         );
+        let response = when_reader_matched(participant, &id, response).await;
         if let Err(e) = server.async_send_response(id, response).await {
             tracing::warn!("{which:?} response not sent: {e:?}");
         }
@@ -704,6 +714,7 @@ async fn trigger_loop(
 
 async fn speed_loop(
     shared: &Shared,
+    participant: &DomainParticipant,
     server: &Server<SetSpeedRequest, SetSpeedResponse>,
 ) -> Result<(), Ros2Error> {
     loop {
@@ -739,6 +750,7 @@ async fn speed_loop(
                 },
             },
         };
+        let response = when_reader_matched(participant, &id, response).await;
         if let Err(e) = server.async_send_response(id, response).await {
             tracing::warn!("set_speed response not sent: {e:?}");
         }
@@ -903,18 +915,121 @@ fn publish_statuses(server: &ActionServer, goals: &Goals) {
 }
 
 fn send_results(
-    server: &ActionServer,
-    replies: Vec<(RmwRequestId, i8, FollowJointTrajectoryResult)>,
+    replies: &mut ActionReplies<'_>,
+    results: Vec<(RmwRequestId, i8, FollowJointTrajectoryResult)>,
 ) {
-    for (request, s, result) in replies {
+    for (request, s, result) in results {
         let response = GetResultResponse {
             status: status_enum(s),
             result,
         };
-        if let Err(e) = server.send_result(request, response) {
-            tracing::warn!("goal result not sent: {e:?}");
+        replies.send(ActionReply::Result(request, response));
+    }
+}
+
+/// A reply of the action's services.
+enum ActionReply {
+    Goal(RmwRequestId, SendGoalResponse),
+    Cancel(RmwRequestId, CancelGoalResponse),
+    Result(RmwRequestId, GetResultResponse<FollowJointTrajectoryResult>),
+}
+
+impl ActionReply {
+    /// The GUID the request named: its requester's reply reader under the enhanced mapping
+    /// (rmw_fastrtps), else its request writer.
+    fn requester(&self) -> Guid {
+        let (ActionReply::Goal(id, _) | ActionReply::Cancel(id, _) | ActionReply::Result(id, _)) =
+            self;
+        id.writer_gid.to_bytes16()
+    }
+
+    fn send(self, server: &ActionServer) {
+        let sent = match self {
+            ActionReply::Goal(id, r) => server.send_goal_response(id, r),
+            ActionReply::Cancel(id, r) => server.send_cancel_response(id, r),
+            ActionReply::Result(id, r) => server.send_result(id, r),
+        };
+        if let Err(e) = sent {
+            tracing::warn!("action reply not sent: {e:?}");
         }
     }
+}
+
+/// The action's replies, each sent once the requester's reply reader is matched
+/// ([`crate::reply_gate`]). ros2-client keeps its servers' reply writers to itself, so the
+/// readers the participant has discovered stand for the readers those writers matched.
+struct ActionReplies<'a> {
+    server: &'a ActionServer,
+    participant: DomainParticipant,
+    gate: ReplyGate<ActionReply>,
+}
+
+impl ActionReplies<'_> {
+    fn send(&mut self, reply: ActionReply) {
+        let participant = &self.participant;
+        let requester = reply.requester();
+        let now = tokio::time::Instant::now();
+        let known = |g: &Guid| discovered_reader(participant, g);
+        if let Some(reply) = self.gate.handle_reply(requester, reply, known, now) {
+            reply.send(self.server);
+        }
+    }
+
+    /// Sends the held replies whose reader is matched now, or that waited long enough.
+    fn poll(&mut self) {
+        if self.gate.is_empty() {
+            return;
+        }
+        let readers: Vec<Guid> = self
+            .participant
+            .discovered_readers()
+            .iter()
+            .map(|r| r.reader_proxy.remote_reader_guid.to_bytes())
+            .collect();
+        let now = tokio::time::Instant::now();
+        for (reply, why) in self.gate.poll_released(|g| readers.contains(g), now) {
+            if why == Released::WaitedOut {
+                tracing::warn!(
+                    "the reply reader a request named was not discovered within {:?}: replying \
+                     anyway",
+                    DEFAULT_READER_WAIT
+                );
+            }
+            reply.send(self.server);
+        }
+    }
+}
+
+/// Gives `reply` back once the reply reader the request `id` named is discovered (at once
+/// when it named none), as [`ActionReplies`] does for the action's replies.
+async fn when_reader_matched<R>(participant: &DomainParticipant, id: &RmwRequestId, reply: R) -> R {
+    let mut gate = ReplyGate::new(DEFAULT_READER_WAIT);
+    let known = |g: &Guid| discovered_reader(participant, g);
+    let now = tokio::time::Instant::now();
+    if let Some(reply) = gate.handle_reply(id.writer_gid.to_bytes16(), reply, known, now) {
+        return reply;
+    }
+    loop {
+        tokio::time::sleep(ACTION_POLL).await;
+        let now = tokio::time::Instant::now();
+        if let Some((reply, why)) = gate.poll_released(known, now).pop() {
+            if why == Released::WaitedOut {
+                tracing::warn!(
+                    "the reply reader a request named was not discovered within {:?}: replying \
+                     anyway",
+                    DEFAULT_READER_WAIT
+                );
+            }
+            return reply;
+        }
+    }
+}
+
+fn discovered_reader(participant: &DomainParticipant, guid: &Guid) -> bool {
+    participant
+        .discovered_readers()
+        .iter()
+        .any(|r| r.reader_proxy.remote_reader_guid.to_bytes() == *guid)
 }
 
 /// The goal id and stamp of a cancel request (ros2-client keeps the fields to itself: read
@@ -938,7 +1053,7 @@ fn cancel_fields(request: &CancelGoalRequest) -> Option<(GoalId, RosTime)> {
 /// answers the result requests waiting for it and publishes the statuses.
 fn end_goal(
     shared: &Shared,
-    server: &ActionServer,
+    replies: &mut ActionReplies<'_>,
     goals: &mut Goals,
     id: Option<GoalId>,
     outcome: Outcome,
@@ -967,9 +1082,9 @@ fn end_goal(
     lock(&shared.state).last_goal = Some(text);
     // A trajectory from the topic has no goal: nobody asks for its result.
     if let Some(id) = id {
-        let replies = goals.handle_goal_end(id, end, outcome.result, tokio::time::Instant::now());
-        send_results(server, replies);
-        publish_statuses(server, goals);
+        let results = goals.handle_goal_end(id, end, outcome.result, tokio::time::Instant::now());
+        send_results(replies, results);
+        publish_statuses(replies.server, goals);
     }
 }
 
@@ -977,7 +1092,7 @@ fn end_goal(
 /// by a new goal" once the robot has braked.
 async fn preempt(
     shared: &Shared,
-    server: &ActionServer,
+    replies: &mut ActionReplies<'_>,
     goals: &mut Goals,
     current: &mut Option<(Option<GoalId>, watch::Sender<bool>)>,
     executing: &mut Option<Executing<'_>>,
@@ -989,7 +1104,7 @@ async fn preempt(
         );
         cancel.send_replace(true);
         let outcome = running.await.preempted();
-        end_goal(shared, server, goals, old, outcome);
+        end_goal(shared, replies, goals, old, outcome);
     }
 }
 
@@ -1068,6 +1183,7 @@ async fn end_servo(shared: &Shared, servo: &mut Option<ServoRun>) {
 async fn action_loop(
     shared: &Shared,
     server: &ActionServer,
+    participant: DomainParticipant,
     trajectories: &ros2_client::Subscription<JointTrajectory>,
     commands: &ros2_client::Subscription<Float64MultiArray>,
 ) -> Result<(), Ros2Error> {
@@ -1087,6 +1203,11 @@ async fn action_loop(
     let feedback_period = Duration::from_secs_f64(1.0 / shared.config.feedback_rate_hz);
     let mut poll = tokio::time::interval(ACTION_POLL);
     poll.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut replies = ActionReplies {
+        server,
+        participant,
+        gate: ReplyGate::new(DEFAULT_READER_WAIT),
+    };
     publish_statuses(server, &goals);
     loop {
         tokio::select! {
@@ -1113,7 +1234,7 @@ async fn action_loop(
                             Err(refusal) => Err(refusal),
                             Ok(()) => {
                                 end_servo(shared, &mut servo).await;
-                                preempt(shared, server, &mut goals, &mut current, &mut executing).await;
+                                preempt(shared, &mut replies, &mut goals, &mut current, &mut executing).await;
                                 admit(shared, &goal, true).await
                             }
                         }
@@ -1126,17 +1247,13 @@ async fn action_loop(
                             shared.log(LogLevel::Warn, &text);
                             lock(&shared.state).last_goal = Some(text);
                             let response = SendGoalResponse { accepted: false, stamp: RosTime::ZERO };
-                            if let Err(e) = server.send_goal_response(request_id, response) {
-                                tracing::warn!("goal rejection not sent: {e:?}");
-                            }
+                            replies.send(ActionReply::Goal(request_id, response));
                         }
                         Ok((robot, p, permit)) => {
                             let stamp = RosTime::now();
                             goals.handle_goal_accepted(id, stamp.to_nanos());
                             let response = SendGoalResponse { accepted: true, stamp };
-                            if let Err(e) = server.send_goal_response(request_id, response) {
-                                tracing::warn!("goal acceptance not sent: {e:?}");
-                            }
+                            replies.send(ActionReply::Goal(request_id, response));
                             publish_statuses(server, &goals);
                             let text = format!(
                                 "executing a trajectory of {} points over {:.3} s",
@@ -1195,9 +1312,7 @@ async fn action_loop(
                             .map(|(goal_id, ns)| GoalInfo { goal_id: *goal_id, stamp: RosTime::from_nanos(*ns) })
                             .collect(),
                     };
-                    if let Err(e) = server.send_cancel_response(request_id, response) {
-                        tracing::warn!("cancel response not sent: {e:?}");
-                    }
+                    replies.send(ActionReply::Cancel(request_id, response));
                     if !canceling.is_empty() {
                         publish_statuses(server, &goals);
                     }
@@ -1213,12 +1328,14 @@ async fn action_loop(
                         }
                     };
                     if let Some(reply) = goals.handle_result_request(request_id, request.goal_id) {
-                        send_results(server, vec![reply]);
+                        send_results(&mut replies, vec![reply]);
                     }
                 }
                 if goals.handle_timeout(tokio::time::Instant::now()) {
                     publish_statuses(server, &goals);
                 }
+                // Replies whose requester's reply reader is matched now.
+                replies.poll();
                 // A servo that ended by itself (the watchdog, a fault).
                 if servo.as_ref().is_some_and(|s| s.handle.is_finished()) {
                     end_servo(shared, &mut servo).await;
@@ -1249,7 +1366,7 @@ async fn action_loop(
             outcome = maybe(&mut executing), if executing.is_some() => {
                 executing = None;
                 let Some((id, _)) = current.take() else { continue };
-                end_goal(shared, server, &mut goals, id, outcome);
+                end_goal(shared, &mut replies, &mut goals, id, outcome);
             }
             message = trajectories.async_take() => {
                 let trajectory = match message {
@@ -1267,7 +1384,7 @@ async fn action_loop(
                         Err(refusal) => Err(refusal),
                         Ok(()) => {
                             end_servo(shared, &mut servo).await;
-                            preempt(shared, server, &mut goals, &mut current, &mut executing).await;
+                            preempt(shared, &mut replies, &mut goals, &mut current, &mut executing).await;
                             admit(shared, &goal, true).await
                         }
                     }
