@@ -4,7 +4,7 @@
 
 use std::collections::HashMap;
 
-use crate::ast::{Expr, ExprKind, Module, Stmt, StmtKind, TcpStmt, UnOp};
+use crate::ast::{Expr, ExprKind, Module, Stmt, StmtKind, TcpStmt, UdpStmt, UnOp};
 use crate::lexer::{columns, strip_comment_bytes, tokenize_bytes, Tok};
 use crate::parser::split_lines;
 use crate::sections::SectionUse;
@@ -105,15 +105,15 @@ pub const RULES: &[Rule] = &[
         id: "tcp-timeout-range",
         severity: Severity::Warning,
         controllers: &[],
-        checks: "a constant TCP_ACCEPT/RECV/SEND/CONNECT timeout outside 1–60 s (0–60 s on E)",
-        source: "TCP/IP Communication Manuals E and F: timeout range 0–60 s (E), 1–60 s (F) (research: as-language.md §3)",
+        checks: "a constant TCP_ACCEPT/RECV/SEND/CONNECT or UDP_SENDTO/RECVFROM timeout outside 1–60 s (0–60 s on E)",
+        source: "TCP/IP Communication Manuals E and F: timeout range 0–60 s (E), 1–60 s (F) (research: as-language.md §3); UDP: 'the same style' as TCP ([COM-F] §1.5), the range assumed",
     },
     Rule {
         id: "tcp-port-range",
         severity: Severity::Error,
         controllers: &[],
-        checks: "a constant TCP_LISTEN/ACCEPT/END_LISTEN port outside 8192–65535",
-        source: "TCP/IP Communication Manual E: TCP_LISTEN port 8192–65535, else an error (research: as-language.md §3)",
+        checks: "a constant TCP_LISTEN/ACCEPT/END_LISTEN or UDP_RECVFROM port outside 8192–65535",
+        source: "TCP/IP Communication Manual E: TCP_LISTEN port 8192–65535, else an error (research: as-language.md §3); UDP_RECVFROM's port assumed the same (the emulator refuses others)",
     },
     Rule {
         id: "d-tcp-recv-arguments",
@@ -271,7 +271,7 @@ pub fn lint(bytes: &[u8], module: &Module, controller: Option<Controller>) -> Ve
         }
     }
     for p in &module.programs {
-        walk(&p.body, &mut |s| tcp_lint(s, controller, &mut add));
+        walk(&p.body, &mut |s| net_lint(s, controller, &mut add));
     }
     out.sort_by_key(|f| (f.line, f.column));
     out
@@ -309,12 +309,27 @@ fn constant(e: &Expr) -> Option<f64> {
     }
 }
 
-fn tcp_lint(
+fn net_lint(
     s: &Stmt,
     controller: Option<Controller>,
     add: &mut dyn FnMut(&'static str, Span, String),
 ) {
-    let StmtKind::Tcp(t) = &s.kind else { return };
+    let t = match &s.kind {
+        StmtKind::Tcp(t) => t,
+        StmtKind::Udp(UdpStmt::SendTo { timeout, .. }) => {
+            return net_ranges("UDP_SENDTO", None, timeout.as_ref(), controller, add)
+        }
+        StmtKind::Udp(UdpStmt::RecvFrom { port, timeout, .. }) => {
+            return net_ranges(
+                "UDP_RECVFROM",
+                Some(port),
+                timeout.as_ref(),
+                controller,
+                add,
+            )
+        }
+        _ => return,
+    };
     let (name, port, timeout) = match t {
         TcpStmt::Listen { port, .. } => ("TCP_LISTEN", Some(port), None),
         TcpStmt::EndListen { port, .. } => ("TCP_END_LISTEN", Some(port), None),
@@ -335,6 +350,17 @@ fn tcp_lint(
         TcpStmt::Connect { timeout, .. } => ("TCP_CONNECT", None, timeout.as_ref()),
         TcpStmt::Close { .. } | TcpStmt::Status { .. } => return,
     };
+    net_ranges(name, port, timeout, controller, add);
+}
+
+/// The port and timeout rules of a TCP or UDP instruction `name`.
+fn net_ranges(
+    name: &str,
+    port: Option<&Expr>,
+    timeout: Option<&Expr>,
+    controller: Option<Controller>,
+    add: &mut dyn FnMut(&'static str, Span, String),
+) {
     if let Some(p) = port {
         if let Some(v) = constant(p) {
             if !(8192.0..=65535.0).contains(&v) {

@@ -155,3 +155,21 @@ fn a_file_that_does_not_load_is_reported_with_its_errors() {
         "bad.as:2:3: expected END to close this IF before .END"
     );
 }
+
+#[test]
+fn udp_timeouts_and_receive_ports_follow_the_tcp_ranges() {
+    let body = "  UDP_SENDTO .r, .ip[1], 5000, .$b[1], 1, 61\n  UDP_RECVFROM .r, 80, .$b[1], .n, 0\n  UDP_RECVFROM .r, 49152, .$b[1], .n, 2";
+    assert_eq!(
+        findings(&pc(body), None),
+        vec![
+            ("tcp-timeout-range", 2, 43),
+            ("tcp-port-range", 3, 20),
+            ("tcp-timeout-range", 3, 36)
+        ]
+    );
+    // E takes a 0 s timeout.
+    assert_eq!(
+        findings(&pc(body), Some(Controller::E)),
+        vec![("tcp-timeout-range", 2, 43), ("tcp-port-range", 3, 20)]
+    );
+}
