@@ -17,7 +17,9 @@
 //! | `start.rs` | starting and ending programs (`start`, `EXECUTE`, `PCEXECUTE`, frames) |
 //! | `vars.rs` | reading and writing variables with their indices |
 //! | `signals.rs` | signal numbers and outputs, `PULSE`, `DLYSIG`, `BITS` |
-//! | `frames.rs` | `TOOL`, `BASE`, kinematic conversions, `APPRO`, `DEPART`, `DRAW` |
+//! | `frames.rs` | `TOOL`, `BASE`, kinematic conversions, `APPRO`, `DEPART`, `DRAW`, `ALIGN` |
+//! | `circular.rs` | `C1MOVE`/`C2MOVE`: the via point kept, the circular motion issued |
+//! | `xmove.rs` | `XMOVE … TILL`: a straight line the signal cuts short |
 //! | `posture.rs` | `LEFTY`, `RIGHTY`, `ABOVE`, `BELOW`, `UWRIST`, `DWRIST`: the IK branch |
 //! | `hands.rs` | `OPEN`/`CLOSE`/`RELAX` and their `I` forms on the hands' signals |
 //! | `expr.rs` | expressions (reals, strings, locations, functions, `PRINT` encoding) |
@@ -28,6 +30,7 @@
 //! helpers (`arith`, `strings`); they call one another only through `Interpreter`'s methods.
 
 mod arith;
+mod circular;
 mod config;
 mod expr;
 mod flow;
@@ -47,6 +50,7 @@ mod strings;
 mod task;
 mod tcp;
 mod vars;
+mod xmove;
 
 use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
@@ -100,6 +104,8 @@ pub struct Interpreter {
     dest: Option<crate::system::Target>,
     /// `RUNMASK`: outputs turned OFF when the robot program stops.
     run_mask: Vec<i32>,
+    /// The flange pose of a `C1MOVE` waiting for its `C2MOVE` (robot base frame).
+    circle_via: Option<crate::system::Trans>,
     /// The posture asked for the next joint motion to a transformation: front shoulder
     /// (RIGHTY), elbow up (ABOVE), JT5 positive (UWRIST); `None`: any (the nearest solution).
     posture: [Option<bool>; 3],
@@ -178,6 +184,7 @@ impl Interpreter {
             run_mask: Vec::new(),
             dest: None,
             posture: [None; 3],
+            circle_via: None,
             tool: None,
             base: None,
             timers: [None; 11],

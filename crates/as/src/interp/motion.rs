@@ -4,7 +4,7 @@
 use crate::ast::SpeedUnit;
 use crate::compile::{JExpr, LRef, Loc, RExpr, TExpr, Ty};
 use crate::error::RuntimeError;
-use crate::system::{Issued, MotionKind, MotionRequest, Speed, System, Target};
+use crate::system::{Issued, MotionKind, MotionRequest, Speed, System, Target, Trans};
 use crate::value::MAX_INDEX;
 
 use super::arith::R;
@@ -233,6 +233,31 @@ impl Interpreter {
         delay_s: f64,
         sys: &mut dyn System,
     ) -> R<Flow> {
+        self.issue(i, kind, target, delay_s, None, sys)
+    }
+
+    /// [`Self::motion`] through an intermediate point (a circular motion's).
+    pub(super) fn motion_via(
+        &mut self,
+        i: TaskSlot,
+        kind: MotionKind,
+        target: Target,
+        via: Option<Trans>,
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        self.issue(i, kind, target, 0.0, via, sys)
+    }
+
+    fn issue(
+        &mut self,
+        i: TaskSlot,
+        kind: MotionKind,
+        target: Target,
+        delay_s: f64,
+        via: Option<Trans>,
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        self.circle_interrupted(kind)?;
         let target = match (kind, target) {
             (MotionKind::Joint, Target::Pose(p)) if self.posture.iter().any(Option::is_some) => {
                 Target::Joints(self.posture_solution(&p, sys)?)
@@ -251,6 +276,7 @@ impl Interpreter {
             target,
             speed,
             delay_s,
+            via,
             accuracy_mm,
             fine,
             accel_percent,
