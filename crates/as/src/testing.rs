@@ -333,7 +333,7 @@ impl System for VirtualSystem {
             let start = flange::pose_of(&flange::forward(&self.model, &from));
             let end = flange::pose_of(&flange::forward(&self.model, &to));
             let via = req.via.map(|v| flange::pose_of(&v));
-            if !via.is_some_and(|v| CircularArc::through(&start, &v, &end).is_ok()) {
+            if via.is_none_or(|v| CircularArc::through(&start, &v, &end).is_err()) {
                 return Err(CIRCLE_NOT_DEFINED);
             }
         }

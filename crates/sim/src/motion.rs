@@ -231,8 +231,8 @@ pub enum CircularPlanError {
 /// [`LinearPath`] is, on the same cycloidal profile.
 #[derive(Debug, Clone)]
 pub struct CircularPath {
-    params: SmallVec<[f64; 2]>,
-    samples: SmallVec<[JointsDeg; 2]>,
+    params: PathParams,
+    samples: PathSamples,
     duration_s: f64,
     arc: CircularArc,
     end_pose: Pose,
@@ -291,6 +291,11 @@ impl CircularPath {
     }
 }
 
+/// The path parameters of a sampled tool path (inline for a one-piece line: no allocation).
+type PathParams = SmallVec<[f64; 2]>;
+/// The joint configurations at a sampled tool path's parameters.
+type PathSamples = SmallVec<[JointsDeg; 2]>;
+
 /// Samples a tool path through inverse kinematics: `pose_at(s)` is the flange at path
 /// parameter `s` (0 = at `from`, 1 = at `to`), first cut into `n` equal pieces, then each piece
 /// across which a joint turns more than [`LINEAR_MAX_JOINT_STEP_DEG`] halved until it does not
@@ -302,7 +307,7 @@ fn sample_tool_path(
     to: JointsDeg,
     n: usize,
     pose_at: impl Fn(f64) -> Pose,
-) -> Option<(SmallVec<[f64; 2]>, SmallVec<[JointsDeg; 2]>)> {
+) -> Option<(PathParams, PathSamples)> {
     let solve = |s: f64, seed: &JointsDeg| -> Option<JointsDeg> {
         if s >= 1.0 {
             return Some(to);
@@ -312,8 +317,8 @@ fn sample_tool_path(
             .ok()
             .map(|q| q.to_deg())
     };
-    let mut params = SmallVec::<[f64; 2]>::with_capacity(n + 1);
-    let mut samples = SmallVec::<[JointsDeg; 2]>::with_capacity(n + 1);
+    let mut params = PathParams::with_capacity(n + 1);
+    let mut samples = PathSamples::with_capacity(n + 1);
     params.push(0.0);
     samples.push(from);
     // The pieces waiting to be refined: one per halving level at most, and the top.
