@@ -378,6 +378,8 @@ pub enum StmtKind {
         /// The signal number.
         till: Expr,
     },
+    /// `HMOVE location`: the wrist centre on a straight line, the wrist joints interpolated.
+    Hmove(Expr),
     /// `ALIGN`: turns the tool so that its Z axis is parallel to the nearest axis of the base
     /// (world) frame, joint-interpolated.
     Align,

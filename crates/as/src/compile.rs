@@ -288,6 +288,8 @@ pub(crate) enum Op {
     Xmove(Loc, RExpr),
     /// `ALIGN`.
     Align,
+    /// `HMOVE location`.
+    Hmove(Loc),
     Delay(RExpr),
     Brake,
     Break,
@@ -1071,6 +1073,10 @@ impl Compiler {
             }
             StmtKind::Align => {
                 self.emit(Op::Align, line);
+            }
+            StmtKind::Hmove(target) => {
+                let l = self.loc(target)?;
+                self.emit(Op::Hmove(l), line);
             }
             StmtKind::Home(_) => {
                 self.emit(Op::Home, line);

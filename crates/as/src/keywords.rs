@@ -45,6 +45,7 @@ pub const STATEMENTS: &[(&str, usize)] = &[
     ("goto", 2),
     ("halt", 3),
     ("here", 4),
+    ("hmove", 5),
     ("home", 3),
     ("if", 2),
     ("ignore", 2),
@@ -105,7 +106,6 @@ pub const STATEMENTS: &[(&str, usize)] = &[
 pub const UNSUPPORTED: &[&str] = &[
     "drive",
     "extcall",
-    "hmove",
     "intfchk",
     "japro",
     "one",
@@ -297,7 +297,8 @@ mod tests {
         assert_eq!(statement("tcp_recv"), Some("tcp_recv"));
         assert_eq!(statement("jappro"), Some("jappro"));
         assert_eq!(statement("jappr"), None);
-        assert!(not_emulated("hmove"));
+        assert!(not_emulated("drive"));
+        assert!(!not_emulated("hmove"));
         assert!(!not_emulated("c1move"));
         assert!(!not_emulated("jappro"));
         assert!(not_emulated("l3jmove"));

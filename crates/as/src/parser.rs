@@ -1592,6 +1592,7 @@ impl<'a> Cur<'a> {
                 })
             }
             "align" => LineKind::Stmt(StmtKind::Align),
+            "hmove" => LineKind::Stmt(StmtKind::Hmove(self.expr()?)),
             "home" => LineKind::Stmt(StmtKind::Home(if self.at_end() {
                 None
             } else {

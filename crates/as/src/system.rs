@@ -58,6 +58,9 @@ pub enum MotionKind {
     /// `C1MOVE via` then `C2MOVE end`: the tool on the circle through where the previous
     /// motion ends, [`MotionRequest::via`] and the target.
     Circular,
+    /// `HMOVE`: the wrist centre on a straight line, the wrist joints (JT4–JT6) interpolated
+    /// as in a joint move.
+    Hybrid,
 }
 
 /// The program speed of a motion.

@@ -61,7 +61,7 @@ pub use machine::{
     PASS_TIME, SIGNAL_EDGE, TICK,
 };
 pub use motion::{
-    Arm, CircularPath, CircularPlanError, LinearPath, Motion, MotionPhase, Shape,
+    Arm, CircularPath, CircularPlanError, HybridPath, LinearPath, Motion, MotionPhase, Shape,
     CIRCULAR_SAMPLE_DEG, HOLD_RAMP_S, LINEAR_MAX_JOINT_STEP_DEG, LINEAR_SAMPLE_DEG,
     LINEAR_SAMPLE_MM,
 };

@@ -291,16 +291,94 @@ impl CircularPath {
     }
 }
 
+/// A hybrid (HMOVE) path: the wrist centre on the straight line from where it is at the start
+/// to where it is at the target, the wrist joints JT4–JT6 turning linearly (as in a joint
+/// move); JT1–JT3 are solved for the wrist centre near the previous sample. Sampled and
+/// timed as a [`LinearPath`] is.
+#[derive(Debug, Clone)]
+pub struct HybridPath {
+    params: PathParams,
+    samples: PathSamples,
+    duration_s: f64,
+    end_pose: Pose,
+}
+
+impl HybridPath {
+    /// Plans the hybrid path from `from` to `to`. `duration_of` gives the duration asked for
+    /// the wrist centre's travel in millimetres (the length at the tool speed); it is
+    /// stretched when a joint would exceed its maximum speed. `None` when a point of the line
+    /// has no solution near the previous one (out of reach, a singularity, a configuration
+    /// flip).
+    pub fn plan(
+        model: &RobotModel,
+        from: JointsDeg,
+        to: JointsDeg,
+        duration_of: impl FnOnce(f64) -> f64,
+    ) -> Option<HybridPath> {
+        let (w0, w1) = (
+            model.wrist_centre_m(&from.to_rad()),
+            model.wrist_centre_m(&to.to_rad()),
+        );
+        let length_mm = (w1 - w0).norm() * 1000.0;
+        let wrist_turn_deg = (3..JOINT_COUNT)
+            .map(|j| (to[j] - from[j]).abs())
+            .fold(0.0, f64::max);
+        let n = ((length_mm / LINEAR_SAMPLE_MM).ceil() as usize)
+            .max((wrist_turn_deg / LINEAR_MAX_JOINT_STEP_DEG).ceil() as usize)
+            .clamp(1, MAX_SAMPLES);
+        let solve = |s: f64, seed: &JointsDeg| -> Option<JointsDeg> {
+            if s >= 1.0 {
+                return Some(to);
+            }
+            let mut guess = *seed;
+            for j in 3..JOINT_COUNT {
+                guess[j] = from[j] + (to[j] - from[j]) * s;
+            }
+            let g = guess.to_rad();
+            // A flange pose whose wrist centre is on the line (its orientation the guess's:
+            // the wrist centre depends on JT1–JT3 alone, which the solution gives).
+            let flange = model.forward(&g);
+            let offset = flange.position_m() - model.wrist_centre_m(&g);
+            let pose = Pose::new(w0.lerp(&w1, s) + offset, flange.rotation());
+            let mut q = model.inverse_nearest(&pose, &g).ok()?.to_deg();
+            for j in 3..JOINT_COUNT {
+                q[j] = guess[j];
+            }
+            Some(q)
+        };
+        let (params, samples) = sample_joint_path(from, n, solve)?;
+        let needed = stretched_duration(model, &params, &samples, duration_of(length_mm));
+        Some(HybridPath {
+            params,
+            samples,
+            duration_s: needed,
+            end_pose: model.forward(&to.to_rad()),
+        })
+    }
+
+    /// Duration, seconds.
+    pub fn duration_s(&self) -> f64 {
+        self.duration_s
+    }
+
+    /// Number of samples along the path (start and target included).
+    pub fn sample_count(&self) -> usize {
+        self.samples.len()
+    }
+
+    fn position_at(&self, t: f64) -> JointsDeg {
+        sampled_position(&self.params, &self.samples, self.duration_s, t)
+    }
+}
+
 /// The path parameters of a sampled tool path (inline for a one-piece line: no allocation).
 type PathParams = SmallVec<[f64; 2]>;
 /// The joint configurations at a sampled tool path's parameters.
 type PathSamples = SmallVec<[JointsDeg; 2]>;
 
 /// Samples a tool path through inverse kinematics: `pose_at(s)` is the flange at path
-/// parameter `s` (0 = at `from`, 1 = at `to`), first cut into `n` equal pieces, then each piece
-/// across which a joint turns more than [`LINEAR_MAX_JOINT_STEP_DEG`] halved until it does not
-/// (see [`LinearPath`]). `None` when a point has no solution near the previous one, or the
-/// path flips configuration.
+/// parameter `s` (0 = at `from`, 1 = at `to`), solved near the previous sample (see
+/// [`sample_joint_path`]).
 fn sample_tool_path(
     model: &RobotModel,
     from: JointsDeg,
@@ -317,6 +395,19 @@ fn sample_tool_path(
             .ok()
             .map(|q| q.to_deg())
     };
+    sample_joint_path(from, n, solve)
+}
+
+/// Samples a path given by `solve(s, seed)` (the joints at path parameter `s`, found near
+/// `seed`; `s` = 1 gives the target): first cut into `n` equal pieces, then each piece
+/// across which a joint turns more than [`LINEAR_MAX_JOINT_STEP_DEG`] halved until it does not
+/// (see [`LinearPath`]). `None` when a point has no solution near the previous one, or the
+/// path flips configuration.
+fn sample_joint_path(
+    from: JointsDeg,
+    n: usize,
+    solve: impl Fn(f64, &JointsDeg) -> Option<JointsDeg>,
+) -> Option<(PathParams, PathSamples)> {
     let mut params = PathParams::with_capacity(n + 1);
     let mut samples = PathSamples::with_capacity(n + 1);
     params.push(0.0);
@@ -390,6 +481,8 @@ pub enum Shape {
     Linear(LinearPath),
     /// Circular tool path (C1MOVE/C2MOVE).
     Circular(CircularPath),
+    /// Wrist centre on a line, wrist joints interpolated (HMOVE).
+    Hybrid(HybridPath),
 }
 
 impl Shape {
@@ -398,6 +491,7 @@ impl Shape {
             Shape::Joint(m) => m.duration_s(),
             Shape::Linear(l) => l.duration_s(),
             Shape::Circular(c) => c.duration_s(),
+            Shape::Hybrid(h) => h.duration_s(),
         }
     }
 }
@@ -869,13 +963,14 @@ impl Arm {
         match &motion.shape {
             Shape::Linear(path) => self.target_pose.set(Some((motion.to, path.end_pose))),
             Shape::Circular(path) => self.target_pose.set(Some((motion.to, path.end_pose))),
+            Shape::Hybrid(path) => self.target_pose.set(Some((motion.to, path.end_pose))),
             Shape::Joint(_) => {}
         }
         self.brake = None;
         let duration_s = motion.shape.duration_s();
         let from_start = match &motion.shape {
             Shape::Linear(l) => same_bits(&l.samples[0], &motion.from),
-            Shape::Joint(_) | Shape::Circular(_) => false,
+            Shape::Joint(_) | Shape::Circular(_) | Shape::Hybrid(_) => false,
         };
         // A one-piece line (start and target only) of the sum's duration joins the sum.
         let one_piece = from_start
@@ -1071,6 +1166,7 @@ impl Arm {
                             Shape::Joint(m) => m.position_at(t),
                             Shape::Linear(l) => l.position_at(t),
                             Shape::Circular(c) => c.position_at(t),
+                            Shape::Hybrid(h) => h.position_at(t),
                         };
                         for j in 0..JOINT_COUNT {
                             q[j] += p[j] - a.motion.from[j];
@@ -1148,6 +1244,7 @@ mod tests {
                     Shape::Linear(l) => l.position_at(robot.clock - a.started),
                     Shape::Joint(m) => m.position_at(robot.clock - a.started),
                     Shape::Circular(c) => c.position_at(robot.clock - a.started),
+                    Shape::Hybrid(h) => h.position_at(robot.clock - a.started),
                 };
                 for j in 0..JOINT_COUNT {
                     reference[j] += p[j] - a.motion.from[j];

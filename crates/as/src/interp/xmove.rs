@@ -5,10 +5,10 @@
 
 use crate::compile::{Loc, Op, RExpr};
 use crate::error::RuntimeError;
-use crate::system::{MotionKind, System, Target};
+use crate::system::{MotionKind, System};
 
 use super::arith::{signal_number, R};
-use super::task::{Flow, LocVal, TaskSlot, Wait};
+use super::task::{Flow, TaskSlot, Wait};
 use super::Interpreter;
 
 impl Interpreter {
@@ -25,10 +25,7 @@ impl Interpreter {
         self.require_robot(i.is_robot(), "XMOVE")?;
         // The signal number is checked before anything moves.
         self.till_met(i, till, sys)?;
-        let target = match self.eval_loc(i, l, sys)? {
-            LocVal::J(v) => Target::Joints(v.map(f64::from)),
-            LocVal::T(v) => Target::Pose(self.flange_of_world(&v)),
-        };
+        let target = self.target_of(i, l, sys)?;
         self.motion(i, MotionKind::Linear, target, 0.0, sys)?;
         if !sys.motion_planned() && self.till_met(i, till, sys)? {
             // Started with the signal already there: stopped before it moves.

@@ -1,6 +1,6 @@
 //! The machine as an AS interpreter's [`System`], for one `run_until`: motions go to the
 //! machine's planner (the same joint moves, straight lines, blending, braking and limits as the
-//! native server; circles for `C1MOVE`/`C2MOVE`), `SWITCH(…)`, `ERROR` and `MC …` read and operate its panel, and the
+//! native server; circles for `C1MOVE`/`C2MOVE`, hybrid paths for `HMOVE`), `SWITCH(…)`, `ERROR` and `MC …` read and operate its panel, and the
 //! `TCP_…` instructions use the program's [`SocketTable`] (the emulator keeps only its fault
 //! hooks: reply faults, paused reading, counting sessions).
 
@@ -18,7 +18,7 @@ use fs020n_proto::{ErrorCode, JointsDeg};
 
 use super::net::delivery_of;
 use crate::machine::{Machine, OnTick, PlannedAfterBrake};
-use crate::motion::{CircularPath, CircularPlanError, LinearPath, Motion, Shape};
+use crate::motion::{CircularPath, CircularPlanError, HybridPath, LinearPath, Motion, Shape};
 
 /// Tool speed that percent and mm/s speeds of an `LMOVE` refer to, mm/s (an assumption: the
 /// FS020N's maximum TCP speed is not published; the protocol-1040 server uses time-based
@@ -185,6 +185,16 @@ impl Host<'_> {
                     }
                     Err(CircularPlanError::Unreachable) => {
                         tracing::warn!(%target, "E1088: no circular path to the destination");
+                        return Err(ErrorCode::DESTINATION_OUT_OF_RANGE);
+                    }
+                }
+            }
+            MotionKind::Hybrid => {
+                let duration_of = |length_mm| self.tool_path_duration(req, length_mm);
+                match HybridPath::plan(model, from, target, duration_of) {
+                    Some(p) => Shape::Hybrid(p),
+                    None => {
+                        tracing::warn!(%target, "E1088: no hybrid path to the destination");
                         return Err(ErrorCode::DESTINATION_OUT_OF_RANGE);
                     }
                 }
