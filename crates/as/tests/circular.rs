@@ -99,6 +99,16 @@ fn another_motion_between_c1move_and_c2move_stops_with_e0112() {
 }
 
 #[test]
+fn two_c1moves_in_a_row_stop_with_e0112() {
+    let (_, s) = robot(
+        &format!("  C1MOVE {VIA}\n  C1MOVE {START}\n  C2MOVE {END}"),
+        2,
+    );
+    assert_eq!(s.raised, vec![E0112]);
+    assert!(s.motions.is_empty());
+}
+
+#[test]
 fn a_program_ending_after_c1move_stops_with_e0112() {
     let (_, s) = robot(&format!("  C1MOVE {VIA}"), 2);
     assert_eq!(s.raised, vec![E0112]);
