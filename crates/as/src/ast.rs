@@ -355,14 +355,34 @@ pub enum StmtKind {
         /// Millimetres back along the tool Z axis.
         distance: Expr,
     },
-    /// `DRAW dx, dy, dz` (along the base axes) or `TDRAW` (along the tool's): a straight line
-    /// by an offset; an omitted value is 0.
+    /// `DRAW dx, dy, dz, o, a, t` (along and about the base axes) or `TDRAW` (the tool's): a
+    /// straight line by an offset and a rotation; an omitted value is 0.
     Draw {
         /// `TDRAW`: the tool's axes.
         tool: bool,
         /// X, Y, Z offsets, millimetres.
         offset: [Option<Expr>; 3],
+        /// O, A, T of the rotation (Z-Y-Z Euler angles, as a transformation's), degrees.
+        rotation: [Option<Expr>; 3],
     },
+    /// `C1MOVE location`: the intermediate point of a circular motion (the `C2MOVE` that
+    /// follows gives its end).
+    CircleVia(Expr),
+    /// `C2MOVE location`: the end of the circular motion through the `C1MOVE` point.
+    CircleEnd(Expr),
+    /// `XMOVE location TILL signal`: a straight line that stops when the signal condition
+    /// becomes true (a negative number: OFF).
+    Xmove {
+        /// The destination.
+        target: Expr,
+        /// The signal number.
+        till: Expr,
+    },
+    /// `HMOVE location`: the wrist centre on a straight line, the wrist joints interpolated.
+    Hmove(Expr),
+    /// `ALIGN`: turns the tool so that its Z axis is parallel to the nearest axis of the base
+    /// (world) frame, joint-interpolated.
+    Align,
     /// `LEFTY`, `RIGHTY`, `ABOVE`, `BELOW`, `UWRIST`, `DWRIST`: the arm configuration of the
     /// next joint motion to a transformation.
     Posture(Posture),

@@ -306,8 +306,16 @@ pub(crate) enum Op {
     Appro(bool, TExpr, RExpr),
     /// `DEPART`/`LDEPART` (linear) distance.
     Depart(bool, RExpr),
-    /// `DRAW`/`TDRAW` (tool axes) offsets.
-    Draw(bool, Box<[Option<RExpr>; 3]>),
+    /// `DRAW`/`TDRAW` (tool axes): X, Y, Z offsets, then O, A, T of the rotation.
+    Draw(bool, Box<[Option<RExpr>; 6]>),
+    /// `C1MOVE` (false: the via point) / `C2MOVE` (true: the end) location.
+    Circle(bool, TExpr),
+    /// `XMOVE location TILL signal`.
+    Xmove(Loc, RExpr),
+    /// `ALIGN`.
+    Align,
+    /// `HMOVE location`.
+    Hmove(Loc),
     Delay(RExpr),
     Brake,
     Break,
@@ -1095,14 +1103,35 @@ impl Compiler {
                 let d = self.real(distance)?;
                 self.emit(Op::Depart(*linear, d), line);
             }
-            StmtKind::Draw { tool, offset } => {
-                let mut v: [Option<RExpr>; 3] = [None, None, None];
-                for (k, e) in offset.iter().enumerate() {
+            StmtKind::Draw {
+                tool,
+                offset,
+                rotation,
+            } => {
+                let mut v: [Option<RExpr>; 6] = Default::default();
+                for (k, e) in offset.iter().chain(rotation).enumerate() {
                     if let Some(e) = e {
                         v[k] = Some(self.real(e)?);
                     }
                 }
                 self.emit(Op::Draw(*tool, Box::new(v)), line);
+            }
+            StmtKind::CircleVia(target) | StmtKind::CircleEnd(target) => {
+                let end = matches!(&s.kind, StmtKind::CircleEnd(_));
+                let t = self.trans_loc(target)?;
+                self.emit(Op::Circle(end, t), line);
+            }
+            StmtKind::Xmove { target, till } => {
+                let l = self.loc(target)?;
+                let till = self.real(till)?;
+                self.emit(Op::Xmove(l, till), line);
+            }
+            StmtKind::Align => {
+                self.emit(Op::Align, line);
+            }
+            StmtKind::Hmove(target) => {
+                let l = self.loc(target)?;
+                self.emit(Op::Hmove(l), line);
             }
             StmtKind::Home(_) => {
                 self.emit(Op::Home, line);

@@ -63,6 +63,10 @@ impl From<ParseError> for LoadError {
     }
 }
 
+/// E0112, "circular motion not defined" ([`RuntimeError::Circular`]; the system's code for a
+/// circle it cannot plan, too).
+pub const CIRCLE_NOT_DEFINED: ErrorCode = ErrorCode(-30112);
+
 /// An error while a program runs: the task stops and the controller's `ERROR` becomes
 /// [`RuntimeError::code`], as on the controller.
 ///
@@ -103,6 +107,11 @@ pub enum RuntimeError {
     /// the controller would run it).
     #[error("(E0111) {0} is not emulated (fs020n as check lists these; --stub makes one a no-op)")]
     NotEmulated(String),
+    /// A circular motion that is not defined: a `C2MOVE` without its `C1MOVE`, a `C1MOVE`
+    /// followed by another motion (or by the program's end), or three points that define no
+    /// circle (two coincide, or all on one line).
+    #[error("(E0112) circular motion not defined: {0}")]
+    Circular(String),
     /// A controller error raised by the system (a motion refused, e.g. E1088).
     #[error("{}", describe(*.0))]
     System(ErrorCode),
@@ -129,6 +138,7 @@ impl RuntimeError {
             RuntimeError::CallDepth(_) => ErrorCode(-30109),
             RuntimeError::MemoryFull(_) => ErrorCode(-30110),
             RuntimeError::NotEmulated(_) => ErrorCode(-30111),
+            RuntimeError::Circular(_) => CIRCLE_NOT_DEFINED,
             RuntimeError::System(c) => *c,
         }
     }
@@ -148,6 +158,7 @@ pub fn error_message(code: i32) -> Option<&'static str> {
         -30109 => Some("Too many nested CALLs"),
         -30110 => Some("Variable memory full"),
         -30111 => Some("Instruction not emulated"),
+        -30112 => Some("Circular motion not defined"),
         other => match TcpCode::from_code(other) {
             Some(tcp) => Some(tcp.message()),
             None => ErrorCode(other).message(),

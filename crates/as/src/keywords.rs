@@ -12,6 +12,7 @@ pub const STATEMENTS: &[(&str, usize)] = &[
     ("abs.speed", 9),
     ("accel", 4),
     ("accuracy", 4),
+    ("align", 5),
     ("any", 3),
     ("appro", 5),
     ("base", 4),
@@ -20,6 +21,8 @@ pub const STATEMENTS: &[(&str, usize)] = &[
     ("bits32", 6),
     ("brake", 3),
     ("break", 3),
+    ("c1move", 6),
+    ("c2move", 6),
     ("call", 3),
     ("case", 3),
     ("close", 5),
@@ -42,6 +45,7 @@ pub const STATEMENTS: &[(&str, usize)] = &[
     ("goto", 2),
     ("halt", 3),
     ("here", 4),
+    ("hmove", 5),
     ("home", 3),
     ("if", 2),
     ("ignore", 2),
@@ -95,6 +99,7 @@ pub const STATEMENTS: &[(&str, usize)] = &[
     ("value", 3),
     ("wait", 2),
     ("while", 3),
+    ("xmove", 5),
 ];
 
 /// AS instructions that exist on the controller but that the emulator does not model: a
@@ -102,16 +107,11 @@ pub const STATEMENTS: &[(&str, usize)] = &[
 /// stops with E0111 naming it (or goes on, when the user stubs it). They also keep
 /// abbreviations honest (`L` is not taken for `LMOVE` when the controller knows `LAPPRO`).
 pub const UNSUPPORTED: &[&str] = &[
-    "align",
-    "c1move",
-    "c2move",
     "drive",
     "extcall",
-    "hmove",
     "intfchk",
     "japro",
     "prefetch.sigins",
-    "xmove",
 ];
 
 /// Families of application instructions (multi-robot `L3…` forms, `RTC_…`, `UDP_…`, the
@@ -283,7 +283,9 @@ mod tests {
         assert_eq!(statement("tcp_recv"), Some("tcp_recv"));
         assert_eq!(statement("jappro"), Some("jappro"));
         assert_eq!(statement("jappr"), None);
-        assert!(not_emulated("c1move"));
+        assert!(not_emulated("drive"));
+        assert!(!not_emulated("hmove"));
+        assert!(!not_emulated("c1move"));
         assert!(!not_emulated("jappro"));
         assert!(not_emulated("l3jmove"));
         assert!(!not_emulated("jmove"));

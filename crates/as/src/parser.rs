@@ -1552,8 +1552,8 @@ impl<'a> Cur<'a> {
                 distance: self.expr()?,
             }),
             "draw" | "tdraw" => {
-                let mut offset: [Option<Expr>; 3] = [None, None, None];
-                for (k, slot) in offset.iter_mut().enumerate() {
+                let mut values: [Option<Expr>; 6] = Default::default();
+                for (k, slot) in values.iter_mut().enumerate() {
                     if k > 0 && !self.eat(&Tok::Comma) {
                         break;
                     }
@@ -1562,18 +1562,37 @@ impl<'a> Cur<'a> {
                     }
                 }
                 if self.eat(&Tok::Comma) {
-                    // Rotations about the axes: not modelled.
+                    // A seventh value (a speed): not modelled.
                     self.pos = self.toks.len();
                     return Ok(LineKind::Stmt(StmtKind::NotEmulated {
-                        instruction: format!("{} (with rotations)", kw.to_uppercase()),
+                        instruction: format!("{} (with a speed)", kw.to_uppercase()),
                         stubbed: false,
                     }));
                 }
+                let [x, y, z, o, a, t] = values;
                 LineKind::Stmt(StmtKind::Draw {
                     tool: kw == "tdraw",
-                    offset,
+                    offset: [x, y, z],
+                    rotation: [o, a, t],
                 })
             }
+            "c1move" => LineKind::Stmt(StmtKind::CircleVia(self.expr()?)),
+            "c2move" => LineKind::Stmt(StmtKind::CircleEnd(self.expr()?)),
+            "xmove" => {
+                let target = self.expr()?;
+                if !self.eat_word("till") {
+                    return Err(self.err(format!(
+                        "expected TILL and a signal number after the XMOVE destination, found {}",
+                        self.found()
+                    )));
+                }
+                LineKind::Stmt(StmtKind::Xmove {
+                    target,
+                    till: self.expr()?,
+                })
+            }
+            "align" => LineKind::Stmt(StmtKind::Align),
+            "hmove" => LineKind::Stmt(StmtKind::Hmove(self.expr()?)),
             "home" => LineKind::Stmt(StmtKind::Home(if self.at_end() {
                 None
             } else {

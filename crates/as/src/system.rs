@@ -55,6 +55,12 @@ pub enum MotionKind {
     Linear,
     /// `DELAY t`: a motion that stands still for `t` seconds (it occupies the motion queue).
     Delay,
+    /// `C1MOVE via` then `C2MOVE end`: the tool on the circle through where the previous
+    /// motion ends, [`MotionRequest::via`] and the target.
+    Circular,
+    /// `HMOVE`: the wrist centre on a straight line, the wrist joints (JT4–JT6) interpolated
+    /// as in a joint move.
+    Hybrid,
 }
 
 /// The program speed of a motion.
@@ -80,6 +86,9 @@ pub struct MotionRequest {
     pub speed: Speed,
     /// For [`MotionKind::Delay`]: how long, seconds.
     pub delay_s: f64,
+    /// For [`MotionKind::Circular`]: the intermediate point the circle passes through (the
+    /// flange in the robot's base frame, like [`Target::Pose`]); `None` otherwise.
+    pub via: Option<Trans>,
     /// ACCURACY, mm: the next motion may blend in once the tool is this close to this target.
     pub accuracy_mm: f64,
     /// ACCURACY … FINE: exact coincidence required.

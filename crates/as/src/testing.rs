@@ -1,7 +1,7 @@
 //! A minimal [`System`] for tests of AS programs and of the interpreter itself (feature
 //! `testing`): an FS020N model for ranges, HOME and the forward kinematics of `HERE`, a
 //! deliberately simple motion (each joint moves linearly, all arriving together, at
-//! `max_speed_deg_s` × the effective speed), the controller's socket table ([`crate::sockets`]) with in-process test clients, and a
+//! `max_speed_deg_s` × the effective speed; a circular motion too, once its circle is checked), the controller's socket table ([`crate::sockets`]) with in-process test clients, and a
 //! terminal that keeps every line.
 //!
 //! It is **not** the emulator: `fs020n-sim` implements [`System`] with the real motion planner
@@ -11,9 +11,10 @@
 
 use std::time::Duration;
 
-use fs020n_kin::RobotModel;
+use fs020n_kin::{CircularArc, RobotModel};
 use fs020n_proto::{ErrorCode, JointsDeg};
 
+use crate::error::CIRCLE_NOT_DEFINED;
 use crate::flange;
 use crate::sockets::{Delivery, SocketLimits, SocketTable, TcpCode};
 use crate::system::{
@@ -371,6 +372,15 @@ impl System for VirtualSystem {
         };
         if !to.iter().all(|v| v.is_finite()) || !self.model.within_limits(&JointsDeg(to)) {
             return Err(ErrorCode::DESTINATION_OUT_OF_RANGE);
+        }
+        if req.kind == MotionKind::Circular {
+            // The toy moves its joints linearly to the end; it checks the circle only.
+            let start = flange::pose_of(&flange::forward(&self.model, &from));
+            let end = flange::pose_of(&flange::forward(&self.model, &to));
+            let via = req.via.map(|v| flange::pose_of(&v));
+            if via.is_none_or(|v| CircularArc::through(&start, &v, &end).is_err()) {
+                return Err(CIRCLE_NOT_DEFINED);
+            }
         }
         let (dur, rate) = self.duration(req, &from, &to);
         let seg = Seg {

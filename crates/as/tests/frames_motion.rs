@@ -1,6 +1,6 @@
 //! Frames and the motions they define, on virtual time: `TOOL`, `BASE`, `HERE` as a
 //! transformation, `POINT` between joint points and transformations, `APPRO`/`LAPPRO`/`JAPPRO`,
-//! `DEPART`/`LDEPART`, `DRAW`/`TDRAW`.
+//! `DEPART`/`LDEPART`, `DRAW`/`TDRAW` (with rotations), `ALIGN`.
 #![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 mod common;
@@ -8,6 +8,7 @@ mod common;
 use common::{ms, pc, start};
 use fs020n_as::system::{MotionKind, System, Target};
 use fs020n_as::Interpreter;
+use fs020n_kin::{Pose, Xyzoat};
 use fs020n_proto::ErrorCode;
 
 /// The six values a program DECOMPOSEd into the real array `name`.
@@ -203,17 +204,128 @@ fn draw_moves_along_the_base_axes_and_tdraw_along_the_tool_axes() {
         .all(|(_, m)| m.kind == MotionKind::Linear));
 }
 
+/// The kinematics' pose of six values a program DECOMPOSEd.
+fn pose(v: &[f32; 6]) -> Pose {
+    Pose::from_xyzoat(Xyzoat {
+        x_mm: f64::from(v[0]),
+        y_mm: f64::from(v[1]),
+        z_mm: f64::from(v[2]),
+        o_deg: f64::from(v[3]),
+        a_deg: f64::from(v[4]),
+        t_deg: f64::from(v[5]),
+    })
+}
+
+/// Column `k` of the pose's rotation (0: the tool's X axis, 2: its Z axis) in the world.
+fn axis(p: &Pose, k: usize) -> [f64; 3] {
+    let m = p.rotation_matrix();
+    [m[(0, k)], m[(1, k)], m[(2, k)]]
+}
+
+fn position_mm(p: &Pose) -> [f64; 3] {
+    let v = p.position_m();
+    [v[0] * 1000.0, v[1] * 1000.0, v[2] * 1000.0]
+}
+
+fn axis_close(got: [f64; 3], want: [f64; 3], tolerance: f64, what: &str) {
+    let d = (0..3).map(|k| (got[k] - want[k]).abs()).fold(0.0, f64::max);
+    assert!(d < tolerance, "{what}: {got:?} vs {want:?}");
+}
+
 #[test]
-fn draw_with_rotations_loads_as_not_emulated() {
+fn draw_turns_the_tool_about_the_base_axes_and_tdraw_about_its_own() {
+    // From the tool pointing down (tool X = world −X), O = 30 turns about Z: about the world's
+    // Z the tool X goes to (−cos 30, −sin 30, 0); about the tool's own Z (pointing down) to
+    // (−cos 30, +sin 30, 0).
+    let (i, s) = robot(
+        &format!("  LMOVE {PICK}\n  BREAK\n  DRAW 10, 0, -20, 30, 0, 0\n  BREAK\n  HERE a\n  DECOMPOSE a[0] = a\n  LMOVE {PICK}\n  BREAK\n  TDRAW 0, 0, 0, 30\n  BREAK\n  HERE b\n  DECOMPOSE b[0] = b"),
+        20,
+    );
+    let (c, sn) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
+    let a = pose(&arr(&i, "a"));
+    axis_close(
+        position_mm(&a),
+        [910.0, 100.0, 580.0],
+        0.05,
+        "DRAW position",
+    );
+    axis_close(axis(&a, 0), [-c, -sn, 0.0], 1e-4, "DRAW: tool X");
+    axis_close(axis(&a, 2), [0.0, 0.0, -1.0], 1e-4, "DRAW: tool Z");
+    let b = pose(&arr(&i, "b"));
+    axis_close(
+        position_mm(&b),
+        [900.0, 100.0, 600.0],
+        0.05,
+        "TDRAW position",
+    );
+    axis_close(axis(&b, 0), [-c, sn, 0.0], 1e-4, "TDRAW: tool X");
+    assert!(s.motions.iter().all(|(_, m)| m.kind == MotionKind::Linear));
+}
+
+#[test]
+fn draw_tilts_the_tool_about_its_tip() {
+    // A = 20 about the world's Y with a 150 mm tool: the tip stays, the tool Z tilts.
+    let (i, _) = robot(
+        &format!("  TOOL TRANS(0, 0, 150)\n  LMOVE {PICK}\n  BREAK\n  DRAW , , , 0, 20\n  BREAK\n  HERE a\n  DECOMPOSE a[0] = a"),
+        20,
+    );
+    let a = pose(&arr(&i, "a"));
+    axis_close(
+        position_mm(&a),
+        [900.0, 100.0, 600.0],
+        0.05,
+        "the tip stays",
+    );
+    let (c, sn) = (20f64.to_radians().cos(), 20f64.to_radians().sin());
+    axis_close(
+        axis(&a, 2),
+        [-sn, 0.0, -c],
+        1e-4,
+        "tool Z turned about world Y",
+    );
+}
+
+#[test]
+fn draw_with_a_speed_loads_as_not_emulated() {
     let i = Interpreter::from_source(
         "t.as",
-        ".PROGRAM rob()\n  DRAW 1, 2, 3, 10, 0, 0\n.END\n",
+        ".PROGRAM rob()\n  DRAW 1, 2, 3, 10, 0, 0, 50\n.END\n",
         fs020n_as::Config::default(),
     )
     .expect("loads");
     assert!(i.warnings().iter().any(|w| w
         .message
-        .starts_with("DRAW (with rotations) loads but is not emulated")));
+        .starts_with("DRAW (with a speed) loads but is not emulated")));
+}
+
+#[test]
+fn align_turns_the_tool_z_onto_the_nearest_world_axis_by_a_joint_motion() {
+    let (i, s) = robot(
+        "  JMOVE TRANS(900, 100, 600, 30, 160, 10)\n  BREAK\n  ALIGN\n  BREAK\n  HERE a\n  DECOMPOSE a[0] = a",
+        20,
+    );
+    let a = pose(&arr(&i, "a"));
+    axis_close(axis(&a, 2), [0.0, 0.0, -1.0], 1e-4, "tool Z straight down");
+    axis_close(
+        position_mm(&a),
+        [900.0, 100.0, 600.0],
+        0.05,
+        "the tip stays",
+    );
+    // The smallest turn: by the 20° between the Z axes.
+    let before = pose(&[900.0, 100.0, 600.0, 30.0, 160.0, 10.0]);
+    assert!((before.angle_to_rad(&a).to_degrees() - 20.0).abs() < 0.01);
+    assert_eq!(
+        s.motions.last().map(|(_, m)| m.kind),
+        Some(MotionKind::Joint)
+    );
+}
+
+#[test]
+fn align_in_a_pc_program_is_e0108() {
+    let (mut i, mut s) = start(&pc("  ALIGN"));
+    i.run_until(&mut s, ms(10));
+    assert_eq!(s.raised, vec![ErrorCode(-30108)]);
 }
 
 #[test]

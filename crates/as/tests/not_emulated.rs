@@ -66,7 +66,7 @@ fn every_instruction_the_issue_lists_loads_as_not_emulated() {
         .iter()
         .map(|w| w.message.clone())
         .collect();
-    for word in ["C1MOVE", "C2MOVE", "INTFCHK", "L3JMOVE", "RTC_SW"] {
+    for word in ["INTFCHK", "L3JMOVE", "RTC_SW"] {
         assert!(
             warnings
                 .iter()
@@ -209,12 +209,12 @@ fn block_words_are_never_stubbed() {
 
 #[test]
 fn repeated_uses_give_one_warning_with_the_count() {
-    let src = ".PROGRAM p()\n  C1MOVE a\n  C1MOVE b\n  C1MOVE c\n.END\n";
+    let src = ".PROGRAM p()\n  DRIVE 2, 10\n  DRIVE 3, 10\n  DRIVE 4, 10\n.END\n";
     let m = fs020n_as::parse("t.as", src).expect("loads");
     assert_eq!(m.warnings.len(), 1);
     assert_eq!(
         m.warnings[0].to_string(),
-        "t.as:2:3: C1MOVE loads but is not emulated (3 lines, the first here): a task that reaches it stops with E0111 (--stub C1MOVE makes it a no-op)"
+        "t.as:2:3: DRIVE loads but is not emulated (3 lines, the first here): a task that reaches it stops with E0111 (--stub DRIVE makes it a no-op)"
     );
 }
 

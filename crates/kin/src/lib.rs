@@ -10,6 +10,7 @@
 //! - Forward and analytic inverse kinematics, the geometric Jacobian and singularity measures
 //!   (methods of [`RobotModel`]).
 //! - [`JointMove`]: time-optimal synchronized trapezoidal joint moves.
+//! - [`CircularArc`]: the circular tool path through three poses (`C1MOVE`/`C2MOVE`).
 //! - [`RobotModel::to_urdf`]: a URDF of the arm generated from the model (ROS, Foxglove).
 //!
 //! Frames, signs and formulas: `docs/KINEMATICS.md`.
@@ -27,12 +28,14 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod arc;
 pub mod kinematics;
 pub mod model;
 pub mod motion;
 pub mod pose;
 pub mod urdf;
 
+pub use arc::{ArcError, CircularArc, ARC_MIN_BULGE_M, ARC_MIN_POINT_DISTANCE_M};
 pub use fs020n_proto::{JointsDeg, JointsRad, JOINT_COUNT};
 pub use kinematics::{
     FlangeNear, IkError, IkSolutions, SingularityMargins, IK_MAX_SOLUTIONS,

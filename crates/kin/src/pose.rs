@@ -131,6 +131,30 @@ impl Pose {
         self.0.rotation * Vector3::z()
     }
 
+    /// The pose turned about its own origin by the smallest rotation that makes its Z axis
+    /// parallel to the nearest axis (±X, ±Y, ±Z) of the parent frame (the AS `ALIGN`).
+    pub fn aligned(&self) -> Pose {
+        let z = self.z_axis();
+        let axes = [
+            Vector3::x(),
+            -Vector3::x(),
+            Vector3::y(),
+            -Vector3::y(),
+            Vector3::z(),
+            -Vector3::z(),
+        ];
+        let mut nearest = axes[0];
+        for a in &axes[1..] {
+            if a.dot(&z) > nearest.dot(&z) {
+                nearest = *a;
+            }
+        }
+        // Never antiparallel (the nearest axis is within 55° of Z), so the rotation is defined.
+        let turn =
+            UnitQuaternion::rotation_between(&z, &nearest).unwrap_or_else(UnitQuaternion::identity);
+        Pose::new(self.position_m(), turn * self.rotation())
+    }
+
     /// Distance between the two positions, metres (orientation ignored).
     pub fn distance_m(&self, other: &Pose) -> f64 {
         (self.position_m() - other.position_m()).norm()
@@ -234,6 +258,32 @@ impl From<Xyzoat> for Pose {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn aligned_turns_the_z_axis_onto_the_nearest_base_axis_and_keeps_the_position() {
+        let p = Pose::from_xyzoat(Xyzoat {
+            x_mm: 900.0,
+            y_mm: 100.0,
+            z_mm: 600.0,
+            o_deg: 30.0,
+            a_deg: 160.0,
+            t_deg: 10.0,
+        });
+        let a = p.aligned();
+        assert!(
+            (a.z_axis() - (-Vector3::z())).norm() < 1e-12,
+            "{}",
+            a.z_axis()
+        );
+        assert!((a.position_m() - p.position_m()).norm() < 1e-15);
+        // The smallest rotation: by the angle between the Z axes (20°).
+        assert!((p.angle_to_rad(&a).to_degrees() - 20.0).abs() < 1e-9);
+        let side = Pose::from_xyzoat(Xyzoat {
+            a_deg: 80.0,
+            ..Xyzoat::default()
+        });
+        assert!((side.aligned().z_axis() - Vector3::x()).norm() < 1e-12);
+    }
 
     #[test]
     fn xyzoat_round_trip_generic() {

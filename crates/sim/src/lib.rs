@@ -61,8 +61,9 @@ pub use machine::{
     PASS_TIME, SIGNAL_EDGE, TICK,
 };
 pub use motion::{
-    Arm, LinearPath, Motion, MotionPhase, Shape, HOLD_RAMP_S, LINEAR_MAX_JOINT_STEP_DEG,
-    LINEAR_SAMPLE_DEG, LINEAR_SAMPLE_MM,
+    Arm, CircularPath, CircularPlanError, HybridPath, LinearPath, Motion, MotionPhase, Shape,
+    CIRCULAR_SAMPLE_DEG, HOLD_RAMP_S, LINEAR_MAX_JOINT_STEP_DEG, LINEAR_SAMPLE_DEG,
+    LINEAR_SAMPLE_MM,
 };
 pub use native::{Handled, SessionGone, SessionId};
 pub use panel::Panel;

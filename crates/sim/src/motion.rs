@@ -10,7 +10,7 @@
 use std::cell::Cell;
 use std::collections::VecDeque;
 
-use fs020n_kin::{FlangeNear, JointMove, Pose, RobotModel};
+use fs020n_kin::{ArcError, CircularArc, FlangeNear, JointMove, Pose, RobotModel};
 use fs020n_proto::{JointsDeg, JOINT_COUNT};
 use smallvec::SmallVec;
 
@@ -100,66 +100,10 @@ impl LinearPath {
         let n = ((distance_mm / LINEAR_SAMPLE_MM).ceil() as usize)
             .max(angle_pieces)
             .clamp(1, MAX_SAMPLES);
-        let solve = |s: f64, seed: &JointsDeg| -> Option<JointsDeg> {
-            if s >= 1.0 {
-                return Some(to);
-            }
-            let pose = Pose::new(pos0.lerp(&pos1, s), rot0.slerp(&rot1, s));
-            model
-                .inverse_nearest(&pose, &seed.to_rad())
-                .ok()
-                .map(|q| q.to_deg())
-        };
-        let mut params = SmallVec::<[f64; 2]>::with_capacity(n + 1);
-        let mut samples = SmallVec::<[JointsDeg; 2]>::with_capacity(n + 1);
-        params.push(0.0);
-        samples.push(from);
-        // The pieces waiting to be refined: one per halving level at most, and the top.
-        let mut stack = [(0.0, JointsDeg::ZERO, 0u32); MAX_HALVINGS as usize + 2];
-        for k in 1..=n {
-            let s1 = k as f64 / n as f64;
-            let q1 = solve(s1, samples.last()?)?;
-            // Refine the piece (s0, s1] by halving until no joint steps more than the limit.
-            stack[0] = (s1, q1, 0u32);
-            let mut pending = 1;
-            while pending > 0 {
-                pending -= 1;
-                let (sb, qb, depth) = stack[pending];
-                let sa = *params.last()?;
-                let qa = *samples.last()?;
-                let step = qb.max_abs_diff(&qa);
-                if step <= LINEAR_MAX_JOINT_STEP_DEG || depth >= MAX_HALVINGS {
-                    if step > FLIP_DEG {
-                        return None;
-                    }
-                    params.push(sb);
-                    samples.push(qb);
-                    if samples.len() > MAX_SAMPLES {
-                        return None;
-                    }
-                } else {
-                    let sm = 0.5 * (sa + sb);
-                    let qm = solve(sm, &qa)?;
-                    stack[pending] = (sb, qb, depth + 1);
-                    stack[pending + 1] = (sm, qm, depth + 1);
-                    pending += 2;
-                }
-            }
-        }
-        // The cycloidal profile peaks at twice the mean rate: a piece of Δs along which joint j
-        // turns d needs T ≥ 2 d / (Δs · v_max).
-        let mut needed = duration_s;
-        let speeds = model.max_speeds_deg_s();
-        for (w, ds) in samples.windows(2).zip(params.windows(2)) {
-            let ds = ds[1] - ds[0];
-            if ds <= 0.0 {
-                continue;
-            }
-            for (j, speed) in speeds.iter().enumerate() {
-                let d = (w[1][j] - w[0][j]).abs();
-                needed = needed.max(2.0 * d / (ds * speed));
-            }
-        }
+        let (params, samples) = sample_tool_path(model, from, to, n, |s| {
+            Pose::new(pos0.lerp(&pos1, s), rot0.slerp(&rot1, s))
+        })?;
+        let needed = stretched_duration(model, &params, &samples, duration_s);
         Some(LinearPath {
             params,
             samples,
@@ -238,27 +182,294 @@ impl LinearPath {
     }
 
     fn position_at(&self, t: f64) -> JointsDeg {
-        let u = (t / self.duration_s).clamp(0.0, 1.0);
-        // Cycloidal profile: zero speed and acceleration at both ends.
-        let s = u - (2.0 * std::f64::consts::PI * u).sin() / (2.0 * std::f64::consts::PI);
-        let last = self.samples.len() - 1;
-        if s >= 1.0 || last == 0 {
-            return self.samples[last];
-        }
-        // The piece [params[k], params[k+1]] holding s.
-        let k = self
-            .params
-            .partition_point(|&p| p <= s)
-            .saturating_sub(1)
-            .min(last - 1);
-        let (a, b) = (self.params[k], self.params[k + 1]);
-        let f = if b > a {
-            ((s - a) / (b - a)).clamp(0.0, 1.0)
-        } else {
-            1.0
-        };
-        self.samples[k].zip_with(&self.samples[k + 1], |x, y| x + (y - x) * f)
+        sampled_position(&self.params, &self.samples, self.duration_s, t)
     }
+}
+
+/// The joints of a sampled path (`params`, `samples`) `t` seconds after its start, on the
+/// cycloidal profile of `duration_s`: zero speed and acceleration at both ends; between
+/// samples the joints are interpolated linearly.
+fn sampled_position(params: &[f64], samples: &[JointsDeg], duration_s: f64, t: f64) -> JointsDeg {
+    let u = (t / duration_s).clamp(0.0, 1.0);
+    let s = u - (2.0 * std::f64::consts::PI * u).sin() / (2.0 * std::f64::consts::PI);
+    let last = samples.len() - 1;
+    if s >= 1.0 || last == 0 {
+        return samples[last];
+    }
+    // The piece [params[k], params[k+1]] holding s.
+    let k = params
+        .partition_point(|&p| p <= s)
+        .saturating_sub(1)
+        .min(last - 1);
+    let (a, b) = (params[k], params[k + 1]);
+    let f = if b > a {
+        ((s - a) / (b - a)).clamp(0.0, 1.0)
+    } else {
+        1.0
+    };
+    samples[k].zip_with(&samples[k + 1], |x, y| x + (y - x) * f)
+}
+
+/// Longest sweep of a circular path between two IK samples, degrees (with
+/// [`LINEAR_SAMPLE_MM`] along it: the chord of a piece leaves the circle by at most 0.06 mm).
+pub const CIRCULAR_SAMPLE_DEG: f64 = 5.0;
+
+/// Why a circular path cannot be planned.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum CircularPlanError {
+    /// The three points define no circle.
+    #[error(transparent)]
+    NoCircle(#[from] ArcError),
+    /// A point of the circle has no inverse-kinematics solution inside the joint ranges near
+    /// the previous one (it leaves the workspace, crosses a singularity or flips configuration).
+    #[error("the circle leaves the reachable workspace or crosses a singularity")]
+    Unreachable,
+}
+
+/// A circular (C1MOVE/C2MOVE) tool path: the flange on the circle through the start, the via
+/// point and the target ([`CircularArc`]), pre-sampled through inverse kinematics as a
+/// [`LinearPath`] is, on the same cycloidal profile.
+#[derive(Debug, Clone)]
+pub struct CircularPath {
+    params: PathParams,
+    samples: PathSamples,
+    duration_s: f64,
+    arc: CircularArc,
+    end_pose: Pose,
+}
+
+impl CircularPath {
+    /// The circle from the flange at `from` through `via` to the flange at `to`, the path
+    /// parameter proportional to the length along it. `duration_of` gives the duration asked
+    /// for the circle's length in millimetres (the length at the tool speed); it is stretched
+    /// when a joint would exceed its maximum speed.
+    pub fn plan(
+        model: &RobotModel,
+        from: JointsDeg,
+        via: &Pose,
+        to: JointsDeg,
+        duration_of: impl FnOnce(f64) -> f64,
+    ) -> Result<CircularPath, CircularPlanError> {
+        let p0 = model.forward(&from.to_rad());
+        let p2 = model.forward(&to.to_rad());
+        let arc = CircularArc::through(&p0, via, &p2)?;
+        let duration_s = duration_of(arc.length_m() * 1000.0);
+        let pieces = |x: f64, per: f64| (x / per).ceil() as usize;
+        let n = pieces(arc.length_m() * 1000.0, LINEAR_SAMPLE_MM)
+            .max(pieces(arc.sweep_rad().to_degrees(), CIRCULAR_SAMPLE_DEG))
+            .max(pieces(arc.rotation_rad().to_degrees(), LINEAR_SAMPLE_DEG))
+            .clamp(2, MAX_SAMPLES);
+        let (params, samples) = sample_tool_path(model, from, to, n, |s| arc.pose_at(s))
+            .ok_or(CircularPlanError::Unreachable)?;
+        let needed = stretched_duration(model, &params, &samples, duration_s);
+        Ok(CircularPath {
+            params,
+            samples,
+            duration_s: needed,
+            arc,
+            end_pose: p2,
+        })
+    }
+
+    /// Duration, seconds.
+    pub fn duration_s(&self) -> f64 {
+        self.duration_s
+    }
+
+    /// The circle.
+    pub fn arc(&self) -> &CircularArc {
+        &self.arc
+    }
+
+    /// Number of IK samples along the circle (start and target included).
+    pub fn sample_count(&self) -> usize {
+        self.samples.len()
+    }
+
+    fn position_at(&self, t: f64) -> JointsDeg {
+        sampled_position(&self.params, &self.samples, self.duration_s, t)
+    }
+}
+
+/// A hybrid (HMOVE) path: the wrist centre on the straight line from where it is at the start
+/// to where it is at the target, the wrist joints JT4–JT6 turning linearly (as in a joint
+/// move); JT1–JT3 are solved for the wrist centre near the previous sample. Sampled and
+/// timed as a [`LinearPath`] is.
+#[derive(Debug, Clone)]
+pub struct HybridPath {
+    params: PathParams,
+    samples: PathSamples,
+    duration_s: f64,
+    end_pose: Pose,
+}
+
+impl HybridPath {
+    /// Plans the hybrid path from `from` to `to`. `duration_of` gives the duration asked for
+    /// the wrist centre's travel in millimetres (the length at the tool speed); it is
+    /// stretched when a joint would exceed its maximum speed. `None` when a point of the line
+    /// has no solution near the previous one (out of reach, a singularity, a configuration
+    /// flip).
+    pub fn plan(
+        model: &RobotModel,
+        from: JointsDeg,
+        to: JointsDeg,
+        duration_of: impl FnOnce(f64) -> f64,
+    ) -> Option<HybridPath> {
+        let (w0, w1) = (
+            model.wrist_centre_m(&from.to_rad()),
+            model.wrist_centre_m(&to.to_rad()),
+        );
+        let length_mm = (w1 - w0).norm() * 1000.0;
+        let wrist_turn_deg = (3..JOINT_COUNT)
+            .map(|j| (to[j] - from[j]).abs())
+            .fold(0.0, f64::max);
+        let n = ((length_mm / LINEAR_SAMPLE_MM).ceil() as usize)
+            .max((wrist_turn_deg / LINEAR_MAX_JOINT_STEP_DEG).ceil() as usize)
+            .clamp(1, MAX_SAMPLES);
+        let solve = |s: f64, seed: &JointsDeg| -> Option<JointsDeg> {
+            if s >= 1.0 {
+                return Some(to);
+            }
+            let mut guess = *seed;
+            for j in 3..JOINT_COUNT {
+                guess[j] = from[j] + (to[j] - from[j]) * s;
+            }
+            let g = guess.to_rad();
+            // A flange pose whose wrist centre is on the line (its orientation the guess's:
+            // the wrist centre depends on JT1–JT3 alone, which the solution gives).
+            let flange = model.forward(&g);
+            let offset = flange.position_m() - model.wrist_centre_m(&g);
+            let pose = Pose::new(w0.lerp(&w1, s) + offset, flange.rotation());
+            let mut q = model.inverse_nearest(&pose, &g).ok()?.to_deg();
+            for j in 3..JOINT_COUNT {
+                q[j] = guess[j];
+            }
+            Some(q)
+        };
+        let (params, samples) = sample_joint_path(from, n, solve)?;
+        let needed = stretched_duration(model, &params, &samples, duration_of(length_mm));
+        Some(HybridPath {
+            params,
+            samples,
+            duration_s: needed,
+            end_pose: model.forward(&to.to_rad()),
+        })
+    }
+
+    /// Duration, seconds.
+    pub fn duration_s(&self) -> f64 {
+        self.duration_s
+    }
+
+    /// Number of samples along the path (start and target included).
+    pub fn sample_count(&self) -> usize {
+        self.samples.len()
+    }
+
+    fn position_at(&self, t: f64) -> JointsDeg {
+        sampled_position(&self.params, &self.samples, self.duration_s, t)
+    }
+}
+
+/// The path parameters of a sampled tool path (inline for a one-piece line: no allocation).
+type PathParams = SmallVec<[f64; 2]>;
+/// The joint configurations at a sampled tool path's parameters.
+type PathSamples = SmallVec<[JointsDeg; 2]>;
+
+/// Samples a tool path through inverse kinematics: `pose_at(s)` is the flange at path
+/// parameter `s` (0 = at `from`, 1 = at `to`), solved near the previous sample (see
+/// [`sample_joint_path`]).
+fn sample_tool_path(
+    model: &RobotModel,
+    from: JointsDeg,
+    to: JointsDeg,
+    n: usize,
+    pose_at: impl Fn(f64) -> Pose,
+) -> Option<(PathParams, PathSamples)> {
+    let solve = |s: f64, seed: &JointsDeg| -> Option<JointsDeg> {
+        if s >= 1.0 {
+            return Some(to);
+        }
+        model
+            .inverse_nearest(&pose_at(s), &seed.to_rad())
+            .ok()
+            .map(|q| q.to_deg())
+    };
+    sample_joint_path(from, n, solve)
+}
+
+/// Samples a path given by `solve(s, seed)` (the joints at path parameter `s`, found near
+/// `seed`; `s` = 1 gives the target): first cut into `n` equal pieces, then each piece
+/// across which a joint turns more than [`LINEAR_MAX_JOINT_STEP_DEG`] halved until it does not
+/// (see [`LinearPath`]). `None` when a point has no solution near the previous one, or the
+/// path flips configuration.
+fn sample_joint_path(
+    from: JointsDeg,
+    n: usize,
+    solve: impl Fn(f64, &JointsDeg) -> Option<JointsDeg>,
+) -> Option<(PathParams, PathSamples)> {
+    let mut params = PathParams::with_capacity(n + 1);
+    let mut samples = PathSamples::with_capacity(n + 1);
+    params.push(0.0);
+    samples.push(from);
+    // The pieces waiting to be refined: one per halving level at most, and the top.
+    let mut stack = [(0.0, JointsDeg::ZERO, 0u32); MAX_HALVINGS as usize + 2];
+    for k in 1..=n {
+        let s1 = k as f64 / n as f64;
+        let q1 = solve(s1, samples.last()?)?;
+        // Refine the piece (s0, s1] by halving until no joint steps more than the limit.
+        stack[0] = (s1, q1, 0u32);
+        let mut pending = 1;
+        while pending > 0 {
+            pending -= 1;
+            let (sb, qb, depth) = stack[pending];
+            let sa = *params.last()?;
+            let qa = *samples.last()?;
+            let step = qb.max_abs_diff(&qa);
+            if step <= LINEAR_MAX_JOINT_STEP_DEG || depth >= MAX_HALVINGS {
+                if step > FLIP_DEG {
+                    return None;
+                }
+                params.push(sb);
+                samples.push(qb);
+                if samples.len() > MAX_SAMPLES {
+                    return None;
+                }
+            } else {
+                let sm = 0.5 * (sa + sb);
+                let qm = solve(sm, &qa)?;
+                stack[pending] = (sb, qb, depth + 1);
+                stack[pending + 1] = (sm, qm, depth + 1);
+                pending += 2;
+            }
+        }
+    }
+    Some((params, samples))
+}
+
+/// The duration of a sampled path: at least `duration_s`, stretched so that no joint exceeds
+/// its maximum speed.
+fn stretched_duration(
+    model: &RobotModel,
+    params: &[f64],
+    samples: &[JointsDeg],
+    duration_s: f64,
+) -> f64 {
+    // The cycloidal profile peaks at twice the mean rate: a piece of Δs along which joint j
+    // turns d needs T ≥ 2 d / (Δs · v_max).
+    let mut needed = duration_s;
+    let speeds = model.max_speeds_deg_s();
+    for (w, ds) in samples.windows(2).zip(params.windows(2)) {
+        let ds = ds[1] - ds[0];
+        if ds <= 0.0 {
+            continue;
+        }
+        for (j, speed) in speeds.iter().enumerate() {
+            let d = (w[1][j] - w[0][j]).abs();
+            needed = needed.max(2.0 * d / (ds * speed));
+        }
+    }
+    needed
 }
 
 /// The shape of one motion.
@@ -268,6 +479,10 @@ pub enum Shape {
     Joint(JointMove),
     /// Straight tool line (LMOVE).
     Linear(LinearPath),
+    /// Circular tool path (C1MOVE/C2MOVE).
+    Circular(CircularPath),
+    /// Wrist centre on a line, wrist joints interpolated (HMOVE).
+    Hybrid(HybridPath),
 }
 
 impl Shape {
@@ -275,6 +490,8 @@ impl Shape {
         match self {
             Shape::Joint(m) => m.duration_s(),
             Shape::Linear(l) => l.duration_s(),
+            Shape::Circular(c) => c.duration_s(),
+            Shape::Hybrid(h) => h.duration_s(),
         }
     }
 }
@@ -743,14 +960,17 @@ impl Arm {
     /// Starts `motion` at once (its `from` must be [`target`](Self::target)).
     pub fn start(&mut self, motion: Motion) {
         self.target = motion.to;
-        if let Shape::Linear(path) = &motion.shape {
-            self.target_pose.set(Some((motion.to, path.end_pose)));
+        match &motion.shape {
+            Shape::Linear(path) => self.target_pose.set(Some((motion.to, path.end_pose))),
+            Shape::Circular(path) => self.target_pose.set(Some((motion.to, path.end_pose))),
+            Shape::Hybrid(path) => self.target_pose.set(Some((motion.to, path.end_pose))),
+            Shape::Joint(_) => {}
         }
         self.brake = None;
         let duration_s = motion.shape.duration_s();
         let from_start = match &motion.shape {
             Shape::Linear(l) => same_bits(&l.samples[0], &motion.from),
-            Shape::Joint(_) => false,
+            Shape::Joint(_) | Shape::Circular(_) | Shape::Hybrid(_) => false,
         };
         // A one-piece line (start and target only) of the sum's duration joins the sum.
         let one_piece = from_start
@@ -945,6 +1165,8 @@ impl Arm {
                         let p = match shape {
                             Shape::Joint(m) => m.position_at(t),
                             Shape::Linear(l) => l.position_at(t),
+                            Shape::Circular(c) => c.position_at(t),
+                            Shape::Hybrid(h) => h.position_at(t),
                         };
                         for j in 0..JOINT_COUNT {
                             q[j] += p[j] - a.motion.from[j];
@@ -1021,6 +1243,8 @@ mod tests {
                 let p = match &a.motion.shape {
                     Shape::Linear(l) => l.position_at(robot.clock - a.started),
                     Shape::Joint(m) => m.position_at(robot.clock - a.started),
+                    Shape::Circular(c) => c.position_at(robot.clock - a.started),
+                    Shape::Hybrid(h) => h.position_at(robot.clock - a.started),
                 };
                 for j in 0..JOINT_COUNT {
                     reference[j] += p[j] - a.motion.from[j];

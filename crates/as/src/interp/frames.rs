@@ -1,7 +1,7 @@
 //! Frames and the motions defined by them: `TOOL`, `BASE`, conversions between what the
 //! program sees (the tool in the world: BASE · flange · TOOL) and what the system moves (the
 //! flange in the robot's base frame), `POINT` between joint points and transformations,
-//! `APPRO`/`LAPPRO`, `DEPART`/`LDEPART`, `DRAW`/`TDRAW`.
+//! `APPRO`/`LAPPRO`, `DEPART`/`LDEPART`, `DRAW`/`TDRAW`, `ALIGN`.
 
 use fs020n_kin::Pose;
 
@@ -184,18 +184,20 @@ impl Interpreter {
         self.move_world(i, linear, &trans_of(&p), sys)
     }
 
-    /// `DRAW dx, dy, dz` (base axes) / `TDRAW` (tool axes): a straight line by the offset.
+    /// `DRAW dx, dy, dz, o, a, t` (base axes) / `TDRAW` (tool axes): a straight line by the
+    /// offset, turning the tool by the rotation (O, A, T as a transformation's Z-Y-Z angles)
+    /// about the base axes (`DRAW`, about the tool point) or the tool's (`TDRAW`).
     #[inline(always)]
     pub(super) fn draw(
         &mut self,
         i: TaskSlot,
         tool: bool,
-        offset: &[Option<RExpr>; 3],
+        values: &[Option<RExpr>; 6],
         sys: &mut dyn System,
     ) -> R<Flow> {
         self.require_robot(i.is_robot(), if tool { "TDRAW" } else { "DRAW" })?;
         let mut d = [0f32; 6];
-        for (k, e) in offset.iter().enumerate() {
+        for (k, e) in values.iter().enumerate() {
             if let Some(e) = e {
                 d[k] = self.eval_r(i, e, sys)?;
             }
@@ -203,14 +205,31 @@ impl Interpreter {
         let here = self.here_world(sys)?;
         let target = if tool {
             trans_of(&(pose_of(&here) * pose_of(&d)))
-        } else {
+        } else if d[3..].iter().all(|v| *v == 0.0) {
             let mut t = here;
             for k in 0..3 {
                 t[k] += d[k];
             }
             t
+        } else {
+            // The tool's orientation alone, turned about the base axes, at the new position.
+            let at = |x: &[f32]| pose_of(&[x[0], x[1], x[2], 0.0, 0.0, 0.0]);
+            let orientation = at(&here).inverse() * pose_of(&here);
+            let moved = [here[0] + d[0], here[1] + d[1], here[2] + d[2]];
+            let turn = pose_of(&[0.0, 0.0, 0.0, d[3], d[4], d[5]]);
+            trans_of(&(at(&moved) * turn * orientation))
         };
         self.move_world(i, true, &target, sys)
+    }
+
+    /// `ALIGN`: turns the tool about its tip so that its Z axis is parallel to the nearest axis
+    /// of the world frame (the smallest rotation), joint-interpolated.
+    #[inline(always)]
+    pub(super) fn align(&mut self, i: TaskSlot, sys: &mut dyn System) -> R<Flow> {
+        self.require_robot(i.is_robot(), "ALIGN")?;
+        let here = self.here_world(sys)?;
+        let target = trans_of(&pose_of(&here).aligned());
+        self.move_world(i, false, &target, sys)
     }
 
     /// A joint or linear motion to a program transformation.

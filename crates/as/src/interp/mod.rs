@@ -17,7 +17,9 @@
 //! | `start.rs` | starting and ending programs (`start`, `EXECUTE`, `PCEXECUTE`, frames) |
 //! | `vars.rs` | reading and writing variables with their indices |
 //! | `signals.rs` | signal numbers and outputs, `PULSE`, `DLYSIG`, `BITS` |
-//! | `frames.rs` | `TOOL`, `BASE`, kinematic conversions, `APPRO`, `DEPART`, `DRAW` |
+//! | `frames.rs` | `TOOL`, `BASE`, kinematic conversions, `APPRO`, `DEPART`, `DRAW`, `ALIGN` |
+//! | `circular.rs` | `C1MOVE`/`C2MOVE`: the via point kept, the circular motion issued |
+//! | `xmove.rs` | `XMOVE … TILL`: a straight line the signal cuts short |
 //! | `posture.rs` | `LEFTY`, `RIGHTY`, `ABOVE`, `BELOW`, `UWRIST`, `DWRIST`: the IK branch |
 //! | `hands.rs` | `OPEN`/`CLOSE`/`RELAX` and their `I` forms on the hands' signals |
 //! | `locations.rs`, `exist.rs` | `DISTANCE`, `DX`/`DY`/`DZ`, `FRAME`; `EXISTREAL` … `EXISTPROGRAM` |
@@ -31,6 +33,7 @@
 //! helpers (`arith`, `strings`); they call one another only through `Interpreter`'s methods.
 
 mod arith;
+mod circular;
 mod config;
 mod exist;
 mod expr;
@@ -54,6 +57,7 @@ mod task;
 mod tcp;
 mod udp;
 mod vars;
+mod xmove;
 
 use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
@@ -107,6 +111,8 @@ pub struct Interpreter {
     dest: Option<crate::system::Target>,
     /// `RUNMASK`: outputs turned OFF when the robot program stops.
     run_mask: Vec<i32>,
+    /// The flange pose of a `C1MOVE` waiting for its `C2MOVE` (robot base frame).
+    circle_via: Option<crate::system::Trans>,
     /// The posture asked for the next joint motion to a transformation: front shoulder
     /// (RIGHTY), elbow up (ABOVE), JT5 positive (UWRIST); `None`: any (the nearest solution).
     posture: [Option<bool>; 3],
@@ -185,6 +191,7 @@ impl Interpreter {
             run_mask: Vec::new(),
             dest: None,
             posture: [None; 3],
+            circle_via: None,
             tool: None,
             base: None,
             timers: [None; 11],

@@ -1,10 +1,10 @@
-//! Motion statements: location assignments, `HERE`, `DECOMPOSE`, `JMOVE`/`LMOVE`, `HOME`,
+//! Motion statements: location assignments, `HERE`, `DECOMPOSE`, `JMOVE`/`LMOVE`/`HMOVE`, `HOME`,
 //! `DELAY`, `BREAK`, the motion parameters, and the motion request handed to the system.
 
 use crate::ast::SpeedUnit;
 use crate::compile::{JExpr, LRef, Loc, RExpr, TExpr, Ty};
 use crate::error::RuntimeError;
-use crate::system::{Issued, MotionKind, MotionRequest, Speed, System, Target};
+use crate::system::{Issued, MotionKind, MotionRequest, Speed, System, Target, Trans};
 use crate::value::MAX_INDEX;
 
 use super::arith::R;
@@ -87,16 +87,30 @@ impl Interpreter {
         robot: bool,
     ) -> R<Flow> {
         self.require_robot(robot, "JMOVE/LMOVE")?;
-        let target = match self.eval_loc(i, l, sys)? {
-            LocVal::J(v) => Target::Joints(v.map(f64::from)),
-            LocVal::T(v) => Target::Pose(self.flange_of_world(&v)),
-        };
+        let target = self.target_of(i, l, sys)?;
         let kind = if *linear {
             MotionKind::Linear
         } else {
             MotionKind::Joint
         };
         self.motion(i, kind, target, 0.0, sys)
+    }
+
+    /// `HMOVE location`: the wrist centre on a straight line, the wrist joints interpolated.
+    #[inline(always)]
+    pub(super) fn hmove(&mut self, i: TaskSlot, l: &Loc, sys: &mut dyn System) -> R<Flow> {
+        self.require_robot(i.is_robot(), "HMOVE")?;
+        let target = self.target_of(i, l, sys)?;
+        self.motion(i, MotionKind::Hybrid, target, 0.0, sys)
+    }
+
+    /// The system's target for a location (a transformation is the tool in the world: the
+    /// system gets the flange in the robot's frame).
+    pub(super) fn target_of(&mut self, i: TaskSlot, l: &Loc, sys: &mut dyn System) -> R<Target> {
+        Ok(match self.eval_loc(i, l, sys)? {
+            LocVal::J(v) => Target::Joints(v.map(f64::from)),
+            LocVal::T(v) => Target::Pose(self.flange_of_world(&v)),
+        })
     }
 
     /// `HOME`.
@@ -233,6 +247,31 @@ impl Interpreter {
         delay_s: f64,
         sys: &mut dyn System,
     ) -> R<Flow> {
+        self.issue(i, kind, target, delay_s, None, sys)
+    }
+
+    /// [`Self::motion`] through an intermediate point (a circular motion's).
+    pub(super) fn motion_via(
+        &mut self,
+        i: TaskSlot,
+        kind: MotionKind,
+        target: Target,
+        via: Option<Trans>,
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        self.issue(i, kind, target, 0.0, via, sys)
+    }
+
+    fn issue(
+        &mut self,
+        i: TaskSlot,
+        kind: MotionKind,
+        target: Target,
+        delay_s: f64,
+        via: Option<Trans>,
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        self.circle_interrupted(kind)?;
         let target = match (kind, target) {
             (MotionKind::Joint, Target::Pose(p)) if self.posture.iter().any(Option::is_some) => {
                 Target::Joints(self.posture_solution(&p, sys)?)
@@ -251,6 +290,7 @@ impl Interpreter {
             target,
             speed,
             delay_s,
+            via,
             accuracy_mm,
             fine,
             accel_percent,

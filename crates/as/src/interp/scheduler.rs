@@ -494,6 +494,7 @@ impl Interpreter {
                 }
                 Wait::MotionPlanned => sys.motion_planned().then_some(Wait::MotionPlanned),
                 Wait::MotionDone => sys.motion_in_progress().then_some(Wait::MotionDone),
+                Wait::Till => self.poll_till(i, sys)?,
                 Wait::Held => (self.mc_hold || !sys.panel().run).then_some(Wait::Held),
                 Wait::Paused => Some(Wait::Paused),
                 Wait::Accept { port, deadline } => match sys.tcp_accept(port) {

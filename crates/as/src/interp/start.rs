@@ -89,6 +89,8 @@ impl Interpreter {
             }
             // An OPEN/CLOSE/RELAX left for a motion that never came is dropped.
             self.hand_pending.clear();
+            // So is a C1MOVE point without its C2MOVE.
+            self.circle_via = None;
         }
         self.release_frames(i, 0);
         self.set_run(i, Run::Idle);

@@ -274,6 +274,9 @@ impl Interpreter {
             Op::CaseTestS(values, slot, next) => self.case_test_s(i, values, slot, next, sys)?,
             Op::Call(prog, args) => self.call(i, prog, args, sys)?,
             Op::Return | Op::End => {
+                if self.tasks[i].frames.len() <= 1 {
+                    self.circle_left_open(i)?;
+                }
                 self.ret(i, sys)?;
                 Flow::Next
             }
@@ -357,6 +360,10 @@ impl Interpreter {
             Op::Appro(linear, t, d) => self.appro(i, *linear, t, d, sys)?,
             Op::Depart(linear, d) => self.depart(i, *linear, d, sys)?,
             Op::Draw(tool, offset) => self.draw(i, *tool, offset, sys)?,
+            Op::Circle(end, t) => self.circle(i, *end, t, sys)?,
+            Op::Xmove(l, till) => self.xmove(i, l, till, sys, pc)?,
+            Op::Align => self.align(i, sys)?,
+            Op::Hmove(l) => self.hmove(i, l, sys)?,
             Op::Delay(e) => self.delay(i, e, sys, robot)?,
             Op::Brake => {
                 sys.brake();

@@ -30,6 +30,8 @@ pub(super) enum Wait {
     Cond,
     MotionPlanned,
     MotionDone,
+    /// `XMOVE … TILL`: the motion runs until it ends or the signal cuts it.
+    Till,
     Held,
     Paused,
     Accept {
@@ -65,6 +67,7 @@ impl Wait {
             Wait::Cond
                 | Wait::MotionPlanned
                 | Wait::MotionDone
+                | Wait::Till
                 | Wait::Held
                 // A datagram may come from outside at any time (no generation to watch).
                 | Wait::UdpRecv { .. }
@@ -90,6 +93,7 @@ impl Wait {
                 "motion: waiting for the current motion to come within ACCURACY".into()
             }
             Wait::MotionDone => "BREAK: waiting for the motion to finish".into(),
+            Wait::Till => "XMOVE: moving until the motion ends or the TILL signal".into(),
             Wait::Held => "HOLD".into(),
             Wait::Paused => "PAUSE (MC CONTINUE resumes)".into(),
             Wait::Accept { port, .. } => format!("TCP_ACCEPT on port {port}"),

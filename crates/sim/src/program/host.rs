@@ -1,12 +1,14 @@
 //! The machine as an AS interpreter's [`System`], for one `run_until`: motions go to the
 //! machine's planner (the same joint moves, straight lines, blending, braking and limits as the
-//! native server), `SWITCH(…)`, `ERROR` and `MC …` read and operate its panel, the `UDP_…`
-//! instructions real UDP sockets ([`UdpPorts`]), and the
+//! native server; circles for `C1MOVE`/`C2MOVE`, hybrid paths for `HMOVE`), `SWITCH(…)`,
+//! `ERROR` and `MC …` read and operate its panel, the `UDP_…` instructions real UDP sockets
+//! ([`UdpPorts`]), and the
 //! `TCP_…` instructions use the program's [`SocketTable`] (the emulator keeps only its fault
 //! hooks: reply faults, paused reading, counting sessions).
 
 use std::time::Duration;
 
+use fs020n_as::error::CIRCLE_NOT_DEFINED;
 use fs020n_as::flange;
 use fs020n_as::sockets::{SocketTable, TcpCode};
 use fs020n_as::{
@@ -18,7 +20,7 @@ use fs020n_proto::{ErrorCode, JointsDeg};
 
 use super::net::{delivery_of, UdpPorts};
 use crate::machine::{Machine, OnTick, PlannedAfterBrake};
-use crate::motion::{LinearPath, Motion, Shape};
+use crate::motion::{CircularPath, CircularPlanError, HybridPath, LinearPath, Motion, Shape};
 
 /// Tool speed that percent and mm/s speeds of an `LMOVE` refer to, mm/s (an assumption: the
 /// FS020N's maximum TCP speed is not published; the protocol-1040 server uses time-based
@@ -109,12 +111,18 @@ impl Host<'_> {
     /// The duration asked of a straight-line move, seconds (the planner stretches it when a
     /// joint would exceed its speed).
     fn linear_duration(&self, req: &MotionRequest, from: JointsDeg, to: JointsDeg) -> f64 {
-        let monitor = self.m.monitor_speed().max(0.01);
         let model = self.m.model();
         let dist_mm = model
             .forward(&from.to_rad())
             .distance_m(&model.forward(&to.to_rad()))
             * 1000.0;
+        self.tool_path_duration(req, dist_mm)
+    }
+
+    /// The duration asked of a tool path `dist_mm` long (a line's or a circle's), seconds: the
+    /// length at the tool speed, or the time the program gives.
+    fn tool_path_duration(&self, req: &MotionRequest, dist_mm: f64) -> f64 {
+        let monitor = self.m.monitor_speed().max(0.01);
         let tool_speed = |program_mm_s: f64| {
             let v = if req.abs_speed {
                 program_mm_s.min(MAX_TOOL_SPEED_MM_S * monitor / 100.0)
@@ -163,6 +171,33 @@ impl Host<'_> {
                     Some(p) => Shape::Linear(p),
                     None => {
                         tracing::warn!(%target, "E1088: no straight-line path to the destination");
+                        return Err(ErrorCode::DESTINATION_OUT_OF_RANGE);
+                    }
+                }
+            }
+            MotionKind::Circular => {
+                let Some(via) = req.via else {
+                    return Err(CIRCLE_NOT_DEFINED);
+                };
+                let duration_of = |length_mm| self.tool_path_duration(req, length_mm);
+                match CircularPath::plan(model, from, &flange::pose_of(&via), target, duration_of) {
+                    Ok(p) => Shape::Circular(p),
+                    Err(CircularPlanError::NoCircle(e)) => {
+                        tracing::warn!(%e, "E0112: circular motion not defined");
+                        return Err(CIRCLE_NOT_DEFINED);
+                    }
+                    Err(CircularPlanError::Unreachable) => {
+                        tracing::warn!(%target, "E1088: no circular path to the destination");
+                        return Err(ErrorCode::DESTINATION_OUT_OF_RANGE);
+                    }
+                }
+            }
+            MotionKind::Hybrid => {
+                let duration_of = |length_mm| self.tool_path_duration(req, length_mm);
+                match HybridPath::plan(model, from, target, duration_of) {
+                    Some(p) => Shape::Hybrid(p),
+                    None => {
+                        tracing::warn!(%target, "E1088: no hybrid path to the destination");
                         return Err(ErrorCode::DESTINATION_OUT_OF_RANGE);
                     }
                 }
