@@ -122,8 +122,11 @@ impl Emulator {
 async fn drive(weak: WeakEmulator) {
     loop {
         let Some(emu) = weak.upgrade() else { return };
-        let next = emu.with(|c| c.next_program_event());
+        // Subscribe before reading the next event: a change between the two (a client
+        // connecting, bytes arriving) must wake this loop, not wait for the program's next
+        // timeout.
         let mut changes = emu.changes();
+        let next = emu.with(|c| c.next_program_event());
         // Without an event of its own the program only waits for clients; look again now and
         // then to notice that the emulator is gone.
         let at = match next {
