@@ -77,9 +77,12 @@ impl Emulator {
     /// (`"E1088"`) can be chosen. `terminal=True` serves the controller's AS monitor terminal
     /// (telnet, login `as`) on another free loopback port (`terminal_address`); `bare=True`
     /// starts a new controller with nothing loaded (no protocol port answers until a program
-    /// is loaded through the terminal and started).
+    /// is loaded through the terminal and started). `as_program="file.as"` runs that AS file
+    /// (your own server program, in any code page) instead of the native server, as
+    /// `fs020n sim --as-program`; `stubs=["GUNON"]` declares instructions no-ops for it (and
+    /// for every program loaded into a bare controller).
     #[new]
-    #[pyo3(signature = (*, port=0, joints=None, monitor_speed=None, power=true, run=true, repeat=true, teach_lock=false, error=None, pendant=false, terminal=false, bare=false))]
+    #[pyo3(signature = (*, port=0, joints=None, monitor_speed=None, power=true, run=true, repeat=true, teach_lock=false, error=None, pendant=false, terminal=false, bare=false, as_program=None, stubs=Vec::new()))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -94,6 +97,8 @@ impl Emulator {
         pendant: bool,
         terminal: bool,
         bare: bool,
+        as_program: Option<std::path::PathBuf>,
+        stubs: Vec<String>,
     ) -> PyResult<Emulator> {
         let loopback = |port| SocketAddr::from(([127, 0, 0, 1], port));
         let mut opts = SimOptions::default().listen(loopback(port)).panel(Panel {
@@ -112,6 +117,15 @@ impl Emulator {
         if bare {
             opts = opts.bare();
         }
+        if let Some(path) = as_program {
+            opts = opts.program(path);
+        }
+        if !stubs.is_empty() && opts.program.is_none() && !opts.bare {
+            return Err(pyo3::exceptions::PyValueError::new_err(
+                "stubs apply to AS programs: give them with as_program=… or bare=True",
+            ));
+        }
+        opts.program_load = (stubs.iter()).fold(fs020n_as::LoadOptions::new(), |o, s| o.stub(s));
         if let Some(j) = joints {
             opts = opts.joints(JointsDeg::new(six(j, "joints")?));
         }

@@ -90,3 +90,29 @@ def test_a_bare_emulator_serves_its_terminal_and_nothing_else_until_a_program_ru
         assert emu.power_cycle() == []
         with pytest.raises(fs020n.ConnectError):
             fs020n.Robot(emu.address, connect_timeout=0.3)
+
+
+SERVER_AS = __import__("pathlib").Path(__file__).resolve().parents[2] / "as" / "programs" / "server1040.as"
+
+
+def test_an_as_program_file_runs_as_the_controller_and_a_robot_drives_it(tmp_path):
+    # The project's server text plus one instruction of an application the emulator does not
+    # know, declared a no-op: the program runs and serves protocol 1040.
+    text = SERVER_AS.read_bytes().replace(
+        b".PROGRAM autostart.pc()", b".PROGRAM autostart.pc()\r\n  GUNON 1", 1
+    )
+    assert b"GUNON 1" in text
+    path = tmp_path / "welding_cell.as"
+    path.write_bytes(text)
+    with pytest.raises(fs020n.Error, match="GUNON"):
+        fs020n.Emulator(as_program=path)
+    with fs020n.Emulator(as_program=path, stubs=["GUNON"]) as emu:
+        assert "autostart.pc" in emu.programs
+        with fs020n.Robot(emu.address, connect_timeout=10) as robot:
+            status = robot.status()
+            assert len(status.joints) == 6
+
+
+def test_stubs_need_an_as_program_or_a_bare_controller():
+    with pytest.raises(ValueError, match="stubs apply to AS programs"):
+        fs020n.Emulator(stubs=["GUNON"])

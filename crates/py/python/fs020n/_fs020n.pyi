@@ -243,6 +243,8 @@ class Emulator:
         pendant: bool = False,
         terminal: bool = False,
         bare: bool = False,
+        as_program: Union[str, PathLike[str], None] = None,
+        stubs: Sequence[str] = (),
     ) -> None: ...
     @property
     def address(self) -> str: ...
