@@ -364,6 +364,18 @@ pub enum StmtKind {
         offset: [Option<Expr>; 3],
         /// O, A, T of the rotation (Z-Y-Z Euler angles, as a transformation's), degrees.
         rotation: [Option<Expr>; 3],
+        /// The seventh value: this motion's speed, percent.
+        speed: Option<Box<Expr>>,
+    },
+    /// `DRIVE joint, degrees[, speed]`: one joint turned by an amount (the others stay), a
+    /// joint motion at `speed` percent for this motion (the program's speed when omitted).
+    Drive {
+        /// The joint, 1 to 6.
+        joint: Expr,
+        /// The change, degrees.
+        degrees: Expr,
+        /// Percent of the maximum speed for this motion.
+        speed: Option<Expr>,
     },
     /// `C1MOVE location`: the intermediate point of a circular motion (the `C2MOVE` that
     /// follows gives its end).

@@ -306,8 +306,11 @@ pub(crate) enum Op {
     Appro(bool, TExpr, RExpr),
     /// `DEPART`/`LDEPART` (linear) distance.
     Depart(bool, RExpr),
-    /// `DRAW`/`TDRAW` (tool axes): X, Y, Z offsets, then O, A, T of the rotation.
-    Draw(bool, Box<[Option<RExpr>; 6]>),
+    /// `DRAW`/`TDRAW` (tool axes): X, Y, Z offsets, O, A, T of the rotation, and the speed
+    /// (percent, this motion only).
+    Draw(bool, Box<[Option<RExpr>; 7]>),
+    /// `DRIVE joint, degrees[, speed]`.
+    Drive(Box<(RExpr, RExpr, Option<RExpr>)>),
     /// `C1MOVE` (false: the via point) / `C2MOVE` (true: the end) location.
     Circle(bool, TExpr),
     /// `XMOVE location TILL signal`.
@@ -1107,14 +1110,25 @@ impl Compiler {
                 tool,
                 offset,
                 rotation,
+                speed,
             } => {
-                let mut v: [Option<RExpr>; 6] = Default::default();
-                for (k, e) in offset.iter().chain(rotation).enumerate() {
+                let mut v: [Option<RExpr>; 7] = Default::default();
+                let speed = speed.as_deref().cloned();
+                for (k, e) in offset.iter().chain(rotation).chain([&speed]).enumerate() {
                     if let Some(e) = e {
                         v[k] = Some(self.real(e)?);
                     }
                 }
                 self.emit(Op::Draw(*tool, Box::new(v)), line);
+            }
+            StmtKind::Drive {
+                joint,
+                degrees,
+                speed,
+            } => {
+                let speed = speed.as_ref().map(|e| self.real(e)).transpose()?;
+                let op = Op::Drive(Box::new((self.real(joint)?, self.real(degrees)?, speed)));
+                self.emit(op, line);
             }
             StmtKind::CircleVia(target) | StmtKind::CircleEnd(target) => {
                 let end = matches!(&s.kind, StmtKind::CircleEnd(_));

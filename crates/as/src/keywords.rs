@@ -36,6 +36,7 @@ pub const STATEMENTS: &[(&str, usize)] = &[
     ("dlysig", 6),
     ("do", 2),
     ("draw", 4),
+    ("drive", 5),
     ("dwrist", 6),
     ("else", 4),
     ("enable", 3),
@@ -106,7 +107,7 @@ pub const STATEMENTS: &[(&str, usize)] = &[
 /// program that uses them loads (each is listed as a warning), and a task that reaches one
 /// stops with E0111 naming it (or goes on, when the user stubs it). They also keep
 /// abbreviations honest (`L` is not taken for `LMOVE` when the controller knows `LAPPRO`).
-pub const UNSUPPORTED: &[&str] = &["drive", "extcall", "intfchk", "japro", "prefetch.sigins"];
+pub const UNSUPPORTED: &[&str] = &["extcall", "intfchk", "japro", "prefetch.sigins"];
 
 /// Families of application instructions (multi-robot `L3…` forms, `RTC_…`, `UDP_…`, the
 /// interface panel's `IFPW…`), by

@@ -1561,19 +1561,33 @@ impl<'a> Cur<'a> {
                         *slot = Some(self.expr()?);
                     }
                 }
-                if self.eat(&Tok::Comma) {
-                    // A seventh value (a speed): not modelled.
-                    self.pos = self.toks.len();
-                    return Ok(LineKind::Stmt(StmtKind::NotEmulated {
-                        instruction: format!("{} (with a speed)", kw.to_uppercase()),
-                        stubbed: false,
-                    }));
-                }
+                // A seventh value: this motion's speed.
+                let speed = if self.eat(&Tok::Comma) {
+                    Some(Box::new(self.expr()?))
+                } else {
+                    None
+                };
                 let [x, y, z, o, a, t] = values;
                 LineKind::Stmt(StmtKind::Draw {
                     tool: kw == "tdraw",
                     offset: [x, y, z],
                     rotation: [o, a, t],
+                    speed,
+                })
+            }
+            "drive" => {
+                let joint = self.expr()?;
+                self.expect(&Tok::Comma, "`,` after DRIVE's joint number")?;
+                let degrees = self.expr()?;
+                let speed = if self.eat(&Tok::Comma) {
+                    Some(self.expr()?)
+                } else {
+                    None
+                };
+                LineKind::Stmt(StmtKind::Drive {
+                    joint,
+                    degrees,
+                    speed,
                 })
             }
             "c1move" => LineKind::Stmt(StmtKind::CircleVia(self.expr()?)),

@@ -6,7 +6,7 @@
 mod common;
 
 use common::{ms, pc, start};
-use fs020n_as::system::{MotionKind, System, Target};
+use fs020n_as::system::{MotionKind, Speed, System, Target};
 use fs020n_as::Interpreter;
 use fs020n_kin::{Pose, Xyzoat};
 use fs020n_proto::ErrorCode;
@@ -286,19 +286,6 @@ fn draw_tilts_the_tool_about_its_tip() {
 }
 
 #[test]
-fn draw_with_a_speed_loads_as_not_emulated() {
-    let i = Interpreter::from_source(
-        "t.as",
-        ".PROGRAM rob()\n  DRAW 1, 2, 3, 10, 0, 0, 50\n.END\n",
-        fs020n_as::Config::default(),
-    )
-    .expect("loads");
-    assert!(i.warnings().iter().any(|w| w
-        .message
-        .starts_with("DRAW (with a speed) loads but is not emulated")));
-}
-
-#[test]
 fn align_turns_the_tool_z_onto_the_nearest_world_axis_by_a_joint_motion() {
     let (i, s) = robot(
         "  JMOVE TRANS(900, 100, 600, 30, 160, 10)\n  BREAK\n  ALIGN\n  BREAK\n  HERE a\n  DECOMPOSE a[0] = a",
@@ -397,4 +384,64 @@ fn dest_is_the_target_of_the_latest_motion_while_it_runs() {
         0.001,
         "#DEST",
     );
+}
+
+#[test]
+fn draw_takes_a_seventh_value_as_this_motions_speed() {
+    let (_, s) = robot(
+        &format!("  SPEED 50 ALWAYS\n  LMOVE {PICK}\n  BREAK\n  DRAW 10, , , , , , 20\n  BREAK\n  DRAW -10\n  BREAK"),
+        10,
+    );
+    let speeds: Vec<Speed> = s.motions.iter().map(|(_, m)| m.speed).collect();
+    assert_eq!(
+        speeds,
+        vec![
+            Speed::Percent(50.0),
+            Speed::Percent(20.0),
+            Speed::Percent(50.0)
+        ],
+        "the speed holds for its DRAW only"
+    );
+}
+
+#[test]
+fn drive_turns_one_joint_by_an_amount_at_its_own_speed() {
+    let (i, s) = robot(
+        "  SPEED 80 ALWAYS\n  JMOVE #PPOINT(10, 20, -80, 5, -60, 15)\n  BREAK\n  DRIVE 2, -12.5, 30\n  BREAK\n  DRIVE 6, 90\n  BREAK\n  HERE #h\n  DECOMPOSE h[0] = #h",
+        10,
+    );
+    close(
+        &arr(&i, "h"),
+        &[10.0, 7.5, -80.0, 5.0, -60.0, 105.0],
+        0.01,
+        "DRIVE 2 then 6",
+    );
+    let last: Vec<(MotionKind, Speed)> = s.motions[1..]
+        .iter()
+        .map(|(_, m)| (m.kind, m.speed))
+        .collect();
+    assert_eq!(
+        last,
+        vec![
+            (MotionKind::Joint, Speed::Percent(30.0)),
+            (MotionKind::Joint, Speed::Percent(80.0))
+        ]
+    );
+}
+
+#[test]
+fn drive_of_a_joint_that_does_not_exist_stops_with_an_illegal_value_and_does_not_move() {
+    let src = format!(
+        "{}.PROGRAM rob()\n  DRIVE 7, 10\n.END\n",
+        pc("  MC EXECUTE rob")
+    );
+    let (mut i, mut s) = start(&src);
+    i.run_until(&mut s, ms(1000));
+    assert!(s.motions.is_empty(), "{:?}", s.motions);
+    let e = i
+        .tasks(&s)
+        .into_iter()
+        .find_map(|t| t.last_error)
+        .expect("the robot task stopped with an error");
+    assert!(e.contains("DRIVE joint 7"), "{e}");
 }

@@ -209,18 +209,18 @@ fn block_words_are_never_stubbed() {
 
 #[test]
 fn repeated_uses_give_one_warning_with_the_count() {
-    let src = ".PROGRAM p()\n  DRIVE 2, 10\n  DRIVE 3, 10\n  DRIVE 4, 10\n.END\n";
+    let src = ".PROGRAM p()\n  INTFCHK 2\n  INTFCHK 3\n  INTFCHK 4\n.END\n";
     let m = fs020n_as::parse("t.as", src).expect("loads");
     assert_eq!(m.warnings.len(), 1);
     assert_eq!(
         m.warnings[0].to_string(),
-        "t.as:2:3: DRIVE loads but is not emulated (3 lines, the first here): a task that reaches it stops with E0111 (--stub DRIVE makes it a no-op)"
+        "t.as:2:3: INTFCHK loads but is not emulated (3 lines, the first here): a task that reaches it stops with E0111 (--stub INTFCHK makes it a no-op)"
     );
 }
 
 #[test]
 fn forms_from_pc_programs_load_as_not_emulated() {
-    // Interface-panel output, DRIVE, a monitor command the emulator does not run, functions
+    // Interface-panel output, INTFCHK, a monitor command the emulator does not run, functions
     // and switches it does not keep: each loads, the program around them runs (EXISTREAL,
     // ROUND and FRAME now run: no warning).
     let src = concat!(
@@ -230,7 +230,7 @@ fn forms_from_pc_programs_load_as_not_emulated() {
         "  END\n",
         "  IFPWPRINT 1 = \"ready\"\n",
         "  IFPWOVERWRITE 1, 2 = \"x\"\n",
-        "  DRIVE 6, 90\n",
+        "  INTFCHK 6\n",
         "  MC ZPOWER ON\n",
         "  IF SWITCH(EMERGENCY) THEN\n",
         "    x = 1\n",
@@ -265,7 +265,7 @@ fn forms_from_pc_programs_load_as_not_emulated() {
         [
             "5: IFPWPRINT",
             "6: IFPWOVERWRITE",
-            "7: DRIVE",
+            "7: INTFCHK",
             "8: MC ZPOWER",
             "9: the function SWITCH(EMERGENCY)",
             "14: the function STRTOPOS",

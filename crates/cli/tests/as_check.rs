@@ -22,7 +22,7 @@ fn run(args: &[&str], files: &[&std::path::Path]) -> Output {
         .expect("runs")
 }
 
-const GOOD: &[u8] = b".** a backup\r\n.NETCONF 192.168.0.2\r\n.PROGRAM autostart.pc() #0 ; \x83\x52\x83\x81\r\n  DRIVE 2, 10\r\n  TCP_LISTEN .r, 10050\r\n.END\r\n";
+const GOOD: &[u8] = b".** a backup\r\n.NETCONF 192.168.0.2\r\n.PROGRAM autostart.pc() #0 ; \x83\x52\x83\x81\r\n  EXTCALL 2\r\n  TCP_LISTEN .r, 10050\r\n.END\r\n";
 
 #[test]
 fn a_file_that_loads_exits_0_and_lists_its_warnings() {
@@ -40,7 +40,7 @@ fn a_file_that_loads_exits_0_and_lists_its_warnings() {
     );
     assert!(
         text.contains(&format!(
-            "{name}:4:3: warning: DRIVE loads but is not emulated"
+            "{name}:4:3: warning: EXTCALL loads but is not emulated"
         )),
         "{text}"
     );

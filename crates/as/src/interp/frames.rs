@@ -192,16 +192,17 @@ impl Interpreter {
         &mut self,
         i: TaskSlot,
         tool: bool,
-        values: &[Option<RExpr>; 6],
+        values: &[Option<RExpr>; 7],
         sys: &mut dyn System,
     ) -> R<Flow> {
         self.require_robot(i.is_robot(), if tool { "TDRAW" } else { "DRAW" })?;
         let mut d = [0f32; 6];
-        for (k, e) in values.iter().enumerate() {
+        for (k, e) in values[..6].iter().enumerate() {
             if let Some(e) = e {
                 d[k] = self.eval_r(i, e, sys)?;
             }
         }
+        self.one_motion_speed(i, values[6].as_ref(), sys)?;
         let here = self.here_world(sys)?;
         let target = if tool {
             trans_of(&(pose_of(&here) * pose_of(&d)))

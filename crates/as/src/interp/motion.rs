@@ -150,6 +150,55 @@ impl Interpreter {
         })
     }
 
+    /// `DRIVE joint, degrees[, speed]`: a joint motion from where the arm is, one joint turned
+    /// by `degrees`, at `speed` percent for this motion (the program's speed when omitted).
+    #[inline(always)]
+    pub(super) fn drive(
+        &mut self,
+        i: TaskSlot,
+        args: &(RExpr, RExpr, Option<RExpr>),
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        self.require_robot(i.is_robot(), "DRIVE")?;
+        let (joint, degrees, speed) = args;
+        let joint = self.eval_r(i, joint, sys)?;
+        if !(1.0..=6.0).contains(&joint) || joint.fract() != 0.0 {
+            return Err(Box::new(RuntimeError::IllegalValue(format!(
+                "DRIVE joint {joint} (1 to 6)"
+            ))));
+        }
+        let degrees = f64::from(self.eval_r(i, degrees, sys)?);
+        if !degrees.is_finite() {
+            return Err(Box::new(RuntimeError::IllegalValue(format!(
+                "DRIVE by {degrees} degrees"
+            ))));
+        }
+        self.one_motion_speed(i, speed.as_ref(), sys)?;
+        let mut target = sys.joints();
+        target[joint as usize - 1] += degrees;
+        self.motion(i, MotionKind::Joint, Target::Joints(target), 0.0, sys)
+    }
+
+    /// The speed (percent, 0.01–100) a motion instruction gives for itself (`DRIVE`'s, `DRAW`'s
+    /// last argument): used by the next motion only, as `SPEED p` without `ALWAYS`.
+    pub(super) fn one_motion_speed(
+        &mut self,
+        i: TaskSlot,
+        speed: Option<&RExpr>,
+        sys: &mut dyn System,
+    ) -> R<()> {
+        if let Some(e) = speed {
+            let v = f64::from(self.eval_r(i, e, sys)?);
+            if !(v.is_finite() && v > 0.0) {
+                return Err(Box::new(RuntimeError::IllegalValue(format!(
+                    "motion speed {v} %"
+                ))));
+            }
+            self.tasks[i].motion.speed_once = Some(Speed::Percent(v.clamp(0.01, 100.0)));
+        }
+        Ok(())
+    }
+
     /// `SPEED v [unit] [ALWAYS]`.
     #[inline(always)]
     pub(super) fn speed(

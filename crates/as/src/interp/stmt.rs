@@ -363,6 +363,7 @@ impl Interpreter {
             Op::Circle(end, t) => self.circle(i, *end, t, sys)?,
             Op::Xmove(l, till) => self.xmove(i, l, till, sys, pc)?,
             Op::Align => self.align(i, sys)?,
+            Op::Drive(args) => self.drive(i, args, sys)?,
             Op::Hmove(l) => self.hmove(i, l, sys)?,
             Op::Delay(e) => self.delay(i, e, sys, robot)?,
             Op::Brake => {
