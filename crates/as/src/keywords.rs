@@ -278,7 +278,8 @@ mod tests {
         assert_eq!(statement("tcp_recv"), Some("tcp_recv"));
         assert_eq!(statement("jappro"), Some("jappro"));
         assert_eq!(statement("jappr"), None);
-        assert!(not_emulated("drive"));
+        assert!(not_emulated("extcall"));
+        assert!(!not_emulated("drive"));
         assert!(!not_emulated("hmove"));
         assert!(!not_emulated("c1move"));
         assert!(!not_emulated("jappro"));
