@@ -299,18 +299,7 @@ impl Interpreter {
         };
         match r {
             Ok(bytes) => {
-                let dims = buf.idx.len().clamp(1, 3);
-                let base = self.indices(i, buf, sys)?;
-                let mut n = 0;
-                for (k, chunk) in bytes.chunks(max.max(1)).take(MAX_TRANSFER).enumerate() {
-                    let mut at = base;
-                    at[0] += k as i32;
-                    if at[0] > MAX_INDEX {
-                        break;
-                    }
-                    self.write_s_at(i, buf.var, &at[..dims], Bytes::from(chunk))?;
-                    n += 1;
-                }
+                let n = self.split_into_elements(i, buf, &bytes, max, sys)?;
                 self.write_r(i, count, n as f32, sys)?;
                 self.finish_ret(i, 0.0, sys)
             }
@@ -345,26 +334,7 @@ impl Interpreter {
                 "TCP_SEND element count {count}"
             ))));
         }
-        let dims = buf.idx.len().clamp(1, 3);
-        let base = self.indices(i, buf, sys)?;
-        let mut data = Vec::new();
-        for k in 0..count as i32 {
-            let mut at = base;
-            at[0] += k;
-            let v = match self
-                .store(i, buf.var.global)
-                .strs
-                .get(buf.var.slot as usize)
-                .and_then(|x| x.get(&at[..dims]))
-            {
-                Some(v) => v.clone(),
-                None => return Err(self.undefined(i, buf, Ty::Str, &at[..dims])),
-            };
-            data.extend_from_slice(&v);
-            if data.len() > MAX_TRANSFER {
-                break;
-            }
-        }
+        let data = self.string_elements(i, buf, count as i32, MAX_TRANSFER, sys)?;
         if data.len() > MAX_TRANSFER {
             self.write_r(i, ret, TcpCode::TooLong.code() as f32, sys)?;
             return Ok(None);

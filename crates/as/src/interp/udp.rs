@@ -7,7 +7,7 @@ use crate::compile::{LRef, Op, Ty, UdpRecvFrom, UdpSendTo};
 use crate::error::RuntimeError;
 use crate::sockets::TcpCode;
 use crate::system::{Datagram, SockPoll, System};
-use crate::value::{Bytes, MAX_INDEX};
+use crate::value::MAX_INDEX;
 
 use super::arith::{ns, Ns, R};
 use super::task::{Flow, TaskSlot, Wait};
@@ -32,27 +32,7 @@ impl Interpreter {
                 "UDP_SENDTO element count {count}"
             ))));
         }
-        let buf = &op.buf;
-        let dims = buf.idx.len().clamp(1, 3);
-        let base = self.indices(i, buf, sys)?;
-        let mut data = Vec::new();
-        for k in 0..count as i32 {
-            let mut at = base;
-            at[0] += k;
-            let v = match self
-                .store(i, buf.var.global)
-                .strs
-                .get(buf.var.slot as usize)
-                .and_then(|x| x.get(&at[..dims]))
-            {
-                Some(v) => v.clone(),
-                None => return Err(self.undefined(i, buf, Ty::Str, &at[..dims])),
-            };
-            data.extend_from_slice(&v);
-            if data.len() > MAX_TRANSFER {
-                break;
-            }
-        }
+        let data = self.string_elements(i, &op.buf, count as i32, MAX_TRANSFER, sys)?;
         let r = if data.len() > MAX_TRANSFER {
             TcpCode::TooLong.code()
         } else {
@@ -129,20 +109,8 @@ impl Interpreter {
         };
         let ret = match r {
             Ok(d) => {
-                let buf = &op.buf;
-                let dims = buf.idx.len().clamp(1, 3);
-                let base = self.indices(i, buf, sys)?;
                 let bytes = &d.bytes[..d.bytes.len().min(MAX_TRANSFER)];
-                let mut n = 0;
-                for (k, chunk) in bytes.chunks(max.max(1)).enumerate() {
-                    let mut at = base;
-                    at[0] += k as i32;
-                    if at[0] > MAX_INDEX {
-                        break;
-                    }
-                    self.write_s_at(i, buf.var, &at[..dims], Bytes::from(chunk))?;
-                    n += 1;
-                }
+                let n = self.split_into_elements(i, &op.buf, bytes, max, sys)?;
                 self.write_r(i, &op.count, n as f32, sys)?;
                 if let Some(ip) = &op.ip {
                     let dims = ip.idx.len().clamp(1, 3);

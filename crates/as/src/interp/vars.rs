@@ -360,6 +360,66 @@ impl Interpreter {
         }
     }
 
+    /// The bytes of `n` consecutive string elements from `buf` on (`$buf[i]`, `$buf[i+1]`, …),
+    /// joined; it stops once more than `limit` bytes are gathered (the caller refuses those).
+    /// An element never assigned is the AS error "variable not defined".
+    pub(super) fn string_elements(
+        &mut self,
+        i: TaskSlot,
+        buf: &LRef,
+        n: i32,
+        limit: usize,
+        sys: &mut dyn System,
+    ) -> R<Vec<u8>> {
+        let dims = buf.idx.len().clamp(1, 3);
+        let base = self.indices(i, buf, sys)?;
+        let mut data = Vec::new();
+        for k in 0..n {
+            let mut at = base;
+            at[0] += k;
+            let v = match self
+                .store(i, buf.var.global)
+                .strs
+                .get(buf.var.slot as usize)
+                .and_then(|x| x.get(&at[..dims]))
+            {
+                Some(v) => v.clone(),
+                None => return Err(self.undefined(i, buf, Ty::Str, &at[..dims])),
+            };
+            data.extend_from_slice(&v);
+            if data.len() > limit {
+                break;
+            }
+        }
+        Ok(data)
+    }
+
+    /// Writes `bytes` into consecutive string elements from `buf` on, at most `max` bytes each
+    /// and at most [`super::MAX_TRANSFER`] elements, stopping at the last index: how
+    /// `TCP_RECV` and `UDP_RECVFROM` fill their arrays. The number of elements written.
+    pub(super) fn split_into_elements(
+        &mut self,
+        i: TaskSlot,
+        buf: &LRef,
+        bytes: &[u8],
+        max: usize,
+        sys: &mut dyn System,
+    ) -> R<usize> {
+        let dims = buf.idx.len().clamp(1, 3);
+        let base = self.indices(i, buf, sys)?;
+        let mut n = 0;
+        for (k, chunk) in (bytes.chunks(max.max(1)).take(super::MAX_TRANSFER)).enumerate() {
+            let mut at = base;
+            at[0] += k as i32;
+            if at[0] > MAX_INDEX {
+                break;
+            }
+            self.write_s_at(i, buf.var, &at[..dims], Bytes::from(chunk))?;
+            n += 1;
+        }
+        Ok(n)
+    }
+
     pub(super) fn write_s_at(&mut self, i: TaskSlot, var: VarRef, idx: &[i32], v: Bytes) -> R<()> {
         if v.len() > MAX_STRING {
             return Err(Box::new(RuntimeError::StringTooLong(v.len())));
