@@ -156,10 +156,19 @@ fn stream(c: &mut Criterion) {
             (Some(a), Some(b)) if b > a => format!("{:.0}", 60.0 / (b - a).as_secs_f64()),
             _ => "?".into(),
         };
-        let steps: u64 = s.c.program_tasks().unwrap().iter().map(|t| t.steps).sum();
+        let tasks = s.c.program_tasks().unwrap();
+        let steps: u64 = tasks.iter().map(|t| t.steps).sum();
+        // The deterministic counts, with each task's share (the robot task runs `ros_move`,
+        // pc1 the communication task).
+        let per_task: Vec<String> = tasks
+            .iter()
+            .filter(|t| t.steps > 0)
+            .map(|t| format!("{} {}", t.task, t.steps))
+            .collect();
         println!(
-            "{name}: {factor:.0} simulated s per wall s, {cpu_factor} per CPU s ({} motions, {steps} AS steps in 60 s)",
+            "{name}: {factor:.0} simulated s per wall s, {cpu_factor} per CPU s ({} motions, {steps} AS steps in 60 s: {})",
             s.c.counters().motions,
+            per_task.join(", "),
         );
     }
     g.finish();
