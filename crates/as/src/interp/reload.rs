@@ -1,22 +1,5 @@
 //! Taking a new set of programs while tasks run (`LOAD` on a running controller):
-//! [`Interpreter::adopt`].
-//!
-//! The running interpreter keeps its state (tasks, clock, signals, timers, switches, `TOOL`,
-//! `BASE`, terminal) and takes the new interpreter's compiled programs and its globals; every
-//! reference into the old code is mapped onto the new one **by name**:
-//! - a task's frames keep their program-relative step and their locals: the program of each
-//!   frame must be in the new set with the same text (else [`ReloadError`]);
-//! - the programs an armed interrupt (`ON … CALL`) or an error program (`ONE`) names must be in
-//!   the new set (their text may change: they run from their first step);
-//! - by-reference arguments that name a global follow its (type, name);
-//! - locals kept between executions ([`crate::Config::persistent_locals`]) follow their
-//!   program when its text is unchanged, and are dropped otherwise;
-//! - globals by (type, name): a value held stays (a running task keeps what it computed); a
-//!   global that holds no value takes the new set's (from its data sections); a global the new
-//!   programs no longer use is kept all the same (as a controller keeps its variables until
-//!   they are deleted), so a later program naming it finds its value;
-//! - the `assigned` data items (the data sections of the file just loaded) then overwrite the
-//!   elements they name: AS-E (the `LOAD` command) says a load overwrites variables silently.
+//! [`Interpreter::adopt`] (what is kept and how it is mapped is in its documentation).
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -30,13 +13,29 @@ use super::task::{Frame, Interrupt};
 use super::Interpreter;
 
 impl Interpreter {
-    /// Takes `new`'s programs and globals without stopping the running tasks (see the module
-    /// documentation of `reload.rs` for what is kept and how it is mapped), then assigns the
-    /// `assigned` data items (those of the file just loaded) over the kept values.
+    /// Takes `new`'s programs and globals without stopping the running tasks, then assigns
+    /// the `assigned` data items (those of the file just loaded) over the kept values. On an
+    /// error nothing changes.
     ///
-    /// `self` keeps its configuration, clock, tasks, signals, timers, switches, `TOOL`/`BASE`
-    /// and terminal; nothing of `new` but its code and globals is used. On an error nothing
-    /// changes.
+    /// The running interpreter keeps its state (tasks, clock, signals, timers, switches,
+    /// `TOOL`, `BASE`, terminal) and takes the new interpreter's compiled programs and its
+    /// globals; every reference into the old code is mapped onto the new one **by name**:
+    /// - a task's frames keep their program-relative step and their locals: the program of
+    ///   each frame must be in the new set with the same text (else [`ReloadError`]);
+    /// - the programs an armed interrupt (`ON … CALL`) or an error program (`ONE`) names must
+    ///   be in the new set (their text may change: they run from their first step);
+    /// - by-reference arguments that name a global follow its (type, name);
+    /// - locals kept between executions ([`crate::Config::persistent_locals`]) follow their
+    ///   program when its text is unchanged, and are dropped otherwise;
+    /// - globals by (type, name): a value held stays (a running task keeps what it computed);
+    ///   a global that holds no value takes the new set's (from its data sections); a global
+    ///   the new programs no longer use is kept all the same (a controller keeps its variables
+    ///   until they are deleted), so a later program naming it finds its value;
+    /// - the `assigned` data items (the data sections of the file just loaded) then overwrite
+    ///   the elements they name: AS-E (the `LOAD` command) says a load overwrites variables
+    ///   silently.
+    ///
+    /// Nothing of `new` but its code and globals is used (its configuration neither).
     ///
     /// ```
     /// use std::time::Duration;
