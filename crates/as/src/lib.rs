@@ -65,8 +65,8 @@ mod value;
 
 pub use error::{LoadError, ParseError, RuntimeError};
 pub use interp::{
-    Config, CostModel, HandSignals, Interpreter, Refusal, TaskInfo, TaskState, TerminalLine,
-    TraceLine, MAX_STRING, MAX_TRANSFER,
+    Config, CostModel, HandSignals, Interpreter, Refusal, ReloadError, TaskInfo, TaskState,
+    TerminalLine, TraceLine, MAX_STRING, MAX_TRANSFER,
 };
 pub use load::{check, CheckReport, Loaded};
 pub use options::LoadOptions;

@@ -1,6 +1,7 @@
 //! `fs020n deploy` and `fs020n doctor` against the emulator's terminal over loopback: a bare
 //! controller (`fs020n sim --bare --terminal`), the load, AUTOSTART, a session through the
-//! loaded program, replace, dry run, a syntax error aborted, P2076.
+//! loaded program, a deploy beside a running program, replace, dry run, a syntax error
+//! aborted, P2076.
 #![cfg(unix)]
 #![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
@@ -161,6 +162,39 @@ fn a_second_deploy_refuses_without_replace_and_replaces_with_it() {
                 .any(|l| l.contains("\"verify\"") && l.contains("\"ok\"")),
         "{out}"
     );
+}
+
+#[test]
+fn deploy_to_a_controller_whose_own_program_runs_in_another_task_leaves_it_running() {
+    let b = bare();
+    deploy(&b, &[]).success();
+    // The server now runs in PC task 1; a program of another file goes to PC task 2 beside
+    // it: loaded and started while the server runs, as a real controller allows.
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let file = dir.path().join("count.as");
+    std::fs::write(
+        &file,
+        ".PROGRAM count()\r\n  n = 0\r\n  WHILE TRUE DO\r\n    n = n + 1\r\n    TWAIT 0.1\r\n  END\r\n.END\r\n",
+    )
+    .expect("written");
+    let a = deploy(
+        &b,
+        &[
+            "--task",
+            "2",
+            "--program",
+            "count",
+            file.to_str().expect("utf-8"),
+        ],
+    )
+    .success();
+    let out = stdout(&a);
+    assert!(out.contains("autostart.pc in PC task 1"), "{out}");
+    assert!(out.contains("ok   start: count runs in PC task 2"), "{out}");
+    assert!(!out.contains("PCABORT"), "nothing was stopped: {out}");
+    // The server was not stopped: it still answers on the protocol port.
+    let a = fs020n(&b, &["--json", "status"]).success();
+    assert!(stdout(&a).contains("\"version\":1040"), "{}", stdout(&a));
 }
 
 #[test]

@@ -7,10 +7,13 @@
 //! - **A program of an existing name is overwritten** by a `LOAD`, as K-ROSET and the clients
 //!   that load on real robots see it ([`OVERWRITE_EXISTING`]); the E manual says the load is
 //!   refused instead, which the emulator does not play.
-//! - A program on a task's stack (started and not yet killed) is not replaced: its `LOAD` is
-//!   refused with P1014, the file's other programs load.
-//! - The interpreter is rebuilt from the whole memory when programs change; the global
-//!   variables then start again from the data sections (a real controller keeps them).
+//! - A program on a task's stack (started and not yet killed, or `CALL`ed by a running task)
+//!   is not replaced: its `LOAD` is refused with P1014, the file's other programs load.
+//! - When programs change and no task runs, the interpreter is rebuilt from the whole memory;
+//!   the global variables then start again from the data sections (a real controller keeps
+//!   them). While a task runs, the running interpreter takes the new programs without
+//!   stopping (`Controller::sync_runtime` in `controller/memory.rs`): variables keep their
+//!   values, except those the loaded file's data sections name.
 //! - The memory holds the **bytes** of what was loaded, in whatever code page the file was
 //!   written (Shift-JIS comments, Windows-1250 strings…): `SAVE` gives back what `LOAD` took,
 //!   line ends aside. Only names and headers are read as text.

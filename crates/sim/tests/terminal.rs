@@ -473,22 +473,161 @@ fn a_pc_program_that_completes_is_announced_and_an_aborted_one_is_not() {
     assert!(!drain(&mut t).contains("Program completed.No = 3"));
 }
 
+/// Counts in a loop, one step every 0.1 s.
+const COUNT: &str =
+    ".PROGRAM count()\n  n = 0\n  WHILE TRUE DO\n    n = n + 1\n    TWAIT 0.1\n  END\n.END\n";
+
+/// Another counter, in a file of its own.
+const OTHER: &str =
+    ".PROGRAM other()\n  m = 0\n  WHILE TRUE DO\n    m = m + 1\n    TWAIT 0.1\n  END\n.END\n";
+
+/// `TYPE name` as a number.
+fn type_real(t: &mut Term, name: &str) -> f64 {
+    let out = t.cmd(&format!("TYPE {name}"), false);
+    out.trim()
+        .parse()
+        .unwrap_or_else(|_| panic!("TYPE {name}: {out}"))
+}
+
+/// `count` running in PC task 1 for 450 ms.
+fn counting() -> Term {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("count.as", COUNT));
+    assert_eq!(t.cmd("PCEXECUTE 1: count", false), "");
+    t.advance(Duration::from_millis(450));
+    t
+}
+
 #[test]
-fn a_load_while_a_task_runs_is_stored_and_starts_once_every_task_has_stopped() {
+fn a_load_while_a_task_counts_takes_effect_at_once_and_the_count_never_resets_or_jumps() {
+    let mut reference = counting();
+    let mut t = counting();
+    assert_eq!(type_real(&mut t, "n"), 5.0);
+    loaded_ok(&t.load("other.as", OTHER));
+    assert_eq!(
+        t.cmd("PCEXECUTE 2: other", false),
+        "",
+        "no P1014: no waiting"
+    );
+    for k in 1..=20 {
+        t.advance(Duration::from_millis(100));
+        reference.advance(Duration::from_millis(100));
+        let n = type_real(&mut t, "n");
+        assert_eq!(
+            n,
+            5.0 + f64::from(k),
+            "one count per 0.1 s, from where it was"
+        );
+        assert_eq!(
+            n,
+            type_real(&mut reference, "n"),
+            "as if nothing was loaded"
+        );
+    }
+    assert_eq!(t.cmd("TYPE TASK (1001)", false), "1");
+    assert_eq!(t.cmd("TYPE TASK (1002)", false), "1");
+    assert_eq!(type_real(&mut t, "m"), 20.0);
+    assert_eq!(t.c.task_program(TaskId::Pc(1)).as_deref(), Some("count"));
+}
+
+/// The 1040 server in PC task 1 and one client session of six polls; with `load`, a file of
+/// another program is loaded (and its program started in PC task 2) between the third and
+/// the fourth. The replies, byte for byte.
+fn server_session(load: bool) -> Vec<Vec<u8>> {
     let mut t = Term::new(bare());
     loaded_ok(&t.load("server1040.as", SERVER));
     t.cmd("PCEXECUTE 1: autostart.pc", false);
     t.advance(Duration::from_millis(100));
-    loaded_ok(&t.load("x.as", ".PROGRAM extra()\n  x = 5\n.END\n"));
-    assert!(t.cmd("DIRECTORY/P", false).contains("extra"));
-    assert!(t.cmd("PCEXECUTE 2: extra", false).starts_with("(P1014)"));
-    // The running server is untouched.
-    assert!(t.c.task_running(TaskId::Pc(1)));
-    assert_eq!(poll(&mut t.c).len(), 14);
-    t.cmd("PCABORT 1:", false);
-    assert_eq!(t.cmd("PCEXECUTE 2: extra", false), "");
+    let client =
+        t.c.program_connect(None, [127, 0, 0, 1])
+            .expect("the program listens");
+    t.c.advance_by(Duration::from_millis(50));
+    let mut replies = Vec::new();
+    for k in 0..6 {
+        if k == 3 && load {
+            // The terminal does not move the controller's clock: the polls keep their times.
+            loaded_ok(&t.load("other.as", OTHER));
+            assert_eq!(t.cmd("PCEXECUTE 2: other", false), "");
+        }
+        assert!(t.c.program_send(client, b"1040 0 0"), "poll {k} sent");
+        t.c.advance_by(Duration::from_millis(100));
+        replies.push(t.c.program_recv(client).bytes);
+    }
+    if load {
+        assert_eq!(t.cmd("TYPE TASK (1002)", false), "1");
+    }
+    assert_eq!(t.cmd("TYPE TASK (1001)", false), "1");
+    replies
+}
+
+#[test]
+fn the_1040_server_keeps_its_client_session_across_a_load_of_another_file() {
+    let with = server_session(true);
+    let without = server_session(false);
+    for (k, r) in with.iter().enumerate() {
+        let text = String::from_utf8_lossy(r);
+        let fields: Vec<&str> = text.split_whitespace().collect();
+        assert_eq!((fields.len(), fields[0]), (14, "1040"), "reply {k}: {text}");
+    }
+    // The session's clock (TIMER(1)) runs on: each reply differs from the one before.
+    assert!(with.windows(2).all(|w| w[0] != w[1]), "{with:?}");
+    // Differential: the same socket answers the same bytes at the same times, as if nothing
+    // had been loaded (the controller's clock, and with it TIMER(1), runs the same).
+    assert_eq!(with, without);
+}
+
+#[test]
+fn a_load_replacing_the_running_program_is_refused_with_p1014_and_nothing_changes() {
+    let mut reference = counting();
+    let mut t = counting();
+    let changed = COUNT.replace("n + 1", "n + 100");
+    match t.load("count.as", &format!("{changed}{OTHER}")) {
+        Event::Loaded { errors, output, .. } => {
+            assert_eq!(errors, 1);
+            assert!(output.contains("count: (P1014)"), "{output}");
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(t.c.program_text("count").as_deref(), Some(COUNT));
+    for _ in 0..10 {
+        t.advance(Duration::from_millis(100));
+        reference.advance(Duration::from_millis(100));
+        assert_eq!(type_real(&mut t, "n"), type_real(&mut reference, "n"));
+    }
+    // The file's other program loaded and runs beside it.
+    assert_eq!(t.cmd("PCEXECUTE 2: other", false), "");
+}
+
+#[test]
+fn a_load_replacing_a_program_a_running_task_has_called_is_refused_with_p1014() {
+    let mut t = Term::new(bare());
+    let file =
+        ".PROGRAM top()\n  CALL inner\n.END\n.PROGRAM inner()\n  TWAIT 10\n  done = 1\n.END\n";
+    loaded_ok(&t.load("nest.as", file));
+    t.cmd("PCEXECUTE 1: top", false);
     t.advance(Duration::from_millis(100));
-    assert_eq!(t.cmd("TYPE x", false), "5");
+    match t.load("inner.as", ".PROGRAM inner()\n  done = 2\n.END\n") {
+        Event::Loaded { errors, output, .. } => {
+            assert_eq!(errors, 1);
+            assert!(output.contains("inner: (P1014)"), "{output}");
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(t.cmd("DELETE/P inner", true).contains("(P1018)"));
+    t.advance(Duration::from_secs(10));
+    assert_eq!(t.cmd("TYPE done", false), "1");
+}
+
+#[test]
+fn a_load_while_a_task_runs_keeps_variables_and_sets_those_its_data_sections_name() {
+    let mut t = counting();
+    let file = format!("{OTHER}.REALS\nlimit = 7\nn = 100\n.END\n");
+    loaded_ok(&t.load("other.as", &file));
+    assert_eq!(type_real(&mut t, "limit"), 7.0);
+    // AS-E: a LOAD overwrites variables silently; the counter goes on from the loaded value.
+    assert_eq!(type_real(&mut t, "n"), 100.0);
+    t.advance(Duration::from_millis(100));
+    assert_eq!(type_real(&mut t, "n"), 101.0);
 }
 
 #[test]

@@ -15,6 +15,7 @@
 //! | `observers.rs` | reading and setting state from outside (tasks, variables, signals, switches) |
 //! | `scheduler.rs` | `run_until`: which task runs next, waits and polls, interrupts, errors |
 //! | `start.rs` | starting and ending programs (`start`, `EXECUTE`, `PCEXECUTE`, frames) |
+//! | `reload.rs` | taking new programs while tasks run (`adopt`): frames, handlers and globals mapped by name |
 //! | `vars.rs` | reading and writing variables with their indices |
 //! | `signals.rs` | signal numbers and outputs, `PULSE`, `DLYSIG`, `BITS` |
 //! | `frames.rs` | `TOOL`, `BASE`, kinematic conversions, `APPRO`, `DEPART`, `DRAW`, `ALIGN` |
@@ -47,6 +48,7 @@ mod observers;
 mod on_error;
 mod posture;
 mod print;
+mod reload;
 mod report;
 mod scheduler;
 mod signals;
@@ -74,7 +76,7 @@ use arith::{ns, Ns};
 use task::{SignalState, Task, TaskSlot};
 
 pub use config::{Config, CostModel, HandSignals};
-pub use report::{Refusal, TaskInfo, TaskState, TerminalLine, TraceLine};
+pub use report::{Refusal, ReloadError, TaskInfo, TaskState, TerminalLine, TraceLine};
 
 /// The AS interpreter: programs, variables and up to six tasks (robot task 1, PC tasks 1–5),
 /// advanced on a clock it is given by [`Interpreter::run_until`].

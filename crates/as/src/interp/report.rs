@@ -120,6 +120,50 @@ pub enum Refusal {
     Other(String),
 }
 
+/// Why a running interpreter did not take a new set of programs ([`Interpreter::adopt`]):
+/// the running tasks could not be mapped onto the new programs. Nothing was changed.
+///
+/// [`Interpreter::adopt`]: super::Interpreter::adopt
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ReloadError {
+    /// A task is in a program (the one it was started with, or one it `CALL`ed) that the new
+    /// set does not hold.
+    #[error(
+        "{task} is running program {program}, which the new programs do not hold: \
+         stop the task (PCABORT/ABORT) before removing the program"
+    )]
+    ProgramMissing {
+        /// The task (`robot`, `pc1` … `pc5`).
+        task: String,
+        /// The program.
+        program: String,
+    },
+    /// A task is in a program whose text in the new set differs: its place in the program
+    /// (step, local variables) would not mean the same.
+    #[error(
+        "{task} is running program {program}, whose new text differs: \
+         stop the task (PCABORT/ABORT) before replacing the program"
+    )]
+    ProgramChanged {
+        /// The task.
+        task: String,
+        /// The program.
+        program: String,
+    },
+    /// An interrupt armed in a task (`ON … CALL`) or its error program (`ONE`) names a
+    /// program the new set does not hold.
+    #[error(
+        "{task} has an interrupt or error program naming {program}, which the new programs \
+         do not hold: stop the task (PCABORT/ABORT) before removing the program"
+    )]
+    HandlerMissing {
+        /// The task.
+        task: String,
+        /// The program.
+        program: String,
+    },
+}
+
 pub(super) fn p_code(code: i32, message: &str) -> Refusal {
     Refusal::Controller {
         code: ErrorCode(code),

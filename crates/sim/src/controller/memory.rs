@@ -5,11 +5,16 @@
 //!
 //! Choices and limits (docs/EMULATOR.md, "The controller's terminal"):
 //! - a program is *on a task's stack* from its start until `KILL`/`PCKILL`, unless it
-//!   completed: a running, aborted or error-stopped program is on the stack (only the
-//!   program a task was started with is tracked, not those it `CALL`s);
-//! - the interpreter is rebuilt from the memory when programs change and no task runs; while
-//!   a task runs, the new programs wait (a start of any program is then refused with P1014
-//!   until every task has stopped);
+//!   completed: a running, aborted or error-stopped program is on the stack, and so are the
+//!   programs a running task has `CALL`ed and not yet returned from;
+//! - when programs change and no task runs, the interpreter is rebuilt from the memory (the
+//!   globals start again from the data sections); while a task runs, the running interpreter
+//!   takes the new programs at once ([`fs020n_as::Interpreter::adopt`]): its tasks go on
+//!   untouched, globals keep their values, the data sections of the file just loaded
+//!   overwrite theirs (AS-E: a `LOAD` overwrites variables silently). Should the running
+//!   tasks not map onto the new programs (a program named by an armed interrupt was deleted),
+//!   the new programs wait as before: a start is refused with P1014 until every task has
+//!   stopped;
 //! - a power cycle keeps the memory and the switches, closes every socket, stops every task,
 //!   empties the stacks, restarts the interpreter (its timers and variables start again),
 //!   clears the error (unless the emergency stop is pressed), turns motor power off and
@@ -18,6 +23,7 @@
 use std::collections::VecDeque;
 use std::time::Duration;
 
+use fs020n_as::ast::DataItem;
 use fs020n_as::keywords::SYSTEM_SWITCHES;
 use fs020n_as::{Interpreter, Refusal, TaskId};
 use fs020n_term::text::{self, MonitorError};
@@ -223,7 +229,9 @@ impl Controller {
     /// same name is overwritten) unless it is on a task's stack (P1014); data sections are
     /// added. With `comment_out`, the lines with syntax errors are commented out first (the
     /// answer `0` to the controller's question); without, a file with syntax errors loads
-    /// nothing. The interpreter is rebuilt now if no task runs (else when they have stopped).
+    /// nothing. The programs take effect at once: the interpreter is rebuilt if no task runs,
+    /// else the running interpreter takes them (its tasks go on; the file's data sections
+    /// overwrite the variables they name, the others keep their values).
     pub fn load_program_text(&mut self, text: &str, comment_out: bool) -> LoadReport {
         self.load_program_bytes(text.as_bytes(), comment_out)
     }
@@ -258,6 +266,9 @@ impl Controller {
                 return report;
             }
         }
+        let assigned = fs020n_as::parse_bytes(LOAD_FILE, &text, self.memory.load_options())
+            .map(|m| m.data)
+            .unwrap_or_default();
         let s = sections(&text);
         for p in s.programs {
             if self.on_any_stack(&p.name) {
@@ -272,7 +283,7 @@ impl Controller {
             self.memory.put_data(d);
         }
         self.bump();
-        let _ = self.sync_runtime();
+        let _ = self.sync_runtime_assigning(&assigned);
         report
     }
 
@@ -290,9 +301,14 @@ impl Controller {
         Ok(())
     }
 
+    /// Whether `name` is on a task's stack: the program a task was started with (see
+    /// [`Controller::stack_program`]) or one a running task has `CALL`ed.
     pub(super) fn on_any_stack(&self, name: &str) -> bool {
         let name = name.to_ascii_lowercase();
         (0..6).any(|i| self.stack_program(i).as_deref() == Some(name.as_str()))
+            || self
+                .interpreter()
+                .is_some_and(|i| i.programs_in_use().contains(&name.as_str()))
     }
 
     /// The program on the stack of task `i` (0 robot, 1–5 PC).
@@ -330,9 +346,17 @@ impl Controller {
         self.stack_program(task_index(task))
     }
 
-    /// Rebuilds the interpreter from memory if the programs changed and no task runs;
-    /// `Err(P1014)` when a task runs and programs wait.
+    /// Brings the interpreter to the memory's programs if they changed: rebuilt when no task
+    /// runs, taken by the running interpreter when one does; `Err(P1014)` when the running
+    /// tasks do not map onto the new programs (they then wait until every task has stopped).
     pub(super) fn sync_runtime(&mut self) -> Result<(), MonitorError> {
+        self.sync_runtime_assigning(&[])
+    }
+
+    /// [`Controller::sync_runtime`] after a `LOAD`: `assigned`, the data items of the file
+    /// loaded, overwrite the variables they name when the running interpreter takes the
+    /// programs (a rebuild applies every data section in memory anyway).
+    fn sync_runtime_assigning(&mut self, assigned: &[DataItem]) -> Result<(), MonitorError> {
         if self.monitor.built == Some(self.memory.generation()) {
             return Ok(());
         }
@@ -340,9 +364,31 @@ impl Controller {
             return Ok(());
         }
         if (0..6).any(|i| self.task_facts(i).0) {
-            return Err(text::P1014_IN_USE);
+            return self.adopt_memory(assigned);
         }
         self.rebuild(false)
+    }
+
+    /// The running interpreter takes the memory's programs ([`Interpreter::adopt`]): tasks,
+    /// sockets, signals, timers, switches and terminal output stay as they are.
+    fn adopt_memory(&mut self, assigned: &[DataItem]) -> Result<(), MonitorError> {
+        let interp = match self.memory.build() {
+            Ok(i) => i,
+            Err(e) => {
+                tracing::warn!(error = %e, "the programs in memory do not build");
+                return Err(text::P1038_NO_PROGRAM);
+            }
+        };
+        let Some(p) = self.program_mut() else {
+            return self.rebuild(false);
+        };
+        if let Err(e) = p.interpreter_mut().adopt(interp, assigned) {
+            tracing::warn!(error = %e, "the running tasks keep the programs they had");
+            return Err(text::P1014_IN_USE);
+        }
+        self.monitor.built = Some(self.memory.generation());
+        self.bump();
+        Ok(())
     }
 
     /// A new interpreter over the memory (with the switches carried over); `restart` also

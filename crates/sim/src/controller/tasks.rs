@@ -14,8 +14,8 @@ impl Controller {
     // ----------------------------------------------------------------- tasks
 
     /// `PCEXECUTE task: program`, one cycle: P1019 while the task runs, P1038 without the
-    /// program, P1014 when the program runs in another task (or programs loaded while tasks
-    /// ran wait).
+    /// program, P1014 when the program runs in another task (or the running tasks could not
+    /// take the programs loaded meanwhile, which then wait).
     pub fn pc_execute(&mut self, task: u8, program: &str) -> Result<(), MonitorError> {
         self.pc_execute_cycles(task, program, 1)
     }
