@@ -9,11 +9,11 @@
 //!   refused instead, which the emulator does not play.
 //! - A program on a task's stack (started and not yet killed, or `CALL`ed by a running task)
 //!   is not replaced: its `LOAD` is refused with P1014, the file's other programs load.
-//! - When programs change and no task runs, the interpreter is rebuilt from the whole memory;
-//!   the global variables then start again from the data sections (a real controller keeps
-//!   them). While a task runs, the running interpreter takes the new programs without
-//!   stopping (`Controller::sync_runtime` in `controller/memory.rs`): variables keep their
-//!   values, except those the loaded file's data sections name.
+//! - When programs change, the interpreter takes the new programs without stopping, whether
+//!   tasks run or not (`Controller::sync_runtime` in `controller/memory.rs`): variables,
+//!   signals and timers keep their values, except the variables the loaded file's data
+//!   sections name. A power cycle builds the interpreter from the whole memory again (its
+//!   variables start from the data sections; a real controller keeps them).
 //! - The memory holds the **bytes** of what was loaded, in whatever code page the file was
 //!   written (Shift-JIS comments, Windows-1250 strings…): `SAVE` gives back what `LOAD` took,
 //!   line ends aside. Only names and headers are read as text.

@@ -841,3 +841,32 @@ fn instructions_stubbed_for_a_bare_controller_stay_stubbed_through_loads_and_pow
     }
     assert!(plain.c.loaded_programs().is_empty());
 }
+
+#[test]
+fn a_load_with_no_task_running_keeps_variables_signals_and_timers_and_its_data_overwrites() {
+    let mut t = Term::new(bare());
+    let p = ".PROGRAM setx()\n  x = 42\n  SIGNAL 1\n  TIMER 2 = 0\n.END\n";
+    loaded_ok(&t.load("setx.as", p));
+    t.cmd("PCEXECUTE 2: setx", false);
+    t.advance(Duration::from_millis(500));
+    assert!(!t.c.task_running(TaskId::Pc(2)));
+    // An unrelated file: what the finished program left stays, as on a controller.
+    loaded_ok(&t.load("other.as", ".PROGRAM other()\n  y = x\n.END\n"));
+    assert_eq!(t.cmd("TYPE x", false), "42");
+    assert_eq!(t.cmd("TYPE SIG(1)", false), "-1");
+    let timer: f32 = t.cmd("TYPE TIMER(2)", false).parse().unwrap();
+    assert!(
+        (0.45..0.6).contains(&timer),
+        "TIMER 2 kept running: {timer}"
+    );
+    t.cmd("PCEXECUTE 3: other", false);
+    t.advance(Duration::from_millis(100));
+    assert_eq!(t.cmd("TYPE y", false), "42");
+    // A file's data section overwrites the variable it names.
+    loaded_ok(&t.load("data.as", ".REALS\nx = 7\n.END\n"));
+    assert_eq!(t.cmd("TYPE x", false), "7");
+    // A power cycle starts the interpreter again: variables from the data sections only.
+    t.c.power_cycle();
+    assert_eq!(t.cmd("TYPE x", false), "7");
+    assert!(t.cmd("TYPE y", false).starts_with("(E0102)"));
+}

@@ -7,14 +7,13 @@
 //! - a program is *on a task's stack* from its start until `KILL`/`PCKILL`, unless it
 //!   completed: a running, aborted or error-stopped program is on the stack, and so are the
 //!   programs a running task has `CALL`ed and not yet returned from;
-//! - when programs change and no task runs, the interpreter is rebuilt from the memory (the
-//!   globals start again from the data sections); while a task runs, the running interpreter
-//!   takes the new programs at once ([`fs020n_as::Interpreter::adopt`]): its tasks go on
-//!   untouched, globals keep their values, the data sections of the file just loaded
-//!   overwrite theirs (AS-E: a `LOAD` overwrites variables silently). Should the running
-//!   tasks not map onto the new programs (a program named by an armed interrupt was deleted),
-//!   the new programs wait as before: a start is refused with P1014 until every task has
-//!   stopped;
+//! - when programs change, the interpreter takes the new programs at once, whether tasks run
+//!   or not ([`fs020n_as::Interpreter::adopt`]): its tasks go on untouched, globals, signals
+//!   and timers keep their values, the data sections of the file just loaded overwrite theirs
+//!   (AS-E: a `LOAD` overwrites variables silently); the first programs of a bare controller
+//!   build it. Should the running tasks not map onto the new programs (a program named by an
+//!   armed interrupt was deleted), the new programs wait: a start is refused with P1014 until
+//!   every task has stopped;
 //! - a power cycle keeps the memory and the switches, closes every socket, stops every task,
 //!   empties the stacks, restarts the interpreter (its timers and variables start again),
 //!   clears the error (unless the emergency stop is pressed), turns motor power off and
@@ -154,6 +153,17 @@ fn error_lines(err: &fs020n_as::LoadError, file: &str, text: &[u8]) -> Vec<(u32,
         .collect()
 }
 
+/// Why the interpreter could not take the memory's programs.
+#[derive(Debug, thiserror::Error)]
+enum AdoptError {
+    #[error("the programs in memory do not build: {0}")]
+    Build(fs020n_as::LoadError),
+    #[error("{0}")]
+    Reload(fs020n_as::ReloadError),
+    #[error("no interpreter runs")]
+    NoInterpreter,
+}
+
 /// The name the new text gets while it is checked.
 const LOAD_FILE: &str = "load";
 
@@ -229,9 +239,9 @@ impl Controller {
     /// same name is overwritten) unless it is on a task's stack (P1014); data sections are
     /// added. With `comment_out`, the lines with syntax errors are commented out first (the
     /// answer `0` to the controller's question); without, a file with syntax errors loads
-    /// nothing. The programs take effect at once: the interpreter is rebuilt if no task runs,
-    /// else the running interpreter takes them (its tasks go on; the file's data sections
-    /// overwrite the variables they name, the others keep their values).
+    /// nothing. The programs take effect at once: the interpreter takes them (running tasks go
+    /// on; the file's data sections overwrite the variables they name, other variables,
+    /// signals and timers keep their values).
     pub fn load_program_text(&mut self, text: &str, comment_out: bool) -> LoadReport {
         self.load_program_bytes(text.as_bytes(), comment_out)
     }
@@ -363,29 +373,41 @@ impl Controller {
         if matches!(self.server, Server::Native(_)) {
             return Ok(());
         }
-        if (0..6).any(|i| self.task_facts(i).0) {
-            return self.adopt_memory(assigned);
+        let running = (0..6).any(|i| self.task_facts(i).0);
+        if self.program().is_none() {
+            // The first programs of a bare controller: nothing to keep.
+            return self.rebuild(false);
         }
-        self.rebuild(false)
+        match self.adopt_memory(assigned) {
+            Ok(()) => Ok(()),
+            Err(e @ AdoptError::Build(_)) => {
+                tracing::warn!(error = %e, "the programs in memory do not build");
+                Err(text::P1038_NO_PROGRAM)
+            }
+            Err(e) if running => {
+                tracing::warn!(error = %e, "the running tasks keep the programs they had");
+                Err(text::P1014_IN_USE)
+            }
+            // No task runs, so nothing can fail to map: a rebuild is the safe fallback.
+            Err(e) => {
+                tracing::warn!(error = %e, "the interpreter is rebuilt from the memory");
+                self.rebuild(false)
+            }
+        }
     }
 
-    /// The running interpreter takes the memory's programs ([`Interpreter::adopt`]): tasks,
-    /// sockets, signals, timers, switches and terminal output stay as they are.
-    fn adopt_memory(&mut self, assigned: &[DataItem]) -> Result<(), MonitorError> {
-        let interp = match self.memory.build() {
-            Ok(i) => i,
-            Err(e) => {
-                tracing::warn!(error = %e, "the programs in memory do not build");
-                return Err(text::P1038_NO_PROGRAM);
-            }
-        };
+    /// The interpreter takes the memory's programs ([`Interpreter::adopt`]), whether tasks run
+    /// or not, as a controller's `LOAD` does: tasks, sockets, signals, timers, switches,
+    /// global variables and terminal output stay as they are; the data sections of the file
+    /// just loaded (`assigned`) overwrite the variables they name.
+    fn adopt_memory(&mut self, assigned: &[DataItem]) -> Result<(), AdoptError> {
+        let interp = self.memory.build().map_err(AdoptError::Build)?;
         let Some(p) = self.program_mut() else {
-            return self.rebuild(false);
+            return Err(AdoptError::NoInterpreter);
         };
-        if let Err(e) = p.interpreter_mut().adopt(interp, assigned) {
-            tracing::warn!(error = %e, "the running tasks keep the programs they had");
-            return Err(text::P1014_IN_USE);
-        }
+        p.interpreter_mut()
+            .adopt(interp, assigned)
+            .map_err(AdoptError::Reload)?;
         self.monitor.built = Some(self.memory.generation());
         self.bump();
         Ok(())
