@@ -182,3 +182,24 @@ fn two_tasks_talk_over_a_socket_and_receives_are_at_most_4096_bytes() {
     assert_eq!(i.string_at("back", &[0]).map(|v| v.len()), Some(255));
     assert_eq!(i.string_at("back", &[1]), Some(b"!".to_vec()));
 }
+
+#[test]
+fn tcp_connect_to_a_port_below_8192_is_tried_and_fails_as_a_connection_not_as_an_illegal_port() {
+    // A vision system on port 3000: no listener there in the test system, so the connection
+    // fails with its code and the program goes on; port 70000 is an illegal value.
+    let src = ".PROGRAM autostart.pc()\n\
+                 ip[1] = 192\n\
+                 ip[2] = 168\n\
+                 ip[3] = 0\n\
+                 ip[4] = 20\n\
+                 TCP_CONNECT c, 3000, ip[1], 1\n\
+                 tried = 1\n\
+                 TCP_CONNECT c2, 70000, ip[1], 1\n\
+                 after = 1\n\
+               .END\n";
+    let (mut i, mut s) = start(src);
+    i.run_until(&mut s, ms(3000));
+    assert_eq!(i.real("tried"), Some(1.0));
+    assert!(i.real("c").is_some_and(|c| c < 0.0), "{:?}", i.real("c"));
+    assert_eq!(i.real("after"), None, "port 70000 stops the task");
+}

@@ -183,3 +183,29 @@ proptest::proptest! {
         proptest::prop_assert!(s.raised.is_empty());
     }
 }
+
+#[test]
+fn udp_sendto_reaches_a_port_below_8192_of_another_host_and_refuses_port_0() {
+    // A PC or a camera may listen on any port: the 8192–65535 rule is for the controller's own.
+    let (mut i, mut s) = start(&pc("  ip[1] = 10\n\
+  ip[2] = 0\n\
+  ip[3] = 0\n\
+  ip[4] = 7\n\
+  $out[0] = \"trigger\"\n\
+  UDP_SENDTO ret, ip[1], 2000, $out[0], 1\n\
+  done = 1\n\
+  UDP_SENDTO ret, ip[1], 0, $out[0], 1\n\
+  after = 1"));
+    i.run_until(&mut s, ms(10));
+    assert_eq!(i.real("done"), Some(1.0));
+    assert_eq!(
+        s.sent_datagrams(),
+        vec![datagram([10, 0, 0, 7], 2000, b"trigger")]
+    );
+    assert_eq!(
+        i.real("after"),
+        None,
+        "port 0 is an illegal value: the task stops"
+    );
+    assert!(s.sent_datagrams().is_empty());
+}

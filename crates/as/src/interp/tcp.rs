@@ -81,7 +81,7 @@ impl Interpreter {
         pc: usize,
         now: Ns,
     ) -> R<Flow> {
-        let port = self.port(i, port, sys)?;
+        let port = self.remote_port(i, port, sys)?;
         let deadline = now.saturating_add(ns(self.timeout(i, timeout.as_ref(), sys)?));
         let mut addr = [0u8; 4];
         let n = ip.idx.len().min(3);
@@ -205,6 +205,21 @@ impl Interpreter {
         Ok(Flow::Next)
     }
 
+    /// A port of another host (`TCP_CONNECT`, `UDP_SENDTO`): 1–65535. The 8192–65535 rule of
+    /// the manual is for the controller's own listening ports; a PC or camera may listen
+    /// anywhere (our reading: the manuals give no range for a remote port).
+    pub(super) fn remote_port(&mut self, i: TaskSlot, e: &RExpr, sys: &mut dyn System) -> R<u16> {
+        let p = self.eval_r(i, e, sys)?.trunc();
+        if !(1.0..=65535.0).contains(&p) {
+            return Err(Box::new(RuntimeError::IllegalValue(format!(
+                "port {p} (1 to 65535)"
+            ))));
+        }
+        Ok(p as u16)
+    }
+
+    /// One of the controller's own ports (`TCP_LISTEN`, `TCP_ACCEPT`, `TCP_END_LISTEN`,
+    /// `UDP_RECVFROM`): 8192–65535 (TCP/IP manual E).
     pub(super) fn port(&mut self, i: TaskSlot, e: &RExpr, sys: &mut dyn System) -> R<u16> {
         let p = self.eval_r(i, e, sys)?.trunc();
         if !(8192.0..=65535.0).contains(&p) {

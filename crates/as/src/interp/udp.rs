@@ -24,7 +24,7 @@ impl Interpreter {
         sys: &mut dyn System,
     ) -> R<Flow> {
         let ip = self.ip_address(i, &op.ip, sys)?;
-        let port = self.port(i, &op.port, sys)?;
+        let port = self.remote_port(i, &op.port, sys)?;
         self.timeout(i, op.timeout.as_ref(), sys)?;
         let count = self.eval_r(i, &op.n, sys)?.trunc();
         if !(0.0..=MAX_INDEX as f32).contains(&count) {
