@@ -41,11 +41,7 @@ impl Interpreter {
         cycles: i64,
         sys: &mut dyn System,
     ) -> Result<(), Refusal> {
-        let p = *self
-            .code
-            .by_name
-            .get(program)
-            .ok_or_else(|| Refusal::NoProgram(program.to_owned()))?;
+        let p = self.program_named(program)?;
         self.execute_robot(p, Vec::new(), cycles, sys)
     }
 
@@ -62,11 +58,7 @@ impl Interpreter {
         program: &str,
         cycles: i64,
     ) -> Result<(), Refusal> {
-        let p = *self
-            .code
-            .by_name
-            .get(program)
-            .ok_or_else(|| Refusal::NoProgram(program.to_owned()))?;
+        let p = self.program_named(program)?;
         self.pc_execute_at(task, p, Vec::new(), cycles)
     }
 
@@ -77,6 +69,12 @@ impl Interpreter {
         let t = &self.tasks[TaskSlot::of(task)];
         let remaining = if t.run == Run::Idle { 0 } else { t.cycles_left };
         (t.cycles_done, remaining)
+    }
+
+    /// The index of the program called `program`, or the refusal naming it.
+    fn program_named(&self, program: &str) -> Result<usize, Refusal> {
+        (self.code.by_name.get(program).copied())
+            .ok_or_else(|| Refusal::NoProgram(program.to_owned()))
     }
 
     /// Stops a task at once (`ABORT`/`PCABORT` from outside, a panel switch that stops the

@@ -380,8 +380,8 @@ impl Interpreter {
                 }
                 Flow::Next
             }
-            Op::TcpListen(ret, port) => self.tcp_listen(i, ret, port, sys)?,
-            Op::TcpEndListen(ret, port) => self.tcp_end_listen(i, ret, port, sys)?,
+            Op::TcpListen(ret, port) => self.tcp_listening(i, ret, port, true, sys)?,
+            Op::TcpEndListen(ret, port) => self.tcp_listening(i, ret, port, false, sys)?,
             Op::TcpAccept { port, timeout, .. } => {
                 self.tcp_accept(i, port, timeout, sys, pc, now)?
             }

@@ -15,32 +15,22 @@ use super::Interpreter;
 use super::MAX_TRANSFER;
 
 impl Interpreter {
-    /// `TCP_LISTEN ret, port`.
+    /// `TCP_LISTEN ret, port` (`listen`) or `TCP_END_LISTEN ret, port`.
     #[inline(always)]
-    pub(super) fn tcp_listen(
+    pub(super) fn tcp_listening(
         &mut self,
         i: TaskSlot,
         ret: &LRef,
         port: &RExpr,
+        listen: bool,
         sys: &mut dyn System,
     ) -> R<Flow> {
         let port = self.port(i, port, sys)?;
-        let r = sys.tcp_listen(port);
-        self.write_r(i, ret, r as f32, sys)?;
-        Ok(Flow::Shared)
-    }
-
-    /// `TCP_END_LISTEN ret, port`.
-    #[inline(always)]
-    pub(super) fn tcp_end_listen(
-        &mut self,
-        i: TaskSlot,
-        ret: &LRef,
-        port: &RExpr,
-        sys: &mut dyn System,
-    ) -> R<Flow> {
-        let port = self.port(i, port, sys)?;
-        let r = sys.tcp_end_listen(port);
+        let r = if listen {
+            sys.tcp_listen(port)
+        } else {
+            sys.tcp_end_listen(port)
+        };
         self.write_r(i, ret, r as f32, sys)?;
         Ok(Flow::Shared)
     }
@@ -83,28 +73,7 @@ impl Interpreter {
     ) -> R<Flow> {
         let port = self.remote_port(i, port, sys)?;
         let deadline = now.saturating_add(ns(self.timeout(i, timeout.as_ref(), sys)?));
-        let mut addr = [0u8; 4];
-        let n = ip.idx.len().min(3);
-        let base = self.indices(i, ip, sys)?;
-        for (k, b) in addr.iter_mut().enumerate() {
-            let mut at = base;
-            at[0] += k as i32;
-            let v = match self
-                .store(i, ip.var.global)
-                .reals
-                .get(ip.var.slot as usize)
-                .and_then(|x| x.get(&at[..n.max(1)]))
-            {
-                Some(v) => *v,
-                None => return Err(self.undefined(i, ip, Ty::Real, &at[..n.max(1)])),
-            };
-            if !(0.0..=255.0).contains(&v) {
-                return Err(Box::new(RuntimeError::IllegalValue(format!(
-                    "IP address byte {v}"
-                ))));
-            }
-            *b = v as u8;
-        }
+        let addr = self.ip_address(i, ip, sys)?;
         self.set_pc(i, pc);
         Ok(match sys.tcp_connect(addr, port) {
             SockPoll::Ready(r) => {
@@ -134,18 +103,7 @@ impl Interpreter {
     ) -> R<Flow> {
         let sock = self.eval_r(i, sock, sys)?.trunc() as i32;
         let deadline = now.saturating_add(ns(self.timeout(i, timeout.as_ref(), sys)?));
-        let max = match max {
-            Some(m) => {
-                let m = self.eval_r(i, m, sys)?.trunc();
-                if !(1.0..=255.0).contains(&m) {
-                    return Err(Box::new(RuntimeError::IllegalValue(format!(
-                        "TCP_RECV element size {m} (1 to 255)"
-                    ))));
-                }
-                m as usize
-            }
-            None => 255,
-        };
+        let max = self.element_size(i, max.as_ref(), "TCP_RECV", sys)?;
         self.set_pc(i, pc);
         Ok(match sys.tcp_recv(sock, MAX_TRANSFER) {
             SockPoll::Ready(r) => {
@@ -203,6 +161,56 @@ impl Interpreter {
         }
         self.write_r(i, ret, list.len() as f32, sys)?;
         Ok(Flow::Next)
+    }
+
+    /// The 4 elements from `ip[i]` as an IPv4 address (each 0–255).
+    pub(super) fn ip_address(
+        &mut self,
+        i: TaskSlot,
+        ip: &LRef,
+        sys: &mut dyn System,
+    ) -> R<[u8; 4]> {
+        let dims = ip.idx.len().clamp(1, 3);
+        let base = self.indices(i, ip, sys)?;
+        let mut addr = [0u8; 4];
+        for (k, b) in addr.iter_mut().enumerate() {
+            let mut at = base;
+            at[0] += k as i32;
+            let v = match self
+                .store(i, ip.var.global)
+                .reals
+                .get(ip.var.slot as usize)
+                .and_then(|x| x.get(&at[..dims]))
+            {
+                Some(v) => *v,
+                None => return Err(self.undefined(i, ip, Ty::Real, &at[..dims])),
+            };
+            if !(0.0..=255.0).contains(&v) {
+                return Err(Box::new(RuntimeError::IllegalValue(format!(
+                    "IP address byte {v}"
+                ))));
+            }
+            *b = v as u8;
+        }
+        Ok(addr)
+    }
+
+    /// The bytes per element of `TCP_RECV`/`UDP_RECVFROM` (`what`): 1–255, 255 when omitted.
+    pub(super) fn element_size(
+        &mut self,
+        i: TaskSlot,
+        max: Option<&RExpr>,
+        what: &str,
+        sys: &mut dyn System,
+    ) -> R<usize> {
+        let Some(m) = max else { return Ok(255) };
+        let m = self.eval_r(i, m, sys)?.trunc();
+        if !(1.0..=255.0).contains(&m) {
+            return Err(Box::new(RuntimeError::IllegalValue(format!(
+                "{what} element size {m} (1 to 255)"
+            ))));
+        }
+        Ok(m as usize)
     }
 
     /// A port of another host (`TCP_CONNECT`, `UDP_SENDTO`): 1–65535. The 8192–65535 rule of

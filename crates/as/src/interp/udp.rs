@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use crate::compile::{LRef, Op, Ty, UdpRecvFrom, UdpSendTo};
+use crate::compile::{Op, UdpRecvFrom, UdpSendTo};
 use crate::error::RuntimeError;
 use crate::sockets::TcpCode;
 use crate::system::{Datagram, SockPoll, System};
@@ -54,18 +54,7 @@ impl Interpreter {
     ) -> R<Flow> {
         let port = self.port(i, &op.port, sys)?;
         let deadline = now.saturating_add(ns(self.timeout(i, op.timeout.as_ref(), sys)?));
-        let max = match &op.max {
-            Some(m) => {
-                let m = self.eval_r(i, m, sys)?.trunc();
-                if !(1.0..=255.0).contains(&m) {
-                    return Err(Box::new(RuntimeError::IllegalValue(format!(
-                        "UDP_RECVFROM element size {m} (1 to 255)"
-                    ))));
-                }
-                m as usize
-            }
-            None => 255,
-        };
+        let max = self.element_size(i, op.max.as_ref(), "UDP_RECVFROM", sys)?;
         self.set_pc(i, pc);
         let opened = sys.udp_open(port);
         if opened < 0 {
@@ -143,32 +132,5 @@ impl Interpreter {
                 }
             }
         }
-    }
-
-    /// The 4 elements from `ip[i]` as an IPv4 address (each 0–255).
-    fn ip_address(&mut self, i: TaskSlot, ip: &LRef, sys: &mut dyn System) -> R<[u8; 4]> {
-        let dims = ip.idx.len().clamp(1, 3);
-        let base = self.indices(i, ip, sys)?;
-        let mut addr = [0u8; 4];
-        for (k, b) in addr.iter_mut().enumerate() {
-            let mut at = base;
-            at[0] += k as i32;
-            let v = match self
-                .store(i, ip.var.global)
-                .reals
-                .get(ip.var.slot as usize)
-                .and_then(|x| x.get(&at[..dims]))
-            {
-                Some(v) => *v,
-                None => return Err(self.undefined(i, ip, Ty::Real, &at[..dims])),
-            };
-            if !(0.0..=255.0).contains(&v) {
-                return Err(Box::new(RuntimeError::IllegalValue(format!(
-                    "IP address byte {v}"
-                ))));
-            }
-            *b = v as u8;
-        }
-        Ok(addr)
     }
 }
