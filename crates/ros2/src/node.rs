@@ -1088,6 +1088,28 @@ fn end_goal(
     }
 }
 
+/// Admits `goal` (an action goal or a `~/joint_trajectory` message) as the next trajectory.
+/// When a trajectory or a servo runs, the new one replaces it, as joint_trajectory_controller
+/// does, once it passes the checks that do not need the arm to stop; then the servo ends, the
+/// running goal is preempted and the arm brakes before the new one is planned from where it is.
+async fn admit_replacing(
+    shared: &Shared,
+    goal: &FollowJointTrajectoryGoal,
+    servo: &mut Option<ServoRun>,
+    replies: &mut ActionReplies<'_>,
+    goals: &mut Goals,
+    current: &mut Option<(Option<GoalId>, watch::Sender<bool>)>,
+    executing: &mut Option<Executing<'_>>,
+) -> Result<(Arc<Robot>, crate::goal::Plan, Permit), GoalRefusal> {
+    if current.is_none() && servo.is_none() {
+        return admit(shared, goal, false).await;
+    }
+    precheck(shared, goal).await?;
+    end_servo(shared, servo).await;
+    preempt(shared, replies, goals, current, executing).await;
+    admit(shared, goal, true).await
+}
+
 /// Stops the running trajectory because a newer one replaces it: it ends ABORTED "preempted
 /// by a new goal" once the robot has braked.
 async fn preempt(
@@ -1226,20 +1248,8 @@ async fn action_loop(
                     let goal = request.goal;
                     let admitted = if goals.contains(&id) {
                         Err(GoalRefusal::new(error_code::INVALID_GOAL, "a goal with this id exists already; give every goal a new id"))
-                    } else if current.is_some() || servo.is_some() {
-                        // A new goal while one executes (or a servo runs) preempts it (as
-                        // joint_trajectory_controller does) once it passes the checks that do
-                        // not need the arm to stop.
-                        match precheck(shared, &goal).await {
-                            Err(refusal) => Err(refusal),
-                            Ok(()) => {
-                                end_servo(shared, &mut servo).await;
-                                preempt(shared, &mut replies, &mut goals, &mut current, &mut executing).await;
-                                admit(shared, &goal, true).await
-                            }
-                        }
                     } else {
-                        admit(shared, &goal, false).await
+                        admit_replacing(shared, &goal, &mut servo, &mut replies, &mut goals, &mut current, &mut executing).await
                     };
                     match admitted {
                         Err(refusal) => {
@@ -1379,18 +1389,7 @@ async fn action_loop(
                 // Checked like a goal with the node's default tolerances; it replaces the
                 // running trajectory (goal or topic) once it passes the checks.
                 let goal = FollowJointTrajectoryGoal { trajectory, ..Default::default() };
-                let admitted = if current.is_some() || servo.is_some() {
-                    match precheck(shared, &goal).await {
-                        Err(refusal) => Err(refusal),
-                        Ok(()) => {
-                            end_servo(shared, &mut servo).await;
-                            preempt(shared, &mut replies, &mut goals, &mut current, &mut executing).await;
-                            admit(shared, &goal, true).await
-                        }
-                    }
-                } else {
-                    admit(shared, &goal, false).await
-                };
+                let admitted = admit_replacing(shared, &goal, &mut servo, &mut replies, &mut goals, &mut current, &mut executing).await;
                 match admitted {
                     Err(refusal) => {
                         let text = format!("~/joint_trajectory refused ({}): {}", refusal.code, refusal.message);
