@@ -5,48 +5,10 @@
 
 use std::time::Duration;
 
-use fs020n_term::text::MonitorError;
-use fs020n_term::{
-    ClientConfig, LoadAnswer, Monitor, Reply, SessionConfig, SyntaxError, TerminalClient,
-    TerminalSession,
-};
+use fs020n_term::testing::AnswerAnything;
+use fs020n_term::{ClientConfig, SessionConfig, TerminalClient, TerminalSession};
 use libfuzzer_sys::fuzz_target;
 
-struct Anything;
-
-impl Monitor for Anything {
-    fn open_session(&mut self) -> Option<String> {
-        Some("AUX1".into())
-    }
-    fn close_session(&mut self, _terminal: &str) {}
-    fn run(&mut self, line: &str) -> Reply {
-        if line.len() % 2 == 0 {
-            Reply::AreYouSure
-        } else {
-            Reply::Lines(vec![line.to_owned()])
-        }
-    }
-    fn confirmed(&mut self) -> Reply {
-        Reply::Lines(vec![])
-    }
-    fn transfer_blocked(&self) -> bool {
-        false
-    }
-    fn transfer_abandoned(&mut self) {}
-    fn check_load(&mut self, file: &[u8]) -> Vec<SyntaxError> {
-        (0..file.len() % 3)
-            .map(|i| SyntaxError {
-                line: format!("step {i}"),
-            })
-            .collect()
-    }
-    fn finish_load(&mut self, _file: &[u8], _answer: LoadAnswer) -> (Vec<String>, usize) {
-        (vec![], 0)
-    }
-    fn save(&mut self, spec: &str) -> Result<Vec<u8>, MonitorError> {
-        Ok(spec.as_bytes().to_vec())
-    }
-}
 
 fuzz_target!(|data: &[u8]| {
     let Some((&cut, rest)) = data.split_first() else {
@@ -55,7 +17,7 @@ fuzz_target!(|data: &[u8]| {
     let cut = usize::from(cut).min(rest.len());
     let (a, b) = rest.split_at(cut);
 
-    let mut m = Anything;
+    let mut m = AnswerAnything;
     let mut s = TerminalSession::open(&mut m, SessionConfig::default());
     for part in [a, b] {
         s.handle_input(&mut m, part);

@@ -14,6 +14,8 @@
 //! * [`server`] — [`TerminalSession`]: the controller's side of a session over a [`Monitor`],
 //!   which the emulator implements.
 //! * `connection` (feature `tokio`) — the client over TCP, with a transcript of every byte.
+//! * `testing` (feature `testing`) — a monitor that answers anything, for property tests and
+//!   fuzzing.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
@@ -24,6 +26,8 @@ pub mod frame;
 pub mod line;
 pub mod server;
 pub mod telnet;
+#[cfg(feature = "testing")]
+pub mod testing;
 pub mod text;
 
 pub use client::{ClientConfig, Event, Question, TerminalClient, TerminalError};

@@ -3,49 +3,9 @@
 
 use std::time::Duration;
 
-use fs020n_term::text::MonitorError;
-use fs020n_term::{
-    ClientConfig, Event, LoadAnswer, Monitor, Reply, SessionConfig, SyntaxError, TerminalClient,
-    TerminalSession,
-};
+use fs020n_term::testing::AnswerAnything;
+use fs020n_term::{ClientConfig, Event, SessionConfig, TerminalClient, TerminalSession};
 use proptest::prelude::*;
-
-/// A controller that answers everything the same way.
-struct Anything;
-
-impl Monitor for Anything {
-    fn open_session(&mut self) -> Option<String> {
-        Some("AUX1".into())
-    }
-    fn close_session(&mut self, _terminal: &str) {}
-    fn run(&mut self, line: &str) -> Reply {
-        if line.len() % 2 == 0 {
-            Reply::AreYouSure
-        } else {
-            Reply::Lines(vec![line.to_owned()])
-        }
-    }
-    fn confirmed(&mut self) -> Reply {
-        Reply::Lines(vec![])
-    }
-    fn transfer_blocked(&self) -> bool {
-        false
-    }
-    fn transfer_abandoned(&mut self) {}
-    fn check_load(&mut self, file: &[u8]) -> Vec<SyntaxError> {
-        (0..file.len() % 3)
-            .map(|i| SyntaxError {
-                line: format!("step {i}"),
-            })
-            .collect()
-    }
-    fn finish_load(&mut self, _file: &[u8], _answer: LoadAnswer) -> (Vec<String>, usize) {
-        (vec![], 0)
-    }
-    fn save(&mut self, spec: &str) -> Result<Vec<u8>, MonitorError> {
-        Ok(spec.as_bytes().to_vec())
-    }
-}
 
 fn chunks() -> impl Strategy<Value = Vec<Vec<u8>>> {
     let byte = prop_oneof![
@@ -67,7 +27,7 @@ fn chunks() -> impl Strategy<Value = Vec<Vec<u8>>> {
 proptest! {
     #[test]
     fn a_session_takes_any_bytes(input in chunks()) {
-        let mut m = Anything;
+        let mut m = AnswerAnything;
         let mut s = TerminalSession::open(&mut m, SessionConfig { max_piece: 7, save_chunk: 3 });
         for c in &input {
             s.handle_input(&mut m, c);
