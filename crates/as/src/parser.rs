@@ -771,6 +771,13 @@ impl<'a> FileParser<'a> {
         let code = strip_comment_bytes(text);
         let cols = columns(text);
         if let Some(item) = self.not_emulated_line(line_no, code, &cols) {
+            let item = match item {
+                Ok(item) => item,
+                Err(e) => {
+                    self.errors.push(e);
+                    return None;
+                }
+            };
             if let LineKind::Stmt(StmtKind::NotEmulated {
                 instruction,
                 stubbed,
@@ -853,7 +860,12 @@ impl<'a> FileParser<'a> {
     /// A line whose instruction loads without being parsed: one the emulator does not model
     /// (its arguments may use forms this parser does not read, such as `#[…]`), a
     /// block-teaching step, or a stubbed instruction. `None` for every other line.
-    fn not_emulated_line(&self, line_no: u32, code: &[u8], cols: &[u32]) -> Option<LineItem> {
+    fn not_emulated_line(
+        &self,
+        line_no: u32,
+        code: &[u8],
+        cols: &[u32],
+    ) -> Option<Result<LineItem, ParseError>> {
         let col = |k: usize| cols.get(k).copied().unwrap_or(1);
         let mut i = leading_blank(code);
         let mut label = None;
@@ -908,57 +920,81 @@ impl<'a> FileParser<'a> {
         let j = word_at(i);
         let word = String::from_utf8_lossy(&code[i..j]).to_ascii_lowercase();
         let after = &code[j + leading_blank(&code[j..])..];
-        // `tool = 1`, `tool[1] = 2`: an assignment, not an instruction.
-        if (after.starts_with(b"=") && !after.starts_with(b"==")) || after.starts_with(b"[") {
-            return None;
-        }
-        // `PREFETCH.SIGINS OFF`: a system switch the interpreter keeps, not an instruction.
-        if keywords::system_switch_default(&word).is_some() {
-            return None;
-        }
         let span = Span::new(line_no, col(i));
         let make = |instruction: String, stubbed: bool| {
-            Some(LineItem {
+            if let Err((k, msg)) = well_formed(after) {
+                let at = Span::new(line_no, col(code.len() - after.len() + k));
+                return Some(Err(ParseError::new(
+                    self.file,
+                    at,
+                    format!("{msg}: a controller refuses this line too"),
+                )));
+            }
+            Some(Ok(LineItem {
                 label: label.clone(),
                 kind: LineKind::Stmt(StmtKind::NotEmulated {
                     instruction,
                     stubbed,
                 }),
                 span,
-            })
+            }))
         };
-        let block_step = keywords::BLOCK_TEACHING.contains(&word.as_str()) && {
-            let next = &after[..after
-                .iter()
-                .position(|b| !b.is_ascii_alphanumeric())
-                .unwrap_or(after.len())];
-            next.len() >= 5 && next[..5].eq_ignore_ascii_case(b"speed")
-                || after.windows(2).any(|w| w == b"#[")
-        };
-        let upper = word.to_ascii_uppercase();
-        if self.opts.is_stubbed(&word) {
-            let instruction = if block_step {
-                format!("{upper} (block-teaching step)")
-            } else {
-                upper
+        // A block program's function step: `FN99[ "text" ]`, `FN20[ 17 ]`.
+        let fn_step = word.len() > 2
+            && word.starts_with("fn")
+            && word[2..].bytes().all(|b| b.is_ascii_digit())
+            && after.starts_with(b"[");
+        // `tool = 1`, `tool[1] = 2`: an assignment, not an instruction.
+        if !fn_step
+            && ((after.starts_with(b"=") && !after.starts_with(b"==")) || after.starts_with(b"["))
+        {
+            return None;
+        }
+        // `PREFETCH.SIGINS OFF`: a system switch the interpreter keeps, not an instruction.
+        if keywords::system_switch_default(&word).is_some() {
+            return None;
+        }
+        let block_step = fn_step
+            || keywords::BLOCK_TEACHING.contains(&word.as_str()) && {
+                let next = &after[..after
+                    .iter()
+                    .position(|b| !b.is_ascii_alphanumeric())
+                    .unwrap_or(after.len())];
+                next.len() >= 5 && next[..5].eq_ignore_ascii_case(b"speed")
+                    || after.windows(2).any(|w| w == b"#[")
             };
+        let upper = word.to_ascii_uppercase();
+        let kind = if block_step {
+            NotEmulatedKind::BlockStep
+        } else {
+            match keywords::lookup(&word, keywords::Role::INSTRUCTION) {
+                keywords::Lookup::Found(k) if k.runs.contains(keywords::Role::INSTRUCTION) => {
+                    if !self.opts.is_stubbed(&word) {
+                        return None;
+                    }
+                    NotEmulatedKind::Instruction
+                }
+                keywords::Lookup::Found(_) => NotEmulatedKind::Instruction,
+                keywords::Lookup::Ambiguous(..) => return None,
+                keywords::Lookup::Unknown => {
+                    let value = trim_blanks(after).0;
+                    if value.eq_ignore_ascii_case(b"on") || value.eq_ignore_ascii_case(b"off") {
+                        NotEmulatedKind::Switch
+                    } else {
+                        NotEmulatedKind::UnknownWord
+                    }
+                }
+            }
+        };
+        let instruction = match kind {
+            NotEmulatedKind::BlockStep => format!("{upper} (block-teaching step)"),
+            NotEmulatedKind::Switch => format!("{upper} (a system switch)"),
+            NotEmulatedKind::Instruction | NotEmulatedKind::UnknownWord => upper,
+        };
+        if self.opts.is_stubbed(&word) {
             return make(instruction, true);
         }
-        if block_step {
-            return make(format!("{upper} (block-teaching step)"), false);
-        }
-        if keywords::not_emulated(&word) {
-            return make(upper, false);
-        }
-        // `NAME ON|OFF` with a name the interpreter does not know: a system switch of a
-        // controller generation the emulator does not keep.
-        let value = trim_blanks(after).0;
-        if keywords::statement(&word).is_none()
-            && (value.eq_ignore_ascii_case(b"on") || value.eq_ignore_ascii_case(b"off"))
-        {
-            return make(format!("{upper} (a system switch)"), false);
-        }
-        None
+        make(instruction, false)
     }
 
     /// One data-section line.
@@ -985,6 +1021,50 @@ fn describe(t: Option<&Token>) -> String {
         Some(t) => t.tok.describe(),
         None => "the end of the line".into(),
     }
+}
+
+/// Whether the arguments of a line that loads without being parsed are well formed: strings
+/// closed, parentheses and brackets balanced and properly nested. `Err` holds the offset of
+/// the fault and what it is.
+fn well_formed(args: &[u8]) -> Result<(), (usize, &'static str)> {
+    let mut open: Vec<(u8, usize)> = Vec::new();
+    let mut k = 0;
+    while k < args.len() {
+        match args[k] {
+            b'"' => match args[k + 1..].iter().position(|&b| b == b'"') {
+                Some(n) => k += n + 1,
+                None => return Err((k, "this string is not closed (a \" is missing)")),
+            },
+            b'(' | b'[' => open.push((args[k], k)),
+            b')' | b']' => {
+                let want = if args[k] == b')' { b'(' } else { b'[' };
+                match open.pop() {
+                    Some((o, _)) if o == want => {}
+                    Some(_) => return Err((k, "this bracket closes another kind of bracket")),
+                    None => return Err((k, "this bracket closes nothing")),
+                }
+            }
+            _ => {}
+        }
+        k += 1;
+    }
+    match open.pop() {
+        Some((_, at)) => Err((at, "this bracket is not closed")),
+        None => Ok(()),
+    }
+}
+
+/// What kind of line loads as not emulated without being parsed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum NotEmulatedKind {
+    /// An instruction of the keyword table the emulator does not run.
+    Instruction,
+    /// A block-teaching step (`JOINT SPEED9 …`, `FN99[ … ]`).
+    BlockStep,
+    /// `NAME ON|OFF` with a switch the emulator does not keep.
+    Switch,
+    /// A word that is in no table.
+    UnknownWord,
 }
 
 /// A cursor over the tokens of one line.
@@ -1198,8 +1278,15 @@ impl<'a> Cur<'a> {
                 }
             }
             let Some(kw) = keywords::statement(&n.text) else {
-                let msg = if keywords::UNSUPPORTED.contains(&n.text.as_str()) {
-                    format!("{} is an AS instruction this interpreter does not support (docs/AS.md lists what it runs)", n.text.to_uppercase())
+                let msg = if let keywords::Lookup::Ambiguous(a, b) =
+                    keywords::lookup(&n.text, keywords::Role::INSTRUCTION)
+                {
+                    format!(
+                        "{} is short for both {} and {}: spell it out (P0110 Specify full spelling of command.)",
+                        n.text.to_uppercase(),
+                        a.name.to_uppercase(),
+                        b.name.to_uppercase()
+                    )
                 } else if self.peek_at(1).is_none() {
                     format!(
                         "unknown instruction {:?} (an assignment needs \"= value\")",
@@ -1425,19 +1512,14 @@ impl<'a> Cur<'a> {
                     }
                 };
                 let Some(cmd) = keywords::monitor(&word) else {
-                    // A monitor command the emulator does not run (`MC ZPOWER ON`): loads as
-                    // not emulated; a word that is no monitor command is still an error.
-                    if keywords::MONITOR_UNSUPPORTED.contains(&word.as_str()) {
-                        return Ok(LineKind::Stmt(StmtKind::NotEmulated {
-                            instruction: format!("MC {}", word.to_uppercase()),
-                            stubbed: false,
-                        }));
-                    }
-                    return Err(ParseError::new(
-                        self.file,
-                        span,
-                        format!("MC {} is not a monitor command this interpreter runs (EXECUTE, ABORT, HOLD, CONTINUE, SPEED, ERESET, PCEXECUTE, PCABORT)", word.to_uppercase()),
-                    ));
+                    // A monitor command the emulator does not run (`MC ZPOWER ON`, `MC PRIME
+                    // a.main`) or a word in no table: loads as not emulated, its arguments
+                    // checked as any argument list.
+                    while self.next().is_some() {}
+                    return Ok(LineKind::Stmt(StmtKind::NotEmulated {
+                        instruction: format!("MC {}", word.to_uppercase()),
+                        stubbed: false,
+                    }));
                 };
                 LineKind::Stmt(StmtKind::Monitor(self.monitor(cmd)?))
             }
