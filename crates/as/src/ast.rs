@@ -714,6 +714,11 @@ pub enum Arg {
     Expr(Expr),
     /// A format code (`$ENCODE(/F10.3, …)`).
     Format(FormatCode, Span),
+    /// An omitted value (`TRANS(, -100)`): the function's default, 0 for the components of
+    /// `TRANS`, `SHIFT` and `#PPOINT`.
+    Omitted(Span),
+    /// A keyword as an argument (`SYSDATA(STEP)`), lower case.
+    Keyword(String, Span),
 }
 
 /// Unary operators.

@@ -218,6 +218,8 @@ pub(crate) struct CArg {
 #[repr(u8)]
 pub(crate) enum Op {
     Nop,
+    /// A jump to a label the program does not have (E0101 when reached).
+    Fail(Box<str>),
     AssignR(LRef, RExpr),
     AssignS(LRef, SExpr),
     AssignJ(LRef, JExpr),
@@ -418,6 +420,10 @@ pub(crate) struct CProgram {
     pub(crate) locals: [usize; 4],
     /// Local names per type (for messages).
     pub(crate) local_names: [Vec<String>; 4],
+    /// `false` for a program that is named (by CALL, EXECUTE, PCEXECUTE, ON … CALL) but that
+    /// no loaded file defines: as on the controller, the name resolves when a task reaches
+    /// it, and a task that does stops with E0119 (a later LOAD may define it).
+    pub(crate) defined: bool,
 }
 
 /// Everything loaded: programs, global names, data to load.
@@ -433,6 +439,15 @@ pub(crate) struct Code {
 }
 
 impl Code {
+    /// The index of the program called `name`, when a loaded file defines it (not a
+    /// placeholder for a program only named).
+    pub(crate) fn defined(&self, name: &str) -> Option<usize> {
+        self.by_name
+            .get(name)
+            .copied()
+            .filter(|&p| self.programs.get(p).is_some_and(|p| p.defined))
+    }
+
     /// The source text of a line of a program.
     pub(crate) fn line_text(&self, program: usize, line: u32) -> &str {
         self.programs
@@ -476,6 +491,8 @@ pub(crate) fn compile(modules: &[crate::ast::Module]) -> Result<Code, LoadError>
         hidden: 0,
         not_emulated_fn: None,
         warnings: Vec::new(),
+        defined: 0,
+        undefined: Vec::new(),
     };
     // Program names first (CALL may name a program defined later or in another file).
     let mut order = Vec::new();
@@ -498,9 +515,24 @@ pub(crate) fn compile(modules: &[crate::ast::Module]) -> Result<Code, LoadError>
         }
     }
     let mut programs = Vec::new();
+    c.defined = order.len();
     for &(mi, p) in &order {
         c.file = modules[mi].file.to_string();
         programs.push(c.program(mi, p));
+    }
+    // Programs named but defined by no file: resolved when a task reaches them.
+    for name in std::mem::take(&mut c.undefined) {
+        programs.push(CProgram {
+            name,
+            module: 0,
+            params: Vec::new(),
+            ops: vec![Op::End],
+            lines: vec![0],
+            touches: vec![true],
+            locals: [0; 4],
+            local_names: Default::default(),
+            defined: false,
+        });
     }
     // Data sections.
     let mut data = Vec::new();
@@ -547,6 +579,10 @@ struct Compiler {
     globals: [Vec<String>; 4],
     global_index: [HashMap<String, u32>; 4],
     by_name: HashMap<String, usize>,
+    /// How many programs the files define (the first indices).
+    defined: usize,
+    /// Programs named but not defined, in order of first use (indices after the defined ones).
+    undefined: Vec<String>,
     // Per program being compiled:
     locals: [Vec<String>; 4],
     local_index: [HashMap<String, u32>; 4],
@@ -635,11 +671,25 @@ impl Compiler {
                     _ => {}
                 },
                 None => {
-                    let e = self.err(
+                    // As on the controller, a missing label is found when the jump runs
+                    // (E0101); the lint reports it.
+                    let target = self.ops.len();
+                    self.ops
+                        .push(Op::Fail(format!("label {} in program {}", label.name, p.name).into()));
+                    self.lines.push(label.span.line);
+                    match &mut self.ops[at] {
+                        Op::Jump(t) | Op::JumpIf(_, t) => *t = target,
+                        Op::On { goto, .. } => *goto = Some(target),
+                        _ => {}
+                    }
+                    self.warnings.push(ParseError::new(
+                        &self.file,
                         label.span,
-                        format!("label {} is not defined in program {}", label.name, p.name),
-                    );
-                    self.errors.push(e);
+                        format!(
+                            "label {} is not defined in program {}: a task that jumps there stops with E0101",
+                            label.name, p.name
+                        ),
+                    ));
                 }
             }
         }
@@ -658,6 +708,7 @@ impl Compiler {
                 self.locals[3].len(),
             ],
             local_names: std::mem::take(&mut self.locals),
+            defined: true,
         }
     }
 
@@ -1332,13 +1383,16 @@ impl Compiler {
         })
     }
 
-    fn program_ref(&self, name: &str, span: Span) -> CResult<usize> {
-        self.by_name.get(name).copied().ok_or_else(|| {
-            self.err(
-                span,
-                format!("program {name} is not defined (load the file that holds it)"),
-            )
-        })
+    /// The index of a named program; a program no file defines gets a placeholder, resolved
+    /// when a task reaches it (E0119 then).
+    fn program_ref(&mut self, name: &str, _span: Span) -> CResult<usize> {
+        if let Some(&p) = self.by_name.get(name) {
+            return Ok(p);
+        }
+        let p = self.defined + self.undefined.len();
+        self.undefined.push(name.to_owned());
+        self.by_name.insert(name.to_owned(), p);
+        Ok(p)
     }
 
     fn args(&mut self, args: &[Expr]) -> CResult<Box<[CArg]>> {
@@ -1500,8 +1554,13 @@ impl Compiler {
         for a in args {
             match a {
                 Arg::Expr(e) => v.push(self.real(e)?),
+                // An omitted component is 0 (`TRANS(, -100)`).
+                Arg::Omitted(_) => v.push(RExpr::Const(0.0)),
                 Arg::Format(_, s) => {
                     return Err(self.err(*s, "a format code is allowed only in $ENCODE"))
+                }
+                Arg::Keyword(k, s) => {
+                    return Err(self.err(*s, format!("expected a value, found the word {}", k.to_uppercase())))
                 }
             }
         }
@@ -1615,10 +1674,20 @@ impl Compiler {
         Ok(())
     }
 
-    fn arg_expr<'e>(&self, a: &'e Arg) -> CResult<&'e Expr> {
+    fn arg_expr<'e>(&mut self, a: &'e Arg) -> CResult<&'e Expr> {
         match a {
             Arg::Expr(e) => Ok(e),
             Arg::Format(_, s) => Err(self.err(*s, "a format code is allowed only in $ENCODE")),
+            // An omitted value where the emulator does not know the function's default: the
+            // statement loads as not emulated.
+            Arg::Omitted(s) => {
+                self.not_emulated_fn = Some("an omitted function argument".into());
+                Err(self.err(*s, "an omitted value here is not emulated"))
+            }
+            Arg::Keyword(k, s) => Err(self.err(
+                *s,
+                format!("expected a value, found the word {}", k.to_uppercase()),
+            )),
         }
     }
 
@@ -1804,11 +1873,9 @@ impl Compiler {
                 self.arity(name, args, 2, 4, span)?;
                 let loc = self.arg_expr(&args[0])?.clone();
                 let t = self.trans_loc(&loc)?;
-                let d = args[1..]
-                    .iter()
-                    .map(|a| self.arg_real(a))
-                    .collect::<CResult<Vec<_>>>()?;
-                Ok(CExpr::T(TExpr::Shift(Box::new(t), d.into())))
+                // An omitted shift is 0 (`SHIFT(p BY , , 50)`).
+                let d = self.reals_up_to(&args[1..], 3, "SHIFT", span)?;
+                Ok(CExpr::T(TExpr::Shift(Box::new(t), d)))
             }
             (Sigil::None, "trans") => Ok(CExpr::T(TExpr::Trans(
                 self.reals_up_to(args, 6, "TRANS", span)?,
@@ -1851,10 +1918,13 @@ impl Compiler {
                 let items: Vec<PrintItem> = args
                     .iter()
                     .map(|a| match a {
-                        Arg::Expr(e) => PrintItem::Expr(e.clone()),
-                        Arg::Format(f, s) => PrintItem::Format(*f, *s),
+                        Arg::Expr(e) => Ok(PrintItem::Expr(e.clone())),
+                        Arg::Format(f, s) => Ok(PrintItem::Format(*f, *s)),
+                        Arg::Omitted(s) | Arg::Keyword(_, s) => {
+                            Err(self.err(*s, "expected a value or a format code in $ENCODE"))
+                        }
                     })
-                    .collect();
+                    .collect::<CResult<_>>()?;
                 Ok(CExpr::S(SExpr::Encode(self.items(&items)?)))
             }
             (Sigil::Dollar, "decode") => {

@@ -112,6 +112,13 @@ pub enum RuntimeError {
     /// circle (two coincide, or all on one line).
     #[error("(E0112) circular motion not defined: {0}")]
     Circular(String),
+    /// A program named by CALL, EXECUTE, PCEXECUTE or ON … CALL that no loaded file defines
+    /// (the manual's E0119 "Nonexistent subroutine.").
+    #[error("(E0119) nonexistent subroutine: program {0} is not loaded (load the file that holds it)")]
+    NoProgram(String),
+    /// A jump to a label the program does not have (the manual's E0101 "Nonexistent label.").
+    #[error("(E0101) nonexistent label: {0}")]
+    NoLabel(String),
     /// A controller error raised by the system (a motion refused, e.g. E1088).
     #[error("{}", describe(*.0))]
     System(ErrorCode),
@@ -138,6 +145,8 @@ impl RuntimeError {
             RuntimeError::CallDepth(_) => ErrorCode(-30109),
             RuntimeError::MemoryFull(_) => ErrorCode(-30110),
             RuntimeError::NotEmulated(_) => ErrorCode(-30111),
+            RuntimeError::NoProgram(_) => ErrorCode(-30119),
+            RuntimeError::NoLabel(_) => ErrorCode(-30101),
             RuntimeError::Circular(_) => CIRCLE_NOT_DEFINED,
             RuntimeError::System(c) => *c,
         }

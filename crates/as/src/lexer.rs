@@ -97,6 +97,8 @@ pub enum Tok {
     Amp,
     /// `|` (logical OR, as some editors write it).
     Bar,
+    /// `#[`: a joint-value constant `#[j1, j2, …]`, closed by `]`.
+    HashBracket,
 }
 
 impl Tok {
@@ -126,6 +128,7 @@ impl Tok {
             Tok::Caret => "\"^\"".into(),
             Tok::Amp => "\"&\"".into(),
             Tok::Bar => "\"|\"".into(),
+            Tok::HashBracket => "\"#[\"".into(),
         }
     }
 
@@ -305,7 +308,11 @@ pub fn tokenize_bytes(
                 i = j;
                 Tok::Num(v as f64)
             }
-            b'.' | b'$' | b'#' | b'a'..=b'z' | b'A'..=b'Z' | b'_' => {
+            b'#' if chars.get(i + 1) == Some(&b'[') => {
+                i += 2;
+                Tok::HashBracket
+            }
+            b'.' | b'$' | b'#' | b'@' | b'a'..=b'z' | b'A'..=b'Z' | b'_' => {
                 let mut j = i;
                 let mut local = false;
                 if chars[j] == b'.' {
@@ -320,12 +327,18 @@ pub fn tokenize_bytes(
                         j += 1;
                     }
                 }
+                // `@name`: an integer variable (UTIMER, EXIST…INTEGER). Integers are whole
+                // reals here: the name keeps its `@` and is read as a real variable.
+                let integer = chars.get(j) == Some(&b'@');
+                if integer {
+                    j += 1;
+                }
                 let sigil = match chars.get(j) {
-                    Some(b'$') => {
+                    Some(b'$') if !integer => {
                         j += 1;
                         Sigil::Dollar
                     }
-                    Some(b'#') => {
+                    Some(b'#') if !integer => {
                         j += 1;
                         Sigil::Hash
                     }
@@ -349,7 +362,11 @@ pub fn tokenize_bytes(
                     j -= 1;
                 }
                 // ASCII only, so the bytes are text.
-                let text = String::from_utf8_lossy(&chars[name_start..j]).to_ascii_lowercase();
+                let mut text =
+                    String::from_utf8_lossy(&chars[name_start..j]).to_ascii_lowercase();
+                if integer {
+                    text.insert(0, '@');
+                }
                 if text.len() > MAX_NAME {
                     return Err(err(
                         start,

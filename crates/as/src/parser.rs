@@ -121,7 +121,12 @@ pub fn parse_bytes(file: &str, bytes: &[u8], opts: &LoadOptions) -> Result<Modul
             continue;
         };
         if word == "end" {
-            p.error(span, ".END without a .PROGRAM or a data section to close");
+            // A stray second `.END`: controllers ignore it.
+            p.warnings.push(ParseError::new(
+                file,
+                span,
+                ".END without a .PROGRAM or a data section to close: ignored",
+            ));
             i += 1;
             continue;
         }
@@ -721,6 +726,15 @@ impl<'a> FileParser<'a> {
                         }
                     }
                     StmtKind::Case { selector, arms }
+                }
+                // A stray END with no block open: kept, as controllers save it, and not
+                // emulated (a task that reaches it stops with E0111).
+                LineKind::End if opener.is_empty() => {
+                    self.note_not_emulated("END without an open block", span, false);
+                    StmtKind::NotEmulated {
+                        instruction: "END without an open block".into(),
+                        stubbed: false,
+                    }
                 }
                 other => {
                     let msg = match (other.name(), opener) {
@@ -1322,6 +1336,11 @@ impl<'a> Cur<'a> {
                     self.expect_end("IF … GOTO")?;
                     return simple(StmtKind::IfGoto { cond, label });
                 }
+                // `IF cond` alone on its line opens a block as `IF cond THEN` does: controllers
+                // accept the block form without THEN.
+                if self.at_end() {
+                    return Ok(LineKind::IfThen(cond));
+                }
                 return Err(self.err(format!(
                     "expected THEN or GOTO after the IF condition, found {}",
                     self.found()
@@ -1331,7 +1350,10 @@ impl<'a> Cur<'a> {
             "end" => LineKind::End,
             "while" => {
                 let cond = self.expr()?;
-                self.expect_word("do", "DO after the WHILE condition")?;
+                // `WHILE cond` without DO: controllers accept it.
+                if !self.at_end() {
+                    self.expect_word("do", "DO after the WHILE condition")?;
+                }
                 LineKind::While(cond)
             }
             "do" => LineKind::Do,
@@ -1375,10 +1397,20 @@ impl<'a> Cur<'a> {
                 LineKind::Value(v)
             }
             "any" => {
-                self.expect(&Tok::Colon, "\":\" after ANY")?;
+                // The colon after ANY is optional (`ANY :`, `ANY`).
+                self.eat(&Tok::Colon);
                 LineKind::Any
             }
-            "goto" => LineKind::Stmt(StmtKind::Goto(self.label_ref("GOTO")?)),
+            "goto" => {
+                let label = self.label_ref("GOTO")?;
+                // `GOTO label IF cond`: a conditional jump.
+                if self.eat_word("if") {
+                    let cond = self.expr()?;
+                    LineKind::Stmt(StmtKind::IfGoto { cond, label })
+                } else {
+                    LineKind::Stmt(StmtKind::Goto(label))
+                }
+            }
             "call" => {
                 // `CALL p(.$data[], 1)`: a whole array as an argument.
                 if whole_array_at(&self.toks[self.pos..]) {
@@ -1492,6 +1524,14 @@ impl<'a> Cur<'a> {
                         self.found()
                     )));
                 };
+                // Arguments to the interrupt program, or a priority: not emulated.
+                if !self.at_end() {
+                    return Ok(self.not_emulated_rest(if kw == "oni" {
+                        "ONI with arguments or a priority"
+                    } else {
+                        "ON with arguments or a priority"
+                    }));
+                }
                 LineKind::Stmt(StmtKind::On {
                     immediate: kw == "oni",
                     signal,
@@ -1521,10 +1561,10 @@ impl<'a> Cur<'a> {
                         stubbed: false,
                     }));
                 };
-                LineKind::Stmt(StmtKind::Monitor(self.monitor(cmd)?))
+                LineKind::Stmt(self.monitor(cmd)?)
             }
             "execute" | "pcexecute" | "pcabort" => {
-                LineKind::Stmt(StmtKind::Monitor(self.monitor(kw)?))
+                LineKind::Stmt(self.monitor(kw)?)
             }
             "enable" | "disable" => {
                 let nspan = self.span();
@@ -1579,10 +1619,19 @@ impl<'a> Cur<'a> {
                 let source = self.expr()?;
                 LineKind::Stmt(StmtKind::Decompose { target, source })
             }
-            "here" => LineKind::Stmt(StmtKind::Here {
-                target: self.lvalue()?,
-            }),
+            "here" => {
+                let target = self.lvalue()?;
+                // `HERE a + b`: b is defined relative to a. Not emulated.
+                if self.peek() == Some(&Tok::Plus) {
+                    return Ok(self.not_emulated_rest("HERE with a compound pose"));
+                }
+                LineKind::Stmt(StmtKind::Here { target })
+            }
             "point" => {
+                // `POINT/X`, `POINT/OAT`, `POINT/7`: only some components. Not emulated.
+                if self.peek() == Some(&Tok::Slash) {
+                    return Ok(self.not_emulated_rest("POINT with a component qualifier"));
+                }
                 let target = self.lvalue()?;
                 self.expect(&Tok::Assign, "\"=\" after the POINT variable")?;
                 let value = self.expr()?;
@@ -1773,6 +1822,16 @@ impl<'a> Cur<'a> {
         Ok(kind)
     }
 
+    /// The rest of the line, read as any well-formed argument list, as a statement that loads
+    /// as not emulated under the name `what`.
+    fn not_emulated_rest(&mut self, what: &str) -> LineKind {
+        self.pos = self.toks.len();
+        LineKind::Stmt(StmtKind::NotEmulated {
+            instruction: what.to_owned(),
+            stubbed: false,
+        })
+    }
+
     fn on_off(&mut self, what: &str) -> PResult<bool> {
         if self.eat_word("on") {
             Ok(true)
@@ -1786,9 +1845,16 @@ impl<'a> Cur<'a> {
         }
     }
 
-    fn monitor(&mut self, cmd: &str) -> PResult<MonitorCommand> {
-        Ok(match cmd {
+    fn monitor(&mut self, cmd: &str) -> PResult<StmtKind> {
+        Ok(StmtKind::Monitor(match cmd {
             "execute" => {
+                // `EXECUTE 2: prog`: the robot number. The emulator has one robot.
+                if let Some(robot) = self.task_prefix()? {
+                    if !matches!(robot.kind, ExprKind::Num(n) if n == 1.0) {
+                        self.pos = self.toks.len();
+                        return Ok(StmtKind::NotEmulated { instruction: "EXECUTE for another robot".into(), stubbed: false });
+                    }
+                }
                 let program = self.program_name("EXECUTE")?;
                 let args = self.call_args()?;
                 let cycles = if self.eat(&Tok::Comma) {
@@ -1824,10 +1890,19 @@ impl<'a> Cur<'a> {
             "abort" => MonitorCommand::Abort,
             "hold" => MonitorCommand::Hold,
             "continue" => MonitorCommand::Continue,
-            "speed" => MonitorCommand::Speed(self.expr()?),
+            "speed" => {
+                // `SPEED 2: 100`: the robot number. The emulator has one robot.
+                if let Some(robot) = self.task_prefix()? {
+                    if !matches!(robot.kind, ExprKind::Num(n) if n == 1.0) {
+                        self.pos = self.toks.len();
+                        return Ok(StmtKind::NotEmulated { instruction: "SPEED for another robot".into(), stubbed: false });
+                    }
+                }
+                MonitorCommand::Speed(self.expr()?)
+            }
             "ereset" => MonitorCommand::Ereset,
             other => return Err(self.err(format!("MC {} is not supported", other.to_uppercase()))),
-        })
+        }))
     }
 
     /// `n:` before a program name (PC task number).
@@ -2301,6 +2376,26 @@ impl<'a> Cur<'a> {
         let kind = match tok.tok {
             Tok::Num(v) => ExprKind::Num(v),
             Tok::Str(s) => ExprKind::Str(s),
+            // `#[j1, j2, …]`: a joint-value constant, the same as `#PPOINT(j1, j2, …)`
+            // (omitted values are 0).
+            Tok::HashBracket => {
+                let name = Name {
+                    local: false,
+                    sigil: Sigil::Hash,
+                    text: "ppoint".into(),
+                };
+                let mut args = Vec::new();
+                if !self.eat(&Tok::RBracket) {
+                    loop {
+                        args.push(self.arg_or_omitted(&[Tok::Comma, Tok::RBracket])?);
+                        if self.eat(&Tok::RBracket) {
+                            break;
+                        }
+                        self.expect(&Tok::Comma, "\",\" or \"]\" in the joint values #[…]")?;
+                    }
+                }
+                ExprKind::Call { name, args }
+            }
             Tok::LParen => {
                 let e = self.expr()?;
                 self.expect(&Tok::RParen, "\")\" to close the parenthesis")?;
@@ -2356,13 +2451,34 @@ impl<'a> Cur<'a> {
         let formats = name.sigil == Sigil::Dollar && name.text == "encode";
         // `SHIFT(location BY dx, dy, dz)`: BY separates the location from the offsets.
         let shift = name.sigil == Sigil::None && name.text == "shift";
+        // `SYSDATA(STEP)`, `$SYSDATA(ZROB.NAME, 1)`: the first argument is a keyword.
+        let sysdata = name.text == "sysdata" && !name.local;
         loop {
             if formats && self.peek() == Some(&Tok::Slash) {
                 let span = self.span();
                 self.pos += 1;
                 args.push(Arg::Format(self.format_code(span)?, span));
+            } else if sysdata && args.is_empty() {
+                let span = self.span();
+                match self.next().map(|t| t.tok) {
+                    Some(Tok::Name(n)) if !n.local && n.sigil == Sigil::None => {
+                        args.push(Arg::Keyword(n.text, span))
+                    }
+                    other => {
+                        return Err(ParseError::new(
+                            self.file,
+                            span,
+                            format!(
+                                "expected a SYSDATA keyword such as STEP or M.SPEED, found {}",
+                                other.map_or("the end of the line".into(), |t| t.describe())
+                            ),
+                        ))
+                    }
+                }
+            } else if shift && args.len() == 1 {
+                args.push(self.arg_or_omitted(&[Tok::Comma, Tok::RParen])?);
             } else {
-                args.push(Arg::Expr(self.expr()?));
+                args.push(self.arg_or_omitted(&[Tok::Comma, Tok::RParen])?);
             }
             if self.eat(&Tok::RParen) {
                 break;
@@ -2378,7 +2494,14 @@ impl<'a> Cur<'a> {
         Ok(args)
     }
 
-    // ------------------------------------------------------------------ data sections
+    /// A function argument, or an omitted one (`TRANS(, -100)`, `SHIFT(p BY , , 50)`): the
+    /// next token is one of `enders`.
+    fn arg_or_omitted(&mut self, enders: &[Tok]) -> PResult<Arg> {
+        match self.peek() {
+            Some(t) if enders.contains(t) => Ok(Arg::Omitted(self.span())),
+            _ => Ok(Arg::Expr(self.expr()?)),
+        }
+    }
 
     fn signed_number(&mut self, what: &str) -> PResult<f64> {
         let neg = if self.eat(&Tok::Minus) {

@@ -12,7 +12,7 @@ impl Interpreter {
     pub(super) fn exists(&self, kind: Exist, name: &[u8]) -> f32 {
         let name = String::from_utf8_lossy(name).trim().to_ascii_lowercase();
         let ty = match kind {
-            Exist::Program => return as_bool(self.code.by_name.contains_key(&name)),
+            Exist::Program => return as_bool(self.code.defined(&name).is_some()),
             Exist::Real => Ty::Real,
             Exist::Char => Ty::Str,
             Exist::Joint => Ty::Joint,

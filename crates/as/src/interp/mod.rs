@@ -229,7 +229,12 @@ impl Interpreter {
 
     /// The loaded program names.
     pub fn programs(&self) -> Vec<&str> {
-        self.code.programs.iter().map(|p| p.name.as_str()).collect()
+        self.code
+            .programs
+            .iter()
+            .filter(|p| p.defined)
+            .map(|p| p.name.as_str())
+            .collect()
     }
 
     /// Interpreter time (since it was created).

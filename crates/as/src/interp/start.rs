@@ -20,7 +20,7 @@ impl Interpreter {
             } else {
                 format!("autostart{n}.pc")
             };
-            if let Some(&p) = self.code.by_name.get(&name) {
+            if let Some(p) = self.code.defined(&name) {
                 self.start_task(TaskSlot::at(usize::from(n)), p, &[], 1);
                 self.message(sys, TaskId::Pc(n), format!("{name} started in PC task {n}"));
             }
@@ -73,8 +73,7 @@ impl Interpreter {
 
     /// The index of the program called `program`, or the refusal naming it.
     fn program_named(&self, program: &str) -> Result<usize, Refusal> {
-        (self.code.by_name.get(program).copied())
-            .ok_or_else(|| Refusal::NoProgram(program.to_owned()))
+        (self.code.defined(program)).ok_or_else(|| Refusal::NoProgram(program.to_owned()))
     }
 
     /// Stops a task at once (`ABORT`/`PCABORT` from outside, a panel switch that stops the
@@ -138,9 +137,12 @@ impl Interpreter {
         if self.tasks[i].frames.len() >= self.cfg.max_call_depth {
             return Err(Box::new(RuntimeError::CallDepth(self.cfg.max_call_depth)));
         }
-        let mut store = self.new_locals(i, prog);
         let code = self.code.clone();
         let p = &code.programs[prog];
+        if !p.defined {
+            return Err(Box::new(RuntimeError::NoProgram(p.name.clone())));
+        }
+        let mut store = self.new_locals(i, prog);
         let mut byref = Vec::new();
         for (k, param) in p.params.iter().enumerate() {
             let Some((val, target)) = args.get(k) else {

@@ -259,6 +259,7 @@ impl Interpreter {
             Op::NotEmulated(instr) => {
                 return Err(Box::new(RuntimeError::NotEmulated(instr.to_string())))
             }
+            Op::Fail(label) => return Err(Box::new(RuntimeError::NoLabel(label.to_string()))),
             Op::AssignR(..)
             | Op::AssignS(..)
             | Op::Jump(_)
