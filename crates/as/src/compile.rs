@@ -168,6 +168,11 @@ pub(crate) enum TExpr {
     Shift(Box<TExpr>, Box<[RExpr]>),
     /// `FRAME(t1, t2, t3, t4)`: origin t4, X from t1 toward t2, t3 on the XY plane's +Y side.
     Frame(Box<[TExpr; 4]>),
+    /// `-t`: the inverse transformation (`a - b` is `a + (-b)`).
+    Inverse(Box<TExpr>),
+    /// `RX(angle)`, `RY(angle)`, `RZ(angle)`: a pure rotation about the X (0), Y (1) or Z (2)
+    /// axis, in degrees.
+    Rot(u8, Box<RExpr>),
 }
 
 /// A location: joint point or transformation.
@@ -1520,9 +1525,25 @@ impl Compiler {
             ExprKind::Call { name, args } if name.sigil == Sigil::None && name.text == "trans" => {
                 Ok(Loc::T(TExpr::Trans(self.reals_up_to(args, 6, "TRANS", e.span)?)))
             }
-            ExprKind::Binary(BinOp::Add, a, b) => match (self.loc(a)?, self.loc(b)?) {
-                (Loc::T(x), Loc::T(y)) => Ok(Loc::T(TExpr::Compose(Box::new(x), Box::new(y)))),
-                _ => Err(self.err(e.span, "only transformations can be composed with +")),
+            ExprKind::Binary(op @ (BinOp::Add | BinOp::Sub), a, b) => {
+                match (self.loc(a)?, self.loc(b)?) {
+                    (Loc::T(x), Loc::T(y)) => {
+                        let y = if *op == BinOp::Sub {
+                            TExpr::Inverse(Box::new(y))
+                        } else {
+                            y
+                        };
+                        Ok(Loc::T(TExpr::Compose(Box::new(x), Box::new(y))))
+                    }
+                    _ => Err(self.err(
+                        e.span,
+                        "only transformations can be composed with + and -",
+                    )),
+                }
+            }
+            ExprKind::Unary(UnOp::Neg, a) => match self.loc(a)? {
+                Loc::T(t) => Ok(Loc::T(TExpr::Inverse(Box::new(t)))),
+                Loc::J(_) => Err(self.err(e.span, "a joint point has no inverse")),
             },
             _ => match self.expr(e)? {
                 CExpr::J(j) => Ok(Loc::J(j)),
@@ -1578,6 +1599,16 @@ impl Compiler {
             }
             ExprKind::Str(s) => Ok(CExpr::S(SExpr::Const(Bytes::from(s.as_slice())))),
             ExprKind::Var(lv) => self.var_expr(lv),
+            ExprKind::Unary(UnOp::Neg, a) if !matches!(a.kind, ExprKind::Num(_)) => {
+                match self.expr(a)? {
+                    CExpr::T(t) => Ok(CExpr::T(TExpr::Inverse(Box::new(t)))),
+                    CExpr::R(r) => Ok(CExpr::R(RExpr::Neg(Box::new(r)))),
+                    other => Err(self.err(
+                        e.span,
+                        format!("expected a real, found {}", other.ty().name()),
+                    )),
+                }
+            }
             ExprKind::Unary(op, a) => {
                 let a = Box::new(self.real(a)?);
                 Ok(CExpr::R(match op {
@@ -1606,6 +1637,9 @@ impl Compiler {
                     (CExpr::T(x), CExpr::T(y)) if *op == BinOp::Add => {
                         Ok(CExpr::T(TExpr::Compose(Box::new(x), Box::new(y))))
                     }
+                    (CExpr::T(x), CExpr::T(y)) if *op == BinOp::Sub => Ok(CExpr::T(
+                        TExpr::Compose(Box::new(x), Box::new(TExpr::Inverse(Box::new(y)))),
+                    )),
                     (x, y) => Err(self.err(
                         e.span,
                         format!(
@@ -1720,6 +1754,16 @@ impl Compiler {
                     _ => RFunc::Timer,
                 };
                 Ok(CExpr::R(RExpr::Func(func, vec![a].into())))
+            }
+            (Sigil::None, f @ ("rx" | "ry" | "rz")) => {
+                self.arity(name, args, 1, 1, span)?;
+                let a = self.arg_real(&args[0])?;
+                let axis = match f {
+                    "rx" => 0,
+                    "ry" => 1,
+                    _ => 2,
+                };
+                Ok(CExpr::T(TExpr::Rot(axis, Box::new(a))))
             }
             (Sigil::None, "round") => {
                 self.arity(name, args, 1, 1, span)?;
@@ -2061,6 +2105,8 @@ fn t_touches(e: &TExpr) -> bool {
         TExpr::Compose(a, b) => t_touches(a) || t_touches(b),
         TExpr::Shift(t, d) => t_touches(t) || any_r(d),
         TExpr::Frame(t) => t.iter().any(t_touches),
+        TExpr::Inverse(t) => t_touches(t),
+        TExpr::Rot(_, a) => r_touches(a),
     }
 }
 

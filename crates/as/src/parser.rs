@@ -1022,8 +1022,15 @@ impl<'a> FileParser<'a> {
         let mut c = Cur::new(self.file, &toks, line_no);
         match c.data_item(section) {
             Ok(item) => Some(item),
+            // A data line this loader cannot read (a name that is not one, more axes than
+            // the FS020N's six) is left out with a warning: nothing runs it, and a program
+            // that reads the variable stops with E0102 as on a controller without it.
             Err(e) => {
-                self.errors.push(e);
+                self.warnings.push(ParseError::new(
+                    self.file,
+                    e.span,
+                    format!("{}: this data line is not loaded", e.message),
+                ));
                 None
             }
         }
@@ -1419,6 +1426,10 @@ impl<'a> Cur<'a> {
                         stubbed: false,
                     }));
                 }
+                // A CALL without a program name: kept as controllers save it, not emulated.
+                if self.at_end() {
+                    return Ok(self.not_emulated_rest("CALL without a program"));
+                }
                 let program = self.program_name("CALL")?;
                 let args = self.call_args()?;
                 LineKind::Stmt(StmtKind::Call { program, args })
@@ -1765,6 +1776,10 @@ impl<'a> Cur<'a> {
                 } else {
                     SpeedUnit::Percent
                 };
+                // A rotational speed (`, 30 DEG/S`): not emulated.
+                if self.peek() == Some(&Tok::Comma) {
+                    return Ok(self.not_emulated_rest("SPEED with a rotational speed"));
+                }
                 let always = self.eat_word("always");
                 LineKind::Stmt(StmtKind::Speed {
                     value,
@@ -1925,6 +1940,9 @@ impl<'a> Cur<'a> {
                 return Ok(args);
             }
             loop {
+                // `&a`, `.&a`: a transformation argument (the manual marks pose parameters
+                // with `&`); the value is the same.
+                self.eat(&Tok::Amp);
                 args.push(self.expr()?);
                 if self.eat(&Tok::RParen) {
                     break;

@@ -373,6 +373,22 @@ impl Interpreter {
                 v
             }
             TExpr::Frame(t) => self.eval_frame(i, t, sys)?,
+            TExpr::Inverse(t) => {
+                let x = self.eval_t(i, t, sys)?;
+                let r = Pose::from_xyzoat(xyzoat(&x)).inverse().to_xyzoat();
+                [r.x_mm, r.y_mm, r.z_mm, r.o_deg, r.a_deg, r.t_deg].map(|v| v as f32)
+            }
+            TExpr::Rot(axis, a) => {
+                let deg = f64::from(self.eval_r(i, a, sys)?);
+                let axis = match axis {
+                    0 => nalgebra::Vector3::x_axis(),
+                    1 => nalgebra::Vector3::y_axis(),
+                    _ => nalgebra::Vector3::z_axis(),
+                };
+                let q = nalgebra::UnitQuaternion::from_axis_angle(&axis, deg.to_radians());
+                let r = Pose::new(nalgebra::Vector3::zeros(), q).to_xyzoat();
+                [r.x_mm, r.y_mm, r.z_mm, r.o_deg, r.a_deg, r.t_deg].map(|v| v as f32)
+            }
             TExpr::Compose(a, b) => {
                 let x = self.eval_t(i, a, sys)?;
                 let y = self.eval_t(i, b, sys)?;
