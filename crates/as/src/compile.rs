@@ -498,6 +498,7 @@ pub(crate) fn compile(modules: &[crate::ast::Module]) -> Result<Code, LoadError>
         warnings: Vec::new(),
         defined: 0,
         undefined: Vec::new(),
+        trans_params: HashMap::new(),
     };
     // Program names first (CALL may name a program defined later or in another file).
     let mut order = Vec::new();
@@ -521,6 +522,14 @@ pub(crate) fn compile(modules: &[crate::ast::Module]) -> Result<Code, LoadError>
     }
     let mut programs = Vec::new();
     c.defined = order.len();
+    for &(_, p) in &order {
+        let trans = p
+            .params
+            .iter()
+            .map(|prm| prm.by_ref && prm.name.sigil == Sigil::None)
+            .collect();
+        c.trans_params.insert(p.name.clone(), trans);
+    }
     for &(mi, p) in &order {
         c.file = modules[mi].file.to_string();
         programs.push(c.program(mi, p));
@@ -586,6 +595,8 @@ struct Compiler {
     by_name: HashMap<String, usize>,
     /// How many programs the files define (the first indices).
     defined: usize,
+    /// For each program, which parameters are transformations (`.&p`).
+    trans_params: HashMap<String, Vec<bool>>,
     /// Programs named but not defined, in order of first use (indices after the defined ones).
     undefined: Vec<String>,
     // Per program being compiled:
@@ -650,6 +661,8 @@ impl Compiler {
         let mut params = Vec::new();
         for prm in &p.params {
             let ty = match prm.name.sigil {
+                // `.&p`: a transformation parameter (AS-E p.4-12, `add(.&aa,.&bb,.&cc)`).
+                Sigil::None if prm.by_ref => Ty::Trans,
                 Sigil::None => Ty::Real,
                 Sigil::Dollar => Ty::Str,
                 Sigil::Hash => Ty::Joint,
@@ -929,7 +942,7 @@ impl Compiler {
             }
             StmtKind::Call { program, args } => {
                 let p = self.program_ref(program, s.span)?;
-                let args = self.args(args)?;
+                let args = self.args(program, args)?;
                 self.emit(Op::Call(p, args), line);
             }
             StmtKind::Return => {
@@ -1050,7 +1063,7 @@ impl Compiler {
                         cycles,
                     } => Op::Execute {
                         program: self.program_ref(program, s.span)?,
-                        args: self.args(args)?,
+                        args: self.args(program, args)?,
                         cycles: cycles.as_ref().map(|e| self.real(e)).transpose()?,
                     },
                     MonitorCommand::PcExecute {
@@ -1061,7 +1074,7 @@ impl Compiler {
                     } => Op::PcExecute {
                         task: task.as_ref().map(|e| self.real(e)).transpose()?,
                         program: self.program_ref(program, s.span)?,
-                        args: self.args(args)?,
+                        args: self.args(program, args)?,
                         cycles: cycles.as_ref().map(|e| self.real(e)).transpose()?,
                     },
                     MonitorCommand::PcAbort { task } => {
@@ -1400,10 +1413,23 @@ impl Compiler {
         Ok(p)
     }
 
-    fn args(&mut self, args: &[Expr]) -> CResult<Box<[CArg]>> {
+    /// The arguments of a CALL, EXECUTE or PCEXECUTE of `program`. A plain name given for a
+    /// transformation parameter (`.&p`) is the transformation of that name (`CALL add(&a)`,
+    /// the `&` being optional).
+    fn args(&mut self, program: &str, args: &[Expr]) -> CResult<Box<[CArg]>> {
         let mut out = Vec::new();
-        for a in args {
-            let value = self.expr(a)?;
+        let trans_params = self.trans_params.get(program).cloned().unwrap_or_default();
+        for (k, a) in args.iter().enumerate() {
+            let value = match &a.kind {
+                ExprKind::Var(lv)
+                    if trans_params.get(k) == Some(&true)
+                        && lv.name.sigil == Sigil::None
+                        && !is_name_function(&lv.name) =>
+                {
+                    CExpr::T(TExpr::Var(self.lref(lv, Ty::Trans)?))
+                }
+                _ => self.expr(a)?,
+            };
             let var = match &a.kind {
                 ExprKind::Var(lv) if !is_name_function(&lv.name) => {
                     let ty = value.ty();

@@ -809,6 +809,7 @@ impl<'a> FileParser<'a> {
         let mut c = Cur::new(self.file, &toks, line_no);
         let span = toks[0].span;
         let label = c.label();
+        let body = c.pos;
         if c.at_end() {
             return Some(LineItem {
                 label,
@@ -825,6 +826,14 @@ impl<'a> FileParser<'a> {
                 Some(LineItem { label, kind, span })
             }
             Err(e) => {
+                // A line of an instruction the emulator runs, in a form it does not read but
+                // that is well formed (strings closed, brackets balanced, a number of values
+                // the instruction takes): it loads as not emulated, with a warning that asks
+                // for a report. A structure line (IF, WHILE, END…) stays an error: the block
+                // structure depends on it.
+                if let Some(item) = self.unread_form(&toks[body..], code, label.clone(), span, &e) {
+                    return Some(item);
+                }
                 self.errors.push(e);
                 // Keep the block structure of a line that opens a block, so that its END
                 // does not cause a second, misleading error.
@@ -869,6 +878,71 @@ impl<'a> FileParser<'a> {
                 })
             }
         }
+    }
+
+    /// A line of an instruction the emulator runs, in a form this parser does not read, that a
+    /// controller may accept: `Some` (not emulated, with a warning) when its arguments are well
+    /// formed and their number fits the keyword table's grammar.
+    fn unread_form(
+        &mut self,
+        toks: &[Token],
+        code: &[u8],
+        label: Option<Label>,
+        span: Span,
+        e: &ParseError,
+    ) -> Option<LineItem> {
+        let first = match &toks.first()?.tok {
+            Tok::Name(n) if !n.local && n.sigil == Sigil::None => n.text.clone(),
+            _ => return None,
+        };
+        let keywords::Lookup::Found(k) = keywords::lookup(&first, keywords::Role::INSTRUCTION)
+        else {
+            return None;
+        };
+        if STRUCTURE.contains(&k.name) || !k.runs.contains(keywords::Role::INSTRUCTION) {
+            return None;
+        }
+        let rest = &toks[1..];
+        let mut depth = 0i32;
+        let mut values = usize::from(!rest.is_empty());
+        for t in rest {
+            match t.tok {
+                Tok::LParen | Tok::LBracket | Tok::HashBracket => depth += 1,
+                Tok::RParen | Tok::RBracket => depth -= 1,
+                Tok::Comma if depth == 0 => values += 1,
+                _ => {}
+            }
+            if depth < 0 {
+                return None;
+            }
+        }
+        if depth != 0 || well_formed(code).is_err() {
+            return None;
+        }
+        if let Some((min, max)) = k.arity(keywords::Role::INSTRUCTION) {
+            if values < min || max.is_some_and(|m| values > m) {
+                return None;
+            }
+        }
+        let upper = k.name.to_uppercase();
+        let instruction = format!("{upper} in this form");
+        self.note_not_emulated(&instruction, span, false);
+        self.warnings.push(ParseError::new(
+            self.file,
+            e.span,
+            format!(
+                "{upper}: this form is not read by the emulator yet ({}); if a controller accepts it, report it with this line (docs/AS.md)",
+                e.message
+            ),
+        ));
+        Some(LineItem {
+            label,
+            kind: LineKind::Stmt(StmtKind::NotEmulated {
+                instruction,
+                stubbed: false,
+            }),
+            span,
+        })
     }
 
     /// A line whose instruction loads without being parsed: one the emulator does not model
@@ -938,11 +1012,12 @@ impl<'a> FileParser<'a> {
         let make = |instruction: String, stubbed: bool| {
             if let Err((k, msg)) = well_formed(after) {
                 let at = Span::new(line_no, col(code.len() - after.len() + k));
-                return Some(Err(ParseError::new(
-                    self.file,
-                    at,
-                    format!("{msg}: a controller refuses this line too"),
-                )));
+                let msg = if msg.starts_with("unexpected character") {
+                    msg
+                } else {
+                    format!("{msg}: a controller refuses this line too")
+                };
+                return Some(Err(ParseError::new(self.file, at, msg)));
             }
             Some(Ok(LineItem {
                 label: label.clone(),
@@ -1044,25 +1119,50 @@ fn describe(t: Option<&Token>) -> String {
     }
 }
 
+/// Instructions that open, divide or close blocks: a line of one is never loaded as not
+/// emulated (the block structure depends on it).
+const STRUCTURE: &[&str] = &[
+    "if", "else", "end", "while", "do", "until", "for", "case", "scase", "value", "svalue",
+    "any",
+];
+
 /// Whether the arguments of a line that loads without being parsed are well formed: strings
-/// closed, parentheses and brackets balanced and properly nested. `Err` holds the offset of
-/// the fault and what it is.
-fn well_formed(args: &[u8]) -> Result<(), (usize, &'static str)> {
+/// closed, parentheses and brackets balanced and properly nested, and nothing but ASCII outside
+/// strings (the blanks the lexer reads as blanks excepted). `Err` holds the offset of the
+/// fault and what it is.
+fn well_formed(args: &[u8]) -> Result<(), (usize, String)> {
     let mut open: Vec<(u8, usize)> = Vec::new();
     let mut k = 0;
     while k < args.len() {
         match args[k] {
             b'"' => match args[k + 1..].iter().position(|&b| b == b'"') {
                 Some(n) => k += n + 1,
-                None => return Err((k, "this string is not closed (a \" is missing)")),
+                None => return Err((k, "this string is not closed (a \" is missing)".into())),
             },
             b'(' | b'[' => open.push((args[k], k)),
             b')' | b']' => {
                 let want = if args[k] == b')' { b'(' } else { b'[' };
                 match open.pop() {
                     Some((o, _)) if o == want => {}
-                    Some(_) => return Err((k, "this bracket closes another kind of bracket")),
-                    None => return Err((k, "this bracket closes nothing")),
+                    Some(_) => {
+                        return Err((k, "this bracket closes another kind of bracket".into()))
+                    }
+                    None => return Err((k, "this bracket closes nothing".into())),
+                }
+            }
+            b if b >= 0x80 => {
+                // No-break space, ideographic space, byte order mark: blanks.
+                let blank = [&b"\xc2\xa0"[..], b"\xe3\x80\x80", b"\xef\xbb\xbf"]
+                    .into_iter()
+                    .find(|s| args[k..].starts_with(s));
+                match blank {
+                    Some(s) => k += s.len() - 1,
+                    None => {
+                        return Err((
+                            k,
+                            format!("unexpected character byte 0x{b:02X} (outside a string or a comment)"),
+                        ))
+                    }
                 }
             }
             _ => {}
@@ -1070,7 +1170,7 @@ fn well_formed(args: &[u8]) -> Result<(), (usize, &'static str)> {
         k += 1;
     }
     match open.pop() {
-        Some((_, at)) => Err((at, "this bracket is not closed")),
+        Some((_, at)) => Err((at, "this bracket is not closed".into())),
         None => Ok(()),
     }
 }
@@ -2787,24 +2887,41 @@ mod tests {
             "t.as:2:3: expected END to close this IF before .END"
         );
         assert_eq!(
-            err(".PROGRAM p()\n  WHILE a\n  END\n.END\n"),
-            "t.as:2:10: expected DO after the WHILE condition, found the end of the line"
+            err(".PROGRAM p()\n  WHILE a b\n  END\n.END\n"),
+            "t.as:2:11: expected DO after the WHILE condition, found \"b\""
         );
         assert_eq!(
             err(".PROGRAM p()\n  a = (1 + 2\n.END\n"),
             "t.as:2:13: expected \")\" to close the parenthesis, found the end of the line"
         );
         assert_eq!(err(".PROGRAM p()\n  IF a = 1 THEN\n  END\n.END\n"), "t.as:2:8: expected THEN or GOTO after the IF condition, found \"=\" (a comparison is written ==)");
+        // A stray END, a word in no table and a monitor command MC does not run load as
+        // not emulated, each named in a warning.
+        for (text, warning) in [
+            (".PROGRAM p()\n  END\n.END\n", "t.as:2:3: END without an open block loads but is not emulated"),
+            (".PROGRAM p()\n  JAPPRX a, 10\n.END\n", "t.as:2:3: JAPPRX loads but is not emulated"),
+            (".PROGRAM p()\n  MC FOO\n.END\n", "t.as:2:3: MC FOO loads but is not emulated"),
+        ] {
+            let m = ok(text);
+            assert!(m.warnings[0].to_string().starts_with(warning), "{}", m.warnings[0]);
+        }
+        // Unbalanced brackets in a line that loads without being parsed: a controller
+        // refuses it too.
         assert_eq!(
-            err(".PROGRAM p()\n  END\n.END\n"),
-            "t.as:2:3: END without an open block"
+            err(".PROGRAM p()\n  JAPPRX (a, 10\n.END\n"),
+            "t.as:2:10: this bracket is not closed: a controller refuses this line too"
         );
+        // A form of an instruction the emulator runs that it cannot read, but well formed:
+        // loads as not emulated, and the warning says why and asks for a report.
+        let m = ok(".PROGRAM p()\n  PRINT /Q3, a\n.END\n");
+        assert!(m.warnings.iter().any(|w| w.to_string().starts_with(
+            "t.as:2:9: PRINT: this form is not read by the emulator yet (/Q3 is not a format code"
+        )));
+        // The same with more values than the instruction takes: a controller refuses it too.
         assert_eq!(
-            err(".PROGRAM p()\n  JAPPRX a, 10\n.END\n"),
-            "t.as:2:3: unknown instruction \"JAPPRX\""
+            err(".PROGRAM p()\n  JMOVE a, 1, 2\n.END\n"),
+            "t.as:2:10: unexpected \",\" after the end of the JMOVE statement"
         );
-        assert_eq!(err(".PROGRAM p()\n  MC FOO\n.END\n"), "t.as:2:6: MC FOO is not a monitor command this interpreter runs (EXECUTE, ABORT, HOLD, CONTINUE, SPEED, ERESET, PCEXECUTE, PCABORT)");
-        assert_eq!(err(".PROGRAM p()\n  PRINT /Q3, a\n.END\n"), "t.as:2:9: /Q3 is not a format code (D, L, S, Fm.n, Em.n, Gm.n, Im, Km, Hm, Jm, Xn, Cn)");
         assert_eq!(
             err(".PROGRAM p()\n"),
             "t.as:1:1: expected .END to close this .PROGRAM (the file ends at line 2)"

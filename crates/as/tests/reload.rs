@@ -72,7 +72,7 @@ fn a_frame_in_a_called_program_keeps_its_step_and_its_locals() {
 #[test]
 fn a_by_reference_argument_naming_a_global_goes_back_to_that_global() {
     let old = ".PROGRAM autostart.pc()\n  g = 1\n  CALL bump(g)\n  done = 1\n.END\n\
-               .PROGRAM bump(.&v)\n  .v = .v + 1\n  TWAIT 0.5\n  .v = .v + 10\n.END\n";
+               .PROGRAM bump(.v)\n  .v = .v + 1\n  TWAIT 0.5\n  .v = .v + 10\n.END\n";
     let (mut i, mut s) = start(old);
     i.run_until(&mut s, ms(250));
     i.adopt(load(&format!("{SHIFT}{old}")), &[])

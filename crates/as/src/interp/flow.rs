@@ -1,6 +1,7 @@
 //! Control statements: `CASE`, `CALL`/`RETURN` with their arguments, `TWAIT`, `WAIT`.
 
 use crate::compile::{CArg, CExpr, RExpr, SExpr, Ty};
+use crate::error::RuntimeError;
 use crate::system::System;
 use crate::value::Bytes;
 
@@ -147,10 +148,17 @@ impl Interpreter {
         let mut out = Vec::with_capacity(args.len());
         for a in args {
             let v = match &a.value {
-                CExpr::R(e) => ArgVal::R(self.eval_r(i, e, sys)?),
-                CExpr::S(e) => ArgVal::S(self.eval_s(i, e, sys)?),
-                CExpr::J(e) => ArgVal::J(self.eval_j(i, e, sys)?),
-                CExpr::T(e) => ArgVal::T(self.eval_t(i, e, sys)?),
+                CExpr::R(e) => self.eval_r(i, e, sys).map(ArgVal::R),
+                CExpr::S(e) => self.eval_s(i, e, sys).map(ArgVal::S),
+                CExpr::J(e) => self.eval_j(i, e, sys).map(ArgVal::J),
+                CExpr::T(e) => self.eval_t(i, e, sys).map(ArgVal::T),
+            };
+            // A variable may be given before it is defined: it receives the result.
+            let v = match v {
+                Err(e) if a.var.is_some() && matches!(*e, RuntimeError::Undefined(_)) => {
+                    ArgVal::Undefined
+                }
+                v => v?,
             };
             let target = match &a.var {
                 Some((_, l)) => {
@@ -204,6 +212,7 @@ impl Interpreter {
                 ArgVal::S(v) => store.strs.get_mut(slot).is_some_and(|x| x.set(&b.idx, v)),
                 ArgVal::J(v) => store.joints.get_mut(slot).is_some_and(|x| x.set(&b.idx, v)),
                 ArgVal::T(v) => store.trans.get_mut(slot).is_some_and(|x| x.set(&b.idx, v)),
+                ArgVal::Undefined => false,
             };
             if let Err(e) = self.count_element(created) {
                 result = Err(e);

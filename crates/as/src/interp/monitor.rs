@@ -32,6 +32,12 @@ impl Interpreter {
             Some(c) => self.eval_r(i, c, sys)?.trunc() as i64,
             None => 1,
         };
+        // A program no loaded file defines: found when the task gets here (E0119).
+        if !code.programs[*program].defined {
+            return Err(Box::new(RuntimeError::NoProgram(
+                code.programs[*program].name.clone(),
+            )));
+        }
         if let Err(r) = self.execute_robot(*program, args, cycles, sys) {
             let id = self.tasks[i].id;
             self.message(
@@ -65,6 +71,12 @@ impl Interpreter {
             Some(c) => self.eval_r(i, c, sys)?.trunc() as i64,
             None => 1,
         };
+        // A program no loaded file defines: found when the task gets here (E0119).
+        if !code.programs[*program].defined {
+            return Err(Box::new(RuntimeError::NoProgram(
+                code.programs[*program].name.clone(),
+            )));
+        }
         if let Err(r) = self.pc_execute_at(n.clamp(0.0, 255.0) as u8, *program, args, cycles) {
             let id = self.tasks[i].id;
             self.message(

@@ -163,6 +163,9 @@ impl Interpreter {
                 (Ty::Trans, ArgVal::T(v)) => {
                     store.trans[s].set(&[], *v);
                 }
+                // A variable not yet defined: the parameter starts undefined, and the
+                // variable receives its final value.
+                (_, ArgVal::Undefined) => {}
                 _ => {
                     return Err(Box::new(RuntimeError::IllegalValue(format!(
                         "argument {} of {} has the wrong type for parameter {}",
@@ -172,16 +175,16 @@ impl Interpreter {
                     ))))
                 }
             }
-            if param.by_ref {
-                if let Some(t) = target {
-                    byref.push(ByRef {
-                        ty: param.ty,
-                        param: param.slot,
-                        var: t.var,
-                        idx: t.idx.clone(),
-                        frame: t.frame,
-                    });
-                }
+            // Every argument that is a variable receives the parameter's final value when the
+            // subroutine returns (AS-E p.4-12, example 1: `CALL calc(a,b,c)` sets `c`).
+            if let Some(t) = target {
+                byref.push(ByRef {
+                    ty: param.ty,
+                    param: param.slot,
+                    var: t.var,
+                    idx: t.idx.clone(),
+                    frame: t.frame,
+                });
             }
         }
         self.tasks[i].frames.push(Frame {

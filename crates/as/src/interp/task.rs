@@ -234,6 +234,8 @@ pub(super) enum ArgVal {
     S(Bytes),
     J([f32; 6]),
     T([f32; 6]),
+    /// A variable given as an argument that holds no value yet.
+    Undefined,
 }
 
 /// Where a by-reference argument goes back.

@@ -257,10 +257,21 @@ pub fn arity(grammar: &str) -> Option<(usize, Option<usize>)> {
     if grammar == UNKNOWN_GRAMMAR {
         return None;
     }
+    // Positions are separated by commas (at any depth of `[…]`); a position counts when it
+    // holds a value, and is required when that value is outside every `[…]`.
     let (mut min, mut max, mut unbounded) = (0usize, 0usize, false);
     let mut depth = 0usize;
+    let (mut has_value, mut required) = (false, false);
     let b = grammar.as_bytes();
     let mut i = 0;
+    let mut end_position = |has_value: &mut bool, required: &mut bool| {
+        if *has_value {
+            max += 1;
+            min += usize::from(*required);
+        }
+        *has_value = false;
+        *required = false;
+    };
     while i < b.len() {
         let c = b[i];
         if c == b'[' {
@@ -274,20 +285,21 @@ pub fn arity(grammar: &str) -> Option<(usize, Option<usize>)> {
             }
         } else if c == b']' {
             depth = depth.saturating_sub(1);
-        } else if grammar[i..].starts_with('…') {
+        } else if c == b',' {
+            end_position(&mut has_value, &mut required);
+        } else if b[i..].starts_with("…".as_bytes()) {
             unbounded = true;
         } else if c.is_ascii_lowercase() || c == b'$' {
             while i < b.len() && (b[i].is_ascii_alphanumeric() || b[i] == b'_' || b[i] == b'$') {
                 i += 1;
             }
-            max += 1;
-            if depth == 0 {
-                min += 1;
-            }
+            has_value = true;
+            required |= depth == 0;
             continue;
         }
         i += 1;
     }
+    end_position(&mut has_value, &mut required);
     Some((min, (!unbounded).then_some(max)))
 }
 
