@@ -924,6 +924,12 @@ impl<'a> FileParser<'a> {
                 return None;
             }
         }
+        let grammar = k.grammar(keywords::Role::INSTRUCTION).unwrap_or("");
+        for w in keywords::required_words(grammar) {
+            if !rest.iter().any(|t| matches!(&t.tok, Tok::Name(n) if n.text == w)) {
+                return None;
+            }
+        }
         let upper = k.name.to_uppercase();
         let instruction = format!("{upper} in this form");
         self.note_not_emulated(&instruction, span, false);

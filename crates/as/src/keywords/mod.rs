@@ -303,6 +303,42 @@ pub fn arity(grammar: &str) -> Option<(usize, Option<usize>)> {
     Some((min, (!unbounded).then_some(max)))
 }
 
+/// The literal keywords a grammar requires (`TILL` in `XMOVE`'s): upper-case words outside
+/// every `[…]`, lower case.
+pub fn required_words(grammar: &str) -> Vec<String> {
+    let mut depth = 0usize;
+    let mut out = Vec::new();
+    let mut word = String::new();
+    // A word next to `|` is one of alternatives (`ON|OFF`): not required as such.
+    let mut after_bar = false;
+    for c in grammar.chars().chain(std::iter::once(' ')) {
+        if c.is_ascii_uppercase()
+            || (!word.is_empty() && (c.is_ascii_alphanumeric() || c == '_' || c == '.'))
+        {
+            word.push(c);
+            continue;
+        }
+        if word.len() >= 2
+            && depth == 0
+            && c != '|'
+            && !after_bar
+            && !word.chars().any(|c| c.is_ascii_lowercase())
+        {
+            out.push(word.to_ascii_lowercase());
+        }
+        if !word.is_empty() || c != ' ' {
+            after_bar = c == '|';
+        }
+        word.clear();
+        match c {
+            '[' => depth += 1,
+            ']' => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+    }
+    out
+}
+
 /// Every keyword, sorted by name (without the sigil).
 pub fn table() -> &'static [Keyword] {
     table::TABLE
@@ -557,6 +593,13 @@ mod tests {
             Some((0, Some(7)))
         );
         assert_eq!(arity(UNKNOWN_GRAMMAR), None);
+    }
+
+    #[test]
+    fn required_words_are_the_literal_keywords_outside_brackets() {
+        assert_eq!(required_words("[mode] pose_variable TILL signal_number"), ["till"]);
+        assert!(required_words("speed [, rotational_speed] [ALWAYS]").is_empty());
+        assert!(required_words("ON|OFF").is_empty());
     }
 
     #[test]
