@@ -1403,6 +1403,19 @@ impl<'a> Cur<'a> {
                         return Ok(LineKind::Stmt(StmtKind::SetSwitch { name: n.text, on }));
                     }
                 }
+                // `ABS.SPEED 1: ON`: the robot number first. The emulator has robot 1.
+                if let (Some(Tok::Num(r)), Some(Tok::Colon), Some(Tok::Name(v))) =
+                    (self.peek_at(1), self.peek_at(2), self.peek_at(3))
+                {
+                    if matches!(v.text.as_str(), "on" | "off") && self.toks.len() == self.pos + 4 {
+                        if *r != 1.0 {
+                            return Ok(self.not_emulated_rest("a switch of another robot"));
+                        }
+                        let on = v.text == "on";
+                        self.pos += 4;
+                        return Ok(LineKind::Stmt(StmtKind::SetSwitch { name: n.text, on }));
+                    }
+                }
             }
             let Some(kw) = keywords::statement(&n.text) else {
                 let msg = if let keywords::Lookup::Ambiguous(a, b) =

@@ -248,3 +248,11 @@ fn abbreviations_follow_the_manual_and_ambiguous_ones_are_refused() {
     let (_, s) = run_pc("  PRIN \"p\"\n  TY \"t\"", 0.05);
     assert_eq!(printed(&s), vec!["p", "t"]);
 }
+
+#[test]
+fn a_switch_may_name_its_robot_before_a_colon() {
+    let w = warnings(&pc("  ABS.SPEED 1: ON\n  ABS.SPEED 2: OFF"));
+    assert!(w
+        .iter()
+        .any(|w| w.contains("a switch of another robot loads but is not emulated")));
+}
