@@ -1132,6 +1132,12 @@ const STRUCTURE: &[&str] = &[
     "any",
 ];
 
+/// Instructions whose own grammar has `n:` after the keyword (a device, a PC task number, a
+/// CASE value).
+const OWN_COLON: &[&str] = &[
+    "print", "type", "pcexecute", "pcabort", "execute", "mc", "value", "svalue", "any",
+];
+
 /// Whether the arguments of a line that loads without being parsed are well formed: strings
 /// closed, parentheses and brackets balanced and properly nested, and nothing but ASCII outside
 /// strings (the blanks the lexer reads as blanks excepted). `Err` holds the offset of the
@@ -1448,6 +1454,20 @@ impl<'a> Cur<'a> {
 
     fn keyword_statement(&mut self, kw: &'static str, span: Span) -> PResult<LineKind> {
         let simple = |k: StmtKind| Ok(LineKind::Stmt(k));
+        // `POINT .rno: …`, `DECOMPOSE 2: …`: the robot number first, as multi-robot
+        // controllers write it. Robot 1 is this robot; another is not emulated.
+        if !OWN_COLON.contains(&kw)
+            && matches!(self.peek(), Some(Tok::Num(_) | Tok::Name(_)))
+            && self.peek_at(1) == Some(&Tok::Colon)
+        {
+            if self.peek() != Some(&Tok::Num(1.0)) {
+                return Ok(self.not_emulated_rest(&format!(
+                    "{} for another robot",
+                    kw.to_uppercase()
+                )));
+            }
+            self.pos += 2;
+        }
         let kind = match kw {
             "if" => {
                 let cond = self.expr()?;
@@ -2538,7 +2558,29 @@ impl<'a> Cur<'a> {
                 self.expect(&Tok::RParen, "\")\" to close the parenthesis")?;
                 return Ok(e);
             }
-            Tok::Name(name) => {
+            Tok::Name(mut name) => {
+                // `INRANGE:2(…)`, `#S_HERE:2`: a function of robot n. Robot 1 is this robot;
+                // another's is a function the emulator does not compute (not emulated).
+                if !name.local
+                    && self.peek() == Some(&Tok::Colon)
+                    && matches!(self.peek_at(1), Some(Tok::Num(_) | Tok::Name(_)))
+                {
+                    let at = self.pos;
+                    let robot_one = self.peek_at(1) == Some(&Tok::Num(1.0));
+                    self.pos += 1;
+                    // The robot number: a number or a variable (`CVPOS2:arm[.i](…)`).
+                    let robot = match self.next().map(|t| t.tok) {
+                        Some(Tok::Name(_)) => self.indices().map(|_| ()),
+                        _ => Ok(()),
+                    };
+                    if robot.is_ok() && self.peek() == Some(&Tok::LParen) {
+                        if !robot_one {
+                            name.text.push_str(":n");
+                        }
+                    } else {
+                        self.pos = at;
+                    }
+                }
                 if !name.local && self.peek() == Some(&Tok::LParen) {
                     self.pos += 1;
                     let args = self.func_args(&name)?;

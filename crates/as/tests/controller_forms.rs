@@ -256,3 +256,11 @@ fn a_switch_may_name_its_robot_before_a_colon() {
         .iter()
         .any(|w| w.contains("a switch of another robot loads but is not emulated")));
 }
+
+#[test]
+fn an_instruction_may_name_its_robot_before_a_colon() {
+    let (i, _) = run_pc("  POINT 1: #p = #PPOINT(1, 2, 3, 4, 5, 6)\n  DECOMPOSE 1: v[0] = #p", 0.05);
+    assert_eq!(i.real_at("v", &[2]), Some(3.0));
+    let w = warnings(&pc("  POINT .rno: .#pos = #PPOINT(0)\n  a = INRANGE:2(#p)"));
+    assert!(w.iter().any(|w| w.contains("POINT for another robot loads but is not emulated")), "{w:?}");
+}
