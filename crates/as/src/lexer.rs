@@ -423,12 +423,21 @@ pub fn tokenize_bytes(
                 i += 1;
                 Tok::Caret
             }
+            // `&&` and `||`: AND and OR as newer controllers' programs write them.
+            b'&' if chars.get(i + 1) == Some(&b'&') => {
+                i += 2;
+                Tok::Name(Name {
+                    local: false,
+                    sigil: Sigil::None,
+                    text: "and".into(),
+                })
+            }
             b'&' => {
                 i += 1;
                 Tok::Amp
             }
             b'|' => {
-                i += 1;
+                i += if chars.get(i + 1) == Some(&b'|') { 2 } else { 1 };
                 Tok::Bar
             }
             b'!' if chars.get(i + 1) == Some(&b'=') => {

@@ -264,3 +264,10 @@ fn an_instruction_may_name_its_robot_before_a_colon() {
     let w = warnings(&pc("  POINT .rno: .#pos = #PPOINT(0)\n  a = INRANGE:2(#p)"));
     assert!(w.iter().any(|w| w.contains("POINT for another robot loads but is not emulated")), "{w:?}");
 }
+
+#[test]
+fn double_ampersand_and_double_bar_are_and_and_or() {
+    let (i, _) = run_pc("  r = 2\n  IF r != 1 && r != 3 THEN\n    a = 1\n  END\n  IF r == 5 || r == 2 THEN\n    b = 1\n  END", 0.05);
+    assert_eq!(i.real("a"), Some(1.0));
+    assert_eq!(i.real("b"), Some(1.0));
+}
