@@ -1990,6 +1990,11 @@ impl Compiler {
                     .map(|a| match a {
                         Arg::Expr(e) => Ok(PrintItem::Expr(e.clone())),
                         Arg::Format(f, s) => Ok(PrintItem::Format(*f, *s)),
+                        Arg::Keyword(k, s) if k.starts_with('/') => {
+                            self.not_emulated_fn =
+                                Some(format!("$ENCODE with the format {}", k.to_uppercase()));
+                            Err(self.err(*s, format!("the format {} is not emulated", k.to_uppercase())))
+                        }
                         Arg::Omitted(s) | Arg::Keyword(_, s) => {
                             Err(self.err(*s, "expected a value or a format code in $ENCODE"))
                         }

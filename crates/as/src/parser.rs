@@ -2636,7 +2636,18 @@ impl<'a> Cur<'a> {
             if formats && self.peek() == Some(&Tok::Slash) {
                 let span = self.span();
                 self.pos += 1;
-                args.push(Arg::Format(self.format_code(span)?, span));
+                // A format code this loader does not know (`/I` without a width): kept as a
+                // word; the statement loads as not emulated.
+                let at = self.pos;
+                match self.format_code(span) {
+                    Ok(f) => args.push(Arg::Format(f, span)),
+                    Err(e) => match self.toks.get(at).map(|t| &t.tok) {
+                        Some(Tok::Name(n)) if !n.local && n.sigil == Sigil::None => {
+                            args.push(Arg::Keyword(format!("/{}", n.text), span))
+                        }
+                        _ => return Err(e),
+                    },
+                }
             } else if sysdata && args.is_empty() {
                 let span = self.span();
                 match self.next().map(|t| t.tok) {
