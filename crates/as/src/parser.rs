@@ -2559,6 +2559,7 @@ impl<'a> Cur<'a> {
                 return Ok(e);
             }
             Tok::Name(mut name) => {
+                let name_span = span;
                 // `INRANGE:2(…)`, `#S_HERE:2`: a function of robot n. Robot 1 is this robot;
                 // another's is a function the emulator does not compute (not emulated).
                 if !name.local
@@ -2573,10 +2574,25 @@ impl<'a> Cur<'a> {
                         Some(Tok::Name(_)) => self.indices().map(|_| ()),
                         _ => Ok(()),
                     };
+                    // A function without arguments may take its robot too (`SACHK:.rno`).
+                    let function = keywords::get(&name.to_string())
+                        .is_some_and(|k| k.roles.contains(keywords::Role::FUNCTION));
                     if robot.is_ok() && self.peek() == Some(&Tok::LParen) {
                         if !robot_one {
                             name.text.push_str(":n");
                         }
+                    } else if robot.is_ok() && function {
+                        if !robot_one {
+                            name.text.push_str(":n");
+                        }
+                        let span = name_span;
+                        return Ok(Expr {
+                            kind: ExprKind::Call {
+                                name,
+                                args: Vec::new(),
+                            },
+                            span,
+                        });
                     } else {
                         self.pos = at;
                     }
