@@ -121,6 +121,9 @@ pub(crate) enum SwitchRef {
     TeachLock,
     CycleStart,
     InError,
+    /// An emergency stop (`EMERGENCY`, `TP_EMG`, `OP_EMG`, `EX_EMG`): none is pressed in the
+    /// emulator, so it reads OFF.
+    EmergencyStop,
     System(usize),
 }
 
@@ -1594,8 +1597,10 @@ impl Compiler {
         what: &str,
         span: Span,
     ) -> CResult<Box<[RExpr]>> {
+        // More values than the FS020N's six axes (external axes 7…18): not emulated.
         if args.len() > n {
-            return Err(self.err(span, format!("{what} takes at most {n} values")));
+            self.not_emulated_fn = Some(format!("{what} with more than {n} values"));
+            return Err(self.err(span, format!("{what} takes at most {n} values here")));
         }
         let mut v = Vec::new();
         for a in args {
@@ -1909,7 +1914,15 @@ impl Compiler {
                 Ok(CExpr::R(RExpr::Dext(Box::new(l), Box::new(n))))
             }
             (Sigil::None, "switch") => {
-                self.arity(name, args, 1, 1, span)?;
+                self.arity(name, args, 1, 2, span)?;
+                // `SWITCH(CS, 2)`: the switch of robot 2. The emulator has robot 1.
+                if let Some(robot) = args.get(1) {
+                    let one = matches!(robot, Arg::Expr(Expr { kind: ExprKind::Num(n), .. }) if *n == 1.0);
+                    if !one {
+                        self.not_emulated_fn = Some("SWITCH of another robot".into());
+                        return Err(self.err(span, "SWITCH of another robot is not emulated"));
+                    }
+                }
                 let e = self.arg_expr(&args[0])?;
                 let sw = match &e.kind {
                     ExprKind::Var(lv)
@@ -2057,6 +2070,7 @@ fn switch_ref(name: &str) -> Option<SwitchRef> {
         "teach_lock" => SwitchRef::TeachLock,
         "cs" => SwitchRef::CycleStart,
         "error" => SwitchRef::InError,
+        "emergency" | "tp_emg" | "op_emg" | "ex_emg" => SwitchRef::EmergencyStop,
         other => SwitchRef::System(
             keywords::SYSTEM_SWITCHES
                 .iter()

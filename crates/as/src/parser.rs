@@ -1410,11 +1410,11 @@ impl<'a> Cur<'a> {
                     }
                 }
                 // `ABS.SPEED 1: ON`: the robot number first. The emulator has robot 1.
-                if let (Some(Tok::Num(r)), Some(Tok::Colon), Some(Tok::Name(v))) =
+                if let (Some(r @ (Tok::Num(_) | Tok::Name(_))), Some(Tok::Colon), Some(Tok::Name(v))) =
                     (self.peek_at(1), self.peek_at(2), self.peek_at(3))
                 {
                     if matches!(v.text.as_str(), "on" | "off") && self.toks.len() == self.pos + 4 {
-                        if *r != 1.0 {
+                        if *r != Tok::Num(1.0) {
                             return Ok(self.not_emulated_rest("a switch of another robot"));
                         }
                         let on = v.text == "on";

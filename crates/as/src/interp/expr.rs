@@ -133,6 +133,7 @@ impl Interpreter {
                     SwitchRef::TeachLock => p.teach_lock,
                     SwitchRef::CycleStart => self.tasks[TaskSlot::ROBOT].run == Run::Running,
                     SwitchRef::InError => !sys.error().is_none(),
+                    SwitchRef::EmergencyStop => false,
                     SwitchRef::System(k) => self.switches.get(*k).copied().unwrap_or(false),
                 })
             }
