@@ -68,7 +68,7 @@ pub use interp::{
     Config, CostModel, HandSignals, Interpreter, Refusal, ReloadError, TaskInfo, TaskState,
     TerminalLine, TraceLine, MAX_STRING, MAX_TRANSFER,
 };
-pub use load::{check, CheckReport, Loaded};
+pub use load::{check, check_memory, CheckReport, Loaded};
 pub use options::LoadOptions;
 pub use parser::{parse, parse_bytes};
 pub use span::Span;

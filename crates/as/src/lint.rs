@@ -4,7 +4,10 @@
 
 use std::collections::HashMap;
 
-use crate::ast::{Expr, ExprKind, Module, Stmt, StmtKind, TcpStmt, UdpStmt, UnOp};
+use crate::ast::{
+    Expr, ExprKind, Module, MonitorCommand, OnAction, Stmt, StmtKind, TcpStmt, UdpStmt, UnOp,
+};
+use crate::keywords::{self, Generations, Lookup, Role};
 use crate::lexer::{columns, strip_comment_bytes, tokenize_bytes, Tok};
 use crate::parser::split_lines;
 use crate::sections::SectionUse;
@@ -12,7 +15,7 @@ use crate::span::Span;
 
 /// A controller generation (`--controller c|d|e|f`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
-pub enum Controller {
+pub enum Generation {
     /// C series.
     C,
     /// D series.
@@ -23,14 +26,14 @@ pub enum Controller {
     F,
 }
 
-impl std::str::FromStr for Controller {
+impl std::str::FromStr for Generation {
     type Err = String;
-    fn from_str(s: &str) -> Result<Controller, String> {
+    fn from_str(s: &str) -> Result<Generation, String> {
         match s.to_ascii_lowercase().as_str() {
-            "c" => Ok(Controller::C),
-            "d" => Ok(Controller::D),
-            "e" => Ok(Controller::E),
-            "f" => Ok(Controller::F),
+            "c" => Ok(Generation::C),
+            "d" => Ok(Generation::D),
+            "e" => Ok(Generation::E),
+            "f" => Ok(Generation::F),
             other => Err(format!(
                 "{other:?} is not a controller generation (c, d, e or f)"
             )),
@@ -57,7 +60,7 @@ pub struct Rule {
     /// How serious its findings are.
     pub severity: Severity,
     /// The generations it applies to (empty: all, and when no generation is given).
-    pub controllers: &'static [Controller],
+    pub generations: &'static [Generation],
     /// What it checks.
     pub checks: &'static str,
     /// Where the limit comes from.
@@ -76,58 +79,86 @@ pub const RULES: &[Rule] = &[
     Rule {
         id: "name-length",
         severity: Severity::Warning,
-        controllers: &[],
+        generations: &[],
         checks: "a variable, program or label name longer than 15 characters",
         source: "AS manuals: names of up to 15 characters; a controller SAVE keeps the first 15",
     },
     Rule {
         id: "name-collision",
         severity: Severity::Error,
-        controllers: &[],
+        generations: &[],
         checks: "two different names that share their first 15 characters (one variable on the controller)",
         source: "follows from name-length: the controller keeps 15 characters",
     },
     Rule {
         id: "non-ascii-code",
         severity: Severity::Error,
-        controllers: &[],
+        generations: &[],
         checks: "a byte outside ASCII outside comments and strings (a no-break or ideographic space the emulator reads as a blank)",
         source: "AS names, numbers and operators are ASCII (AS manuals); comments and strings may hold any bytes",
     },
     Rule {
         id: "line-length",
         severity: Severity::Warning,
-        controllers: &[],
+        generations: &[],
         checks: "a program or data line longer than 128 bytes",
         source: "chosen: no limit found for a step; the terminal takes commands of at most 128 characters (research: anchors.md, kawasaki-robots-rest-api)",
     },
     Rule {
         id: "tcp-timeout-range",
         severity: Severity::Warning,
-        controllers: &[],
+        generations: &[],
         checks: "a constant TCP_ACCEPT/RECV/SEND/CONNECT or UDP_SENDTO/RECVFROM timeout outside 1–60 s (0–60 s on E)",
         source: "TCP/IP Communication Manuals E and F: timeout range 0–60 s (E), 1–60 s (F) (research: as-language.md §3); UDP: 'the same style' as TCP ([COM-F] §1.5), the range assumed",
     },
     Rule {
         id: "tcp-port-range",
         severity: Severity::Error,
-        controllers: &[],
+        generations: &[],
         checks: "a constant TCP_LISTEN/ACCEPT/END_LISTEN or UDP_RECVFROM port outside 8192–65535",
         source: "TCP/IP Communication Manual E: TCP_LISTEN port 8192–65535, else an error (research: as-language.md §3); UDP_RECVFROM's port assumed the same (the emulator refuses others)",
     },
     Rule {
         id: "d-tcp-recv-arguments",
         severity: Severity::Warning,
-        controllers: &[Controller::D],
+        generations: &[Generation::D],
         checks: "TCP_RECV without both its timeout and max-bytes arguments on a D controller",
         source: "the one known D-controller program passes both only in its D variant (research: as-language.md, generation caveat; low confidence). An earlier reading, 'D takes no optional arguments', contradicts that program and would leave a server without its receive timeout",
     },
     Rule {
         id: "d-integer-timeout",
         severity: Severity::Warning,
-        controllers: &[Controller::D],
+        generations: &[Generation::D],
         checks: "a constant TCP timeout that is not a whole number of seconds on a D controller",
         source: "D-series timeouts are whole seconds (low confidence; research: as-language.md, generation caveat)",
+    },
+    Rule {
+        id: "unknown-word",
+        severity: Severity::Warning,
+        generations: &[],
+        checks: "a program line whose first word is in no keyword table (a typo, or an option of another controller); did-you-mean when one edit from a keyword",
+        source: "the keyword table (fs020n_as::keywords: the E manual's language list and the keywords of real files)",
+    },
+    Rule {
+        id: "monitor-command-in-program",
+        severity: Severity::Warning,
+        generations: &[],
+        checks: "a monitor command written as a program step without MC (`ZPOWER ON`, `KILL`)",
+        source: "AS-E p.6-121: a PC program gives monitor commands through MC",
+    },
+    Rule {
+        id: "generation-keyword",
+        severity: Severity::Warning,
+        generations: &[Generation::C, Generation::D, Generation::E],
+        checks: "an instruction known only from F-series controllers and newer tools, on an older generation",
+        source: "the keyword table's generations (E manual; F-series saves and tools)",
+    },
+    Rule {
+        id: "undefined-program",
+        severity: Severity::Warning,
+        generations: &[],
+        checks: "CALL, EXECUTE, PCEXECUTE or ON … CALL of a program that none of the files checked together defines (the task stops with E0119 there)",
+        source: "AS-E: programs are found when a task reaches them (E0119 Nonexistent subroutine.)",
     },
 ];
 
@@ -152,12 +183,24 @@ pub struct Finding {
 }
 
 /// Lints a parsed file (`bytes` are its bytes, `module` what [`crate::parse_bytes`] made of
-/// them) for `controller` (`None`: rules for every generation, the strictest ranges).
-pub fn lint(bytes: &[u8], module: &Module, controller: Option<Controller>) -> Vec<Finding> {
+/// them) for `generation` (`None`: rules for every generation, the strictest ranges).
+pub fn lint(bytes: &[u8], module: &Module, generation: Option<Generation>) -> Vec<Finding> {
+    let defined: Vec<&str> = module.programs.iter().map(|p| p.name.as_str()).collect();
+    lint_in_memory(bytes, module, generation, &defined)
+}
+
+/// [`lint`] for a file loaded into a controller memory with others: `defined` names every
+/// program of the memory (the `undefined-program` rule reads it).
+pub fn lint_in_memory(
+    bytes: &[u8],
+    module: &Module,
+    generation: Option<Generation>,
+    defined: &[&str],
+) -> Vec<Finding> {
     let mut out = Vec::new();
     let mut add = |id: &'static str, span: Span, message: String| {
         let Some(r) = rule(id) else { return };
-        if !r.controllers.is_empty() && !controller.is_some_and(|c| r.controllers.contains(&c)) {
+        if !r.generations.is_empty() && !generation.is_some_and(|c| r.generations.contains(&c)) {
             return;
         }
         out.push(Finding {
@@ -271,7 +314,9 @@ pub fn lint(bytes: &[u8], module: &Module, controller: Option<Controller>) -> Ve
         }
     }
     for p in &module.programs {
-        walk(&p.body, &mut |s| net_lint(s, controller, &mut add));
+        walk(&p.body, &mut |s| net_lint(s, generation, &mut add));
+        walk(&p.body, &mut |s| word_lint(s, generation, &mut add));
+        walk(&p.body, &mut |s| program_lint(s, defined, &mut add));
     }
     out.sort_by_key(|f| (f.line, f.column));
     out
@@ -300,6 +345,95 @@ fn walk(stmts: &[Stmt], f: &mut dyn FnMut(&Stmt)) {
     }
 }
 
+/// The keyword-table rules of a line that loads as not emulated: a word in no table, a
+/// monitor command without MC, a keyword of a newer generation.
+fn word_lint(
+    s: &Stmt,
+    generation: Option<Generation>,
+    add: &mut dyn FnMut(&'static str, Span, String),
+) {
+    let StmtKind::NotEmulated { instruction, .. } = &s.kind else {
+        return;
+    };
+    let Some(first) = instruction.split([' ', '(']).next() else {
+        return;
+    };
+    if first == "MC" {
+        return;
+    }
+    let word = first.to_ascii_lowercase();
+    let any_role = Role::INSTRUCTION
+        .or(Role::MONITOR)
+        .or(Role::SWITCH)
+        .or(Role::FUNCTION)
+        .or(Role::EDITOR)
+        .or(Role::WORD);
+    match keywords::lookup(&word, any_role) {
+        Lookup::Unknown => {
+            let hint = match keywords::did_you_mean(&word, Role::INSTRUCTION) {
+                Some(k) => format!("did you mean {}? ", k.name.to_uppercase()),
+                None => String::new(),
+            };
+            if !word.starts_with("fn") {
+                add(
+                    "unknown-word",
+                    s.span,
+                    format!("{first} is in no AS keyword table: {hint}a controller refuses it unless an option of its own defines it"),
+                );
+            }
+        }
+        Lookup::Found(k) if !k.roles.contains(Role::INSTRUCTION) && k.roles.contains(Role::MONITOR) => {
+            add(
+                "monitor-command-in-program",
+                s.span,
+                format!("{first} is a monitor command: in a PC program write MC {first}"),
+            );
+        }
+        Lookup::Found(k) => {
+            let newer_only = !k.generations.has(Generations::E);
+            let older = matches!(generation, Some(Generation::C | Generation::D | Generation::E));
+            if newer_only && older {
+                add(
+                    "generation-keyword",
+                    s.span,
+                    format!(
+                        "{first} is known only from {} controllers and tools: this generation may refuse it",
+                        k.generations.letters()
+                    ),
+                );
+            }
+        }
+        Lookup::Ambiguous(..) => {}
+    }
+}
+
+/// The `undefined-program` rule: a program named by a statement that no file defines.
+fn program_lint(s: &Stmt, defined: &[&str], add: &mut dyn FnMut(&'static str, Span, String)) {
+    let named: Option<(&str, &str)> = match &s.kind {
+        StmtKind::Call { program, .. } => Some(("CALL", program.as_str())),
+        StmtKind::On {
+            action: OnAction::Call(program),
+            ..
+        } => Some(("ON … CALL", program.as_str())),
+        StmtKind::Monitor(MonitorCommand::Execute { program, .. }) => {
+            Some(("EXECUTE", program.as_str()))
+        }
+        StmtKind::Monitor(MonitorCommand::PcExecute { program, .. }) => {
+            Some(("PCEXECUTE", program.as_str()))
+        }
+        _ => None,
+    };
+    if let Some((what, program)) = named {
+        if !defined.contains(&program) {
+            add(
+                "undefined-program",
+                s.span,
+                format!("{what} {program}: no file checked defines program {program}; a task that gets here stops with E0119 (check the file that holds it together with this one)"),
+            );
+        }
+    }
+}
+
 /// The value of a constant expression (`5`, `-1`).
 fn constant(e: &Expr) -> Option<f64> {
     match &e.kind {
@@ -311,20 +445,20 @@ fn constant(e: &Expr) -> Option<f64> {
 
 fn net_lint(
     s: &Stmt,
-    controller: Option<Controller>,
+    generation: Option<Generation>,
     add: &mut dyn FnMut(&'static str, Span, String),
 ) {
     let t = match &s.kind {
         StmtKind::Tcp(t) => t,
         StmtKind::Udp(UdpStmt::SendTo { timeout, .. }) => {
-            return net_ranges("UDP_SENDTO", None, timeout.as_ref(), controller, add)
+            return net_ranges("UDP_SENDTO", None, timeout.as_ref(), generation, add)
         }
         StmtKind::Udp(UdpStmt::RecvFrom { port, timeout, .. }) => {
             return net_ranges(
                 "UDP_RECVFROM",
                 Some(port),
                 timeout.as_ref(),
-                controller,
+                generation,
                 add,
             )
         }
@@ -350,7 +484,7 @@ fn net_lint(
         TcpStmt::Connect { timeout, .. } => ("TCP_CONNECT", None, timeout.as_ref()),
         TcpStmt::Close { .. } | TcpStmt::Status { .. } => return,
     };
-    net_ranges(name, port, timeout, controller, add);
+    net_ranges(name, port, timeout, generation, add);
 }
 
 /// The port and timeout rules of a TCP or UDP instruction `name`.
@@ -358,7 +492,7 @@ fn net_ranges(
     name: &str,
     port: Option<&Expr>,
     timeout: Option<&Expr>,
-    controller: Option<Controller>,
+    generation: Option<Generation>,
     add: &mut dyn FnMut(&'static str, Span, String),
 ) {
     if let Some(p) = port {
@@ -374,7 +508,7 @@ fn net_ranges(
     }
     if let Some(e) = timeout {
         if let Some(v) = constant(e) {
-            let low = if controller == Some(Controller::E) {
+            let low = if generation == Some(Generation::E) {
                 0.0
             } else {
                 1.0

@@ -5,7 +5,7 @@
 use crate::ast::Module;
 use crate::error::ParseError;
 use crate::interp::{Config, Interpreter};
-use crate::lint::{lint, Controller, Finding, Severity};
+use crate::lint::{lint, lint_in_memory, Finding, Generation, Severity};
 use crate::options::LoadOptions;
 use crate::parser::parse_bytes;
 
@@ -70,19 +70,19 @@ pub fn check(
     file: &str,
     bytes: &[u8],
     opts: &LoadOptions,
-    controller: Option<Controller>,
+    generation: Option<Generation>,
 ) -> CheckReport {
     match Loaded::from_bytes(file, bytes, opts, Config::default()) {
         Ok(l) => CheckReport {
             loaded: true,
             errors: Vec::new(),
             warnings: l.interpreter.warnings().to_vec(),
-            lint: lint(bytes, &l.module, controller),
+            lint: lint(bytes, &l.module, generation),
         },
         Err(e) => {
             // The lint still runs when the text parses but does not compile.
             let lint = parse_bytes(file, bytes, opts)
-                .map(|m| lint(bytes, &m, controller))
+                .map(|m| lint(bytes, &m, generation))
                 .unwrap_or_default();
             CheckReport {
                 loaded: false,
@@ -92,4 +92,60 @@ pub fn check(
             }
         }
     }
+}
+
+/// Checks files as **one controller memory**, as if loaded one after another: each file must
+/// load on its own (a controller loads each file alone), and the lint knows every program the
+/// files define together — a `CALL` to a program none of them defines is an `undefined-program`
+/// finding, and a program defined by two files is a warning (the controller's second LOAD
+/// refuses it). One report per file, in order.
+///
+/// ```
+/// use fs020n_as::{check_memory, LoadOptions};
+/// let main = b".PROGRAM main()\n  CALL helper\n  CALL missing\n.END\n";
+/// let lib = b".PROGRAM helper()\n.END\n";
+/// let r = check_memory(&[("main.as", &main[..]), ("lib.as", &lib[..])], &LoadOptions::new(), None);
+/// let undefined: Vec<&str> = r[0].lint.iter().filter(|f| f.rule == "undefined-program").map(|f| f.message.as_str()).collect();
+/// assert_eq!(undefined.len(), 1);
+/// assert!(undefined[0].starts_with("CALL missing"));
+/// ```
+pub fn check_memory(
+    files: &[(&str, &[u8])],
+    opts: &LoadOptions,
+    generation: Option<Generation>,
+) -> Vec<CheckReport> {
+    let modules: Vec<Option<Module>> = files
+        .iter()
+        .map(|(file, bytes)| parse_bytes(file, bytes, opts).ok())
+        .collect();
+    let defined: Vec<&str> = modules
+        .iter()
+        .flatten()
+        .flat_map(|m| m.programs.iter().map(|p| p.name.as_str()))
+        .collect();
+    files
+        .iter()
+        .zip(&modules)
+        .enumerate()
+        .map(|(k, ((file, bytes), module))| {
+            let mut report = check(file, bytes, opts, generation);
+            if let Some(m) = module {
+                report.lint = lint_in_memory(bytes, m, generation, &defined);
+                for p in &m.programs {
+                    let first = modules[..k]
+                        .iter()
+                        .zip(files)
+                        .find(|(o, _)| o.as_ref().is_some_and(|o| o.programs.iter().any(|q| q.name == p.name)));
+                    if let Some((_, (other, _))) = first {
+                        report.warnings.push(ParseError::new(
+                            file,
+                            p.span,
+                            format!("program {} is also defined in {other}: loaded after it, a controller refuses this one (delete the first, or rename)", p.name),
+                        ));
+                    }
+                }
+            }
+            report
+        })
+        .collect()
 }

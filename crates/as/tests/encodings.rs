@@ -122,7 +122,7 @@ fn text_and_bytes_entry_points_agree() {
 }
 
 mod no_panic_on_bytes {
-    use fs020n_as::lint::Controller;
+    use fs020n_as::lint::Generation;
     use fs020n_as::{check, parse_bytes, LoadOptions};
     use proptest::prelude::*;
 
@@ -156,7 +156,7 @@ mod no_panic_on_bytes {
         #[test]
         fn arbitrary_bytes_never_panic_the_loader_or_the_check(bytes in proptest::collection::vec(any::<u8>(), 0..400)) {
             let _ = parse_bytes("f.as", &bytes, &LoadOptions::new().stub("tool"));
-            let _ = check("f.as", &bytes, &LoadOptions::new(), Some(Controller::D));
+            let _ = check("f.as", &bytes, &LoadOptions::new(), Some(Generation::D));
         }
 
         #[test]

@@ -2,11 +2,11 @@
 //! says, where it is, and only for the generations it names.
 #![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
-use fs020n_as::lint::{Controller, Severity, RULES};
+use fs020n_as::lint::{Generation, Severity, RULES};
 use fs020n_as::{check, LoadOptions};
 
 /// (rule, line, column) of the findings for `text` on `controller`.
-fn findings(text: &str, controller: Option<Controller>) -> Vec<(&'static str, u32, u32)> {
+fn findings(text: &str, controller: Option<Generation>) -> Vec<(&'static str, u32, u32)> {
     let r = check("l.as", text.as_bytes(), &LoadOptions::new(), controller);
     assert!(r.loaded, "{:?}", r.errors);
     r.lint.iter().map(|f| (f.rule, f.line, f.column)).collect()
@@ -88,7 +88,7 @@ fn tcp_timeouts_outside_1_to_60_seconds_are_flagged_and_e_allows_0() {
         vec![("tcp-timeout-range", 2, 25), ("tcp-timeout-range", 3, 31)]
     );
     assert_eq!(
-        findings(&pc(body), Some(Controller::E)),
+        findings(&pc(body), Some(Generation::E)),
         vec![("tcp-timeout-range", 3, 31)]
     );
 }
@@ -120,17 +120,17 @@ fn listen_ports_outside_8192_to_65535_are_errors() {
 fn the_d_series_tcp_recv_wants_both_its_arguments_and_whole_second_timeouts() {
     let body = "  TCP_RECV .r, .s, .$b[1], .n, 5\n  TCP_SEND .r, .s, .$b[1], 1, 1.5\n  TCP_RECV .r, .s, .$b[1], .n, 5, 255";
     assert_eq!(
-        findings(&pc(body), Some(Controller::D)),
+        findings(&pc(body), Some(Generation::D)),
         vec![("d-tcp-recv-arguments", 2, 3), ("d-integer-timeout", 3, 31)]
     );
     // Not a D controller: the rules do not apply.
-    assert!(findings(&pc(body), Some(Controller::F)).is_empty());
+    assert!(findings(&pc(body), Some(Generation::F)).is_empty());
     assert!(findings(&pc(body), None).is_empty());
 }
 
 #[test]
 fn the_protocol_1040_server_passes_the_lint_for_every_generation() {
-    for c in [None, Some(Controller::E), Some(Controller::F)] {
+    for c in [None, Some(Generation::E), Some(Generation::F)] {
         let r = check(
             "server1040.as",
             fs020n_as::SERVER_1040.as_bytes(),
@@ -169,7 +169,7 @@ fn udp_timeouts_and_receive_ports_follow_the_tcp_ranges() {
     );
     // E takes a 0 s timeout.
     assert_eq!(
-        findings(&pc(body), Some(Controller::E)),
+        findings(&pc(body), Some(Generation::E)),
         vec![("tcp-timeout-range", 2, 43), ("tcp-port-range", 3, 20)]
     );
 }

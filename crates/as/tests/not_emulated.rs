@@ -263,7 +263,6 @@ fn forms_from_pc_programs_load_as_not_emulated() {
             "6: IFPWOVERWRITE",
             "7: INTFCHK",
             "8: MC ZPOWER",
-            "9: the function SWITCH(EMERGENCY)",
             "14: the function STRTOPOS",
             "15: the function $TIME",
         ]

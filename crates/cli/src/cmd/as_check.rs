@@ -1,10 +1,11 @@
 //! `fs020n as check FILE…`: loads each AS file exactly as the emulator would (the same loader
-//! as `sim --as-program`) and reports errors, warnings and the lint against the controller's
-//! limits, as text or one JSON object per file per line.
+//! as `sim --as-program`), the files together as one controller memory, and reports errors,
+//! warnings and the lint against the controller's limits, as text or one JSON object per file
+//! per line.
 
 use std::io::Write as _;
 
-use fs020n_as::lint::{Controller, Finding, Severity};
+use fs020n_as::lint::{Finding, Generation, Severity};
 use fs020n_as::{CheckReport, LoadOptions, ParseError};
 use serde_json::{json, Value};
 
@@ -78,30 +79,32 @@ fn to_text(file: &str, r: &CheckReport) -> String {
 
 /// `as check`.
 pub(crate) fn check(args: &AsCheckArgs, json: bool) -> CliResult {
-    let controller = match &args.controller {
-        Some(c) => Some(c.parse::<Controller>().map_err(CliError::input)?),
+    let generation = match &args.controller {
+        Some(c) => Some(c.parse::<Generation>().map_err(CliError::input)?),
         None => None,
     };
     let opts = (args.stubs.iter()).fold(LoadOptions::new(), |o, s| o.stub(s));
     let (mut failed, mut unreadable) = (0usize, Vec::new());
     let mut stdout = std::io::stdout().lock();
+    // The files are checked together, as one controller memory.
+    let mut read = Vec::new();
     for path in &args.files {
         let file = path.display().to_string();
-        let bytes = match std::fs::read(path) {
-            Ok(b) => b,
-            Err(e) => {
-                unreadable.push(format!("{file}: {e}"));
-                continue;
-            }
-        };
-        let report = fs020n_as::check(&file, &bytes, &opts, controller);
+        match std::fs::read(path) {
+            Ok(b) => read.push((file, b)),
+            Err(e) => unreadable.push(format!("{file}: {e}")),
+        }
+    }
+    let files: Vec<(&str, &[u8])> = read.iter().map(|(f, b)| (f.as_str(), b.as_slice())).collect();
+    let reports = fs020n_as::check_memory(&files, &opts, generation);
+    for ((file, _), report) in files.iter().zip(&reports) {
         if !report.passes() {
             failed += 1;
         }
         let text = if json {
-            format!("{}\n", to_json(&file, &report))
+            format!("{}\n", to_json(file, report))
         } else {
-            to_text(&file, &report)
+            to_text(file, report)
         };
         stdout
             .write_all(text.as_bytes())

@@ -14,7 +14,7 @@
 use std::path::Path;
 use std::time::Duration;
 
-use fs020n_as::lint::Controller as Generation;
+use fs020n_as::lint::Generation;
 use fs020n_as::LoadOptions;
 use fs020n_client::Robot;
 use fs020n_term::connection::TerminalConnection;
