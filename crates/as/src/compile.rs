@@ -695,8 +695,9 @@ impl Compiler {
                     // As on the controller, a missing label is found when the jump runs
                     // (E0101); the lint reports it.
                     let target = self.ops.len();
-                    self.ops
-                        .push(Op::Fail(format!("label {} in program {}", label.name, p.name).into()));
+                    self.ops.push(Op::Fail(
+                        format!("label {} in program {}", label.name, p.name).into(),
+                    ));
                     self.lines.push(label.span.line);
                     match &mut self.ops[at] {
                         Op::Jump(t) | Op::JumpIf(_, t) => *t = target,
@@ -1612,7 +1613,10 @@ impl Compiler {
                     return Err(self.err(*s, "a format code is allowed only in $ENCODE"))
                 }
                 Arg::Keyword(k, s) => {
-                    return Err(self.err(*s, format!("expected a value, found the word {}", k.to_uppercase())))
+                    return Err(self.err(
+                        *s,
+                        format!("expected a value, found the word {}", k.to_uppercase()),
+                    ))
                 }
             }
         }
@@ -2006,7 +2010,10 @@ impl Compiler {
                         Arg::Keyword(k, s) if k.starts_with('/') => {
                             self.not_emulated_fn =
                                 Some(format!("$ENCODE with the format {}", k.to_uppercase()));
-                            Err(self.err(*s, format!("the format {} is not emulated", k.to_uppercase())))
+                            Err(self.err(
+                                *s,
+                                format!("the format {} is not emulated", k.to_uppercase()),
+                            ))
                         }
                         Arg::Omitted(s) | Arg::Keyword(_, s) => {
                             Err(self.err(*s, "expected a value or a format code in $ENCODE"))

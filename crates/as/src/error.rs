@@ -114,7 +114,9 @@ pub enum RuntimeError {
     Circular(String),
     /// A program named by CALL, EXECUTE, PCEXECUTE or ON … CALL that no loaded file defines
     /// (the manual's E0119 "Nonexistent subroutine.").
-    #[error("(E0119) nonexistent subroutine: program {0} is not loaded (load the file that holds it)")]
+    #[error(
+        "(E0119) nonexistent subroutine: program {0} is not loaded (load the file that holds it)"
+    )]
     NoProgram(String),
     /// A jump to a label the program does not have (the manual's E0101 "Nonexistent label.").
     #[error("(E0101) nonexistent label: {0}")]

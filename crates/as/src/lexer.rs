@@ -362,8 +362,7 @@ pub fn tokenize_bytes(
                     j -= 1;
                 }
                 // ASCII only, so the bytes are text.
-                let mut text =
-                    String::from_utf8_lossy(&chars[name_start..j]).to_ascii_lowercase();
+                let mut text = String::from_utf8_lossy(&chars[name_start..j]).to_ascii_lowercase();
                 if integer {
                     text.insert(0, '@');
                 }
@@ -437,7 +436,11 @@ pub fn tokenize_bytes(
                 Tok::Amp
             }
             b'|' => {
-                i += if chars.get(i + 1) == Some(&b'|') { 2 } else { 1 };
+                i += if chars.get(i + 1) == Some(&b'|') {
+                    2
+                } else {
+                    1
+                };
                 Tok::Bar
             }
             b'!' if chars.get(i + 1) == Some(&b'=') => {

@@ -358,7 +358,13 @@ fn word_lint(
     let Some(first) = instruction.split([' ', '(']).next() else {
         return;
     };
-    if first == "MC" {
+    // Descriptions (`HERE with a compound pose`) name a keyword first; anything else that
+    // is not a word in upper case is not a word of the file.
+    if first == "MC"
+        || first.is_empty()
+        || first.bytes().any(|b| b.is_ascii_lowercase())
+        || instruction.ends_with("(block-teaching step)")
+    {
         return;
     }
     let word = first.to_ascii_lowercase();
@@ -382,7 +388,9 @@ fn word_lint(
                 );
             }
         }
-        Lookup::Found(k) if !k.roles.contains(Role::INSTRUCTION) && k.roles.contains(Role::MONITOR) => {
+        Lookup::Found(k)
+            if !k.roles.contains(Role::INSTRUCTION) && k.roles.contains(Role::MONITOR) =>
+        {
             add(
                 "monitor-command-in-program",
                 s.span,
@@ -391,7 +399,10 @@ fn word_lint(
         }
         Lookup::Found(k) => {
             let newer_only = !k.generations.has(Generations::E);
-            let older = matches!(generation, Some(Generation::C | Generation::D | Generation::E));
+            let older = matches!(
+                generation,
+                Some(Generation::C | Generation::D | Generation::E)
+            );
             if newer_only && older {
                 add(
                     "generation-keyword",

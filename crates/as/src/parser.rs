@@ -57,7 +57,10 @@ fn leading_blank(code: &[u8]) -> usize {
     loop {
         match code.get(i..) {
             Some([b' ' | b'\t' | b'\x0c' | b'\x1a', ..]) => i += 1,
-            Some([0xEF, 0xBB, 0xBF, ..]) => i += 3,
+            // The byte order mark, the ideographic space and the no-break space: blanks, as
+            // the lexer reads them.
+            Some([0xEF, 0xBB, 0xBF, ..] | [0xE3, 0x80, 0x80, ..]) => i += 3,
+            Some([0xC2, 0xA0, ..]) => i += 2,
             _ => return i,
         }
     }
@@ -926,7 +929,10 @@ impl<'a> FileParser<'a> {
         }
         let grammar = k.grammar(keywords::Role::INSTRUCTION).unwrap_or("");
         for w in keywords::required_words(grammar) {
-            if !rest.iter().any(|t| matches!(&t.tok, Tok::Name(n) if n.text == w)) {
+            if !rest
+                .iter()
+                .any(|t| matches!(&t.tok, Tok::Name(n) if n.text == w))
+            {
                 return None;
             }
         }
@@ -1049,7 +1055,17 @@ impl<'a> FileParser<'a> {
         if keywords::system_switch_default(&word).is_some() {
             return None;
         }
+        // A block step may carry an application prefix first (`AC JOINT SPEED2 …`, `WS
+        // LINEAR …` in arc-welding saves).
+        let prefixed = {
+            let k = word_at(0.max(j + leading_blank(&code[j..])));
+            let next = String::from_utf8_lossy(&code[j + leading_blank(&code[j..])..k])
+                .to_ascii_lowercase();
+            keywords::BLOCK_TEACHING.contains(&next.as_str())
+                && code[k..].windows(2).any(|w| w == b"#[")
+        };
         let block_step = fn_step
+            || prefixed
             || keywords::BLOCK_TEACHING.contains(&word.as_str()) && {
                 let next = &after[..after
                     .iter()
@@ -1128,14 +1144,21 @@ fn describe(t: Option<&Token>) -> String {
 /// Instructions that open, divide or close blocks: a line of one is never loaded as not
 /// emulated (the block structure depends on it).
 const STRUCTURE: &[&str] = &[
-    "if", "else", "end", "while", "do", "until", "for", "case", "scase", "value", "svalue",
-    "any",
+    "if", "else", "end", "while", "do", "until", "for", "case", "scase", "value", "svalue", "any",
 ];
 
 /// Instructions whose own grammar has `n:` after the keyword (a device, a PC task number, a
 /// CASE value).
 const OWN_COLON: &[&str] = &[
-    "print", "type", "pcexecute", "pcabort", "execute", "mc", "value", "svalue", "any",
+    "print",
+    "type",
+    "pcexecute",
+    "pcabort",
+    "execute",
+    "mc",
+    "value",
+    "svalue",
+    "any",
 ];
 
 /// Whether the arguments of a line that loads without being parsed are well formed: strings
@@ -1169,12 +1192,12 @@ fn well_formed(args: &[u8]) -> Result<(), (usize, String)> {
                     .find(|s| args[k..].starts_with(s));
                 match blank {
                     Some(s) => k += s.len() - 1,
-                    None => {
-                        return Err((
-                            k,
-                            format!("unexpected character byte 0x{b:02X} (outside a string or a comment)"),
-                        ))
-                    }
+                    None => return Err((
+                        k,
+                        format!(
+                            "unexpected character byte 0x{b:02X} (outside a string or a comment)"
+                        ),
+                    )),
                 }
             }
             _ => {}
@@ -1410,12 +1433,16 @@ impl<'a> Cur<'a> {
                     }
                 }
                 // `ABS.SPEED 1: ON`: the robot number first. The emulator has robot 1.
-                if let (Some(r @ (Tok::Num(_) | Tok::Name(_))), Some(Tok::Colon), Some(Tok::Name(v))) =
-                    (self.peek_at(1), self.peek_at(2), self.peek_at(3))
+                if let (
+                    Some(r @ (Tok::Num(_) | Tok::Name(_))),
+                    Some(Tok::Colon),
+                    Some(Tok::Name(v)),
+                ) = (self.peek_at(1), self.peek_at(2), self.peek_at(3))
                 {
                     if matches!(v.text.as_str(), "on" | "off") && self.toks.len() == self.pos + 4 {
                         if *r != Tok::Num(1.0) {
-                            return Ok(self.not_emulated_rest("a switch of another robot"));
+                            let what = format!("{} of another robot", n.text.to_uppercase());
+                            return Ok(self.not_emulated_rest(&what));
                         }
                         let on = v.text == "on";
                         self.pos += 4;
@@ -1461,10 +1488,9 @@ impl<'a> Cur<'a> {
             && self.peek_at(1) == Some(&Tok::Colon)
         {
             if self.peek() != Some(&Tok::Num(1.0)) {
-                return Ok(self.not_emulated_rest(&format!(
-                    "{} for another robot",
-                    kw.to_uppercase()
-                )));
+                return Ok(
+                    self.not_emulated_rest(&format!("{} for another robot", kw.to_uppercase()))
+                );
             }
             self.pos += 2;
         }
@@ -1713,9 +1739,7 @@ impl<'a> Cur<'a> {
                 };
                 LineKind::Stmt(self.monitor(cmd)?)
             }
-            "execute" | "pcexecute" | "pcabort" => {
-                LineKind::Stmt(self.monitor(kw)?)
-            }
+            "execute" | "pcexecute" | "pcabort" => LineKind::Stmt(self.monitor(kw)?),
             "enable" | "disable" => {
                 let nspan = self.span();
                 let name = match self.next().map(|t| t.tok) {
@@ -2006,7 +2030,10 @@ impl<'a> Cur<'a> {
                 if let Some(robot) = self.task_prefix()? {
                     if !matches!(robot.kind, ExprKind::Num(n) if n == 1.0) {
                         self.pos = self.toks.len();
-                        return Ok(StmtKind::NotEmulated { instruction: "EXECUTE for another robot".into(), stubbed: false });
+                        return Ok(StmtKind::NotEmulated {
+                            instruction: "EXECUTE for another robot".into(),
+                            stubbed: false,
+                        });
                     }
                 }
                 let program = self.program_name("EXECUTE")?;
@@ -2049,7 +2076,10 @@ impl<'a> Cur<'a> {
                 if let Some(robot) = self.task_prefix()? {
                     if !matches!(robot.kind, ExprKind::Num(n) if n == 1.0) {
                         self.pos = self.toks.len();
-                        return Ok(StmtKind::NotEmulated { instruction: "SPEED for another robot".into(), stubbed: false });
+                        return Ok(StmtKind::NotEmulated {
+                            instruction: "SPEED for another robot".into(),
+                            stubbed: false,
+                        });
                     }
                 }
                 MonitorCommand::Speed(self.expr()?)
@@ -2986,12 +3016,25 @@ mod tests {
         // A stray END, a word in no table and a monitor command MC does not run load as
         // not emulated, each named in a warning.
         for (text, warning) in [
-            (".PROGRAM p()\n  END\n.END\n", "t.as:2:3: END without an open block loads but is not emulated"),
-            (".PROGRAM p()\n  JAPPRX a, 10\n.END\n", "t.as:2:3: JAPPRX loads but is not emulated"),
-            (".PROGRAM p()\n  MC FOO\n.END\n", "t.as:2:3: MC FOO loads but is not emulated"),
+            (
+                ".PROGRAM p()\n  END\n.END\n",
+                "t.as:2:3: END without an open block loads but is not emulated",
+            ),
+            (
+                ".PROGRAM p()\n  JAPPRX a, 10\n.END\n",
+                "t.as:2:3: JAPPRX loads but is not emulated",
+            ),
+            (
+                ".PROGRAM p()\n  MC FOO\n.END\n",
+                "t.as:2:3: MC FOO loads but is not emulated",
+            ),
         ] {
             let m = ok(text);
-            assert!(m.warnings[0].to_string().starts_with(warning), "{}", m.warnings[0]);
+            assert!(
+                m.warnings[0].to_string().starts_with(warning),
+                "{}",
+                m.warnings[0]
+            );
         }
         // Unbalanced brackets in a line that loads without being parsed: a controller
         // refuses it too.

@@ -21,7 +21,10 @@ fn a_call_to_a_program_of_another_file_loads_and_stops_the_task_with_e0119_when_
     assert_eq!(i.real("a"), Some(1.0));
     assert_eq!(s.raised, vec![ErrorCode(-30119)]);
     let lines = s.lines_of(TaskId::Pc(1)).join("\n");
-    assert!(lines.contains("nonexistent subroutine: program elsewhere"), "{lines}");
+    assert!(
+        lines.contains("nonexistent subroutine: program elsewhere"),
+        "{lines}"
+    );
 }
 
 #[test]
@@ -43,7 +46,13 @@ fn a_jump_to_a_missing_label_loads_with_a_warning_and_stops_with_e0101() {
 
 #[test]
 fn an_instruction_the_emulator_does_not_run_loads_and_stops_with_e0111_when_reached() {
-    for line in ["STABLE 0.2", "RETURNE", "COLRON", "GETULIMIT #lim", "LSQ STR,&V0000"] {
+    for line in [
+        "STABLE 0.2",
+        "RETURNE",
+        "COLRON",
+        "GETULIMIT #lim",
+        "LSQ STR,&V0000",
+    ] {
         let src = pc(&format!("  a = 1\n  {line}\n  a = 2"));
         let w = warnings(&src);
         assert!(
@@ -59,8 +68,12 @@ fn an_instruction_the_emulator_does_not_run_loads_and_stops_with_e0111_when_reac
 #[test]
 fn a_monitor_command_after_mc_that_the_emulator_does_not_run_loads() {
     let w = warnings(&pc("  MC PRIME a.main\n  MC ZPOWER ON"));
-    assert!(w.iter().any(|w| w.contains("MC PRIME loads but is not emulated")));
-    assert!(w.iter().any(|w| w.contains("MC ZPOWER loads but is not emulated")));
+    assert!(w
+        .iter()
+        .any(|w| w.contains("MC PRIME loads but is not emulated")));
+    assert!(w
+        .iter()
+        .any(|w| w.contains("MC ZPOWER loads but is not emulated")));
 }
 
 #[test]
@@ -137,7 +150,10 @@ fn rx_ry_rz_are_rotations_about_one_axis() {
     );
     let x = i.real_at("v", &[0]).unwrap_or(f32::NAN);
     let y = i.real_at("v", &[1]).unwrap_or(f32::NAN);
-    assert!((x - 10.0).abs() < 1e-3 && (y - 10.0).abs() < 1e-3, "{x} {y}");
+    assert!(
+        (x - 10.0).abs() < 1e-3 && (y - 10.0).abs() < 1e-3,
+        "{x} {y}"
+    );
 }
 
 #[test]
@@ -254,15 +270,22 @@ fn a_switch_may_name_its_robot_before_a_colon() {
     let w = warnings(&pc("  ABS.SPEED 1: ON\n  ABS.SPEED 2: OFF"));
     assert!(w
         .iter()
-        .any(|w| w.contains("a switch of another robot loads but is not emulated")));
+        .any(|w| w.contains("ABS.SPEED of another robot loads but is not emulated")));
 }
 
 #[test]
 fn an_instruction_may_name_its_robot_before_a_colon() {
-    let (i, _) = run_pc("  POINT 1: #p = #PPOINT(1, 2, 3, 4, 5, 6)\n  DECOMPOSE 1: v[0] = #p", 0.05);
+    let (i, _) = run_pc(
+        "  POINT 1: #p = #PPOINT(1, 2, 3, 4, 5, 6)\n  DECOMPOSE 1: v[0] = #p",
+        0.05,
+    );
     assert_eq!(i.real_at("v", &[2]), Some(3.0));
     let w = warnings(&pc("  POINT .rno: .#pos = #PPOINT(0)\n  a = INRANGE:2(#p)"));
-    assert!(w.iter().any(|w| w.contains("POINT for another robot loads but is not emulated")), "{w:?}");
+    assert!(
+        w.iter()
+            .any(|w| w.contains("POINT for another robot loads but is not emulated")),
+        "{w:?}"
+    );
 }
 
 #[test]
@@ -270,4 +293,16 @@ fn double_ampersand_and_double_bar_are_and_and_or() {
     let (i, _) = run_pc("  r = 2\n  IF r != 1 && r != 3 THEN\n    a = 1\n  END\n  IF r == 5 || r == 2 THEN\n    b = 1\n  END", 0.05);
     assert_eq!(i.real("a"), Some(1.0));
     assert_eq!(i.real("b"), Some(1.0));
+}
+
+#[test]
+fn a_block_step_with_an_application_prefix_loads() {
+    let w = warnings(&pc(
+        "  AC JOINT SPEED2 ACCU4 TIMER0 OX= WX= #[1, 2, 3, 4, 5, 6]",
+    ));
+    assert!(
+        w.iter()
+            .any(|w| w.contains("AC (block-teaching step) loads but is not emulated")),
+        "{w:?}"
+    );
 }

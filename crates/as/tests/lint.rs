@@ -12,6 +12,13 @@ fn findings(text: &str, controller: Option<Generation>) -> Vec<(&'static str, u3
     r.lint.iter().map(|f| (f.rule, f.line, f.column)).collect()
 }
 
+/// (rule, message) of the findings for `text`.
+fn lint_messages(text: &str, generation: Option<Generation>) -> Vec<(&'static str, String)> {
+    let r = check("l.as", text.as_bytes(), &LoadOptions::new(), generation);
+    assert!(r.loaded, "{:?}", r.errors);
+    r.lint.iter().map(|f| (f.rule, f.message.clone())).collect()
+}
+
 fn pc(body: &str) -> String {
     format!(".PROGRAM autostart.pc()\n{body}\n.END\n")
 }
@@ -172,4 +179,65 @@ fn udp_timeouts_and_receive_ports_follow_the_tcp_ranges() {
         findings(&pc(body), Some(Generation::E)),
         vec![("tcp-timeout-range", 2, 43), ("tcp-port-range", 3, 20)]
     );
+}
+
+#[test]
+fn a_word_in_no_keyword_table_is_flagged_with_the_keyword_one_edit_away() {
+    let f = lint_messages(&pc("  JAPRRO p, 100\n  FROBNICATE 3"), None);
+    assert!(
+        f.iter().any(|(r, m)| *r == "unknown-word"
+            && m.starts_with("JAPRRO is in no AS keyword table: did you mean JAPPRO?")),
+        "{f:?}"
+    );
+    assert!(
+        f.iter().any(|(r, m)| *r == "unknown-word"
+            && m.starts_with("FROBNICATE is in no AS keyword table: a controller refuses it")),
+        "{f:?}"
+    );
+}
+
+#[test]
+fn a_monitor_command_written_as_a_step_is_flagged() {
+    let f = lint_messages(&pc("  KILL"), None);
+    assert!(
+        f.iter()
+            .any(|(r, m)| *r == "monitor-command-in-program" && m.contains("write MC KILL")),
+        "{f:?}"
+    );
+}
+
+#[test]
+fn an_f_series_keyword_is_flagged_on_an_older_generation_only() {
+    let body = pc("  COLRON");
+    let on_e = lint_messages(&body, Some(Generation::E));
+    assert!(
+        on_e.iter().any(|(r, _)| *r == "generation-keyword"),
+        "{on_e:?}"
+    );
+    let on_f = lint_messages(&body, Some(Generation::F));
+    assert!(!on_f.iter().any(|(r, _)| *r == "generation-keyword"));
+}
+
+#[test]
+fn files_checked_together_are_one_controller_memory() {
+    let main = b".PROGRAM main()\n  CALL helper\n  PCEXECUTE 2: other.pc\n.END\n";
+    let lib = b".PROGRAM helper()\n.END\n.PROGRAM main()\n.END\n";
+    let opts = LoadOptions::new();
+    let alone = fs020n_as::check_memory(&[("main.as", &main[..])], &opts, None);
+    let undefined = |r: &fs020n_as::CheckReport| {
+        r.lint
+            .iter()
+            .filter(|f| f.rule == "undefined-program")
+            .map(|f| f.message.split(':').next().unwrap_or("").to_owned())
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(undefined(&alone[0]), ["CALL helper", "PCEXECUTE other.pc"]);
+    let both =
+        fs020n_as::check_memory(&[("main.as", &main[..]), ("lib.as", &lib[..])], &opts, None);
+    assert_eq!(undefined(&both[0]), ["PCEXECUTE other.pc"]);
+    // Each file loads on its own; a program defined twice is a warning on the second file.
+    assert!(both.iter().all(|r| r.loaded));
+    assert!(both[1].warnings.iter().any(|w| w
+        .message
+        .starts_with("program main is also defined in main.as")));
 }

@@ -187,7 +187,10 @@ fn an_application_instruction_loads_as_not_emulated_and_can_be_stubbed() {
     let src = ".PROGRAM autostart.pc()\n  GUNON 1, 2\n  PRINT 2\n.END\n";
     let (_, s) = run(src, &LoadOptions::new());
     assert_eq!(s.raised, vec![ErrorCode(-30111)], "GUNON is not emulated");
-    assert!(!printed(&s).iter().any(|l| l == " 2"), "the task stopped at GUNON");
+    assert!(
+        !printed(&s).iter().any(|l| l == " 2"),
+        "the task stopped at GUNON"
+    );
     let (_, s) = run(src, &LoadOptions::new().stub("gunon"));
     assert_eq!(printed(&s), vec![" 2"]);
 }

@@ -117,11 +117,16 @@ impl Generations {
 
     /// The letters, `"EF"`.
     pub fn letters(self) -> String {
-        [(Self::C, 'C'), (Self::D, 'D'), (Self::E, 'E'), (Self::F, 'F')]
-            .into_iter()
-            .filter(|(g, _)| self.has(*g))
-            .map(|(_, c)| c)
-            .collect()
+        [
+            (Self::C, 'C'),
+            (Self::D, 'D'),
+            (Self::E, 'E'),
+            (Self::F, 'F'),
+        ]
+        .into_iter()
+        .filter(|(g, _)| self.has(*g))
+        .map(|(_, c)| c)
+        .collect()
     }
 }
 
@@ -566,7 +571,12 @@ mod tests {
     fn the_table_is_sorted_and_has_no_duplicate() {
         let key = |k: &Keyword| (k.name.trim_start_matches(['$', '#']), k.name);
         for w in table().windows(2) {
-            assert!(key(&w[0]) < key(&w[1]), "{} before {}", w[0].name, w[1].name);
+            assert!(
+                key(&w[0]) < key(&w[1]),
+                "{} before {}",
+                w[0].name,
+                w[1].name
+            );
         }
         for k in table() {
             assert_eq!(k.name, k.name.to_ascii_lowercase(), "names are lower case");
@@ -597,7 +607,10 @@ mod tests {
 
     #[test]
     fn required_words_are_the_literal_keywords_outside_brackets() {
-        assert_eq!(required_words("[mode] pose_variable TILL signal_number"), ["till"]);
+        assert_eq!(
+            required_words("[mode] pose_variable TILL signal_number"),
+            ["till"]
+        );
         assert!(required_words("speed [, rotational_speed] [ALWAYS]").is_empty());
         assert!(required_words("ON|OFF").is_empty());
     }
@@ -612,6 +625,9 @@ mod tests {
             did_you_mean("lmvoe", Role::INSTRUCTION).map(|k| k.name),
             Some("lmove")
         );
-        assert_eq!(did_you_mean("zzzzzz", Role::INSTRUCTION).map(|k| k.name), None);
+        assert_eq!(
+            did_you_mean("zzzzzz", Role::INSTRUCTION).map(|k| k.name),
+            None
+        );
     }
 }

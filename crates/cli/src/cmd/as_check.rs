@@ -95,7 +95,10 @@ pub(crate) fn check(args: &AsCheckArgs, json: bool) -> CliResult {
             Err(e) => unreadable.push(format!("{file}: {e}")),
         }
     }
-    let files: Vec<(&str, &[u8])> = read.iter().map(|(f, b)| (f.as_str(), b.as_slice())).collect();
+    let files: Vec<(&str, &[u8])> = read
+        .iter()
+        .map(|(f, b)| (f.as_str(), b.as_slice()))
+        .collect();
     let reports = fs020n_as::check_memory(&files, &opts, generation);
     for ((file, _), report) in files.iter().zip(&reports) {
         if !report.passes() {
