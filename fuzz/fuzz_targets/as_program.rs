@@ -7,7 +7,7 @@
 
 use std::time::Duration;
 
-use fs020n_as::lint::Controller;
+use fs020n_as::lint::Generation;
 use fs020n_as::testing::VirtualSystem;
 use fs020n_as::{Config, Interpreter, LoadOptions};
 use libfuzzer_sys::fuzz_target;
@@ -19,7 +19,13 @@ fuzz_target!(|data: &[u8]| {
         None => (data, &[][..]),
     };
     let opts = LoadOptions::new().stub("tool");
-    let _ = fs020n_as::check("fuzz.as", program, &opts, Some(Controller::D));
+    let _ = fs020n_as::check("fuzz.as", program, &opts, Some(Generation::D));
+    // The same bytes as two files of one controller memory (split at a 0x01 byte).
+    if let Some(k) = program.iter().position(|&b| b == 1) {
+        let files = [("a.as", &program[..k]), ("b.as", &program[k + 1..])];
+        let reports = fs020n_as::check_memory(&files, &opts, None);
+        assert_eq!(reports.len(), 2);
+    }
     if let Ok(text) = std::str::from_utf8(program) {
         assert_eq!(
             fs020n_as::parse("fuzz.as", text),

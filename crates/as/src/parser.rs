@@ -1192,12 +1192,14 @@ fn well_formed(args: &[u8]) -> Result<(), (usize, String)> {
                     .find(|s| args[k..].starts_with(s));
                 match blank {
                     Some(s) => k += s.len() - 1,
-                    None => return Err((
-                        k,
-                        format!(
+                    None => {
+                        return Err((
+                            k,
+                            format!(
                             "unexpected character byte 0x{b:02X} (outside a string or a comment)"
                         ),
-                    )),
+                        ))
+                    }
                 }
             }
             _ => {}
