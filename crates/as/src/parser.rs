@@ -2398,7 +2398,7 @@ impl<'a> Cur<'a> {
                 "expression nested deeper than {MAX_NESTING} levels"
             )));
         }
-        let r = self.or_expr();
+        let r = self.xor_expr();
         self.depth -= 1;
         r
     }
@@ -2429,43 +2429,32 @@ impl<'a> Cur<'a> {
         Ok(left)
     }
 
+    // Precedence, lowest first, as AS-E p.3-22 lists it (highest first there): XOR, OR, AND,
+    // BXOR, BOR, BAND, the relational operators, + and -, MOD, * and /, the unary operators
+    // (-, NOT, COM), ^, then functions and array references. Parentheses override.
+
+    fn xor_expr(&mut self) -> PResult<Expr> {
+        self.binary_level(&[("xor", BinOp::Xor)], &[], Self::or_expr)
+    }
+
     fn or_expr(&mut self) -> PResult<Expr> {
         self.binary_level(
-            &[("or", BinOp::Or), ("xor", BinOp::Xor)],
+            &[("or", BinOp::Or)],
             &[(Tok::Bar, BinOp::Or)],
             Self::and_expr,
         )
     }
 
     fn and_expr(&mut self) -> PResult<Expr> {
-        self.binary_level(&[("and", BinOp::And)], &[], Self::not_expr)
+        self.binary_level(&[("and", BinOp::And)], &[], Self::bxor_expr)
     }
 
-    fn not_expr(&mut self) -> PResult<Expr> {
-        let span = self.span();
-        if self.eat_word("not") {
-            self.depth += 1;
-            if self.depth > MAX_NESTING {
-                return Err(self.err(format!(
-                    "expression nested deeper than {MAX_NESTING} levels"
-                )));
-            }
-            let e = self.not_expr();
-            self.depth -= 1;
-            return Ok(Expr {
-                kind: ExprKind::Unary(UnOp::Not, Box::new(e?)),
-                span,
-            });
-        }
-        self.bor_expr()
+    fn bxor_expr(&mut self) -> PResult<Expr> {
+        self.binary_level(&[("bxor", BinOp::Bxor)], &[], Self::bor_expr)
     }
 
     fn bor_expr(&mut self) -> PResult<Expr> {
-        self.binary_level(
-            &[("bor", BinOp::Bor), ("bxor", BinOp::Bxor)],
-            &[],
-            Self::band_expr,
-        )
+        self.binary_level(&[("bor", BinOp::Bor)], &[], Self::band_expr)
     }
 
     fn band_expr(&mut self) -> PResult<Expr> {
@@ -2492,13 +2481,17 @@ impl<'a> Cur<'a> {
         self.binary_level(
             &[],
             &[(Tok::Plus, BinOp::Add), (Tok::Minus, BinOp::Sub)],
-            Self::mul_expr,
+            Self::mod_expr,
         )
+    }
+
+    fn mod_expr(&mut self) -> PResult<Expr> {
+        self.binary_level(&[("mod", BinOp::Mod)], &[], Self::mul_expr)
     }
 
     fn mul_expr(&mut self) -> PResult<Expr> {
         self.binary_level(
-            &[("mod", BinOp::Mod)],
+            &[],
             &[(Tok::Star, BinOp::Mul), (Tok::Slash, BinOp::Div)],
             Self::unary_expr,
         )
@@ -2512,6 +2505,8 @@ impl<'a> Cur<'a> {
             return self.unary_expr_nested();
         } else if self.eat_word("com") {
             Some(UnOp::Com)
+        } else if self.eat_word("not") {
+            Some(UnOp::Not)
         } else {
             None
         };

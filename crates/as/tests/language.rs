@@ -49,7 +49,8 @@ fn operators_and_precedence() {
     assert_eq!(r("a"), 50.0);
     assert_eq!(r("b"), -4.0);
     assert_eq!(r("c"), 1.0 - 10.0);
-    assert_eq!(r("d"), -1.0);
+    // Unary NOT binds tighter than ==: (NOT 1) == 2 (AS-E p.3-22).
+    assert_eq!(r("d"), 0.0);
     assert_eq!(r("e"), 0.0);
     assert_eq!(r("f"), -1.0);
     assert_eq!(r("g"), 0.0);
