@@ -71,6 +71,25 @@ pub(crate) enum RExpr {
     Loc(LocFn, Box<[TExpr]>),
     /// `EXISTREAL("name")` …: whether the named thing exists.
     Exist(Exist, Box<SExpr>),
+    /// `SYSDATA(keyword)`: a value of the controller's state.
+    SysData(SysData),
+}
+
+/// The `SYSDATA` keywords the emulator answers (AS-E p.9-24…9-26).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum SysData {
+    /// `M.SPEED`: the monitor speed, percent.
+    MonitorSpeed,
+    /// `STEP`, `MSTEP`: the step (line) the task runs.
+    Step,
+    /// `NUMROBOT`: how many robots (1).
+    Robots,
+    /// `ZROB.NOWAXIS`: the robot's axes (6).
+    Axes,
+    /// `LANGUAGE`: the display language (2, English).
+    Language,
+    /// `MEM.FREE`: free memory, percent (the emulator's is never short: 100).
+    FreeMemory,
 }
 
 /// Real functions of transformations.
@@ -142,6 +161,12 @@ pub(crate) enum SExpr {
     Encode(Box<[Item]>),
     Decode(LRef, Box<SExpr>, Box<RExpr>),
     ErrorMsg(Box<RExpr>),
+    /// `$TIME`: the controller clock, `hh:mm:ss`.
+    Time,
+    /// `$DATE(form)`: 1 `mm/dd/yyyy`, 2 `dd/MMM/yyyy`, 3 `yyyy/mm/dd`.
+    Date(Box<RExpr>),
+    /// `$SYSDATA(ZROB.NAME)`: the robot's model name.
+    RobotName,
 }
 
 /// Joint-point expressions.
@@ -432,6 +457,8 @@ pub(crate) struct CProgram {
     /// no loaded file defines: as on the controller, the name resolves when a task reaches
     /// it, and a task that does stops with E0119 (a later LOAD may define it).
     pub(crate) defined: bool,
+    /// The line of its `.PROGRAM` header (step n is n lines below it; 0 for a placeholder).
+    pub(crate) header_line: u32,
 }
 
 /// Everything loaded: programs, global names, data to load.
@@ -549,6 +576,7 @@ pub(crate) fn compile(modules: &[crate::ast::Module]) -> Result<Code, LoadError>
             locals: [0; 4],
             local_names: Default::default(),
             defined: false,
+            header_line: 0,
         });
     }
     // Data sections.
@@ -731,6 +759,7 @@ impl Compiler {
             ],
             local_names: std::mem::take(&mut self.locals),
             defined: true,
+            header_line: p.span.line,
         }
     }
 
@@ -1701,13 +1730,10 @@ impl Compiler {
                 (Sigil::Hash, "here") => return Ok(CExpr::J(JExpr::Here)),
                 (Sigil::None, "dest") => return Ok(CExpr::T(TExpr::Dest)),
                 (Sigil::Hash, "dest") => return Ok(CExpr::J(JExpr::Dest)),
-                // `$TIME`, `$DATE`: the controller's clock as text; not emulated.
-                (Sigil::Dollar, "time" | "date") => {
-                    self.not_emulated_fn = Some(format!("${}", n.text.to_ascii_uppercase()));
-                    return Err(self.err(
-                        lv.span,
-                        format!("${} is not emulated", n.text.to_ascii_uppercase()),
-                    ));
+                // `$TIME`, `$DATE`: the controller's clock as text.
+                (Sigil::Dollar, "time") => return Ok(CExpr::S(SExpr::Time)),
+                (Sigil::Dollar, "date") => {
+                    return Ok(CExpr::S(SExpr::Date(Box::new(RExpr::Const(1.0)))))
                 }
                 _ => {}
             }
@@ -1789,6 +1815,46 @@ impl Compiler {
                     _ => RFunc::Timer,
                 };
                 Ok(CExpr::R(RExpr::Func(func, vec![a].into())))
+            }
+            (Sigil::Dollar, "date") => {
+                self.arity(name, args, 0, 1, span)?;
+                let form = match args.first() {
+                    Some(a) => self.arg_real(a)?,
+                    None => RExpr::Const(1.0),
+                };
+                Ok(CExpr::S(SExpr::Date(Box::new(form))))
+            }
+            (Sigil::None | Sigil::Dollar, "sysdata") => {
+                let key = match args.first() {
+                    Some(Arg::Keyword(k, _)) => k.clone(),
+                    _ => String::new(),
+                };
+                // A robot number (and an axis) after the keyword: robot 1 only.
+                let robot_one = args.get(1).is_none_or(
+                    |a| matches!(a, Arg::Expr(Expr { kind: ExprKind::Num(n), .. }) if *n == 1.0),
+                );
+                let known = match (name.sigil, key.as_str(), robot_one, args.len() <= 2) {
+                    (Sigil::Dollar, "zrob.name", true, true) => Some(CExpr::S(SExpr::RobotName)),
+                    (Sigil::None, k, true, true) => match k {
+                        "m.speed" => Some(SysData::MonitorSpeed),
+                        "step" | "mstep" => Some(SysData::Step),
+                        "numrobot" => Some(SysData::Robots),
+                        "zrob.nowaxis" => Some(SysData::Axes),
+                        "language" => Some(SysData::Language),
+                        "mem.free" => Some(SysData::FreeMemory),
+                        _ => None,
+                    }
+                    .map(|d| CExpr::R(RExpr::SysData(d))),
+                    _ => None,
+                };
+                match known {
+                    Some(e) => Ok(e),
+                    None => {
+                        let what = format!("{}({})", display_fn(name), key.to_uppercase());
+                        self.not_emulated_fn = Some(what.clone());
+                        Err(self.err(span, format!("{what} is not emulated")))
+                    }
+                }
             }
             (Sigil::None, f @ ("rx" | "ry" | "rz")) => {
                 self.arity(name, args, 1, 1, span)?;
@@ -2108,7 +2174,7 @@ fn r_touches(e: &RExpr) -> bool {
             a.as_deref().is_some_and(r_touches) || s_touches(b) || s_touches(c)
         }
         RExpr::Dext(l, n) => loc_touches(l) || r_touches(n),
-        RExpr::Switch(_) | RExpr::Error | RExpr::Exist(..) => true,
+        RExpr::Switch(_) | RExpr::Error | RExpr::Exist(..) | RExpr::SysData(_) => true,
         RExpr::Loc(_, t) => t.iter().any(t_touches),
     }
 }
@@ -2120,7 +2186,8 @@ fn s_touches(e: &SExpr) -> bool {
         SExpr::Concat(a, b) => s_touches(a) || s_touches(b),
         SExpr::Mid(a, b, c) => s_touches(a) || r_touches(b) || c.as_deref().is_some_and(r_touches),
         SExpr::Left(a, b) | SExpr::Right(a, b) => s_touches(a) || r_touches(b),
-        SExpr::Chr(a) | SExpr::ErrorMsg(a) => r_touches(a),
+        SExpr::Chr(a) | SExpr::ErrorMsg(a) | SExpr::Date(a) => r_touches(a),
+        SExpr::Time | SExpr::RobotName => false,
         SExpr::Encode(items) => items_touch(items),
         SExpr::Decode(l, d, m) => l_touches(l) || s_touches(d) || r_touches(m),
     }

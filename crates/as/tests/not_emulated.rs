@@ -155,12 +155,12 @@ fn a_task_that_reaches_one_stops_with_e0111_naming_instruction_program_and_line(
 #[test]
 fn a_function_the_emulator_does_not_compute_stops_the_task_at_its_line() {
     let (i, s) = run(
-        ".PROGRAM autostart.pc()\n  x = 1\n  IF $TIME == \"\" THEN\n    x = 2\n  END\n.END\n",
+        ".PROGRAM autostart.pc()\n  x = 1\n  IF STRTOPOS(\"p\") == 0 THEN\n    x = 2\n  END\n.END\n",
         &LoadOptions::new(),
     );
     assert_eq!(
         i.tasks(&s)[1].last_error.as_deref(),
-        Some("(E0111) the function $TIME is not emulated (fs020n as check lists these; --stub makes one a no-op) (autostart.pc line 3)")
+        Some("(E0111) the function STRTOPOS is not emulated (fs020n as check lists these; --stub makes one a no-op) (autostart.pc line 3)")
     );
 }
 
@@ -267,7 +267,6 @@ fn forms_from_pc_programs_load_as_not_emulated() {
             "7: INTFCHK",
             "8: MC ZPOWER",
             "14: the function STRTOPOS",
-            "15: the function $TIME",
         ]
     );
 }

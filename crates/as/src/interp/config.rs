@@ -57,6 +57,10 @@ pub struct Config {
     /// The output signals of hands 1, 2, … that `OPEN`/`CLOSE`/`RELAX` drive (default: hand 1
     /// on outputs 1 and 2, hand 2 on 3 and 4; see docs/AS.md).
     pub hands: Vec<HandSignals>,
+    /// The controller clock (`$TIME`, `$DATE`) when the interpreter's time is zero: a Unix time
+    /// in seconds and the offset of local time from UTC in seconds. `None` (default): the
+    /// host's local time when the interpreter is created. Tests set it for repeatable output.
+    pub clock_at_start: Option<(i64, i32)>,
 }
 
 /// The output signals of one hand (a double-solenoid valve: one signal opens, one closes).
@@ -82,6 +86,7 @@ impl Default for Config {
                 HandSignals { open: 1, close: 2 },
                 HandSignals { open: 3, close: 4 },
             ],
+            clock_at_start: None,
         }
     }
 }

@@ -138,6 +138,7 @@ impl Interpreter {
                 })
             }
             RExpr::Error => sys.error().raw() as f32,
+            RExpr::SysData(d) => self.sysdata(i, *d, sys),
             RExpr::Loc(f, t) => self.eval_loc_fn(i, *f, t, sys)?,
             RExpr::Exist(kind, name) => {
                 let name = self.eval_s(i, name, sys)?;
@@ -318,6 +319,12 @@ impl Interpreter {
                 self.write_s(i, var, rest, sys)?;
                 head
             }
+            SExpr::Time => Bytes::from(self.time_text().as_bytes()),
+            SExpr::Date(form) => {
+                let form = self.eval_r(i, form, sys)?;
+                Bytes::from(self.date_text(form)?.as_bytes())
+            }
+            SExpr::RobotName => Bytes::from(&b"FS020N"[..]),
             SExpr::ErrorMsg(code) => {
                 let c = self.eval_r(i, code, sys)?.trunc() as i32;
                 let text = match error_message(c) {

@@ -35,6 +35,7 @@
 
 mod arith;
 mod circular;
+mod clock;
 mod config;
 mod exist;
 mod expr;
@@ -178,6 +179,9 @@ impl Interpreter {
             cfg.poll_period = Duration::from_millis(2);
         }
         cfg.max_call_depth = cfg.max_call_depth.clamp(1, 1000);
+        if cfg.clock_at_start.is_none() {
+            cfg.clock_at_start = Some(clock::host_now());
+        }
         let (stmt_ns, poll_ns) = (ns(cfg.cost.statement), ns(cfg.poll_period));
         Ok(Interpreter {
             code: Arc::new(code),
