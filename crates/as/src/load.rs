@@ -54,7 +54,7 @@ impl Loaded {
         bytes: &[u8],
         opts: &LoadOptions,
         config: Config,
-    ) -> Result<Loaded, crate::LoadError> {
+    ) -> Result<Loaded, crate::error::LoadError> {
         let module = parse_bytes(file, bytes, opts)?;
         let interpreter = Interpreter::new(std::slice::from_ref(&module), config)?;
         Ok(Loaded {

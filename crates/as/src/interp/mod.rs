@@ -217,7 +217,7 @@ impl Interpreter {
 
     /// Parses and loads one file.
     pub fn from_source(file: &str, text: &str, config: Config) -> Result<Interpreter, LoadError> {
-        let m = crate::parse(file, text)?;
+        let m = crate::parser::parse(file, text)?;
         Interpreter::new(&[m], config)
     }
 
