@@ -12,6 +12,7 @@
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct LoadOptions {
     stubs: Vec<String>,
+    known_words_only: bool,
 }
 
 /// Words that shape blocks or jumps: they are never stubbed (a no-op `END` would break the
@@ -38,6 +39,20 @@ impl LoadOptions {
             self.stubs.push(w);
         }
         self
+    }
+
+    /// Refuses a program line whose first word is in no keyword table (a stubbed word
+    /// excepted), as a controller's `LOAD` does: the controller knows its own keywords. The
+    /// emulated controller loads this way; `fs020n as check` and `sim --as-program` do not
+    /// (they load such a line as not emulated, and the lint names it).
+    pub fn known_words_only(mut self) -> LoadOptions {
+        self.known_words_only = true;
+        self
+    }
+
+    /// Whether [`LoadOptions::known_words_only`] is set.
+    pub fn refuses_unknown_words(&self) -> bool {
+        self.known_words_only
     }
 
     /// The stubbed instructions, lower case, in the order given.

@@ -1105,6 +1105,13 @@ impl<'a> FileParser<'a> {
         if self.opts.is_stubbed(&word) {
             return make(instruction, true);
         }
+        if kind == NotEmulatedKind::UnknownWord && self.opts.refuses_unknown_words() {
+            return Some(Err(ParseError::new(
+                self.file,
+                span,
+                format!("(P0109) Invalid statement: {instruction} is not an AS keyword"),
+            )));
+        }
         make(instruction, false)
     }
 

@@ -213,8 +213,11 @@ impl Controller {
     /// `LOAD` finds them, with the programs in memory it would join: `(line, text)` each, in
     /// file order; empty when it loads.
     pub fn check_program_bytes(&self, text: &[u8]) -> Vec<(u32, String)> {
+        // The controller knows its keywords: a step whose word is in no keyword table is a
+        // syntax error of its LOAD (what loads as not emulated elsewhere).
+        let strict = self.memory.load_options().clone().known_words_only();
         let load = self.memory.load_options();
-        let m = match fs020n_as::parse_bytes(LOAD_FILE, text, load) {
+        let m = match fs020n_as::parse_bytes(LOAD_FILE, text, &strict) {
             Ok(m) => m,
             Err(e) => return error_lines(&e, LOAD_FILE, text),
         };
