@@ -705,7 +705,7 @@ async fn trigger_loop(
             },
             &format!("~/{which:?}: {}", response.message).to_lowercase(),
         );
-        let response = when_reader_matched(participant, &id, response).await;
+        let response = when_reader_matched(shared, participant, &id, response).await;
         if let Err(e) = server.async_send_response(id, response).await {
             tracing::warn!("{which:?} response not sent: {e:?}");
         }
@@ -750,7 +750,7 @@ async fn speed_loop(
                 },
             },
         };
-        let response = when_reader_matched(participant, &id, response).await;
+        let response = when_reader_matched(shared, participant, &id, response).await;
         if let Err(e) = server.async_send_response(id, response).await {
             tracing::warn!("set_speed response not sent: {e:?}");
         }
@@ -1001,9 +1001,14 @@ impl ActionReplies<'_> {
 }
 
 /// Gives `reply` back once the reply reader the request `id` named is discovered (at once
-/// when it named none), as [`ActionReplies`] does for the action's replies.
-async fn when_reader_matched<R>(participant: &DomainParticipant, id: &RmwRequestId, reply: R) -> R {
-    let mut gate = ReplyGate::new(DEFAULT_READER_WAIT);
+/// when its mapping names none), as [`ActionReplies`] does for the action's replies.
+async fn when_reader_matched<R>(
+    shared: &Shared,
+    participant: &DomainParticipant,
+    id: &RmwRequestId,
+    reply: R,
+) -> R {
+    let mut gate = ReplyGate::new(shared.config.dds.service_mapping, DEFAULT_READER_WAIT);
     let known = |g: &Guid| discovered_reader(participant, g);
     let now = tokio::time::Instant::now();
     if let Some(reply) = gate.handle_reply(id.writer_gid.to_bytes16(), reply, known, now) {
@@ -1228,7 +1233,7 @@ async fn action_loop(
     let mut replies = ActionReplies {
         server,
         participant,
-        gate: ReplyGate::new(DEFAULT_READER_WAIT),
+        gate: ReplyGate::new(shared.config.dds.service_mapping, DEFAULT_READER_WAIT),
     };
     publish_statuses(server, &goals);
     loop {
