@@ -38,7 +38,7 @@ use crate::msg::{
     FollowJointTrajectoryGoal, FollowJointTrajectoryResult, Header, JointState, JointTrajectory,
     SetSpeedRequest, SetSpeedResponse, StringMsg, TfMessage, Time, TriggerRequest, TriggerResponse,
 };
-use crate::reply_gate::{Guid, Released, ReplyGate, DEFAULT_READER_WAIT};
+use crate::reply_gate::{Guid, Released, ReplyGate};
 use crate::urdf;
 
 /// Where the node gets its robot session. The standalone node holds one
@@ -992,7 +992,7 @@ impl ActionReplies<'_> {
                 tracing::warn!(
                     "the reply reader a request named was not discovered within {:?}: replying \
                      anyway",
-                    DEFAULT_READER_WAIT
+                    self.gate.wait()
                 );
             }
             reply.send(self.server);
@@ -1008,7 +1008,7 @@ async fn when_reader_matched<R>(
     id: &RmwRequestId,
     reply: R,
 ) -> R {
-    let mut gate = ReplyGate::new(shared.config.dds.service_mapping, DEFAULT_READER_WAIT);
+    let mut gate = ReplyGate::new(shared.config.dds.service_mapping, reader_wait(shared));
     let known = |g: &Guid| discovered_reader(participant, g);
     let now = tokio::time::Instant::now();
     if let Some(reply) = gate.handle_reply(id.writer_gid.to_bytes16(), reply, known, now) {
@@ -1022,12 +1022,17 @@ async fn when_reader_matched<R>(
                 tracing::warn!(
                     "the reply reader a request named was not discovered within {:?}: replying \
                      anyway",
-                    DEFAULT_READER_WAIT
+                    reader_wait(shared)
                 );
             }
             return reply;
         }
     }
+}
+
+/// How long a reply waits for the reply reader its request named.
+fn reader_wait(shared: &Shared) -> Duration {
+    Duration::from_secs_f64(shared.config.reply_reader_wait_s)
 }
 
 fn discovered_reader(participant: &DomainParticipant, guid: &Guid) -> bool {
@@ -1233,7 +1238,7 @@ async fn action_loop(
     let mut replies = ActionReplies {
         server,
         participant,
-        gate: ReplyGate::new(shared.config.dds.service_mapping, DEFAULT_READER_WAIT),
+        gate: ReplyGate::new(shared.config.dds.service_mapping, reader_wait(shared)),
     };
     publish_statuses(server, &goals);
     loop {

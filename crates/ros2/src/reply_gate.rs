@@ -134,6 +134,11 @@ impl<R> ReplyGate<R> {
         out
     }
 
+    /// The longest a reply is held.
+    pub fn wait(&self) -> Duration {
+        self.wait
+    }
+
     /// `true` when no reply is held.
     pub fn is_empty(&self) -> bool {
         self.held.is_empty()
