@@ -207,6 +207,14 @@ fn plan_with(
             )));
         }
         previous_t = t;
+        if !p.effort.is_empty() {
+            // As joint_trajectory_controller, which refuses trajectories with effort fields.
+            return Err(invalid(format!(
+                "{} efforts given; this arm is position-controlled (the protocol takes positions \
+                 only): leave effort empty",
+                p.effort.len()
+            )));
+        }
         let reorder = |values: &[f64], what: &str| -> Result<Option<JointsDeg>, GoalRefusal> {
             match values.len() {
                 0 if what != "positions" => Ok(None),
@@ -476,6 +484,20 @@ mod tests {
         let mut g = goal(vec![point(1.0, [0.0, 0.0, -90.0, 0.0, -90.0, 0.0])]);
         g.multi_dof_trajectory.joint_names.push("base".into());
         assert_eq!(run(&g).unwrap_err().code, error_code::INVALID_JOINTS);
+    }
+
+    #[test]
+    fn points_carrying_effort_are_refused_as_joint_trajectory_controller_does() {
+        let here = [0.0, 0.0, -90.0, 0.0, -90.0, 0.0];
+        let mut g = goal(vec![point(1.0, here), point(2.0, here)]);
+        assert!(run(&g).is_ok());
+        g.trajectory.points[1].effort = vec![0.0; 6];
+        let refusal = run(&g).unwrap_err();
+        assert_eq!(refusal.code, error_code::INVALID_GOAL);
+        assert!(
+            refusal.message.contains("point 1") && refusal.message.contains("effort"),
+            "{refusal}"
+        );
     }
 
     #[test]
