@@ -857,6 +857,60 @@ def test_two_clients_at_once_each_get_their_own_replies_cyclone_mapping():
         assert node.stop() == 0, "".join(node.stderr)
 
 
+def test_every_cyclone_mapping_client_is_answered_whatever_its_id():
+    """Sixteen clients on the Cyclone mapping, each with its own request writer and reply reader
+    and a random 64-bit client id in its request header (rmw_cyclonedds_cpp uses its request
+    writer's instance handle, an arbitrary number), half of them with the bit 0x04 in the id's
+    last byte (what a reader's entity kind has): each gets the reply to its own request, and
+    takes none of the others' as its own. The node holds a reply for a reader up to 600 s here
+    (`reply_reader_wait_s`): a reply held by mistake would not come within the test at all."""
+    domain = random.randint(100, 230)
+    node = Node(domain, extra=("--service-mapping", "cyclone", "--ros-args", "-p", "reply_reader_wait_s:=600.0"))
+    try:
+        a = "fs020n_controller/follow_joint_trajectory/_action"
+        dp = DomainParticipant(domain)
+        request_topic = Topic(dp, f"rq/{a}/get_resultRequest", CycloneGetResultRequest)
+        reply_topic = Topic(dp, f"rr/{a}/get_resultReply", CycloneGetResultResponse)
+        clients = []
+        for k in range(16):
+            client_id = random.getrandbits(64)
+            client_id = client_id | (0x04 << 56) if k % 2 == 0 else client_id & ~(0x04 << 56)
+            clients.append({
+                "guid": list(client_id.to_bytes(8, "little")),
+                "reader": DataReader(dp, reply_topic, qos=RELIABLE),
+                "writer": DataWriter(dp, request_topic, qos=RELIABLE),
+                "sent": set(),
+                "replies": [],
+            })
+        ids = [c["guid"] for c in clients]
+        unknown_goal = UUID(uuid=list(uuid.uuid4().bytes))
+        rounds = [0]
+
+        def one_round():
+            # A client asks again until it is answered: a request or a reply in the instant
+            # before the other side matched is lost on a volatile topic (a client waits for the
+            # service first).
+            rounds[0] += 1
+            for c in clients:
+                if not c["replies"]:
+                    c["writer"].write(CycloneGetResultRequest(guid=c["guid"], seq_low=rounds[0], goal_id=unknown_goal))
+                    c["sent"].add(rounds[0])
+            time.sleep(0.25)
+            for c in clients:
+                for r in c["reader"].take(N=100):
+                    assert list(r.guid) in ids, f"a reply to no client: {r}"
+                    if list(r.guid) == c["guid"]:
+                        c["replies"].append(r)
+            return all(c["replies"] for c in clients)
+
+        wait_until("every client's own reply", one_round, step=0.0)
+        for c in clients:
+            assert all(r.seq_low in c["sent"] and r.seq_high == 0 for r in c["replies"]), c["replies"]
+            assert all(r.status == STATUS_UNKNOWN for r in c["replies"]), c["replies"]
+    finally:
+        assert node.stop() == 0, "".join(node.stderr)
+
+
 @dataclass
 class CycloneTrigger(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Request_"):
     guid: array[uint8, 8] = field(default_factory=lambda: [0] * 8)
