@@ -600,6 +600,23 @@ mod tests {
     }
 
     #[test]
+    fn the_reply_readers_wait_is_a_parameter_from_0_to_600_s() {
+        let mut c = NodeConfig::default();
+        assert_eq!(c.reply_reader_wait_s, 5.0);
+        c.apply_params_yaml("fs020n:\n  ros__parameters:\n    reply_reader_wait_s: 0.0\n")
+            .unwrap();
+        c.validate().unwrap();
+        assert_eq!(c.reply_reader_wait_s, 0.0);
+        c.apply_params_yaml("fs020n:\n  ros__parameters:\n    reply_reader_wait_s: 601.0\n")
+            .unwrap();
+        let e = c.validate().unwrap_err().to_string();
+        assert!(
+            e.contains("reply_reader_wait_s") && e.contains("600"),
+            "{e}"
+        );
+    }
+
+    #[test]
     fn domains_above_232_are_refused() {
         assert_eq!(parse_domain("17").unwrap(), 17);
         assert!(parse_domain("233").is_err());
