@@ -548,6 +548,39 @@ def test_a_goal_out_of_range_is_rejected_and_nothing_moves(system):
     assert all(abs(a - b) < 1e-6 for a, b in zip(before, after)), (before, after)
 
 
+def test_a_goal_stamped_in_the_past_skips_the_points_already_due(system):
+    """As joint_trajectory_controller's "partial old trajectory": a goal stamped 1.5 s in the
+    past, with a point due at 0.5 s far from the arm (JT1 +0.7 rad) and one at 4 s (JT1 +0.1 rad)
+    is accepted; the first point is skipped and the arm goes from where it is to the second. A
+    goal that ended before it arrived is rejected."""
+    node, peer = system
+    peer.call(peer.start, TriggerRequest())
+    here = peer.settled_joints()
+    request = goal_to(with_jt1(here[0] + 0.1), 4.0, steps=1, start=here, tolerance=0.01)
+    far = JointTrajectoryPoint(positions=with_jt1(here[0] + 0.7), time_from_start=Duration(sec=0, nanosec=500_000_000))
+    request.goal.trajectory.points.insert(0, far)
+    stamp = time.time() - 1.5
+    request.goal.trajectory.header = Header(stamp=Time(sec=int(stamp), nanosec=int((stamp % 1) * 1e9)))
+    assert peer.call(peer.send_goal, request).accepted
+    peak, seen = [here[0]], []
+
+    def ended():
+        peak[0] = max([peak[0], *(m.position[0] for m in peer.joint_states.take(N=1000))])
+        statuses_of(peer, request.goal_id, seen)
+        return seen and seen[-1] in (STATUS_SUCCEEDED, STATUS_ABORTED, STATUS_CANCELED)
+
+    wait_until("the goal's end", ended, step=0.1)
+    result = peer.call(peer.get_result, GetResultRequest(goal_id=request.goal_id))
+    assert result.status == STATUS_SUCCEEDED, result.result.error_string
+    assert abs(peer.settled_joints()[0] - (here[0] + 0.1)) < 0.01
+    # It never headed for the skipped point.
+    assert peak[0] < here[0] + 0.1 + 0.01, peak
+    stale = goal_to(with_jt1(here[0]), 2.0, steps=1, start=here)
+    stamp = time.time() - 10.0
+    stale.goal.trajectory.header = Header(stamp=Time(sec=int(stamp), nanosec=int((stamp % 1) * 1e9)))
+    assert not peer.call(peer.send_goal, stale).accepted
+
+
 def test_unknown_joint_names_are_rejected(system):
     node, peer = system
     request = goal_to(with_jt1(0.0), 2.0)
