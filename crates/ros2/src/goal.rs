@@ -252,6 +252,23 @@ fn plan_with(
             acceleration,
         });
     }
+    // The arm ends at rest, as joint_trajectory_controller demands by default
+    // (allow_nonzero_velocity_at_trajectory_end: false): a last point still moving would leave
+    // the controller extrapolating past it.
+    if let Some(last) = tr.points.last() {
+        if let Some((k, v)) = last
+            .velocities
+            .iter()
+            .enumerate()
+            .find(|(_, v)| v.abs() > f64::from(f32::EPSILON))
+        {
+            return Err(GoalRefusal::invalid(format!(
+                "the last point's velocity of {} is {v} rad/s, not zero; end the trajectory at \
+                 rest (a last point still moving would leave the arm moving past it)",
+                tr.joint_names[k]
+            )));
+        }
+    }
     if points.is_empty() {
         return Err(GoalRefusal::new(
             error_code::OLD_HEADER_TIMESTAMP,
@@ -567,6 +584,23 @@ mod tests {
             now
         )
         .is_err());
+    }
+
+    #[test]
+    fn a_last_point_still_moving_is_refused_as_jtc_does() {
+        let here = [0.0, 0.0, -90.0, 0.0, -90.0, 0.0];
+        let mut g = goal(vec![point(1.0, here), point(2.0, here)]);
+        // Zero (or float noise) at the end, anything on the way.
+        g.trajectory.points[0].velocities = vec![0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        g.trajectory.points[1].velocities = vec![0.0, 1e-9, 0.0, 0.0, 0.0, 0.0];
+        assert!(run(&g).is_ok());
+        g.trajectory.points[1].velocities[3] = 0.05;
+        let refusal = run(&g).unwrap_err();
+        assert_eq!(refusal.code, error_code::INVALID_GOAL);
+        assert!(
+            refusal.message.contains("joint_4") && refusal.message.contains("not zero"),
+            "{refusal}"
+        );
     }
 
     #[test]
