@@ -548,6 +548,39 @@ def test_a_goal_out_of_range_is_rejected_and_nothing_moves(system):
     assert all(abs(a - b) < 1e-6 for a, b in zip(before, after)), (before, after)
 
 
+def test_a_goal_stamped_in_the_past_skips_the_points_already_due(system):
+    """As joint_trajectory_controller's "partial old trajectory": a goal stamped 1.5 s in the
+    past, with a point due at 0.5 s far from the arm (JT1 +0.7 rad) and one at 4 s (JT1 +0.1 rad)
+    is accepted; the first point is skipped and the arm goes from where it is to the second. A
+    goal that ended before it arrived is rejected."""
+    node, peer = system
+    peer.call(peer.start, TriggerRequest())
+    here = peer.settled_joints()
+    request = goal_to(with_jt1(here[0] + 0.1), 4.0, steps=1, start=here, tolerance=0.01)
+    far = JointTrajectoryPoint(positions=with_jt1(here[0] + 0.7), time_from_start=Duration(sec=0, nanosec=500_000_000))
+    request.goal.trajectory.points.insert(0, far)
+    stamp = time.time() - 1.5
+    request.goal.trajectory.header = Header(stamp=Time(sec=int(stamp), nanosec=int((stamp % 1) * 1e9)))
+    assert peer.call(peer.send_goal, request).accepted
+    peak, seen = [here[0]], []
+
+    def ended():
+        peak[0] = max([peak[0], *(m.position[0] for m in peer.joint_states.take(N=1000))])
+        statuses_of(peer, request.goal_id, seen)
+        return seen and seen[-1] in (STATUS_SUCCEEDED, STATUS_ABORTED, STATUS_CANCELED)
+
+    wait_until("the goal's end", ended, step=0.1)
+    result = peer.call(peer.get_result, GetResultRequest(goal_id=request.goal_id))
+    assert result.status == STATUS_SUCCEEDED, result.result.error_string
+    assert abs(peer.settled_joints()[0] - (here[0] + 0.1)) < 0.01
+    # It never headed for the skipped point.
+    assert peak[0] < here[0] + 0.1 + 0.01, peak
+    stale = goal_to(with_jt1(here[0]), 2.0, steps=1, start=here)
+    stamp = time.time() - 10.0
+    stale.goal.trajectory.header = Header(stamp=Time(sec=int(stamp), nanosec=int((stamp % 1) * 1e9)))
+    assert not peer.call(peer.send_goal, stale).accepted
+
+
 def test_unknown_joint_names_are_rejected(system):
     node, peer = system
     request = goal_to(with_jt1(0.0), 2.0)
@@ -853,6 +886,60 @@ def test_two_clients_at_once_each_get_their_own_replies_cyclone_mapping():
         assert [(r.seq_low, r.accepted) for r in replies[1]] == [(11, True)]
         assert [(r.seq_low, r.status) for r in results[0]] == [(8, STATUS_UNKNOWN)]
         assert [(r.seq_low, r.status) for r in results[1]] == [(12, STATUS_SUCCEEDED)], results[1][0].result
+    finally:
+        assert node.stop() == 0, "".join(node.stderr)
+
+
+def test_every_cyclone_mapping_client_is_answered_whatever_its_id():
+    """Sixteen clients on the Cyclone mapping, each with its own request writer and reply reader
+    and a random 64-bit client id in its request header (rmw_cyclonedds_cpp uses its request
+    writer's instance handle, an arbitrary number), half of them with the bit 0x04 in the id's
+    last byte (what a reader's entity kind has): each gets the reply to its own request, and
+    takes none of the others' as its own. The node holds a reply for a reader up to 600 s here
+    (`reply_reader_wait_s`): a reply held by mistake would not come within the test at all."""
+    domain = random.randint(100, 230)
+    node = Node(domain, extra=("--service-mapping", "cyclone", "--ros-args", "-p", "reply_reader_wait_s:=600.0"))
+    try:
+        a = "fs020n_controller/follow_joint_trajectory/_action"
+        dp = DomainParticipant(domain)
+        request_topic = Topic(dp, f"rq/{a}/get_resultRequest", CycloneGetResultRequest)
+        reply_topic = Topic(dp, f"rr/{a}/get_resultReply", CycloneGetResultResponse)
+        clients = []
+        for k in range(16):
+            client_id = random.getrandbits(64)
+            client_id = client_id | (0x04 << 56) if k % 2 == 0 else client_id & ~(0x04 << 56)
+            clients.append({
+                "guid": list(client_id.to_bytes(8, "little")),
+                "reader": DataReader(dp, reply_topic, qos=RELIABLE),
+                "writer": DataWriter(dp, request_topic, qos=RELIABLE),
+                "sent": set(),
+                "replies": [],
+            })
+        ids = [c["guid"] for c in clients]
+        unknown_goal = UUID(uuid=list(uuid.uuid4().bytes))
+        rounds = [0]
+
+        def one_round():
+            # A client asks again until it is answered: a request or a reply in the instant
+            # before the other side matched is lost on a volatile topic (a client waits for the
+            # service first).
+            rounds[0] += 1
+            for c in clients:
+                if not c["replies"]:
+                    c["writer"].write(CycloneGetResultRequest(guid=c["guid"], seq_low=rounds[0], goal_id=unknown_goal))
+                    c["sent"].add(rounds[0])
+            time.sleep(0.25)
+            for c in clients:
+                for r in c["reader"].take(N=100):
+                    assert list(r.guid) in ids, f"a reply to no client: {r}"
+                    if list(r.guid) == c["guid"]:
+                        c["replies"].append(r)
+            return all(c["replies"] for c in clients)
+
+        wait_until("every client's own reply", one_round, step=0.0)
+        for c in clients:
+            assert all(r.seq_low in c["sent"] and r.seq_high == 0 for r in c["replies"]), c["replies"]
+            assert all(r.status == STATUS_UNKNOWN for r in c["replies"]), c["replies"]
     finally:
         assert node.stop() == 0, "".join(node.stderr)
 

@@ -34,7 +34,8 @@ use std::time::Duration;
 
 use arci::{Error, JointTrajectoryClient, TrajectoryPoint as ArciPoint, WaitFuture};
 use fs020n_client::{
-    ClientError, Robot, StreamOptions, StreamOutcome, Trajectory, TrajectoryError, TrajectoryPoint,
+    ClientError, ErrorKind, Robot, StreamOptions, StreamOutcome, Trajectory, TrajectoryError,
+    TrajectoryPoint,
 };
 use fs020n_proto::{JointsDeg, JOINT_COUNT};
 use tokio::sync::oneshot;
@@ -283,17 +284,20 @@ impl Runner {
     }
 }
 
+/// The arci error for a client error: one mapping, from the client's classification
+/// ([`ClientError::kind`]). A lost or refused connection is `Connection`, a cancelled or
+/// superseded motion `Canceled`, a joint outside its range `OutOfLimit` (naming the joint);
+/// every other refusal, a blocked robot, a stopped motion or a timeout is `Other` with the
+/// client's text and its remedy.
 fn client_error(e: ClientError, names: &[String]) -> Error {
-    match e {
-        ClientError::LinkLost(_) | ClientError::Closed | ClientError::Connect { .. } => {
-            Error::Connection {
-                message: e.to_string(),
-            }
-        }
-        ClientError::Cancelled(m) => Error::Canceled {
-            message: m.to_string(),
+    match (e.kind(), e) {
+        (ErrorKind::Connect | ErrorKind::LinkLost, e) => Error::Connection {
+            message: e.to_string(),
         },
-        ClientError::Limit(limit) => {
+        (ErrorKind::Cancelled, e) => Error::Canceled {
+            message: e.to_string(),
+        },
+        (ErrorKind::Refused, ClientError::Limit(limit)) => {
             let j = limit.joint.saturating_sub(1).min(JOINT_COUNT - 1);
             Error::OutOfLimit {
                 name: names.get(j).cloned().unwrap_or_default(),
@@ -301,7 +305,7 @@ fn client_error(e: ClientError, names: &[String]) -> Error {
                 limit: limit.min_deg.to_radians()..=limit.max_deg.to_radians(),
             }
         }
-        other => Error::Other(anyhow::Error::new(other)),
+        (_, other) => Error::Other(anyhow::Error::new(other)),
     }
 }
 
@@ -350,6 +354,49 @@ impl JointTrajectoryClient for Fs020nClient {
             )));
         }
         self.start(points)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fs020n_client::{Blocker, Cancellation};
+
+    fn names() -> Vec<String> {
+        (1..=JOINT_COUNT).map(|j| format!("joint_{j}")).collect()
+    }
+
+    #[test]
+    fn a_lost_link_is_a_connection_error_and_a_cancel_canceled() {
+        assert!(matches!(
+            client_error(ClientError::Closed, &names()),
+            Error::Connection { .. }
+        ));
+        let e = ClientError::Address {
+            target: "robot:10050".into(),
+            message: "no such host".into(),
+        };
+        assert!(matches!(
+            client_error(e, &names()),
+            Error::Connection { .. }
+        ));
+        let e = ClientError::Cancelled(Cancellation::NotSent);
+        assert!(matches!(client_error(e, &names()), Error::Canceled { .. }));
+    }
+
+    #[test]
+    fn other_refusals_and_stops_keep_the_clients_text() {
+        for e in [
+            ClientError::Speed { percent: 0.0 },
+            ClientError::Config("period 0 s".into()),
+            ClientError::Blocked(vec![Blocker::ProgramNotRunning]),
+        ] {
+            let text = e.to_string();
+            let Error::Other(inner) = client_error(e, &names()) else {
+                panic!("Other expected for {text}");
+            };
+            assert_eq!(inner.to_string(), text);
+        }
     }
 }
 

@@ -162,6 +162,10 @@ pub struct NodeConfig {
     /// How long a finished goal's result is kept for late result requests, seconds (1 s to a
     /// day). Default 900 (15 min, as rcl_action).
     pub result_retention_s: f64,
+    /// Longest wait of a service reply for the reply reader its request names, seconds (0 to
+    /// 600; 0: never wait). Only requests under the enhanced mapping (rmw_fastrtps) name one;
+    /// see [`crate::reply_gate`]. Default 5.
+    pub reply_reader_wait_s: f64,
     /// Remaps of topic and service names (from, to), as `--ros-args -r` gives them; see
     /// [`NodeConfig::resolve`].
     pub remaps: Vec<(String, String)>,
@@ -182,6 +186,7 @@ impl Default for NodeConfig {
             speed_percent: Some(100.0),
             execution: ExecutionConfig::default(),
             result_retention_s: crate::action::DEFAULT_RESULT_RETENTION.as_secs_f64(),
+            reply_reader_wait_s: crate::reply_gate::DEFAULT_READER_WAIT.as_secs_f64(),
             remaps: Vec::new(),
             dds: DdsConfig::default(),
         }
@@ -225,6 +230,8 @@ pub struct Params {
     pub auto_start: Option<bool>,
     /// See [`NodeConfig::result_retention_s`].
     pub result_retention_s: Option<f64>,
+    /// See [`NodeConfig::reply_reader_wait_s`].
+    pub reply_reader_wait_s: Option<f64>,
     /// `enhanced`, `cyclone` or `basic`.
     pub service_mapping: Option<String>,
 }
@@ -341,6 +348,7 @@ impl NodeConfig {
         set!(path_tolerance_rad, self.execution.path_tolerance_rad);
         set!(auto_start, self.execution.auto_start);
         set!(result_retention_s, self.result_retention_s);
+        set!(reply_reader_wait_s, self.reply_reader_wait_s);
         set!(max_step_deg, self.execution.stream.max_step_deg);
         if let Some(ns) = &p.action_namespace {
             self.action_namespace = ns.clone();
@@ -411,6 +419,7 @@ impl NodeConfig {
             ("diagnostics_rate_hz", self.diagnostics_rate_hz, 0.1, 100.0),
             ("feedback_rate_hz", self.feedback_rate_hz, 1.0, 1000.0),
             ("result_retention_s", self.result_retention_s, 1.0, 86_400.0),
+            ("reply_reader_wait_s", self.reply_reader_wait_s, 0.0, 600.0),
         ] {
             if !(v.is_finite() && (lo..=hi).contains(&v)) {
                 return bad(format!("{name} {v} must be from {lo} to {hi}"));
@@ -588,6 +597,23 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("start with /"));
+    }
+
+    #[test]
+    fn the_reply_readers_wait_is_a_parameter_from_0_to_600_s() {
+        let mut c = NodeConfig::default();
+        assert_eq!(c.reply_reader_wait_s, 5.0);
+        c.apply_params_yaml("fs020n:\n  ros__parameters:\n    reply_reader_wait_s: 0.0\n")
+            .unwrap();
+        c.validate().unwrap();
+        assert_eq!(c.reply_reader_wait_s, 0.0);
+        c.apply_params_yaml("fs020n:\n  ros__parameters:\n    reply_reader_wait_s: 601.0\n")
+            .unwrap();
+        let e = c.validate().unwrap_err().to_string();
+        assert!(
+            e.contains("reply_reader_wait_s") && e.contains("600"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -5,7 +5,7 @@
 
 use std::time::Duration;
 
-use fs020n_client::{ClientError, Robot, StreamOptions, StreamOutcome};
+use fs020n_client::{ClientError, ErrorKind, Robot, StreamOptions, StreamOutcome};
 use fs020n_proto::{JointsDeg, JOINT_COUNT};
 use tokio::sync::{mpsc, watch};
 use tokio::time::Instant;
@@ -170,21 +170,34 @@ fn violation(
     })
 }
 
-/// Maps a client error during execution to the goal's end.
+/// Maps a client error during execution to the goal's end: one mapping, from the client's
+/// classification ([`ClientError::kind`]).
+///
+/// | kind | result | program (re-arm) |
+/// |---|---|---|
+/// | `Refused`, `Busy` (nothing was sent: a value, a sample, the encoder, the speed, IK, a raw text, the configuration; another motion) | ABORTED, `INVALID_GOAL`, "refused before moving" | still running |
+/// | `NotReady` (the controller's state blocks motion: nothing moved) | ABORTED, `INVALID_GOAL`, "refused before moving" | a fault: `~/start` first |
+/// | `Motion` (stopped by the controller's state, an underrun, no clock) | ABORTED, `PATH_TOLERANCE_VIOLATED`, "the robot stopped while moving" | a fault |
+/// | `MoveTimeout` (held on HOLD too long: cancelled) | ABORTED, `PATH_TOLERANCE_VIOLATED` | a fault |
+/// | `LinkLost`, `Connect` | ABORTED, `PATH_TOLERANCE_VIOLATED`, "the link to the robot was lost" | a fault |
+/// | `Cancelled` (by someone else), `Other` | ABORTED, `PATH_TOLERANCE_VIOLATED` | a fault |
 fn failed(e: &ClientError) -> Outcome {
-    match e {
-        ClientError::Blocked(_)
-        | ClientError::Trajectory(_)
-        | ClientError::Sample(_)
-        | ClientError::Limit(_)
-        | ClientError::NonFinite { .. }
-        | ClientError::Busy(_) => Outcome::aborted(
+    match e.kind() {
+        ErrorKind::Refused | ErrorKind::Busy => Outcome::aborted(
             error_code::INVALID_GOAL,
             format!("refused before moving: {e}"),
         ),
-        ClientError::Aborted { .. } => Outcome::fault(
+        ErrorKind::NotReady => Outcome::fault(
+            error_code::INVALID_GOAL,
+            format!("refused before moving: {e}"),
+        ),
+        ErrorKind::Motion => Outcome::fault(
             error_code::PATH_TOLERANCE_VIOLATED,
             format!("the robot stopped while moving: {e}"),
+        ),
+        ErrorKind::LinkLost | ErrorKind::Connect => Outcome::fault(
+            error_code::PATH_TOLERANCE_VIOLATED,
+            format!("the link to the robot was lost while moving: {e}"),
         ),
         _ => Outcome::fault(
             error_code::PATH_TOLERANCE_VIOLATED,
@@ -338,6 +351,89 @@ pub async fn execute(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use fs020n_client::{Activity, Blocker};
+
+    fn is_fault(o: &Outcome) -> bool {
+        matches!(o.program, GoalStop::Fault(_))
+    }
+
+    #[test]
+    fn every_error_refused_before_sending_is_refused_before_moving_and_keeps_the_program() {
+        let refused = [
+            ClientError::Speed { percent: 140.0 },
+            ClientError::Config("period 0 s".into()),
+            ClientError::NonFinite { what: "JT2".into() },
+            ClientError::Ik(fs020n_kin::IkError::NonFinite),
+            ClientError::Encode(fs020n_proto::EncodeError::NonFinite {
+                field: "JT1",
+                value: f64::NAN,
+            }),
+            ClientError::RawRefused(fs020n_client::RawRefusal::Empty),
+            ClientError::Busy(Activity::Servo),
+        ];
+        for e in refused {
+            let o = failed(&e);
+            assert_eq!(o.end, GoalEnd::Aborted, "{e}");
+            assert_eq!(o.result.error_code, error_code::INVALID_GOAL, "{e}");
+            assert!(
+                o.result.error_string.starts_with("refused before moving"),
+                "{e}: {}",
+                o.result.error_string
+            );
+            assert_eq!(o.program, GoalStop::ProgramRunning, "{e}");
+        }
+    }
+
+    #[test]
+    fn a_blocked_robot_is_refused_before_moving_as_a_fault() {
+        let o = failed(&ClientError::Blocked(vec![Blocker::ProgramNotRunning]));
+        assert_eq!(o.result.error_code, error_code::INVALID_GOAL);
+        assert!(o.result.error_string.starts_with("refused before moving"));
+        assert!(is_fault(&o), "{o:?}");
+    }
+
+    #[test]
+    fn errors_while_moving_are_faults_with_a_path_error_code() {
+        let while_moving = [
+            (
+                ClientError::Aborted {
+                    during: "stream",
+                    blockers: vec![Blocker::ProgramNotRunning],
+                },
+                "stopped while moving",
+            ),
+            (
+                ClientError::StreamUnderrun {
+                    gap: Duration::from_millis(300),
+                    allowed: Duration::from_millis(120),
+                },
+                "stopped while moving",
+            ),
+            (ClientError::Closed, "link to the robot was lost"),
+            (
+                ClientError::HoldTimeout {
+                    during: "stream",
+                    waited: Duration::from_secs(30),
+                },
+                "motion stopped",
+            ),
+        ];
+        for (e, text) in while_moving {
+            let o = failed(&e);
+            assert_eq!(o.end, GoalEnd::Aborted, "{e}");
+            assert_eq!(
+                o.result.error_code,
+                error_code::PATH_TOLERANCE_VIOLATED,
+                "{e}"
+            );
+            assert!(
+                o.result.error_string.contains(text),
+                "{e}: {}",
+                o.result.error_string
+            );
+            assert!(is_fault(&o), "{e}");
+        }
+    }
 
     #[test]
     fn violations_name_the_first_joint_out_of_tolerance() {

@@ -151,12 +151,17 @@ fn plan_with(
             "the trajectory has no points; give at least one",
         ));
     }
-    // Header stamp: zero or (nearly) now starts at once; the future waits; the past is refused.
+    // Header stamp: zero or (nearly) now starts at once; the future waits; a stamp further in
+    // the past skips the points already due, as joint_trajectory_controller does; a trajectory
+    // that ended before it arrived is refused.
     let last_time_s = tr
         .points
         .last()
         .map_or(0.0, |p| p.time_from_start.as_secs_f64());
     let mut start_delay = Duration::ZERO;
+    // The time already past on the trajectory's own clock when it arrived: its points up to
+    // then are skipped.
+    let mut elapsed_s = 0.0;
     if !tr.header.stamp.is_zero() {
         let delay_s = tr.header.stamp.as_secs_f64() - now.as_secs_f64();
         if delay_s + last_time_s < 0.0 {
@@ -170,14 +175,7 @@ fn plan_with(
             ));
         }
         if delay_s < -STAMP_SLACK_S {
-            return Err(GoalRefusal::new(
-                error_code::OLD_HEADER_TIMESTAMP,
-                format!(
-                    "the trajectory should have started {:.3} s ago (header stamp); send it with a \
-                     zero stamp to start now",
-                    -delay_s
-                ),
-            ));
+            elapsed_s = -delay_s;
         }
         if delay_s > exec.max_start_delay.as_secs_f64() {
             return Err(GoalRefusal::invalid(format!(
@@ -207,6 +205,15 @@ fn plan_with(
             )));
         }
         previous_t = t;
+        let skipped = elapsed_s > 0.0 && t <= elapsed_s;
+        if !p.effort.is_empty() {
+            // As joint_trajectory_controller, which refuses trajectories with effort fields.
+            return Err(invalid(format!(
+                "{} efforts given; this arm is position-controlled (the protocol takes positions \
+                 only): leave effort empty",
+                p.effort.len()
+            )));
+        }
         let reorder = |values: &[f64], what: &str| -> Result<Option<JointsDeg>, GoalRefusal> {
             match values.len() {
                 0 if what != "positions" => Ok(None),
@@ -234,12 +241,40 @@ fn plan_with(
         };
         let velocity = reorder(&p.velocities, "velocities")?;
         let acceleration = reorder(&p.accelerations, "accelerations")?;
+        if skipped {
+            // Due before the trajectory arrived (still checked above).
+            continue;
+        }
         points.push(TrajectoryPoint {
-            time_s: t,
+            time_s: t - elapsed_s,
             position,
             velocity,
             acceleration,
         });
+    }
+    // The arm ends at rest, as joint_trajectory_controller demands by default
+    // (allow_nonzero_velocity_at_trajectory_end: false): a last point still moving would leave
+    // the controller extrapolating past it.
+    if let Some(last) = tr.points.last() {
+        if let Some((k, v)) = last
+            .velocities
+            .iter()
+            .enumerate()
+            .find(|(_, v)| v.abs() > f64::from(f32::EPSILON))
+        {
+            return Err(GoalRefusal::invalid(format!(
+                "the last point's velocity of {} is {v} rad/s, not zero; end the trajectory at \
+                 rest (a last point still moving would leave the arm moving past it)",
+                tr.joint_names[k]
+            )));
+        }
+    }
+    if points.is_empty() {
+        return Err(GoalRefusal::new(
+            error_code::OLD_HEADER_TIMESTAMP,
+            "every point was due before the trajectory arrived (header stamp in the past); send \
+             it with a zero stamp to start now",
+        ));
     }
     // Start: at the current joints, or from them.
     let mut prepended_start = false;
@@ -479,6 +514,20 @@ mod tests {
     }
 
     #[test]
+    fn points_carrying_effort_are_refused_as_joint_trajectory_controller_does() {
+        let here = [0.0, 0.0, -90.0, 0.0, -90.0, 0.0];
+        let mut g = goal(vec![point(1.0, here), point(2.0, here)]);
+        assert!(run(&g).is_ok());
+        g.trajectory.points[1].effort = vec![0.0; 6];
+        let refusal = run(&g).unwrap_err();
+        assert_eq!(refusal.code, error_code::INVALID_GOAL);
+        assert!(
+            refusal.message.contains("point 1") && refusal.message.contains("effort"),
+            "{refusal}"
+        );
+    }
+
+    #[test]
     fn header_stamps_start_now_later_or_are_too_old() {
         let mut g = goal(vec![point(1.0, [1.0, 0.0, -90.0, 0.0, -90.0, 0.0])]);
         let now = Time::now();
@@ -510,7 +559,87 @@ mod tests {
         )
         .unwrap();
         assert_eq!(p.start_delay, Duration::from_secs(3));
+        // Ended as it arrived: refused too.
+        g.trajectory.header.stamp = Time {
+            sec: now.sec - 1,
+            nanosec: now.nanosec,
+        };
+        let e = plan(
+            &g,
+            &names(),
+            &RobotModel::fs020n(),
+            &ExecutionConfig::default(),
+            &home(),
+            now,
+        )
+        .unwrap_err();
+        assert_eq!(e.code, error_code::OLD_HEADER_TIMESTAMP);
         g.trajectory.header.stamp.sec = now.sec + 60;
+        assert!(plan(
+            &g,
+            &names(),
+            &RobotModel::fs020n(),
+            &ExecutionConfig::default(),
+            &home(),
+            now
+        )
+        .is_err());
+    }
+
+    #[test]
+    fn a_last_point_still_moving_is_refused_as_jtc_does() {
+        let here = [0.0, 0.0, -90.0, 0.0, -90.0, 0.0];
+        let mut g = goal(vec![point(1.0, here), point(2.0, here)]);
+        // Zero (or float noise) at the end, anything on the way.
+        g.trajectory.points[0].velocities = vec![0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        g.trajectory.points[1].velocities = vec![0.0, 1e-9, 0.0, 0.0, 0.0, 0.0];
+        assert!(run(&g).is_ok());
+        g.trajectory.points[1].velocities[3] = 0.05;
+        let refusal = run(&g).unwrap_err();
+        assert_eq!(refusal.code, error_code::INVALID_GOAL);
+        assert!(
+            refusal.message.contains("joint_4") && refusal.message.contains("not zero"),
+            "{refusal}"
+        );
+    }
+
+    #[test]
+    fn a_trajectory_partly_in_the_past_skips_the_points_already_due_as_jtc_does() {
+        // joint_trajectory_controller's "ignore partial old trajectory": stamped 1.6 s ago,
+        // points at 0.5 s, 1 s and 3 s: the first two are skipped, the third is reached at
+        // 1.4 s from now, from where the arm is.
+        let target = [6.0, 0.0, -90.0, 0.0, -90.0, 0.0];
+        let mut g = goal(vec![
+            point(0.5, [40.0, 0.0, -90.0, 0.0, -90.0, 0.0]),
+            point(1.0, [-40.0, 0.0, -90.0, 0.0, -90.0, 0.0]),
+            point(3.0, target),
+        ]);
+        g.trajectory.header.stamp = Time {
+            sec: 1_700_000_000,
+            nanosec: 0,
+        };
+        let now = Time {
+            sec: 1_700_000_001,
+            nanosec: 600_000_000,
+        };
+        let p = plan(
+            &g,
+            &names(),
+            &RobotModel::fs020n(),
+            &ExecutionConfig::default(),
+            &home(),
+            now,
+        )
+        .unwrap();
+        assert_eq!(p.start_delay, Duration::ZERO);
+        assert!(p.prepended_start);
+        let points = p.trajectory.points();
+        assert_eq!(points.len(), 2, "{points:?}");
+        assert_eq!(points[0].position, home());
+        assert!((points[1].time_s - 1.4).abs() < 1e-6, "{points:?}");
+        assert!((points[1].position[0] - 6.0).abs() < 1e-9);
+        // A skipped point is still checked: a NaN in it refuses the goal.
+        g.trajectory.points[0].positions[2] = f64::NAN;
         assert!(plan(
             &g,
             &names(),

@@ -31,6 +31,7 @@
 #![warn(missing_docs)]
 
 pub mod action;
+mod action_loop;
 pub mod arming;
 pub mod config;
 pub mod diagnostics;
@@ -38,19 +39,27 @@ mod error;
 pub mod execute;
 pub mod forward;
 pub mod goal;
+mod loops;
+pub mod motion_owner;
 pub mod moveit;
+mod moves;
 pub mod msg;
 mod node;
+mod replies;
 pub mod reply_gate;
 pub mod ros_args;
+mod services;
+mod shared;
+mod source;
 pub mod srdf;
 pub mod tf;
 pub mod urdf;
 
 pub use config::{DdsConfig, ExecutionConfig, NodeConfig, Params, ServiceMapping};
 pub use error::Ros2Error;
-pub use node::{run, Action, Permit, RobotSource};
+pub use node::run;
 pub use ros_args::RosArgs;
+pub use source::{Action, Permit, RobotSource};
 
 #[cfg(test)]
 mod tests {

@@ -24,7 +24,7 @@
 use std::io;
 use std::net::SocketAddr;
 
-use fs020n_client::ClientError;
+use fs020n_client::ErrorKind;
 use fs020n_proto::Command;
 use fs020n_proto::ServerRequest;
 use fs020n_proto::{MAX_REQUEST_BYTES, RECEIVE_TIMEOUT, SEND_TIMEOUT};
@@ -394,7 +394,11 @@ impl Hub {
                     close: None,
                 }
             }
-            Err(e @ (ClientError::LinkLost(_) | ClientError::Closed)) => {
+            // One mapping, from the client's classification: a dead session closes the
+            // client (only a reconnect of the hub helps); anything else — a check that refused
+            // the text (range, sample, speed, encoding, raw text), a blocked robot, a busy
+            // motion channel — is a refusal by the checks, answered with the latest reply.
+            Err(e) if e.kind() == ErrorKind::LinkLost => {
                 tracing::warn!(client = id, error = %e, "forwarding failed: the session with the controller is lost");
                 Outcome {
                     reply: Vec::new(),
