@@ -1058,7 +1058,7 @@ impl<'a> FileParser<'a> {
         // A block step may carry an application prefix first (`AC JOINT SPEED2 …`, `WS
         // LINEAR …` in arc-welding saves).
         let prefixed = {
-            let k = word_at(0.max(j + leading_blank(&code[j..])));
+            let k = word_at(j + leading_blank(&code[j..]));
             let next = String::from_utf8_lossy(&code[j + leading_blank(&code[j..])..k])
                 .to_ascii_lowercase();
             keywords::BLOCK_TEACHING.contains(&next.as_str())
@@ -2715,8 +2715,6 @@ impl<'a> Cur<'a> {
                         ))
                     }
                 }
-            } else if shift && args.len() == 1 {
-                args.push(self.arg_or_omitted(&[Tok::Comma, Tok::RParen])?);
             } else {
                 args.push(self.arg_or_omitted(&[Tok::Comma, Tok::RParen])?);
             }
