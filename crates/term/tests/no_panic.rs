@@ -28,7 +28,7 @@ proptest! {
     #[test]
     fn a_session_takes_any_bytes(input in chunks()) {
         let mut m = AnswerAnything;
-        let mut s = TerminalSession::open(&mut m, SessionConfig { max_piece: 7, save_chunk: 3 });
+        let mut s = TerminalSession::open(&mut m, SessionConfig { max_piece: 7, save_chunk: 3, ..SessionConfig::default() });
         for c in &input {
             s.handle_input(&mut m, c);
             while s.poll_transmit().is_some() {}
