@@ -13,7 +13,7 @@ mod sessions;
 mod tasks;
 
 use memory::{Idle, MonitorState};
-pub use memory::{LoadReport, PowerCycle};
+pub use memory::{Abort, LoadReport, PowerCycle};
 
 use crate::fault::Fault;
 use crate::machine::{

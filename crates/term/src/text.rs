@@ -517,6 +517,11 @@ pub fn cycle_lines(completed: u32, remaining: i64) -> [String; 2] {
 pub const EMULATOR_CYCLES_NOT_A_NUMBER: &str =
     "(emulator) give the cycle count as a whole number (-1: until PCABORT)";
 
+/// The emulator's answer to `HERE` (emulator only: it does not record locations from the
+/// terminal).
+pub const EMULATOR_HERE_NOT_PLAYED: &str =
+    "(emulator) HERE is not played: teach the location in the program (HERE inside AS runs)";
+
 /// The emulator's answer to `ERESET` while the emergency stop is pressed (emulator only).
 pub const EMULATOR_ESTOP_PRESSED: &str =
     "(emulator) the emergency stop is pressed: release it, then ERESET";
