@@ -12,8 +12,8 @@ mod memory;
 mod sessions;
 mod tasks;
 
-use memory::{Idle, MonitorState};
 pub use memory::{Abort, LoadReport, PowerCycle};
+use memory::{Idle, MonitorState};
 
 use crate::fault::Fault;
 use crate::machine::{

@@ -954,7 +954,10 @@ fn signal_where_zpower_hold_continue_and_messages_answer_as_the_controller() {
     let lines: Vec<&str> = w.lines().collect();
     assert_eq!(lines.len(), 4, "{w}");
     assert!(lines[0].contains("JT1") && lines[0].contains("JT6"), "{w}");
-    assert!(lines[2].contains("X[mm]") && lines[2].contains("T[deg]"), "{w}");
+    assert!(
+        lines[2].contains("X[mm]") && lines[2].contains("T[deg]"),
+        "{w}"
+    );
     assert_eq!(lines[1].split_whitespace().count(), 6, "{w}");
     assert_eq!(t.cmd("ZPOWER ON", false), "");
     assert!(t.c.panel().power);
@@ -992,10 +995,7 @@ fn an_older_generation_refuses_to_load_over_a_program_and_ends_with_loading_done
         link,
     };
     t.client.login(t.now).unwrap();
-    assert!(matches!(
-        t.settle().as_slice(),
-        [Event::LoggedIn { .. }]
-    ));
+    assert!(matches!(t.settle().as_slice(), [Event::LoggedIn { .. }]));
     let a = ".PROGRAM a()\n  x = 1\n.END\n";
     match t.load("a.as", a) {
         Event::Loaded {
@@ -1013,7 +1013,10 @@ fn an_older_generation_refuses_to_load_over_a_program_and_ends_with_loading_done
     let again = ".PROGRAM a()\n  x = 2\n.END\n.PROGRAM b()\n.END\n";
     match t.load("a.as", again) {
         Event::Loaded {
-            errors, programs, output, ..
+            errors,
+            programs,
+            output,
+            ..
         } => {
             assert!(programs.is_empty(), "{output}");
             let r = fs020n_term::text::refusal(&output).expect("the refusal");

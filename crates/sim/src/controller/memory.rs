@@ -301,7 +301,9 @@ impl Controller {
         for p in s.programs {
             if self.monitor.refuse_overwrite && self.memory.program(&p.name).is_some() {
                 // AS-E p.5-34: programs are not overwritten; the LOAD is aborted here.
-                report.refused.push((p.name.clone(), text::P1039_PROGRAM_EXISTS));
+                report
+                    .refused
+                    .push((p.name.clone(), text::P1039_PROGRAM_EXISTS));
                 report.errors += 1;
                 aborted = true;
                 break;

@@ -248,7 +248,13 @@ impl ControllerMonitor<'_> {
             .c
             .loaded_programs()
             .into_iter()
-            .map(|n| if running.contains(&n) { format!("{n}*") } else { n })
+            .map(|n| {
+                if running.contains(&n) {
+                    format!("{n}*")
+                } else {
+                    n
+                }
+            })
             .collect();
         lines([text::DIRECTORY_HEADER.to_owned(), names.join(" ")])
     }
