@@ -213,6 +213,8 @@ enum Op {
         syntax_error: Option<String>,
         /// Why no more blocks are sent (a question, a refusal, a stall).
         interrupted: Option<String>,
+        /// Bytes of text when the transfer began (a prompt before that does not end it).
+        began_at: usize,
     },
     Save {
         phase: Phase,
@@ -318,6 +320,7 @@ impl TerminalClient {
                 phase: Phase::Opening,
                 syntax_error: None,
                 interrupted: None,
+                began_at: 0,
             },
         )?;
         self.send_line(&line);
@@ -431,10 +434,11 @@ impl TerminalClient {
         }
     }
 
-    /// A refusal printed while blocks are going: no block is sent after it.
+    /// A refusal printed before or while blocks are going: no block is sent after it (the
+    /// transfer, once begun, is ended with the end of file).
     fn refusal_in_transfer(&mut self) {
         if let Op::Load {
-            phase: Phase::Transfer,
+            phase: Phase::Opening | Phase::Transfer,
             eof_sent: false,
             interrupted,
             ..
@@ -460,8 +464,14 @@ impl TerminalClient {
         let step = self.config.timeout;
         let block = self.config.block_bytes.max(1);
         match (&mut self.op, letter) {
-            (Op::Load { phase, .. }, Letter::A) if *phase == Phase::Opening => {
+            (
+                Op::Load {
+                    phase, began_at, ..
+                },
+                Letter::A,
+            ) if *phase == Phase::Opening => {
                 *phase = Phase::Transfer;
+                *began_at = self.text.len();
                 self.transmit.push_back(client_frame(Letter::A, b""));
             }
             (
@@ -472,6 +482,7 @@ impl TerminalClient {
                     phase: Phase::Transfer,
                     syntax_error,
                     interrupted,
+                    ..
                 },
                 Letter::C,
             ) => {
@@ -612,12 +623,17 @@ impl TerminalClient {
                 let output = strip_echo(&lossy(&self.text), &command);
                 self.finish(Event::Reply { command, output });
             }
+            // A prompt that came before the transfer began does not end it.
             Op::Load {
                 phase,
                 syntax_error,
                 interrupted,
+                began_at,
                 ..
-            } if at_prompt => {
+            } if at_prompt
+                && (*phase == Phase::Opening
+                    || self.text.len() >= *began_at + text::PROMPT.len()) =>
+            {
                 let all = lossy(&self.text);
                 let syntax_error = syntax_error.clone();
                 let output = strip_echo(&all, "");
@@ -636,6 +652,13 @@ impl TerminalClient {
                         why,
                         output,
                     }));
+                } else if *phase == Phase::Transfer {
+                    // Back at its prompt without the end frame: the controller ended the
+                    // transfer itself; what it kept is unknown.
+                    let why = "the controller returned to its prompt before the end of the \
+                               transfer"
+                        .to_owned();
+                    self.finish(Event::Failed(TerminalError::LoadInterrupted { why, output }));
                 } else {
                     let errors =
                         completed_errors(&all).unwrap_or(usize::from(syntax_error.is_some()));
