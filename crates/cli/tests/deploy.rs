@@ -505,3 +505,56 @@ fn a_refusal_without_a_code_after_delete_stops_the_deploy_before_any_load() {
         .iter()
         .any(|l| l.starts_with("LOAD")));
 }
+
+#[test]
+fn a_replace_clears_the_robot_task_too_while_a_client_session_runs_the_motion_program() {
+    let b = bare();
+    deploy(&b, &[]).success();
+    // A client starts the motion program (command 1): ros_move runs in the robot task.
+    // (The server listens again shortly after deploy's own verifying session: retry.)
+    let mut s = (0..100)
+        .find_map(|_| {
+            TcpStream::connect(&b.robot).ok().or_else(|| {
+                std::thread::sleep(Duration::from_millis(100));
+                None
+            })
+        })
+        .expect("the server listens");
+    s.set_read_timeout(Some(Duration::from_secs(10)))
+        .expect("timeout");
+    let mut buf = [0u8; 512];
+    s.write_all(b"1040 1 0").expect("start");
+    assert!(s.read(&mut buf).expect("a reply") > 0);
+    // Keep the session alive with polls until the deploy ends it.
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let polling = {
+        let stop = stop.clone();
+        std::thread::spawn(move || {
+            while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                if s.write_all(b"0 0 0").is_err() || s.read(&mut buf).unwrap_or(0) == 0 {
+                    return;
+                }
+                std::thread::sleep(Duration::from_millis(200));
+            }
+        })
+    };
+    std::thread::sleep(Duration::from_millis(500));
+    let a = deploy(&b, &["--replace", "--json"]).success();
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let _ = polling.join();
+    let out = stdout(&a);
+    assert!(out.contains("ros_move runs in the robot task"), "{out}");
+    assert!(
+        out.contains("ABORT; wait until the robot task has stopped; KILL;"),
+        "{out}"
+    );
+    assert!(
+        out.contains("PCABORT 1:; wait until PC task 1 has stopped; PCKILL 1:"),
+        "{out}"
+    );
+    assert!(
+        out.lines()
+            .any(|l| l.contains("\"verify\"") && l.contains("\"ok\"")),
+        "{out}"
+    );
+}

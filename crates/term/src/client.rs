@@ -658,7 +658,10 @@ impl TerminalClient {
                     let why = "the controller returned to its prompt before the end of the \
                                transfer"
                         .to_owned();
-                    self.finish(Event::Failed(TerminalError::LoadInterrupted { why, output }));
+                    self.finish(Event::Failed(TerminalError::LoadInterrupted {
+                        why,
+                        output,
+                    }));
                 } else {
                     let errors =
                         completed_errors(&all).unwrap_or(usize::from(syntax_error.is_some()));

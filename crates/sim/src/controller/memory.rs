@@ -356,10 +356,21 @@ impl Controller {
                 .is_some_and(|i| i.programs_in_use().contains(&name.as_str()))
     }
 
-    /// The program on the stack of task `i` (0 robot, 1–5 PC).
+    /// The program on the stack of task `i` (0 robot, 1–5 PC): the one the terminal started,
+    /// or, for a task a program started (`MC EXECUTE`, `PCEXECUTE` in AS), the one it runs.
     pub(super) fn stack_program(&self, i: usize) -> Option<String> {
-        let name = self.monitor.stacks.get(i)?.clone()?;
         let (running, error) = self.task_facts(i);
+        let name = match self.monitor.stacks.get(i)?.clone() {
+            Some(name) => name,
+            None if running || error => self
+                .program()?
+                .tasks(&self.machine)
+                .get(i)?
+                .program
+                .clone()?
+                .to_ascii_lowercase(),
+            None => return None,
+        };
         (running || error || self.monitor.kept[i]).then_some(name)
     }
 
