@@ -90,8 +90,8 @@ impl Controller {
         self.interpreter().is_some_and(|i| i.abort_pending(task))
     }
 
-    /// Runs the controller on, from one program event to the next and at most
-    /// [`FIRST_STEPS`], until `task` waits or stops: a program started at the terminal has run
+    /// Runs the controller on, from one program event to the next and at most 50 ms of its
+    /// time, until `task` waits or stops: a program started at the terminal has run
     /// its first steps (its `TCP_LISTEN`, say) when the prompt comes back, as on the
     /// controller. The clock moves only by those steps' own time.
     pub fn run_first_steps(&mut self, task: TaskId) {
