@@ -32,6 +32,14 @@
 use std::collections::VecDeque;
 use std::time::Duration;
 
+mod reading;
+
+pub use reading::Question;
+use reading::{
+    completed_errors, last_line, load_ending, loaded_programs, pending_question, quoted_step,
+    strip_echo,
+};
+
 use crate::frame::{client_frame, Letter, Piece, Scanner, Sender, SUB};
 use crate::telnet::{TelnetCommand, TelnetFilter, DO, IAC, OPT_TERMINAL_TYPE, SB, SE, WILL};
 use crate::text;
@@ -66,25 +74,6 @@ impl Default for ClientConfig {
             terminal_type: Some("VT100"),
         }
     }
-}
-
-/// A question the controller asked and how the client answered it.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Question {
-    /// `Are you sure ? (Yes:1, No:0)`.
-    AreYouSure,
-    /// A syntax error in the middle of a `LOAD`, with the line the controller quoted.
-    SyntaxError(String),
-    /// `Confirm !`.
-    Confirm,
-    /// `Press SPACE key to continue.`
-    MorePages,
-    /// `Load? (1:Yes, 0:No, 2:Load all, 3:Exit)` (answered **3**: the load ends).
-    LoadQuery,
-    /// `Force load` about a file's `.NETCONF` address (answered **0**: the load stops).
-    ForceLoad,
-    /// `Press ENTER.` (answered with a line end).
-    PressEnter,
 }
 
 /// What the client saw complete.
@@ -788,130 +777,4 @@ fn check_line(line: &str) -> Result<(), TerminalError> {
 
 fn lossy(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
-}
-
-fn last_line(s: &str) -> &str {
-    s.trim_end_matches('>')
-        .trim_end()
-        .lines()
-        .last()
-        .unwrap_or("")
-}
-
-/// Lines of the last ones looked at for a question: unsolicited lines may follow it.
-const QUESTION_LINES: usize = 6;
-
-/// The question pending at the end of `tail`: the last of its last lines that is a question,
-/// with only whole lines (unsolicited output) after it and no prompt; with the text up to
-/// and including the question's line.
-fn pending_question(tail: &str) -> Option<(Question, String)> {
-    let lines: Vec<&str> = tail.split('\n').collect();
-    let n = lines.len();
-    for k in (n.saturating_sub(QUESTION_LINES)..n).rev() {
-        let line = lines[k].trim_matches(['\r', ' ']);
-        if line.starts_with('>') {
-            return None;
-        }
-        if let Some(q) = classify(line) {
-            // The question's own line must be the last, or be followed by whole lines only.
-            let context = lines[..=k].join("\n");
-            return Some((q, context));
-        }
-    }
-    None
-}
-
-/// What kind of question a line is.
-fn classify(line: &str) -> Option<Question> {
-    if line.is_empty() {
-        return None;
-    }
-    if text::is_yes_no_question(line) {
-        return Some(Question::AreYouSure);
-    }
-    if line.ends_with(')') && line.contains(text::DELETE_AND_ABORT_MARK) {
-        return Some(Question::SyntaxError(String::new()));
-    }
-    if line.contains("3:Exit") || line.starts_with("Load?") {
-        return Some(Question::LoadQuery);
-    }
-    if line.contains(text::FORCE_LOAD_MARK) {
-        return Some(Question::ForceLoad);
-    }
-    if line.ends_with(text::CONFIRM) {
-        return Some(Question::Confirm);
-    }
-    if line.ends_with(text::PRESS_ENTER) {
-        return Some(Question::PressEnter);
-    }
-    if line.ends_with(text::PRESS_SPACE) {
-        return Some(Question::MorePages);
-    }
-    None
-}
-
-/// The step a syntax error quotes: the last line before the question that is not part of it.
-fn quoted_step(context: &str) -> String {
-    context
-        .lines()
-        .map(str::trim)
-        .rfind(|l| {
-            !l.is_empty()
-                && !l.contains(text::DELETE_AND_ABORT_MARK)
-                && *l != text::SYNTAX_ERROR
-                && !l.starts_with("Loading...")
-        })
-        .unwrap_or(text::SYNTAX_ERROR)
-        .to_owned()
-}
-
-/// The programs a load's text says were loaded (`Program name(…)`), lower case.
-fn loaded_programs(s: &str) -> Vec<String> {
-    s.lines()
-        .filter_map(|l| {
-            let rest = l.trim().strip_prefix("Program ")?;
-            let (name, _) = rest.split_once('(')?;
-            let name = name.trim();
-            (!name.is_empty() && !name.contains(' ')).then(|| name.to_ascii_lowercase())
-        })
-        .collect()
-}
-
-/// The last line of a load, when it came.
-fn load_ending(s: &str) -> Option<String> {
-    s.lines()
-        .map(str::trim)
-        .rfind(|l| l.starts_with(text::LOAD_COMPLETED_MARK) || l.starts_with(text::LOADING_DONE))
-        .map(str::to_owned)
-}
-
-/// `N` of `File load completed. (N errors)`.
-fn completed_errors(s: &str) -> Option<usize> {
-    let rest = &s[s.rfind(text::LOAD_COMPLETED_MARK)?..];
-    let open = rest.find('(')?;
-    rest[open + 1..]
-        .split_whitespace()
-        .next()
-        .and_then(|n| n.parse().ok())
-}
-
-/// The output of a command: its echo line and the final prompt removed, CR dropped, lines
-/// joined by `\n`.
-fn strip_echo(all: &str, command: &str) -> String {
-    let body = all.strip_suffix('>').unwrap_or(all);
-    let mut lines: Vec<&str> = body.split('\n').map(|l| l.trim_end_matches('\r')).collect();
-    // The echo; lines before it were printed by a program while the command was on its way.
-    if let Some(i) = lines
-        .iter()
-        .position(|l| !command.is_empty() && l.trim().eq_ignore_ascii_case(command.trim()))
-    {
-        lines.drain(..=i);
-    }
-    while lines.last().is_some_and(|l| l.trim().is_empty()) {
-        lines.pop();
-    }
-    while lines.first().is_some_and(|l| l.trim().is_empty()) {
-        lines.remove(0);
-    }
-    lines.join("\n")
 }
