@@ -317,9 +317,13 @@ impl TerminalSession {
     }
 
     /// Text the controller prints on its own, at any time (after the prompt already sent).
+    /// At the prompt and while `Are you sure ?` waits for its answer (on a line of its own:
+    /// the question stays pending); not during a transfer.
     pub fn print_unsolicited(&mut self, line: &str) {
-        if matches!(self.state, State::Monitor) {
-            self.say(&format!("{line}\r\n"));
+        match self.state {
+            State::Monitor => self.say(&format!("{line}\r\n")),
+            State::Confirm => self.say(&format!("\r\n{line}")),
+            _ => {}
         }
     }
 

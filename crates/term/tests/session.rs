@@ -650,3 +650,25 @@ fn a_question_followed_by_unsolicited_lines_is_still_answered() {
     client.handle_timeout(now + Duration::from_secs(1));
     assert_eq!(client.poll_transmit(), Some(b"1\r\n".to_vec()));
 }
+
+#[test]
+fn a_line_printed_while_are_you_sure_waits_does_not_hide_the_question() {
+    let mut link = Link::new(ClientConfig::default(), 4);
+    link.login();
+    link.shelf.programs.insert("p".into(), String::new());
+    link.client.command(link.now, "KILL p", true).unwrap();
+    while let Some(bytes) = link.client.poll_transmit() {
+        link.session.handle_input(&mut link.shelf, &bytes);
+    }
+    // The question is out; a program prints before the client answers.
+    link.session.print_unsolicited("Program completed.No = 2");
+    let events = link.settle();
+    assert_eq!(
+        events[0],
+        Event::Answered {
+            question: Question::AreYouSure,
+            answer: "1".into()
+        }
+    );
+    assert!(!link.shelf.programs.contains_key("p"));
+}
