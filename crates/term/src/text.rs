@@ -263,8 +263,8 @@ pub const E4055_NO_SOCKET: &str = "(E4055)TCP)Cannot create a socket.";
 pub struct Refusal {
     /// The line as printed (`(P1026)Cannot KILL program that is running.`).
     pub line: String,
-    /// `P`/`E` and the number when the line has a `(Pnnnn)` or `(Ennnn)` code; some refusals
-    /// have none (`p12:Variable (or program) does not exist.`).
+    /// `P` and the number when the line has a `(Pnnnn)` code; some refusals have none
+    /// (`p12:Variable (or program) does not exist.`).
     pub code: Option<(char, u16)>,
 }
 
@@ -291,17 +291,22 @@ const UNCODED_REFUSALS: &[&str] = &[
 
 /// The first refusal in the **whole** output of an action (`KILL`, `PCKILL`, `DELETE`,
 /// `PCABORT`, `PCEXECUTE`, `SWITCH … = ON`…): a refusal comes after the echo of the answer
-/// to `Are you sure ?`, and some have no `(Pnnnn)` code. Not for listings (`STATUS` prints
-/// "running" in its ordinary lines).
+/// to `Are you sure ?`, and some have no `(Pnnnn)` code. A `(Ennnn)` line is not one: it is a
+/// program's error, printed whenever it happens (a server's `(E4024)` at the end of a
+/// session may fall in any command's output). Not for listings (`STATUS` prints "running" in
+/// its ordinary lines).
 pub fn refusal(output: &str) -> Option<Refusal> {
     for raw in output.split(['\n', '\r']) {
         let line = raw.trim();
         if line.is_empty() {
             continue;
         }
-        // A code anywhere on the line (after the question's echoed answer, say).
-        if let Some(at) = find_code(line) {
-            let (letter, code, start) = at;
+        // A code anywhere on the line (after the question's echoed answer, say); a program's
+        // error line is not the command's.
+        if let Some((letter, code, start)) = find_code(line) {
+            if letter == 'E' {
+                continue;
+            }
             return Some(Refusal {
                 line: line[start..].to_owned(),
                 code: Some((letter, code)),
@@ -557,11 +562,13 @@ mod tests {
         assert!(r.line.contains("does not exist"));
         assert_eq!(refusal(&format!("{ARE_YOU_SURE}1")), None);
         assert_eq!(refusal("PC program aborted.No = 1"), None);
+        // A program's error, printed whenever it happens, is not the command's refusal.
+        assert_eq!(refusal("(E4024)TCP)Communication timeout."), None);
         assert_eq!(
-            refusal("ok (E4055)TCP)Cannot create a socket.")
+            refusal("(E4024)x\n(P1038)Program does not exist.")
                 .unwrap()
                 .code,
-            Some(('E', 4055))
+            Some(('P', 1038))
         );
     }
 
