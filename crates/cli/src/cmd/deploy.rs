@@ -195,12 +195,13 @@ async fn walk(
         programs,
         start,
     } = plan;
-    // Once the controller was changed, every failure also says what it holds now.
+    // Once the controller was changed, every failure also says what it holds now (when the
+    // terminal still answers: not after a broken or silent link).
     let mut changed = false;
     macro_rules! fail {
         ($step:expr, $exit:expr, $detail:expr, $remedy:expr) => {{
             let mut detail: String = $detail.into();
-            if changed {
+            if changed && $exit != Exit::Link {
                 if let Ok(now) = Survey::read(term).await {
                     detail.push_str(&format!("; the controller now: {}", now.describe()));
                 }
