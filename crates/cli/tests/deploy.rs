@@ -137,6 +137,8 @@ fn deploy_puts_the_server_on_a_bare_controller_and_a_session_goes_through_it() {
     ] {
         assert!(out.contains(&format!("ok   {step}:")), "{step} in {out}");
     }
+    // The terminal is probed by logging in, not by a bare connection that takes a session.
+    assert!(!out.contains("terminal port"), "{out}");
 }
 
 #[test]
