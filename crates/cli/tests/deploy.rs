@@ -386,9 +386,17 @@ fn a_d_controller_asks_the_terminal_type_refuses_overwrites_and_deploy_replaces_
 }
 
 /// A scripted controller terminal on loopback: logs in, answers each line with `answer` (the
-/// whole reply, echo and prompt included), and records every line it was sent.
+/// whole reply, echo and prompt included), plays a LOAD's block transfer ending with `loaded`
+/// (the text after the end frame, prompt included), and records every line it was sent.
 fn scripted(
     answer: impl Fn(&str) -> Option<String> + Send + 'static,
+) -> (String, std::sync::Arc<std::sync::Mutex<Vec<String>>>) {
+    scripted_with_load(answer, "File load completed. (0 errors)\r\n>")
+}
+
+fn scripted_with_load(
+    answer: impl Fn(&str) -> Option<String> + Send + 'static,
+    loaded: &'static str,
 ) -> (String, std::sync::Arc<std::sync::Mutex<Vec<String>>>) {
     let listener = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
     let addr = listener.local_addr().expect("addr").to_string();
@@ -402,13 +410,37 @@ fn scripted(
         let mut pending = Vec::new();
         let mut buf = [0u8; 1024];
         let mut logged_in = false;
+        let frame = |letter: u8| [0x05, 0x02, letter, 0x17];
         loop {
             let n = match s.read(&mut buf) {
                 Ok(0) | Err(_) => return,
                 Ok(n) => n,
             };
             pending.extend_from_slice(&buf[..n]);
-            while let Some(i) = pending.iter().position(|&b| b == b'\n') {
+            loop {
+                // A client frame: STX letter "    0" payload ETB.
+                if pending.first() == Some(&0x02) {
+                    let Some(end) = pending.iter().position(|&b| b == 0x17) else {
+                        break;
+                    };
+                    let f: Vec<u8> = pending.drain(..=end).collect();
+                    let reply: Vec<u8> = match (f.get(1), f.get(end - 1)) {
+                        (Some(b'A'), _) => [b"Loading...(deploy.as)\r\n".as_slice(), &frame(b'C')].concat(),
+                        (Some(b'C'), Some(0x1A)) => frame(b'E').to_vec(),
+                        (Some(b'C'), _) => frame(b'C').to_vec(),
+                        (Some(b'E'), _) => loaded.as_bytes().to_vec(),
+                        _ => Vec::new(),
+                    };
+                    let _ = s.write_all(&reply);
+                    continue;
+                }
+                let Some(i) = pending.iter().position(|&b| b == b'\n' || b == 0x02) else {
+                    break;
+                };
+                if pending[i] == 0x02 {
+                    pending.drain(..i);
+                    continue;
+                }
                 let line: Vec<u8> = pending.drain(..=i).collect();
                 let line = String::from_utf8_lossy(&line).trim().to_owned();
                 if !logged_in {
@@ -417,12 +449,58 @@ fn scripted(
                     continue;
                 }
                 seen.lock().expect("lock").push(line.clone());
-                let reply = answer(&line).unwrap_or_else(|| format!("{line}\r\n>"));
-                let _ = s.write_all(reply.as_bytes());
+                let reply = if let Some(name) = line.strip_prefix("LOAD ") {
+                    let mut r = format!("{line}\r\n").into_bytes();
+                    r.extend_from_slice(&[0x05, 0x02, b'A']);
+                    r.extend_from_slice(name.as_bytes());
+                    r.push(0x17);
+                    r
+                } else {
+                    answer(&line)
+                        .unwrap_or_else(|| format!("{line}\r\n>"))
+                        .into_bytes()
+                };
+                let _ = s.write_all(&reply);
             }
         }
     });
     (addr, lines)
+}
+
+#[test]
+fn a_load_that_reports_success_without_every_program_fails_the_deploy() {
+    // The controller echoes only one of the file's two programs (the other, say, was not
+    // loaded over an older copy) and still says "0 errors".
+    let (terminal, lines) = scripted_with_load(
+        |line| {
+            let reply = |text: &str| Some(format!("{line}\r\n{text}\r\n>"));
+            match line {
+                "ID" => reply("[Software version]\r\nASE_SCRIPTED"),
+                l if l.starts_with("PCSTATUS") || l == "STATUS" => {
+                    reply("No program is running.")
+                }
+                "DIRECTORY/P" => reply("Program list"),
+                _ => None,
+            }
+        },
+        "Program autostart.pc()\r\nFile load completed. (0 errors)\r\n>",
+    );
+    let mut c = assert_cmd::Command::cargo_bin("fs020n").expect("binary");
+    let a = c
+        .env_remove("FS020N_ROBOT")
+        .args(["--robot", "127.0.0.1:9", "deploy", "--terminal", &terminal])
+        .timeout(Duration::from_secs(90))
+        .assert()
+        .code(4);
+    let out = stdout(&a);
+    assert!(out.contains("FAIL load"), "{out}");
+    assert!(out.contains("did not report loading ros_move"), "{out}");
+    let sent = lines.lock().expect("lock").clone();
+    assert!(sent.iter().any(|l| l == "LOAD deploy.as"), "{sent:?}");
+    assert!(
+        !sent.iter().any(|l| l.starts_with("PCEXECUTE")),
+        "nothing started: {sent:?}"
+    );
 }
 
 #[test]
