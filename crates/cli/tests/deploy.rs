@@ -425,7 +425,9 @@ fn scripted_with_load(
                     };
                     let f: Vec<u8> = pending.drain(..=end).collect();
                     let reply: Vec<u8> = match (f.get(1), f.get(end - 1)) {
-                        (Some(b'A'), _) => [b"Loading...(deploy.as)\r\n".as_slice(), &frame(b'C')].concat(),
+                        (Some(b'A'), _) => {
+                            [b"Loading...(deploy.as)\r\n".as_slice(), &frame(b'C')].concat()
+                        }
                         (Some(b'C'), Some(0x1A)) => frame(b'E').to_vec(),
                         (Some(b'C'), _) => frame(b'C').to_vec(),
                         (Some(b'E'), _) => loaded.as_bytes().to_vec(),
@@ -476,9 +478,7 @@ fn a_load_that_reports_success_without_every_program_fails_the_deploy() {
             let reply = |text: &str| Some(format!("{line}\r\n{text}\r\n>"));
             match line {
                 "ID" => reply("[Software version]\r\nASE_SCRIPTED"),
-                l if l.starts_with("PCSTATUS") || l == "STATUS" => {
-                    reply("No program is running.")
-                }
+                l if l.starts_with("PCSTATUS") || l == "STATUS" => reply("No program is running."),
                 "DIRECTORY/P" => reply("Program list"),
                 _ => None,
             }
