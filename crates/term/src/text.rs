@@ -120,8 +120,8 @@ pub const LOAD_COMPLETED_MARK: &str = "File load completed.";
 
 /// The refusal of a program whose name is already in memory, on a controller that does not
 /// overwrite programs (AS-E p.5-34: "Programs are not overwritten", the LOAD is aborted). The
-/// manual gives no text: the wording is the emulator's (**L**); a client recognises it by
-/// [`refusal`] (its code) and by the program missing from the listing afterwards.
+/// manual gives neither code nor text: both are the emulator's (**L**); a client recognises a
+/// real controller's refusal by the program missing from the listing afterwards.
 pub const P1039_PROGRAM_EXISTS: MonitorError = MonitorError {
     code: 1039,
     text: "Program already exists. LOAD aborted.",

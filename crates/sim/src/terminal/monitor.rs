@@ -210,7 +210,8 @@ impl ControllerMonitor<'_> {
         Reply::Lines(Vec::new())
     }
 
-    /// `WHERE`: the joints, then the tool's XYZOAT (AS-E p.5-66's layout, **M**).
+    /// `WHERE`: the joints, then the tool's XYZOAT, each under its heading (**L**: the layout
+    /// is the emulator's reading of the manual's description, not a capture).
     fn where_(&self) -> Reply {
         let j = self.c.joints().0;
         let x = self
