@@ -503,7 +503,12 @@ async fn walk(
     }
     let out = cmd!("start", &format!("PCSTATUS {}:", args.task), false);
     let s = parse_task_status(&out);
-    if !s.running || s.program.as_deref() != Some(start.as_str()) {
+    // The program line may name a program it has CALLed: any program of the file will do.
+    let ours = s
+        .program
+        .as_deref()
+        .is_some_and(|p| programs.iter().any(|q| q.eq_ignore_ascii_case(p)));
+    if !s.running || !ours {
         fail!(
             "start",
             Exit::NotReady,
