@@ -27,15 +27,15 @@
   ;   ros_cmd[r,1]     its COUNT_OF_ARGS (at most 128)
   ;   ros_cmd[r,1+k]   its argument k
   ;   ros_speed_limit  written on accept and by command 3, never read
-  ;   ros_print        1: ros_move prints a line per pass (the emulator's trace); 0: quiet,
-  ;                    for a real controller's terminal. Set it here.
+  ;   ros_print        0: quiet (PRINT goes to every terminal: a line per pass would flood
+  ;                    them); 1: ros_move prints a line per pass (a trace). Set it here.
   ;
   ; Written for real controllers: names of at most 15 characters, ASCII only, no GOTO out
   ; of a WHILE, every TCP result checked.
   ;
   .port = 10050
   .version = 1040
-  ros_print = 1
+  ros_print = 0
   ros_srv_run = 1
   ros_move_run = 0
   ; A listening socket left by an earlier run that was aborted would make TCP_LISTEN fail

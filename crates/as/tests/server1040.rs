@@ -20,8 +20,16 @@ struct Rig {
 
 impl Rig {
     fn new() -> Rig {
-        let mut i =
-            Interpreter::from_source("server1040.as", SERVER_1040, Config::default()).unwrap();
+        Rig::of(SERVER_1040)
+    }
+
+    /// The server with its per-pass PRINT on (it ships off: PRINT reaches every terminal).
+    fn printing() -> Rig {
+        Rig::of(&SERVER_1040.replace("ros_print = 0", "ros_print = 1"))
+    }
+
+    fn of(source: &str) -> Rig {
+        let mut i = Interpreter::from_source("server1040.as", source, Config::default()).unwrap();
         let mut s = VirtualSystem::new();
         i.start(&mut s);
         i.run_until(&mut s, ms(10));
@@ -278,7 +286,7 @@ fn command_7_extrapolates_and_chooses_the_move() {
 
 #[test]
 fn step_converges_to_the_loop_overhead() {
-    let mut r = Rig::new();
+    let mut r = Rig::printing();
     r.req("1040 1 0");
     for _ in 0..50 {
         r.req("1040 4 0");

@@ -467,6 +467,25 @@ pub(crate) struct SimArgs {
     /// (default: whole replies).
     #[arg(long, value_name = "N", requires = "terminal")]
     pub terminal_piece: Option<usize>,
+    /// The controller generation whose terminal is played: c and d ask the terminal type
+    /// (telnet TTYPE) before `login:`, end a LOAD with `Confirm !` and `Loading done.`, and
+    /// refuse to load over a program in memory; e and f (the default: e) as captured.
+    #[arg(
+        long,
+        value_name = "c|d|e|f",
+        default_value = "e",
+        requires = "terminal"
+    )]
+    pub generation: String,
+    /// A test hook: the terminal asks this question after the first block of every LOAD
+    /// (repeatable, asked in order), e.g. "Load? (1:Yes, 0:No, 2:Load all, 3:Exit)".
+    #[arg(
+        long = "terminal-load-question",
+        value_name = "TEXT",
+        requires = "terminal",
+        hide = true
+    )]
+    pub terminal_load_questions: Vec<String>,
     /// With --as-program: set an input signal (1001–1999) at start, `N=1` ON or `N=0` OFF
     /// (repeatable); e.g. `--signal 1001=1` for a part-present sensor the program waits for.
     #[arg(long = "signal", value_name = "N=0|1", requires = "as_program")]

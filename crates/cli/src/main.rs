@@ -10,6 +10,7 @@ mod fleet;
 mod linear;
 mod output;
 mod recording;
+mod survey;
 mod trajectory_file;
 
 use std::io::IsTerminal;

@@ -12,8 +12,8 @@ mod memory;
 mod sessions;
 mod tasks;
 
+pub use memory::{Abort, LoadReport, PowerCycle};
 use memory::{Idle, MonitorState};
-pub use memory::{LoadReport, PowerCycle};
 
 use crate::fault::Fault;
 use crate::machine::{

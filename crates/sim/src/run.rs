@@ -53,6 +53,9 @@ pub struct SimOptions {
     /// Largest piece of the terminal's output sent at once (`None`: whole replies; a real
     /// controller's text comes in pieces).
     pub terminal_piece: Option<usize>,
+    /// How the terminal plays its controller generation and test hooks (see
+    /// [`fs020n_term::SessionConfig::of`]); its `max_piece` is [`SimOptions::terminal_piece`].
+    pub terminal_session: fs020n_term::SessionConfig,
 }
 
 impl Default for SimOptions {
@@ -72,6 +75,7 @@ impl Default for SimOptions {
             bare: false,
             terminal: None,
             terminal_piece: None,
+            terminal_session: fs020n_term::SessionConfig::default(),
         }
     }
 }
@@ -304,7 +308,7 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
         Some(addr) => {
             let config = fs020n_term::SessionConfig {
                 max_piece: opts.terminal_piece.unwrap_or(usize::MAX).max(1),
-                ..fs020n_term::SessionConfig::default()
+                ..opts.terminal_session.clone()
             };
             match emulator.serve_terminal(addr, config).await {
                 Ok(t) => Some(t),

@@ -29,6 +29,8 @@ pub struct TerminalLink {
     output_from: u64,
     /// The session is in the middle of a transfer (the controller counts it).
     in_transfer: bool,
+    /// `MESSAGES ON` (the default): program output reaches this session.
+    messages: bool,
 }
 
 impl TerminalLink {
@@ -36,10 +38,13 @@ impl TerminalLink {
     /// AUX1–AUX3 are all in use, a refusal and the end of the session.
     pub fn open(controller: &mut Controller, config: SessionConfig) -> TerminalLink {
         let mut pending = None;
+        let mut messages = true;
+        controller.set_refuse_overwrite(config.refuse_overwrite);
         let session = TerminalSession::open(
             &mut ControllerMonitor {
                 c: controller,
                 pending: &mut pending,
+                messages: &mut messages,
             },
             config,
         );
@@ -48,6 +53,7 @@ impl TerminalLink {
             pending,
             output_from: controller.terminal_output_next(),
             in_transfer: false,
+            messages,
         }
     }
 
@@ -62,6 +68,7 @@ impl TerminalLink {
             &mut ControllerMonitor {
                 c: controller,
                 pending: &mut self.pending,
+                messages: &mut self.messages,
             },
             bytes,
         );
@@ -83,6 +90,7 @@ impl TerminalLink {
         self.session.handle_close(&mut ControllerMonitor {
             c: controller,
             pending: &mut self.pending,
+            messages: &mut self.messages,
         });
         self.note_transfer(controller);
     }
@@ -92,6 +100,10 @@ impl TerminalLink {
     pub fn print_output(&mut self, controller: &mut Controller) {
         let (lines, next) = controller.terminal_output_since(self.output_from);
         self.output_from = next;
+        // MESSAGES OFF: PRINT and TYPE output is not shown on this terminal (AS-E p.7-5).
+        if !self.messages {
+            return;
+        }
         for l in lines {
             self.session.print_unsolicited(&l);
         }

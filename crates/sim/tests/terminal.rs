@@ -110,6 +110,7 @@ fn loaded_ok(e: &Event) -> &str {
             errors: 0,
             syntax_error: None,
             output,
+            ..
         } => output,
         other => panic!("{other:?}"),
     }
@@ -208,8 +209,13 @@ fn a_running_program_cannot_be_killed_and_an_aborted_one_can() {
         "{out}"
     );
     assert!(t.c.task_running(TaskId::Pc(1)));
+    // The server waits in its 3 s TCP_ACCEPT: PCABORT takes effect when that step completes.
     let out = t.cmd("PCABORT 1:", false);
-    assert_eq!(out, "PC program aborted.No = 1");
+    assert_eq!(out, "");
+    assert_eq!(t.cmd("TYPE TASK (1001)", false), "1");
+    let out = t.cmd("PCKILL 1:", true);
+    assert!(out.contains("(P1026)"), "{out}");
+    t.advance(Duration::from_millis(3100));
     assert_eq!(t.cmd("TYPE TASK (1001)", false), "0");
     assert_eq!(
         t.c.task_program(TaskId::Pc(1)).as_deref(),
@@ -240,6 +246,8 @@ fn kill_of_the_running_robot_program_is_refused_and_abort_then_kill_works() {
     assert!(t.cmd("EX spin", false).starts_with("(P1009)"));
     assert!(t.cmd("KILL", true).contains("(P1026)"));
     assert_eq!(t.cmd("ABORT", false), "");
+    // After the current step (a TWAIT of 0.1 s).
+    t.advance(Duration::from_millis(150));
     assert_eq!(t.cmd("TYPE TASK (1)", false), "0");
     assert!(t.cmd("DELETE/P spin", true).contains("(P1018)"));
     t.cmd("KILL", true);
@@ -468,9 +476,14 @@ fn a_pc_program_that_completes_is_announced_and_an_aborted_one_is_not() {
     t.advance(Duration::from_millis(500));
     let text = drain(&mut t);
     assert!(text.contains("Program completed.No = 2\r\n"), "{text}");
-    assert_eq!(t.cmd("PCABORT 3:", false), "PC program aborted.No = 3");
+    // `long` is in a TWAIT of 100 s: it stops when that step completes, and says so then.
+    assert_eq!(t.cmd("PCABORT 3:", false), "");
     t.advance(Duration::from_millis(100));
-    assert!(!drain(&mut t).contains("Program completed.No = 3"));
+    assert!(!drain(&mut t).contains("aborted"));
+    t.advance(Duration::from_secs(100));
+    let text = drain(&mut t);
+    assert!(text.contains("PC program aborted.No = 3\r\n"), "{text}");
+    assert!(!text.contains("Program completed.No = 3"), "{text}");
 }
 
 /// Counts in a loop, one step every 0.1 s.
@@ -545,7 +558,8 @@ fn server_session(load: bool) -> Vec<Vec<u8>> {
     let mut replies = Vec::new();
     for k in 0..6 {
         if k == 3 && load {
-            // The terminal does not move the controller's clock: the polls keep their times.
+            // The terminal moves the controller's clock only by the first steps of what
+            // PCEXECUTE starts (microseconds): the polls keep their times.
             loaded_ok(&t.load("other.as", OTHER));
             assert_eq!(t.cmd("PCEXECUTE 2: other", false), "");
         }
@@ -869,4 +883,148 @@ fn a_load_with_no_task_running_keeps_variables_signals_and_timers_and_its_data_o
     t.c.power_cycle();
     assert_eq!(t.cmd("TYPE x", false), "7");
     assert!(t.cmd("TYPE y", false).starts_with("(E0102)"));
+}
+
+/// Everything the session sent since the last call, program output included.
+fn drain_output(t: &mut Term) -> String {
+    t.link.print_output(&mut t.c);
+    let mut out = Vec::new();
+    while let Some(b) = t.link.poll_transmit() {
+        out.extend(b);
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+#[test]
+fn pcabort_stops_a_pc_task_between_steps_at_once_and_says_so() {
+    let mut t = Term::new(bare());
+    let busy = ".PROGRAM busy()\n  WHILE TRUE DO\n    n = 1\n  END\n.END\n";
+    loaded_ok(&t.load("busy.as", busy));
+    t.cmd("PCEXECUTE 2: busy", false);
+    t.advance(Duration::from_millis(10));
+    assert_eq!(t.cmd("PCABORT 2:", false), "PC program aborted.No = 2");
+    assert_eq!(t.cmd("TYPE TASK (1002)", false), "0");
+}
+
+#[test]
+fn a_running_program_blinks_a_star_after_its_name_in_the_directory() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("server1040.as", SERVER));
+    t.cmd("PCEXECUTE 1: autostart.pc", false);
+    let dir = t.cmd("DIRECTORY/P", false);
+    assert!(dir.contains("autostart.pc*"), "{dir}");
+    assert!(!dir.contains("ros_move*"), "{dir}");
+    assert_eq!(
+        fs020n_term::text::parse_directory(&dir),
+        ["autostart.pc", "ros_move"]
+    );
+}
+
+#[test]
+fn a_pc_program_listens_by_the_time_the_prompt_of_pcexecute_returns() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("server1040.as", SERVER));
+    assert_eq!(t.cmd("PCEXECUTE 1: autostart.pc", false), "");
+    // No time given to the controller after the prompt.
+    assert!(t.c.program_listening(Some(10050)));
+}
+
+#[test]
+fn a_robot_program_started_by_execute_is_announced_when_it_completes() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("r.as", ".PROGRAM r()\n  TWAIT 0.2\n.END\n"));
+    t.c.set_power(true).unwrap();
+    assert_eq!(t.cmd("EXECUTE r", false), "");
+    assert!(!drain_output(&mut t).contains("Program completed."));
+    t.advance(Duration::from_millis(400));
+    let text = drain_output(&mut t);
+    assert!(text.contains("Program completed.No = 1\r\n"), "{text}");
+}
+
+#[test]
+fn signal_where_zpower_hold_continue_and_messages_answer_as_the_controller() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("hi.as", ".PROGRAM hi()\n  PRINT \"hello\"\n.END\n"));
+    assert_eq!(t.cmd("SIGNAL 1, -2, 2001", false), "");
+    assert_eq!(t.cmd("TYPE SIG(1)", false), "-1");
+    assert_eq!(t.cmd("TYPE SIG(2001)", false), "-1");
+    assert_eq!(t.cmd("TYPE SIG(2)", false), "0");
+    assert!(t.cmd("SIGNAL 1001", false).starts_with("(P"));
+    let w = t.cmd("WHERE", false);
+    let lines: Vec<&str> = w.lines().collect();
+    assert_eq!(lines.len(), 4, "{w}");
+    assert!(lines[0].contains("JT1") && lines[0].contains("JT6"), "{w}");
+    assert!(
+        lines[2].contains("X[mm]") && lines[2].contains("T[deg]"),
+        "{w}"
+    );
+    assert_eq!(lines[1].split_whitespace().count(), 6, "{w}");
+    assert_eq!(t.cmd("ZPOWER ON", false), "");
+    assert!(t.c.panel().power);
+    assert_eq!(t.cmd("ZPOW OFF", false), "");
+    assert!(!t.c.panel().power);
+    assert_eq!(t.cmd("HOLD", false), "");
+    assert!(!t.c.panel().run);
+    assert_eq!(t.cmd("CONTINUE", false), "");
+    assert!(t.c.panel().run);
+    // MESSAGES OFF: a program's PRINT does not reach this terminal.
+    assert_eq!(t.cmd("MESSAGES OFF", false), "");
+    t.cmd("PCEXECUTE 2: hi", false);
+    t.advance(Duration::from_millis(100));
+    assert!(!drain_output(&mut t).contains("hello"));
+    assert_eq!(t.cmd("MESSAGES ON", false), "");
+    t.cmd("PCEXECUTE 2: hi", false);
+    t.advance(Duration::from_millis(100));
+    assert!(drain_output(&mut t).contains("hello"));
+}
+
+#[test]
+fn an_older_generation_refuses_to_load_over_a_program_and_ends_with_loading_done() {
+    let mut c = bare();
+    let link = TerminalLink::open(
+        &mut c,
+        SessionConfig {
+            max_piece: 5,
+            ..SessionConfig::of(fs020n_term::Generation::D)
+        },
+    );
+    let mut t = Term {
+        now: Duration::ZERO,
+        c,
+        client: TerminalClient::new(ClientConfig::default()),
+        link,
+    };
+    t.client.login(t.now).unwrap();
+    assert!(matches!(t.settle().as_slice(), [Event::LoggedIn { .. }]));
+    let a = ".PROGRAM a()\n  x = 1\n.END\n";
+    match t.load("a.as", a) {
+        Event::Loaded {
+            errors: 0,
+            ending,
+            programs,
+            ..
+        } => {
+            assert_eq!(ending.as_deref(), Some(fs020n_term::text::LOADING_DONE));
+            assert_eq!(programs, ["a"]);
+        }
+        other => panic!("{other:?}"),
+    }
+    // The same name again: refused, the LOAD aborted there (the next program not loaded).
+    let again = ".PROGRAM a()\n  x = 2\n.END\n.PROGRAM b()\n.END\n";
+    match t.load("a.as", again) {
+        Event::Loaded {
+            errors,
+            programs,
+            output,
+            ..
+        } => {
+            assert!(programs.is_empty(), "{output}");
+            let r = fs020n_term::text::refusal(&output).expect("the refusal");
+            assert_eq!(r.code, Some(('P', 1039)));
+            assert_eq!(errors, 0, "Loading done. has no count: {output}");
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(t.c.loaded_programs(), ["a"]);
+    assert!(t.c.program_text("a").unwrap().contains("x = 1"));
 }

@@ -15,13 +15,33 @@
 //! error with **1** (delete the program and abort), never "change to comment"; `Confirm !`
 //! with a line end; a paged listing with a blank.
 //!
-//! The client sends no telnet commands and answers none (the controller works without).
+//! A question is looked for in the last lines of what came, not only at the very end: a
+//! program's `PRINT` or `Program completed.No = 1` may follow it.
+//!
+//! A `LOAD` always ends cleanly once begun: an unexpected question (`Load? (1:Yes, 0:No, 2:Load
+//! all, 3:Exit)` answered **3**, `Force load` answered **0**, `Press ENTER.` answered with a
+//! line end, `Are you sure ?` not answered at all) or a refusal printed in the middle stops the
+//! blocks: the client sends the end of file at once or at the next request, acknowledges the
+//! end frame, then fails with [`TerminalError::LoadInterrupted`]. A controller that stops
+//! asking for blocks gets the end of file at the deadline. No block is sent after a refusal.
+//!
+//! Telnet: before login the client answers the terminal-type option (`WILL TTYPE`, then
+//! `TTYPE IS VT100`), which some controllers wait for before `login:`; after login it sends no
+//! telnet command.
 
 use std::collections::VecDeque;
 use std::time::Duration;
 
+mod reading;
+
+pub use reading::Question;
+use reading::{
+    completed_errors, last_line, load_ending, loaded_programs, pending_question, quoted_step,
+    strip_echo,
+};
+
 use crate::frame::{client_frame, Letter, Piece, Scanner, Sender, SUB};
-use crate::telnet::TelnetFilter;
+use crate::telnet::{TelnetCommand, TelnetFilter, DO, IAC, OPT_TERMINAL_TYPE, SB, SE, WILL};
 use crate::text;
 
 /// How the client talks.
@@ -38,6 +58,10 @@ pub struct ClientConfig {
     pub quiet: Duration,
     /// How long a command, the login, or one step of a transfer may take.
     pub timeout: Duration,
+    /// The terminal type answered to the controller's terminal-type option before login
+    /// (`VT100`, as the vendor's terminal and the clients of D controllers send); `None`
+    /// answers no telnet option.
+    pub terminal_type: Option<&'static str>,
 }
 
 impl Default for ClientConfig {
@@ -47,21 +71,9 @@ impl Default for ClientConfig {
             block_bytes: 480,
             quiet: Duration::from_millis(40),
             timeout: Duration::from_secs(10),
+            terminal_type: Some("VT100"),
         }
     }
-}
-
-/// A question the controller asked and how the client answered it.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Question {
-    /// `Are you sure ? (Yes:1, No:0)`.
-    AreYouSure,
-    /// A syntax error in the middle of a `LOAD`, with the line the controller quoted.
-    SyntaxError(String),
-    /// `Confirm !`.
-    Confirm,
-    /// `Press SPACE key to continue.`
-    MorePages,
 }
 
 /// What the client saw complete.
@@ -92,6 +104,12 @@ pub enum Event {
         errors: usize,
         /// The first syntax error the controller asked about (the load was aborted there).
         syntax_error: Option<String>,
+        /// The programs the controller said it loaded (`Program name()`), lower case, in
+        /// order.
+        programs: Vec<String>,
+        /// The last line of the load (`File load completed. (0 errors)` or `Loading
+        /// done.`), when one came.
+        ending: Option<String>,
         /// The text of the load, frames left out.
         output: String,
     },
@@ -129,6 +147,25 @@ pub enum TerminalError {
         /// What it printed.
         output: String,
     },
+    /// The `LOAD` was stopped in the middle (an unexpected question, a refusal, a stall): the
+    /// client sent the end of file and closed the transfer, so nothing is left open — but
+    /// what was loaded is uncertain.
+    #[error("the LOAD was stopped before the end of the file ({why}); the client ended the transfer cleanly (end of file, end frame): list the programs (DIRECTORY/P) to see what the controller kept, then load again")]
+    LoadInterrupted {
+        /// What stopped it (the question or the refusal, as printed).
+        why: String,
+        /// The text of the load.
+        output: String,
+    },
+    /// A transfer began and could not be closed: the controller neither asked for the end of
+    /// file nor ended it (it waits for an answer the client will not give).
+    #[error("the controller stopped in the middle of the LOAD ({why}) and did not end the transfer; answer it on the teach pendant or a terminal, or restart the controller if the next LOAD reports P2076")]
+    TransferLeftOpen {
+        /// What it waited for.
+        why: String,
+        /// The text of the load.
+        output: String,
+    },
     /// Another operation is running.
     #[error("the terminal client is busy with another operation")]
     Busy,
@@ -163,6 +200,10 @@ enum Op {
         eof_sent: bool,
         phase: Phase,
         syntax_error: Option<String>,
+        /// Why no more blocks are sent (a question, a refusal, a stall).
+        interrupted: Option<String>,
+        /// Bytes of text when the transfer began (a prompt before that does not end it).
+        began_at: usize,
     },
     Save {
         phase: Phase,
@@ -187,6 +228,8 @@ pub struct TerminalClient {
     deadline: Option<Duration>,
     transmit: VecDeque<Vec<u8>>,
     events: VecDeque<Event>,
+    /// The user name was sent: no telnet option is answered any more.
+    login_sent: bool,
 }
 
 impl TerminalClient {
@@ -204,6 +247,7 @@ impl TerminalClient {
             deadline: None,
             transmit: VecDeque::new(),
             events: VecDeque::new(),
+            login_sent: false,
         }
     }
 
@@ -264,6 +308,8 @@ impl TerminalClient {
                 eof_sent: false,
                 phase: Phase::Opening,
                 syntax_error: None,
+                interrupted: None,
+                began_at: 0,
             },
         )?;
         self.send_line(&line);
@@ -329,7 +375,12 @@ impl TerminalClient {
     /// Feeds bytes from the controller.
     pub fn handle_input(&mut self, now: Duration, bytes: &[u8]) {
         let mut data = Vec::with_capacity(bytes.len());
-        self.telnet.push(bytes, &mut data);
+        let commands = self.telnet.push(bytes, &mut data);
+        if !self.login_sent {
+            for c in commands {
+                self.answer_option(&c);
+            }
+        }
         let mut pieces = Vec::new();
         self.scanner.push(&data, &mut pieces);
         if !pieces.is_empty() {
@@ -338,9 +389,62 @@ impl TerminalClient {
         }
         for piece in pieces {
             match piece {
-                Piece::Text(t) => self.text.extend_from_slice(&t),
+                Piece::Text(t) => {
+                    self.text.extend_from_slice(&t);
+                    self.refusal_in_transfer();
+                }
                 Piece::Frame { letter, payload } => self.on_frame(now, letter, payload),
                 Piece::Malformed { .. } => {}
+            }
+        }
+    }
+
+    /// The terminal-type option, answered before login only.
+    fn answer_option(&mut self, c: &TelnetCommand) {
+        let Some(tt) = self.config.terminal_type else {
+            return;
+        };
+        match c {
+            TelnetCommand::Negotiate {
+                verb: DO,
+                option: OPT_TERMINAL_TYPE,
+            } => self.transmit.push_back(vec![IAC, WILL, OPT_TERMINAL_TYPE]),
+            // SEND (1): the answer is IS (0) and the name.
+            TelnetCommand::Subnegotiation {
+                option: OPT_TERMINAL_TYPE,
+                data,
+            } if data.first() == Some(&1) => {
+                let mut v = vec![IAC, SB, OPT_TERMINAL_TYPE, 0];
+                v.extend_from_slice(tt.as_bytes());
+                v.extend_from_slice(&[IAC, SE]);
+                self.transmit.push_back(v);
+            }
+            _ => {}
+        }
+    }
+
+    /// A refusal printed before or while blocks are going: no block is sent after it (the
+    /// transfer, once begun, is ended with the end of file).
+    fn refusal_in_transfer(&mut self) {
+        if let Op::Load {
+            phase: Phase::Opening | Phase::Transfer,
+            eof_sent: false,
+            interrupted,
+            ..
+        } = &mut self.op
+        {
+            if interrupted.is_none() {
+                let start = self.acted.min(self.text.len());
+                let fresh = lossy(&self.text[start..]);
+                // Only whole lines: a refusal's text may come in pieces.
+                let whole = fresh.rsplit_once('\n').map_or("", |(w, _)| w);
+                // Coded refusals and the "already …" ones: a quoted step of a syntax error may
+                // hold any word.
+                if let Some(r) =
+                    text::refusal(whole).filter(|r| r.code.is_some() || r.line.contains("already"))
+                {
+                    *interrupted = Some(r.line);
+                }
             }
         }
     }
@@ -349,8 +453,14 @@ impl TerminalClient {
         let step = self.config.timeout;
         let block = self.config.block_bytes.max(1);
         match (&mut self.op, letter) {
-            (Op::Load { phase, .. }, Letter::A) if *phase == Phase::Opening => {
+            (
+                Op::Load {
+                    phase, began_at, ..
+                },
+                Letter::A,
+            ) if *phase == Phase::Opening => {
                 *phase = Phase::Transfer;
+                *began_at = self.text.len();
                 self.transmit.push_back(client_frame(Letter::A, b""));
             }
             (
@@ -360,10 +470,12 @@ impl TerminalClient {
                     eof_sent,
                     phase: Phase::Transfer,
                     syntax_error,
+                    interrupted,
+                    ..
                 },
                 Letter::C,
             ) => {
-                if *offset < data.len() && syntax_error.is_none() {
+                if *offset < data.len() && syntax_error.is_none() && interrupted.is_none() {
                     let end = (*offset + block).min(data.len());
                     self.transmit
                         .push_back(client_frame(Letter::C, &data[*offset..end]));
@@ -399,19 +511,53 @@ impl TerminalClient {
             }
         }
         if self.op != Op::Idle && self.deadline.is_some_and(|d| now >= d) {
-            let waiting_for = match &self.op {
-                Op::Login { .. } => "the login",
-                Op::Command { .. } => "the command",
-                Op::Load { .. } => "the LOAD",
-                Op::Save { .. } => "the SAVE",
-                Op::Idle => "nothing",
-            };
+            // A transfer that stalls gets its end of file first (a begun transfer is always
+            // ended), then a last step's time.
+            if let Op::Load {
+                phase: Phase::Transfer,
+                eof_sent,
+                interrupted,
+                ..
+            } = &mut self.op
+            {
+                if !*eof_sent {
+                    *eof_sent = true;
+                    interrupted.get_or_insert_with(|| {
+                        format!(
+                            "the controller stopped asking for blocks for {:?}",
+                            self.config.timeout
+                        )
+                    });
+                    self.transmit.push_back(client_frame(Letter::C, &[SUB]));
+                    self.deadline = Some(now + self.config.timeout);
+                    return;
+                }
+            }
             let output = lossy(&self.text);
-            self.finish(Event::Failed(TerminalError::Timeout {
-                waiting_for,
-                timeout: self.config.timeout,
-                output,
-            }));
+            let failure = match &self.op {
+                Op::Load {
+                    phase: Phase::Transfer,
+                    interrupted,
+                    ..
+                } => TerminalError::TransferLeftOpen {
+                    why: interrupted
+                        .clone()
+                        .unwrap_or_else(|| "no end frame after the end of file".to_owned()),
+                    output,
+                },
+                op => TerminalError::Timeout {
+                    waiting_for: match op {
+                        Op::Login { .. } => "the login",
+                        Op::Command { .. } => "the command",
+                        Op::Load { .. } => "the LOAD",
+                        Op::Save { .. } => "the SAVE",
+                        Op::Idle => "nothing",
+                    },
+                    timeout: self.config.timeout,
+                    output,
+                },
+            };
+            self.finish(Event::Failed(failure));
         }
     }
 
@@ -432,19 +578,22 @@ impl TerminalClient {
             }
         }
         let tail = lossy(&self.text[self.acted..]);
-        let trimmed = tail.trim_end();
         let at_prompt = self.text.ends_with(text::PROMPT);
-        // Questions first: they end without a prompt.
-        if let Some((question, answer)) = self.question(trimmed) {
-            self.acted = self.text.len();
-            self.send_answer(question, answer);
-            self.deadline = Some(now + self.config.timeout);
-            return;
+        // Questions first: they end without a prompt (unsolicited lines may follow them).
+        if !at_prompt {
+            if let Some((question, context)) = pending_question(&tail) {
+                self.acted = self.text.len();
+                self.on_question(question, &context);
+                self.deadline = Some(now + self.config.timeout);
+                return;
+            }
         }
+        let trimmed = tail.trim_end();
         match &mut self.op {
             Op::Login { sent } => {
                 if !*sent && trimmed.ends_with(text::LOGIN_PROMPT.trim_end()) {
                     *sent = true;
+                    self.login_sent = true;
                     self.acted = self.text.len();
                     self.send_line(text::LOGIN_USER);
                     self.deadline = Some(now + self.config.timeout);
@@ -463,13 +612,20 @@ impl TerminalClient {
                 let output = strip_echo(&lossy(&self.text), &command);
                 self.finish(Event::Reply { command, output });
             }
+            // A prompt that came before the transfer began does not end it.
             Op::Load {
                 phase,
                 syntax_error,
+                interrupted,
+                began_at,
                 ..
-            } if at_prompt => {
+            } if at_prompt
+                && (*phase == Phase::Opening
+                    || self.text.len() >= *began_at + text::PROMPT.len()) =>
+            {
                 let all = lossy(&self.text);
                 let syntax_error = syntax_error.clone();
+                let output = strip_echo(&all, "");
                 if *phase == Phase::Opening {
                     let failure = if text::monitor_error_code(last_line(&all))
                         == Some(text::P2076_TRANSFER_IN_PROGRESS.code)
@@ -477,18 +633,33 @@ impl TerminalClient {
                     {
                         TerminalError::TransferInProgress
                     } else {
-                        TerminalError::TransferRefused {
-                            output: strip_echo(&all, ""),
-                        }
+                        TerminalError::TransferRefused { output }
                     };
                     self.finish(Event::Failed(failure));
+                } else if let Some(why) = interrupted.clone() {
+                    self.finish(Event::Failed(TerminalError::LoadInterrupted {
+                        why,
+                        output,
+                    }));
+                } else if *phase == Phase::Transfer {
+                    // Back at its prompt without the end frame: the controller ended the
+                    // transfer itself; what it kept is unknown.
+                    let why = "the controller returned to its prompt before the end of the \
+                               transfer"
+                        .to_owned();
+                    self.finish(Event::Failed(TerminalError::LoadInterrupted {
+                        why,
+                        output,
+                    }));
                 } else {
                     let errors =
                         completed_errors(&all).unwrap_or(usize::from(syntax_error.is_some()));
                     self.finish(Event::Loaded {
                         errors,
                         syntax_error,
-                        output: strip_echo(&all, ""),
+                        programs: loaded_programs(&all),
+                        ending: load_ending(&all),
+                        output,
                     });
                 }
             }
@@ -515,49 +686,68 @@ impl TerminalClient {
         }
     }
 
-    /// The question `tail` ends with, and the answer this operation gives.
-    fn question(&mut self, tail: &str) -> Option<(Question, &'static str)> {
-        if tail.ends_with("(Yes:1, No:0)") {
-            let yes = matches!(self.op, Op::Command { confirm: true, .. });
-            return Some((Question::AreYouSure, if yes { "1" } else { "0" }));
-        }
-        if tail.ends_with(')') && tail.contains(text::DELETE_AND_ABORT_MARK) {
-            // The offending step, when the controller printed it before the question.
-            let quoted = tail
-                .lines()
-                .map(str::trim)
-                .rfind(|l| {
-                    !l.is_empty()
-                        && !l.contains(text::DELETE_AND_ABORT_MARK)
-                        && *l != text::SYNTAX_ERROR
-                        && !l.starts_with("Loading...")
-                })
-                .unwrap_or(text::SYNTAX_ERROR)
-                .to_owned();
-            if let Op::Load { syntax_error, .. } = &mut self.op {
-                syntax_error.get_or_insert_with(|| quoted.clone());
+    /// Answers a question the way this operation must (`context`: the text up to the
+    /// question's line, for the syntax error's quoted step).
+    fn on_question(&mut self, question: Question, context: &str) {
+        let in_load = matches!(self.op, Op::Load { .. });
+        let answer: Option<&'static str> = match &question {
+            Question::AreYouSure if in_load => None,
+            Question::AreYouSure => Some(if matches!(self.op, Op::Command { confirm: true, .. }) {
+                "1"
+            } else {
+                "0"
+            }),
+            Question::SyntaxError(_) => Some(text::ANSWER_ABORT_LOAD),
+            Question::Confirm | Question::PressEnter => Some(""),
+            Question::MorePages => Some(" "),
+            Question::LoadQuery => Some(text::ANSWER_LOAD_EXIT),
+            Question::ForceLoad => Some(text::ANSWER_FORCE_LOAD_STOP),
+        };
+        let question = match question {
+            Question::SyntaxError(_) => Question::SyntaxError(quoted_step(context)),
+            q => q,
+        };
+        if let Op::Load {
+            syntax_error,
+            interrupted,
+            eof_sent,
+            phase,
+            ..
+        } = &mut self.op
+        {
+            match &question {
+                Question::SyntaxError(step) => {
+                    syntax_error.get_or_insert_with(|| step.clone());
+                }
+                Question::Confirm | Question::MorePages => {}
+                other => {
+                    let line = context.lines().last().unwrap_or("").trim().to_owned();
+                    interrupted.get_or_insert_with(|| match other {
+                        Question::AreYouSure => format!(
+                            "the controller asked `{line}` in the middle of the LOAD; the \
+                             client does not answer it there"
+                        ),
+                        _ => format!("the controller asked `{line}`"),
+                    });
+                    // Not answered: the transfer is ended from here.
+                    if answer.is_none() && *phase == Phase::Transfer && !*eof_sent {
+                        *eof_sent = true;
+                        self.transmit.push_back(client_frame(Letter::C, &[SUB]));
+                    }
+                }
             }
-            return Some((Question::SyntaxError(quoted), text::ANSWER_ABORT_LOAD));
         }
-        if tail.ends_with("Confirm !") {
-            return Some((Question::Confirm, ""));
+        if let Some(answer) = answer {
+            if question == Question::MorePages {
+                self.transmit.push_back(b" ".to_vec());
+            } else {
+                self.send_line(answer);
+            }
+            self.events.push_back(Event::Answered {
+                question,
+                answer: answer.to_owned(),
+            });
         }
-        if tail.ends_with(text::PRESS_SPACE) {
-            return Some((Question::MorePages, " "));
-        }
-        None
-    }
-
-    fn send_answer(&mut self, question: Question, answer: &'static str) {
-        if question == Question::MorePages {
-            self.transmit.push_back(b" ".to_vec());
-        } else {
-            self.send_line(answer);
-        }
-        self.events.push_back(Event::Answered {
-            question,
-            answer: answer.to_owned(),
-        });
     }
 
     fn finish(&mut self, event: Event) {
@@ -587,43 +777,4 @@ fn check_line(line: &str) -> Result<(), TerminalError> {
 
 fn lossy(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
-}
-
-fn last_line(s: &str) -> &str {
-    s.trim_end_matches('>')
-        .trim_end()
-        .lines()
-        .last()
-        .unwrap_or("")
-}
-
-/// `N` of `File load completed. (N errors)`.
-fn completed_errors(s: &str) -> Option<usize> {
-    let rest = &s[s.rfind(text::LOAD_COMPLETED_MARK)?..];
-    let open = rest.find('(')?;
-    rest[open + 1..]
-        .split_whitespace()
-        .next()
-        .and_then(|n| n.parse().ok())
-}
-
-/// The output of a command: its echo line and the final prompt removed, CR dropped, lines
-/// joined by `\n`.
-fn strip_echo(all: &str, command: &str) -> String {
-    let body = all.strip_suffix('>').unwrap_or(all);
-    let mut lines: Vec<&str> = body.split('\n').map(|l| l.trim_end_matches('\r')).collect();
-    // The echo; lines before it were printed by a program while the command was on its way.
-    if let Some(i) = lines
-        .iter()
-        .position(|l| !command.is_empty() && l.trim().eq_ignore_ascii_case(command.trim()))
-    {
-        lines.drain(..=i);
-    }
-    while lines.last().is_some_and(|l| l.trim().is_empty()) {
-        lines.pop();
-    }
-    while lines.first().is_some_and(|l| l.trim().is_empty()) {
-        lines.remove(0);
-    }
-    lines.join("\n")
 }

@@ -59,6 +59,10 @@ pub struct LoadReport {
     pub errors: usize,
     /// The syntax error the load was aborted on, if any.
     pub syntax_error: Option<String>,
+    /// The programs the controller said it loaded (`Program name()`), lower case.
+    pub programs: Vec<String>,
+    /// The load's last line (`File load completed. (0 errors)`, `Loading done.`), if any.
+    pub ending: Option<String>,
     /// The text of the load.
     pub output: String,
 }
@@ -139,10 +143,14 @@ impl TerminalConnection {
             Event::Loaded {
                 errors,
                 syntax_error,
+                programs,
+                ending,
                 output,
             } => Ok(LoadReport {
                 errors,
                 syntax_error,
+                programs,
+                ending,
                 output,
             }),
             other => Err(unexpected(other)),

@@ -31,4 +31,6 @@ pub mod testing;
 pub mod text;
 
 pub use client::{ClientConfig, Event, Question, TerminalClient, TerminalError};
-pub use server::{LoadAnswer, Monitor, Reply, SessionConfig, SyntaxError, TerminalSession};
+pub use server::{
+    Generation, LoadAnswer, LoadEnding, Monitor, Reply, SessionConfig, SyntaxError, TerminalSession,
+};

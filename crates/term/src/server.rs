@@ -13,7 +13,9 @@ use std::collections::VecDeque;
 
 use crate::frame::{controller_frame, Letter, Piece, Scanner, Sender, SUB};
 use crate::line::LineReader;
-use crate::telnet::{TelnetFilter, CONTROLLER_OPENING};
+use crate::telnet::{
+    TelnetCommand, TelnetFilter, CONTROLLER_OPENING, DO, IAC, OPT_TERMINAL_TYPE, SB, SE, WILL,
+};
 use crate::text::{self, MonitorError};
 
 /// What a monitor command printed.
@@ -67,6 +69,44 @@ pub trait Monitor {
     fn save(&mut self, spec: &str) -> Result<Vec<u8>, MonitorError>;
 }
 
+/// The controller generation whose terminal a session plays (see [`SessionConfig::of`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Generation {
+    /// C series.
+    C,
+    /// D series.
+    D,
+    /// E series (the default: the captures are of E controllers).
+    #[default]
+    E,
+    /// F series.
+    F,
+}
+
+impl std::str::FromStr for Generation {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().as_str() {
+            "c" => Ok(Generation::C),
+            "d" => Ok(Generation::D),
+            "e" => Ok(Generation::E),
+            "f" => Ok(Generation::F),
+            _ => Err(format!(
+                "unknown controller generation {s:?}: give c, d, e or f"
+            )),
+        }
+    }
+}
+
+/// The last line of a `LOAD`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LoadEnding {
+    /// `File load completed. (N errors)` (E and F captures).
+    Completed,
+    /// `Loading done.`, no count (the E manual's example).
+    Done,
+}
+
 /// How the session talks.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SessionConfig {
@@ -75,6 +115,23 @@ pub struct SessionConfig {
     pub max_piece: usize,
     /// Bytes per `D` frame of a `SAVE`.
     pub save_chunk: usize,
+    /// Before `login:`, ask the terminal type (`DO TTYPE`) and wait for `WILL TTYPE` and the
+    /// type (`SB TTYPE IS …`), as some controllers do (**M**: a D controller's client and the
+    /// vendor's terminal answer it); otherwise the E controller's opening, which needs no
+    /// answer.
+    pub ttype_login: bool,
+    /// The last line of a `LOAD`.
+    pub load_ending: LoadEnding,
+    /// After the end of a `LOAD`'s file, print `Confirm !` and wait for a line (**M**).
+    pub confirm_after_load: bool,
+    /// The controller refuses to load a program whose name is in memory and aborts the LOAD
+    /// there (AS-E p.5-34); otherwise it overwrites it (K-ROSET, real-robot macros). Read by
+    /// the [`Monitor`] (the emulator), not by the session.
+    pub refuse_overwrite: bool,
+    /// A test hook: questions asked, one after the other, after the first block of every
+    /// `LOAD` (`Load? (1:Yes, 0:No, 2:Load all, 3:Exit)`, `Press ENTER.`, `Are you sure ?
+    /// (Yes:1, No:0) `…). Any line answers one; the client's end of file ends them all.
+    pub load_questions: Vec<String>,
 }
 
 impl Default for SessionConfig {
@@ -82,17 +139,53 @@ impl Default for SessionConfig {
         SessionConfig {
             max_piece: usize::MAX,
             save_chunk: 512,
+            ttype_login: false,
+            load_ending: LoadEnding::Completed,
+            confirm_after_load: false,
+            refuse_overwrite: false,
+            load_questions: Vec::new(),
+        }
+    }
+}
+
+impl SessionConfig {
+    /// The terminal of a generation: C and D ask the terminal type before login, end a
+    /// `LOAD` with `Loading done.` after `Confirm !`, and refuse to overwrite a program (the
+    /// manual's and the older clients' account, **L** for C); E and F as captured (no option
+    /// needed, `File load completed. (N errors)`, programs overwritten).
+    pub fn of(generation: Generation) -> SessionConfig {
+        let older = matches!(generation, Generation::C | Generation::D);
+        SessionConfig {
+            ttype_login: older,
+            load_ending: if older {
+                LoadEnding::Done
+            } else {
+                LoadEnding::Completed
+            },
+            confirm_after_load: older,
+            refuse_overwrite: older,
+            ..SessionConfig::default()
         }
     }
 }
 
 #[derive(Debug, Clone, PartialEq, Eq)]
 enum State {
+    /// Waiting for the client's terminal type before `login:`.
+    TerminalType,
     Login,
     Monitor,
     Confirm,
     LoadOpening,
     LoadBlocks,
+    /// A question of [`SessionConfig::load_questions`]: `next` is the one asked.
+    LoadExtra {
+        next: usize,
+    },
+    /// `Confirm !` after the end of file, then the syntax errors found.
+    LoadConfirm {
+        errors: Vec<SyntaxError>,
+    },
     LoadQuestion {
         errors: Vec<SyntaxError>,
         next: usize,
@@ -144,14 +237,48 @@ impl TerminalSession {
             after_cr: false,
             last_byte: 0,
         };
-        s.out.extend(CONTROLLER_OPENING);
+        if s.config.ttype_login {
+            s.out.extend([IAC, DO, OPT_TERMINAL_TYPE]);
+        } else {
+            s.out.extend(CONTROLLER_OPENING);
+        }
         if s.terminal.is_none() {
             s.say(&format!("\r{}\r\n", "All terminal sessions are in use."));
             s.state = State::Closed;
+        } else if s.config.ttype_login {
+            s.state = State::TerminalType;
         } else {
-            s.say(&format!("\r{}\r\n\r\n{}", text::BANNER, text::LOGIN_PROMPT));
+            s.greet();
         }
         s
+    }
+
+    fn greet(&mut self) {
+        self.say(&format!("\r{}\r\n\r\n{}", text::BANNER, text::LOGIN_PROMPT));
+        self.state = State::Login;
+    }
+
+    /// The client's telnet answers while the session waits for its terminal type.
+    fn on_telnet(&mut self, c: TelnetCommand) {
+        if self.state != State::TerminalType {
+            return;
+        }
+        match c {
+            TelnetCommand::Negotiate {
+                verb: WILL,
+                option: OPT_TERMINAL_TYPE,
+            } => self.out.extend([IAC, SB, OPT_TERMINAL_TYPE, 1, IAC, SE]),
+            TelnetCommand::Subnegotiation {
+                option: OPT_TERMINAL_TYPE,
+                data,
+            } if data.first() == Some(&0) && data.len() > 1 => self.greet(),
+            _ => {}
+        }
+    }
+
+    /// The config the session runs with.
+    pub fn config(&self) -> &SessionConfig {
+        &self.config
     }
 
     /// `true` once the session has ended (the driver closes the connection).
@@ -166,6 +293,8 @@ impl TerminalSession {
             self.state,
             State::LoadOpening
                 | State::LoadBlocks
+                | State::LoadExtra { .. }
+                | State::LoadConfirm { .. }
                 | State::LoadQuestion { .. }
                 | State::LoadClosing { .. }
                 | State::SaveOpening { .. }
@@ -188,23 +317,19 @@ impl TerminalSession {
     }
 
     /// Text the controller prints on its own, at any time (after the prompt already sent).
+    /// At the prompt and while `Are you sure ?` waits for its answer (on a line of its own:
+    /// the question stays pending); not during a transfer.
     pub fn print_unsolicited(&mut self, line: &str) {
-        if matches!(self.state, State::Monitor) {
-            self.say(&format!("{line}\r\n"));
+        match self.state {
+            State::Monitor => self.say(&format!("{line}\r\n")),
+            State::Confirm => self.say(&format!("\r\n{line}")),
+            _ => {}
         }
     }
 
     /// The connection ended: a transfer in progress is left open on the controller.
     pub fn handle_close(&mut self, monitor: &mut impl Monitor) {
-        if matches!(
-            self.state,
-            State::LoadOpening
-                | State::LoadBlocks
-                | State::LoadQuestion { .. }
-                | State::LoadClosing { .. }
-                | State::SaveOpening { .. }
-                | State::SaveClosing
-        ) {
+        if self.in_transfer() {
             monitor.transfer_abandoned();
         }
         if self.state != State::Closed {
@@ -219,7 +344,9 @@ impl TerminalSession {
     /// Feeds bytes from the client.
     pub fn handle_input(&mut self, monitor: &mut impl Monitor, bytes: &[u8]) {
         let mut data = Vec::with_capacity(bytes.len());
-        self.telnet.push(bytes, &mut data);
+        for c in self.telnet.push(bytes, &mut data) {
+            self.on_telnet(c);
+        }
         let mut pieces = Vec::new();
         self.scanner.push(&data, &mut pieces);
         for piece in pieces {
@@ -238,7 +365,12 @@ impl TerminalSession {
         // The controller echoes what is typed (it offered WILL ECHO), except during a transfer.
         let typing = matches!(
             self.state,
-            State::Login | State::Monitor | State::Confirm | State::LoadQuestion { .. }
+            State::Login
+                | State::Monitor
+                | State::Confirm
+                | State::LoadQuestion { .. }
+                | State::LoadExtra { .. }
+                | State::LoadConfirm { .. }
         );
         let mut lines = Vec::new();
         for &b in bytes {
@@ -281,6 +413,8 @@ impl TerminalSession {
                     self.prompt();
                 }
             }
+            State::LoadExtra { next } => self.ask_extra(next + 1),
+            State::LoadConfirm { errors } => self.ask_or_close(errors, 0),
             State::LoadQuestion { errors, next } => {
                 if line == text::ANSWER_ABORT_LOAD {
                     self.close_load(LoadAnswer::Abort, next + 1);
@@ -363,14 +497,27 @@ impl TerminalSession {
                 self.emit(&controller_frame(Letter::C, b""));
                 self.state = State::LoadBlocks;
             }
-            (State::LoadBlocks, Letter::C) => {
-                if payload == [SUB] {
+            (State::LoadBlocks | State::LoadExtra { .. }, Letter::C) => {
+                // A block whose data ends with SUB is the end of the file, its data first
+                // (one client ends with CR LF SUB).
+                let first = self.file.is_empty();
+                if let Some(data) = payload.strip_suffix(&[SUB]) {
+                    self.file.extend_from_slice(data);
                     let errors = monitor.check_load(&self.file);
-                    self.ask_or_close(errors, 0);
+                    if self.config.confirm_after_load {
+                        self.say(&format!("{}\r\n", text::CONFIRM));
+                        self.state = State::LoadConfirm { errors };
+                    } else {
+                        self.ask_or_close(errors, 0);
+                    }
                 } else {
                     self.file.extend_from_slice(&payload);
-                    self.emit(&controller_frame(Letter::C, b""));
-                    self.state = State::LoadBlocks;
+                    if first && !self.config.load_questions.is_empty() {
+                        self.ask_extra(0);
+                    } else {
+                        self.emit(&controller_frame(Letter::C, b""));
+                        self.state = State::LoadBlocks;
+                    }
                 }
             }
             (
@@ -385,7 +532,12 @@ impl TerminalSession {
                 for l in lines {
                     self.say(&format!("{l}\r\n"));
                 }
-                self.say(&text::load_completed(errors.max(syntax_errors)));
+                match self.config.load_ending {
+                    LoadEnding::Completed => {
+                        self.say(&text::load_completed(errors.max(syntax_errors)));
+                    }
+                    LoadEnding::Done => self.say(text::LOADING_DONE),
+                }
                 self.prompt();
             }
             (State::SaveOpening { file }, Letter::B) => {
@@ -402,6 +554,21 @@ impl TerminalSession {
                 self.prompt();
             }
             (other, _) => self.state = other,
+        }
+    }
+
+    /// Asks extra question `next` (the test hook), or asks for the next block when none is
+    /// left.
+    fn ask_extra(&mut self, next: usize) {
+        match self.config.load_questions.get(next).cloned() {
+            Some(q) => {
+                self.say(&format!("\r\n{q}"));
+                self.state = State::LoadExtra { next };
+            }
+            None => {
+                self.emit(&controller_frame(Letter::C, b""));
+                self.state = State::LoadBlocks;
+            }
         }
     }
 

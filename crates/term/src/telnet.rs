@@ -1,11 +1,13 @@
 //! Telnet on the terminal port: the controller's opening negotiation, and a filter that takes
 //! telnet commands out of a byte stream split anywhere.
 //!
-//! The controller offers a few options right after the connection opens ([`CONTROLLER_OPENING`])
-//! and works whether the client answers them or not (**M**: one real client answers nothing).
-//! After login no party should send telnet commands: on one controller a stray command became a
-//! literal character, on another it raises an error. So this crate's client answers nothing,
-//! and the emulator ignores what it receives.
+//! The E controller offers a few options right after the connection opens
+//! ([`CONTROLLER_OPENING`]) and works whether the client answers them or not (**M**: one real
+//! client answers nothing); some controllers (a D controller's client, the vendor's terminal)
+//! wait for the terminal type before `login:`. After login no party should send telnet
+//! commands: on one controller a stray command became a literal character, on another it raises
+//! an error. So this crate's client answers the terminal type before login and nothing after,
+//! and the emulator reads only the terminal type, when it plays a terminal that asks it.
 
 /// Interpret As Command.
 pub const IAC: u8 = 0xFF;

@@ -39,8 +39,21 @@ pub const MAX_LINE_CHARS: usize = 128;
 /// until one leaves.
 pub const MAX_SESSIONS: usize = 3;
 
-/// The yes/no question of `KILL`, `PCKILL` and `DELETE` (**H**); the answer `1` confirms.
-pub const ARE_YOU_SURE: &str = "Are you sure ? (Yes:1, No:0)";
+/// The yes/no question of `KILL`, `PCKILL` and `DELETE` (**H**); the answer `1` confirms. It
+/// ends with a blank (clients wait for `0) `); the answer is echoed on the same line, and a
+/// refusal, if any, comes only after it: `Are you sure ? (Yes:1, No:0) 1`, CR LF,
+/// `(P1026)Cannot KILL program that is running.` (**H**).
+pub const ARE_YOU_SURE: &str = "Are you sure ? (Yes:1, No:0) ";
+
+/// What identifies a yes/no question in any of its wordings (`(Yes:1, No:0)`, `(Yes:1,No;0)`,
+/// `Are you sure? (Enter 1 to execute)`) (**H** for the first, **M** for the others).
+pub fn is_yes_no_question(line: &str) -> bool {
+    let l = line.trim_end();
+    let compact: String = l.chars().filter(|c| !c.is_whitespace()).collect();
+    (l.contains("Are you sure") && l.ends_with(')'))
+        || compact.ends_with("(Yes:1,No:0)")
+        || compact.ends_with("(Yes:1,No;0)")
+}
 
 /// The first line of the syntax-error question in the middle of a `LOAD` (**H**, real
 /// controllers and K-ROSET).
@@ -63,6 +76,30 @@ pub const ANSWER_ABORT_LOAD: &str = "1";
 /// The answer that comments the bad line out and goes on (what a careless terminal defaults to).
 pub const ANSWER_COMMENT_OUT: &str = "0";
 
+/// The question `LOAD/Q` asks per program (AS-E p.5-34, **H**); `3` (Exit) ends the load.
+pub const LOAD_QUERY: &str = "Load? (1:Yes, 0:No, 2:Load all, 3:Exit)";
+
+/// The answer to [`LOAD_QUERY`] that ends the load: the deploy client never loads by halves.
+pub const ANSWER_LOAD_EXIT: &str = "3";
+
+/// What identifies the question about a file's `.NETCONF` IP address that is not the
+/// controller's (COM-F p.1-21: `9` continues, `0` stops) (**M**).
+pub const FORCE_LOAD_MARK: &str = "Force load";
+
+/// The answer to the `.NETCONF` question that stops the load.
+pub const ANSWER_FORCE_LOAD_STOP: &str = "0";
+
+/// A pause that waits for Enter (**M**: a client answers it in the middle of a LOAD).
+pub const PRESS_ENTER: &str = "Press ENTER.";
+
+/// The question some controllers ask after the end of a `LOAD`'s file, answered with a line
+/// end (**M**: some clients always wait for it, others never see it).
+pub const CONFIRM: &str = "Confirm !";
+
+/// The last line of a `LOAD` in the E manual's example (AS-E p.5-35), without a count (**M**:
+/// captures of E and F controllers show [`load_completed`] instead).
+pub const LOADING_DONE: &str = "Loading done.";
+
 /// `Loading...(name)`: a `LOAD` began (**H**).
 pub fn loading(file: &str) -> String {
     format!("Loading...({file})")
@@ -80,6 +117,15 @@ pub fn load_completed(errors: usize) -> String {
 
 /// What identifies the last line of a `LOAD`.
 pub const LOAD_COMPLETED_MARK: &str = "File load completed.";
+
+/// The refusal of a program whose name is already in memory, on a controller that does not
+/// overwrite programs (AS-E p.5-34: "Programs are not overwritten", the LOAD is aborted). The
+/// manual gives neither code nor text: both are the emulator's (**L**); a client recognises a
+/// real controller's refusal by the program missing from the listing afterwards.
+pub const P1039_PROGRAM_EXISTS: MonitorError = MonitorError {
+    code: 1039,
+    text: "Program already exists. LOAD aborted.",
+};
 
 /// The last line of a `SAVE` (**M**).
 pub const SAVE_COMPLETED: &str = "File save completed.";
@@ -136,21 +182,21 @@ impl MonitorError {
     }
 }
 
-/// P1000: motor power is off (**L**: the code follows the P100x series of the manual's
-/// appendix; the text is the emulator's).
+/// P1000: motor power is off (**H**, AS-E appendix).
 pub const P1000_POWER_OFF: MonitorError = MonitorError {
     code: 1000,
-    text: "Motor power OFF, cannot execute program.",
+    text: "Cannot execute program because motor power is OFF.",
 };
-/// P1001: the controller is in TEACH mode (**L**, as P1000).
+/// P1001: the controller is in TEACH mode (**L**: the code between P1000 and P1002; the text
+/// is the emulator's).
 pub const P1001_TEACH_MODE: MonitorError = MonitorError {
     code: 1001,
     text: "Cannot execute program in TEACH mode.",
 };
-/// P1002: the teach lock is on (**L**, as P1000).
+/// P1002: the teach lock is on (**H**, AS-E appendix).
 pub const P1002_TEACH_LOCK: MonitorError = MonitorError {
     code: 1002,
-    text: "Teach lock ON, cannot execute program.",
+    text: "Cannot execute program because teach lock is ON.",
 };
 /// P1009: the robot program runs already.
 pub const P1009_ALREADY_RUNNING: MonitorError = MonitorError {
@@ -204,6 +250,102 @@ pub const UNKNOWN_COMMAND: MonitorError = MonitorError {
     text: "Command not found.",
 };
 
+/// E4054: the controller has no Ethernet board (**H**, AS-E appendix; printed with an `E`).
+pub const E4054_NO_ETHERNET: &str =
+    "(E4054)TCPIP)Cannot execute because Ethernet board not installed.";
+
+/// E4055: a socket could not be made (`TCP_LISTEN` on a port still held) (**H**, AS-E
+/// appendix).
+pub const E4055_NO_SOCKET: &str = "(E4055)TCP)Cannot create a socket.";
+
+/// A refusal found in a command's output: the whole line and its code when it has one.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Refusal {
+    /// The line as printed (`(P1026)Cannot KILL program that is running.`).
+    pub line: String,
+    /// `P` and the number when the line has a `(Pnnnn)` code; some refusals have none
+    /// (`p12:Variable (or program) does not exist.`).
+    pub code: Option<(char, u16)>,
+}
+
+impl std::fmt::Display for Refusal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.line)
+    }
+}
+
+/// Texts of refusals that come without a code (**H**: clients check the whole output after
+/// the answer for these), lower case.
+const UNCODED_REFUSALS: &[&str] = &[
+    "does not exist",
+    "already in use",
+    "already exists",
+    "cannot ",
+    "kill or pckill",
+    "in progress",
+    "pc program is running",
+    "program is already running",
+    "not found",
+    "invalid",
+];
+
+/// The first refusal in the **whole** output of an action (`KILL`, `PCKILL`, `DELETE`,
+/// `PCABORT`, `PCEXECUTE`, `SWITCH … = ON`…): a refusal comes after the echo of the answer
+/// to `Are you sure ?`, and some have no `(Pnnnn)` code. A `(Ennnn)` line is not one: it is a
+/// program's error, printed whenever it happens (a server's `(E4024)` at the end of a
+/// session may fall in any command's output). Not for listings (`STATUS` prints "running" in
+/// its ordinary lines).
+pub fn refusal(output: &str) -> Option<Refusal> {
+    for raw in output.split(['\n', '\r']) {
+        let line = raw.trim();
+        if line.is_empty() {
+            continue;
+        }
+        // A code anywhere on the line (after the question's echoed answer, say); a program's
+        // error line is not the command's.
+        if let Some((letter, code, start)) = find_code(line) {
+            if letter == 'E' {
+                continue;
+            }
+            return Some(Refusal {
+                line: line[start..].to_owned(),
+                code: Some((letter, code)),
+            });
+        }
+        // The yes/no question with its echoed answer is not a refusal.
+        let rest = match line.find("(Yes:1") {
+            Some(i) => line[i..]
+                .split_once(')')
+                .map_or("", |(_, r)| r.trim_start_matches(['0', '1', ' '])),
+            None => line,
+        };
+        let lower = rest.to_ascii_lowercase();
+        if UNCODED_REFUSALS.iter().any(|m| lower.contains(m)) {
+            return Some(Refusal {
+                line: rest.trim().to_owned(),
+                code: None,
+            });
+        }
+    }
+    None
+}
+
+/// `(Pnnnn)` or `(Ennnn)` in a line: the letter, the number and where the code starts.
+fn find_code(line: &str) -> Option<(char, u16, usize)> {
+    let b = line.as_bytes();
+    (0..b.len()).find_map(|i| {
+        if b[i] != b'(' || !matches!(b.get(i + 1), Some(b'P' | b'E')) {
+            return None;
+        }
+        let digits = b[i + 2..].iter().take_while(|c| c.is_ascii_digit()).count();
+        if digits == 0 || digits > 5 || b.get(i + 2 + digits) != Some(&b')') {
+            return None;
+        }
+        let n = line.get(i + 2..i + 2 + digits)?.parse().ok()?;
+        Some((char::from(b[i + 1]), n, i))
+    })
+}
+
 /// Every monitor error this crate knows, for matching a line back to its code.
 pub const MONITOR_ERRORS: &[MonitorError] = &[
     P1000_POWER_OFF,
@@ -218,6 +360,7 @@ pub const MONITOR_ERRORS: &[MonitorError] = &[
     P1038_NO_PROGRAM,
     P2076_TRANSFER_IN_PROGRESS,
     P0117_INVALID_NAME,
+    P1039_PROGRAM_EXISTS,
     UNKNOWN_COMMAND,
 ];
 
@@ -261,13 +404,56 @@ pub fn parse_task_status(output: &str) -> TaskStatus {
             if let Some(row) = lines.next() {
                 let tokens: Vec<&str> = row.split_whitespace().collect();
                 if let Some(name) = tokens.first() {
-                    status.program = Some((*name).to_owned());
+                    // The running program blinks a `*` after its name (AS-E p.10-3).
+                    status.program = Some(listed_name(name));
                 }
                 status.step = tokens.get(2).and_then(|t| t.parse().ok());
             }
         }
     }
     status
+}
+
+/// A program's name as a listing prints it, without the marks around it: a leading `*` or
+/// `~` (no data, AS-E p.5-17) and a trailing `*` (running, AS-E p.10-3); lower case, as the
+/// controller's names are case-insensitive.
+pub fn listed_name(token: &str) -> String {
+    token
+        .trim_start_matches(['*', '~'])
+        .trim_end_matches('*')
+        .to_ascii_lowercase()
+}
+
+/// The programs `DIRECTORY/P` lists: every name on the lines after its header (**M**: the
+/// header is one line, the names are separated by blanks and may fill several lines).
+pub fn parse_directory(output: &str) -> Vec<String> {
+    let mut lines = output.lines().map(str::trim).filter(|l| !l.is_empty());
+    let first = lines.next().unwrap_or("");
+    // A header has words that are not program names; a listing without one starts with names.
+    let header = first.eq_ignore_ascii_case(DIRECTORY_HEADER)
+        || first.contains(':')
+        || first.to_ascii_lowercase().contains("program");
+    let mut names = Vec::new();
+    let rest = if header { None } else { Some(first) };
+    for line in rest.into_iter().chain(lines) {
+        names.extend(
+            line.split_whitespace()
+                .map(listed_name)
+                .filter(|n| !n.is_empty()),
+        );
+    }
+    names
+}
+
+/// What `TYPE TASK (n)` printed (AS-E p.9-20): 0 not running, 1 running, 2 held, 3 waiting
+/// for its motion to finish; `None` when the output holds no such number.
+pub fn parse_task_number(output: &str) -> Option<u8> {
+    output
+        .split_whitespace()
+        .rev()
+        .find_map(|t| t.parse::<f64>().ok())
+        .filter(|v| (0.0..=3.0).contains(v) && v.fract() == 0.0)
+        .map(|v| v as u8)
 }
 
 /// The state `SWITCH name` printed: its last `ON`/`OFF` token (**M**).
@@ -336,6 +522,11 @@ pub fn cycle_lines(completed: u32, remaining: i64) -> [String; 2] {
 pub const EMULATOR_CYCLES_NOT_A_NUMBER: &str =
     "(emulator) give the cycle count as a whole number (-1: until PCABORT)";
 
+/// The emulator's answer to `HERE` (emulator only: it does not record locations from the
+/// terminal).
+pub const EMULATOR_HERE_NOT_PLAYED: &str =
+    "(emulator) HERE is not played: teach the location in the program (HERE inside AS runs)";
+
 /// The emulator's answer to `ERESET` while the emergency stop is pressed (emulator only).
 pub const EMULATOR_ESTOP_PRESSED: &str =
     "(emulator) the emergency stop is pressed: release it, then ERESET";
@@ -357,6 +548,49 @@ mod tests {
         assert_eq!(s.step, Some(12));
         let idle = parse_task_status(&format!("{}\n{NO_PROGRAM_RUNNING}", pc_status_line(false)));
         assert_eq!(idle, TaskStatus::default());
+    }
+
+    #[test]
+    fn a_refusal_after_the_answer_is_found_in_the_whole_output() {
+        let out = format!("{ARE_YOU_SURE}1\n{}", P1026_CANNOT_KILL_RUNNING.line());
+        let r = refusal(&out).expect("the refusal after the answer");
+        assert_eq!(r.code, Some(('P', 1026)));
+        assert_eq!(r.line, P1026_CANNOT_KILL_RUNNING.line());
+        let uncoded = format!("{ARE_YOU_SURE}1\r\np12:Variable (or program) does not exist.");
+        let r = refusal(&uncoded).expect("a refusal without a code");
+        assert_eq!(r.code, None);
+        assert!(r.line.contains("does not exist"));
+        assert_eq!(refusal(&format!("{ARE_YOU_SURE}1")), None);
+        assert_eq!(refusal("PC program aborted.No = 1"), None);
+        // A program's error, printed whenever it happens, is not the command's refusal.
+        assert_eq!(refusal("(E4024)TCP)Communication timeout."), None);
+        assert_eq!(
+            refusal("(E4024)x\n(P1038)Program does not exist.")
+                .unwrap()
+                .code,
+            Some(('P', 1038))
+        );
+    }
+
+    #[test]
+    fn yes_no_questions_are_known_in_each_wording() {
+        assert!(is_yes_no_question(ARE_YOU_SURE));
+        assert!(is_yes_no_question("Really ? (Yes:1,No;0)"));
+        assert!(is_yes_no_question("Are you sure? (Enter 1 to execute)"));
+        assert!(!is_yes_no_question(LOAD_QUERY));
+    }
+
+    #[test]
+    fn a_directory_listing_gives_names_without_their_marks() {
+        assert_eq!(
+            parse_directory("Program list\nautostart.pc* ros_move ~old\n*empty"),
+            ["autostart.pc", "ros_move", "old", "empty"]
+        );
+        assert_eq!(parse_directory("a b"), ["a", "b"]);
+        assert!(parse_directory("Program list\n").is_empty());
+        assert_eq!(parse_task_number("TYPE TASK (1001)\n 1"), Some(1));
+        assert_eq!(parse_task_number(" 0"), Some(0));
+        assert_eq!(parse_task_number("(E0102) Variable not defined"), None);
     }
 
     #[test]

@@ -67,7 +67,10 @@ async fn a_load_over_tcp_reaches_the_controller_and_the_transcript_holds_both_wa
         .filter(|e| e.direction == Direction::Sent)
         .flat_map(|e| e.bytes.clone())
         .collect();
-    assert!(sent.starts_with(b"as\r\nLOAD deploy.as\r\n"));
+    // The terminal type answered to the controller's opening, then the login and the LOAD.
+    let ttype = b"\xff\xfb\x18\xff\xfa\x18\x00VT100\xff\xf0";
+    assert!(sent.starts_with(ttype), "{sent:?}");
+    assert!(sent[ttype.len()..].starts_with(b"as\r\nLOAD deploy.as\r\n"));
     assert!(t
         .transcript()
         .iter()

@@ -3,7 +3,8 @@
 
 use std::time::Duration;
 
-use fs020n_term::testing::AnswerAnything;
+use fs020n_term::frame::{controller_frame, Letter};
+use fs020n_term::testing::{load_against, AnswerAnything};
 use fs020n_term::{ClientConfig, Event, SessionConfig, TerminalClient, TerminalSession};
 use proptest::prelude::*;
 
@@ -24,11 +25,43 @@ fn chunks() -> impl Strategy<Value = Vec<Vec<u8>>> {
     prop::collection::vec(prop::collection::vec(byte, 0..64), 0..24)
 }
 
+/// Controller text a LOAD meets: frames, refusals, questions, prompts, arbitrary bytes.
+fn controller_pieces() -> impl Strategy<Value = Vec<Vec<u8>>> {
+    let piece = prop_oneof![
+        Just(controller_frame(Letter::A, b"x.as")),
+        Just(controller_frame(Letter::C, b"")),
+        Just(controller_frame(Letter::C, b"")),
+        Just(controller_frame(Letter::E, b"")),
+        Just(b"(P1014)Cannot execute because program already in use.\r\n".to_vec()),
+        Just(b"Loading...(x.as)\r\n".to_vec()),
+        Just(b"Are you sure ? (Yes:1, No:0) ".to_vec()),
+        Just(b"Load? (1:Yes, 0:No, 2:Load all, 3:Exit)".to_vec()),
+        Just(b"STEP syntax error.\r\n(0:Change to comment and continue, 1:Delete program and abort)\r\n".to_vec()),
+        Just(b"Confirm !\r\n".to_vec()),
+        Just(b"Program x()\r\n".to_vec()),
+        Just(b"File load completed. (0 errors)\r\n>".to_vec()),
+        Just(b"\r\n>".to_vec()),
+        prop::collection::vec(any::<u8>(), 0..12),
+    ];
+    prop::collection::vec(piece, 0..16)
+}
+
 proptest! {
+    #[test]
+    fn a_load_never_sends_a_block_after_a_refusal_and_always_ends_a_begun_transfer(
+        input in controller_pieces()
+    ) {
+        let pieces: Vec<&[u8]> = input.iter().map(Vec::as_slice).collect();
+        let run = load_against(&pieces);
+        prop_assert!(!run.block_after_refusal, "{run:?}");
+        prop_assert!(!run.began || run.ended || run.returned, "{run:?}");
+        prop_assert!(run.idle && run.finished, "{run:?}");
+    }
+
     #[test]
     fn a_session_takes_any_bytes(input in chunks()) {
         let mut m = AnswerAnything;
-        let mut s = TerminalSession::open(&mut m, SessionConfig { max_piece: 7, save_chunk: 3 });
+        let mut s = TerminalSession::open(&mut m, SessionConfig { max_piece: 7, save_chunk: 3, ..SessionConfig::default() });
         for c in &input {
             s.handle_input(&mut m, c);
             while s.poll_transmit().is_some() {}

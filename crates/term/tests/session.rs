@@ -9,7 +9,7 @@ use std::time::Duration;
 use common::Shelf;
 use fs020n_term::text;
 use fs020n_term::{
-    ClientConfig, Event, LoadAnswer, Monitor, Question, SessionConfig, TerminalClient,
+    ClientConfig, Event, Generation, LoadAnswer, Monitor, Question, SessionConfig, TerminalClient,
     TerminalError, TerminalSession,
 };
 
@@ -25,14 +25,18 @@ struct Link {
 
 impl Link {
     fn new(client: ClientConfig, piece: usize) -> Link {
-        let mut shelf = Shelf::default();
-        let session = TerminalSession::open(
-            &mut shelf,
+        Link::with(
+            client,
             SessionConfig {
                 max_piece: piece,
                 ..SessionConfig::default()
             },
-        );
+        )
+    }
+
+    fn with(client: ClientConfig, session: SessionConfig) -> Link {
+        let mut shelf = Shelf::default();
+        let session = TerminalSession::open(&mut shelf, session);
         Link {
             now: Duration::ZERO,
             client: TerminalClient::new(client),
@@ -146,7 +150,11 @@ fn a_load_sends_the_file_in_blocks_as_asked_and_the_controller_gets_every_byte()
                 errors: 0,
                 syntax_error: None,
                 output,
+                programs,
+                ending,
             }) => {
+                assert_eq!(programs, &["big", "autostart.pc"]);
+                assert_eq!(ending.as_deref(), Some("File load completed. (0 errors)"));
                 assert!(output.contains("Loading...(deploy.as)"), "{output}");
                 assert!(output.contains("Program autostart.pc()"), "{output}");
                 assert!(
@@ -356,4 +364,311 @@ fn lines_printed_before_the_echo_are_not_part_of_the_reply() {
             output: "Program list".into()
         }]
     );
+}
+
+#[test]
+fn a_refusal_printed_after_the_echoed_answer_is_in_the_reply() {
+    let mut link = Link::new(ClientConfig::default(), 5);
+    link.login();
+    link.shelf.programs.insert("p".into(), String::new());
+    link.shelf.refuse_confirmed = Some(text::P1026_CANNOT_KILL_RUNNING);
+    let events = link.command("KILL p", true);
+    let Some(Event::Reply { output, .. }) = events.last() else {
+        panic!("{events:?}")
+    };
+    // The question keeps its blank, the answer is echoed on its line, the refusal follows.
+    assert!(
+        output.starts_with("Are you sure ? (Yes:1, No:0) 1\n"),
+        "{output:?}"
+    );
+    assert_eq!(
+        text::monitor_error_code(output),
+        None,
+        "not on the first line"
+    );
+    let refusal = text::refusal(output).expect("the refusal is found");
+    assert_eq!(refusal.code, Some(('P', 1026)));
+    assert!(link.shelf.programs.contains_key("p"));
+}
+
+#[test]
+fn a_controller_that_asks_the_terminal_type_logs_in_only_a_client_that_answers_it() {
+    for generation in [Generation::C, Generation::D] {
+        let mut link = Link::with(ClientConfig::default(), SessionConfig::of(generation));
+        link.login();
+    }
+    let mut link = Link::with(
+        ClientConfig {
+            terminal_type: None,
+            ..ClientConfig::default()
+        },
+        SessionConfig::of(Generation::D),
+    );
+    link.client.login(link.now).unwrap();
+    match link.settle().last() {
+        Some(Event::Failed(TerminalError::Timeout { waiting_for, .. })) => {
+            assert_eq!(*waiting_for, "the login")
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn an_older_controller_asks_confirm_after_the_file_and_ends_with_loading_done() {
+    let mut link = Link::with(ClientConfig::default(), SessionConfig::of(Generation::D));
+    link.login();
+    link.client
+        .load(link.now, "x.as", b".PROGRAM x()\r\n  a = 1\r\n.END\r\n")
+        .unwrap();
+    let events = link.settle();
+    assert_eq!(
+        events[0],
+        Event::Answered {
+            question: Question::Confirm,
+            answer: String::new()
+        }
+    );
+    match &events[1] {
+        Event::Loaded {
+            errors: 0,
+            programs,
+            ending,
+            ..
+        } => {
+            assert_eq!(programs, &["x"]);
+            assert_eq!(ending.as_deref(), Some(text::LOADING_DONE));
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+/// A LOAD with `question` asked after its first block: the client's events, the bytes the
+/// controller received, and whether the transfer is still open on it.
+fn load_with_question(question: &str) -> (Vec<Event>, Vec<u8>, bool) {
+    let mut link = Link::with(
+        ClientConfig {
+            block_bytes: 100,
+            ..ClientConfig::default()
+        },
+        SessionConfig {
+            max_piece: 7,
+            load_questions: vec![question.to_owned()],
+            ..SessionConfig::default()
+        },
+    );
+    link.login();
+    let file = file_of(1_000);
+    link.client.load(link.now, "x.as", &file).unwrap();
+    let events = link.settle();
+    (
+        events,
+        link.shelf.received.clone(),
+        link.session.in_transfer(),
+    )
+}
+
+#[test]
+fn an_unexpected_question_mid_load_is_answered_safely_and_the_transfer_is_closed() {
+    for (question, answer, kind) in [
+        (text::LOAD_QUERY, "3", Question::LoadQuery),
+        ("Force load ? (9:Yes, 0:No)", "0", Question::ForceLoad),
+        (text::PRESS_ENTER, "", Question::PressEnter),
+    ] {
+        let (events, received, open) = load_with_question(question);
+        assert_eq!(
+            events[0],
+            Event::Answered {
+                question: kind,
+                answer: answer.into()
+            },
+            "{question}"
+        );
+        match events.last() {
+            Some(Event::Failed(TerminalError::LoadInterrupted { why, .. })) => {
+                assert!(why.contains(question.trim()), "{why}")
+            }
+            other => panic!("{question}: {other:?}"),
+        }
+        // The first block only: none after the question; the transfer ended cleanly.
+        assert_eq!(received.len(), 100, "{question}");
+        assert!(!open, "{question}");
+    }
+}
+
+#[test]
+fn are_you_sure_inside_a_load_is_never_answered_and_the_file_is_ended_at_once() {
+    let (events, received, open) = load_with_question(text::ARE_YOU_SURE);
+    assert!(
+        !events.iter().any(|e| matches!(e, Event::Answered { .. })),
+        "{events:?}"
+    );
+    match events.last() {
+        Some(Event::Failed(TerminalError::LoadInterrupted { why, .. })) => {
+            assert!(why.contains("Are you sure"), "{why}")
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(received.len(), 100);
+    assert!(!open);
+}
+
+#[test]
+fn a_block_whose_data_ends_with_sub_is_the_end_of_the_file() {
+    let mut shelf = Shelf::default();
+    let mut session = TerminalSession::open(&mut shelf, SessionConfig::default());
+    session.handle_input(&mut shelf, b"as\r\nLOAD x.as\r\n");
+    session.handle_input(
+        &mut shelf,
+        &fs020n_term::frame::client_frame(fs020n_term::frame::Letter::A, b""),
+    );
+    let mut last = fs020n_term::frame::client_frame(
+        fs020n_term::frame::Letter::C,
+        b".PROGRAM x()\r\n.END\r\n\x1a",
+    );
+    session.handle_input(&mut shelf, &last);
+    last = fs020n_term::frame::client_frame(fs020n_term::frame::Letter::E, b"");
+    session.handle_input(&mut shelf, &last);
+    let mut out = Vec::new();
+    while let Some(b) = session.poll_transmit() {
+        out.extend(b);
+    }
+    let out = String::from_utf8_lossy(&out);
+    assert!(out.contains("Program x()"), "{out}");
+    assert!(
+        out.ends_with("File load completed. (0 errors)\r\n>"),
+        "{out}"
+    );
+    assert_eq!(shelf.received, b".PROGRAM x()\r\n.END\r\n");
+    assert!(!session.in_transfer());
+}
+
+/// The client alone against a scripted controller: what it sends after each piece.
+struct Script {
+    client: TerminalClient,
+    now: Duration,
+}
+
+impl Script {
+    fn load(file: &[u8]) -> Script {
+        let mut client = TerminalClient::new(ClientConfig {
+            block_bytes: 10,
+            ..ClientConfig::default()
+        });
+        client.load(Duration::ZERO, "x.as", file).unwrap();
+        let mut s = Script {
+            client,
+            now: Duration::ZERO,
+        };
+        s.sent();
+        s
+    }
+
+    fn feed(&mut self, bytes: &[u8]) -> Vec<Vec<u8>> {
+        self.now += Duration::from_millis(1);
+        self.client.handle_input(self.now, bytes);
+        self.sent()
+    }
+
+    fn wait(&mut self) -> Vec<Vec<u8>> {
+        if let Some(t) = self.client.poll_timeout() {
+            self.now = self.now.max(t);
+            self.client.handle_timeout(self.now);
+        }
+        self.sent()
+    }
+
+    fn sent(&mut self) -> Vec<Vec<u8>> {
+        std::iter::from_fn(|| self.client.poll_transmit()).collect()
+    }
+}
+
+fn request(letter: fs020n_term::frame::Letter) -> Vec<u8> {
+    fs020n_term::frame::controller_frame(letter, b"")
+}
+
+#[test]
+fn no_block_is_sent_after_a_refusal_printed_mid_load() {
+    use fs020n_term::frame::{client_frame, Letter, SUB};
+    let mut s = Script::load(b".PROGRAM x()\r\n  a = 1\r\n  b = 2\r\n.END\r\n");
+    assert_eq!(s.feed(&request(Letter::A)), [client_frame(Letter::A, b"")]);
+    assert_eq!(s.feed(&request(Letter::C)).len(), 1);
+    s.feed(format!("{}\r\n", text::P1014_IN_USE.line()).as_bytes());
+    assert_eq!(
+        s.feed(&request(Letter::C)),
+        [client_frame(Letter::C, &[SUB])]
+    );
+    assert_eq!(s.feed(&request(Letter::E)), [client_frame(Letter::E, b"")]);
+    s.feed(b"File load completed. (1 errors)\r\n>");
+    s.wait();
+    match s.client.poll_event() {
+        Some(Event::Failed(TerminalError::LoadInterrupted { why, .. })) => {
+            assert!(why.contains("P1014"), "{why}")
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn a_controller_that_stops_asking_for_blocks_gets_the_end_of_file_then_a_failure() {
+    use fs020n_term::frame::{client_frame, Letter, SUB};
+    let mut s = Script::load(b".PROGRAM x()\r\n  a = 1\r\n  b = 2\r\n.END\r\n");
+    s.feed(&request(Letter::A));
+    s.feed(&request(Letter::C));
+    // Silence: at the deadline, the end of file.
+    let mut sent = s.wait();
+    while sent.is_empty() {
+        sent = s.wait();
+    }
+    assert_eq!(sent, [client_frame(Letter::C, &[SUB])]);
+    // Still nothing: the transfer could not be closed, and the error says so.
+    let _ = s.wait();
+    let _ = s.wait();
+    match s.client.poll_event() {
+        Some(Event::Failed(e @ TerminalError::TransferLeftOpen { .. })) => {
+            assert!(e.to_string().contains("P2076"), "{e}")
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(s.client.is_idle());
+}
+
+#[test]
+fn a_question_followed_by_unsolicited_lines_is_still_answered() {
+    let mut client = TerminalClient::new(ClientConfig::default());
+    client.command(Duration::ZERO, "PCKILL 1:", true).unwrap();
+    client.poll_transmit();
+    let now = Duration::from_millis(1);
+    client.handle_input(
+        now,
+        format!(
+            "PCKILL 1:\r\n{}\r\n{}\r\n",
+            text::ARE_YOU_SURE,
+            text::pc_completed(2)
+        )
+        .as_bytes(),
+    );
+    client.handle_timeout(now + Duration::from_secs(1));
+    assert_eq!(client.poll_transmit(), Some(b"1\r\n".to_vec()));
+}
+
+#[test]
+fn a_line_printed_while_are_you_sure_waits_does_not_hide_the_question() {
+    let mut link = Link::new(ClientConfig::default(), 4);
+    link.login();
+    link.shelf.programs.insert("p".into(), String::new());
+    link.client.command(link.now, "KILL p", true).unwrap();
+    while let Some(bytes) = link.client.poll_transmit() {
+        link.session.handle_input(&mut link.shelf, &bytes);
+    }
+    // The question is out; a program prints before the client answers.
+    link.session.print_unsolicited("Program completed.No = 2");
+    let events = link.settle();
+    assert_eq!(
+        events[0],
+        Event::Answered {
+            question: Question::AreYouSure,
+            answer: "1".into()
+        }
+    );
+    assert!(!link.shelf.programs.contains_key("p"));
 }

@@ -117,6 +117,10 @@ impl Interpreter {
     /// Sets task `k`'s run state (and its bit in [`Self::active`]).
     pub(super) fn set_run(&mut self, k: TaskSlot, run: Run) {
         if let Some(t) = self.tasks.get_mut(k.index()) {
+            // A task that stops or starts has no abort left to do.
+            if run == Run::Idle || t.run == Run::Idle {
+                t.abort_after_step = false;
+            }
             t.run = run;
             let bit = 1u8 << (k.index() & 7);
             if run == Run::Idle {
@@ -125,6 +129,40 @@ impl Interpreter {
                 self.active |= bit;
             }
         }
+    }
+
+    /// `ABORT` (robot task) or `PCABORT n:` as the controller plays them: the task stops
+    /// "after the current step is completed" (AS-E p.5-42; PCABORT is identical, p.10-4). A
+    /// task between steps, or in a wait that `ABORT` ends (`WAIT` condition, `HOLD`, `PAUSE`),
+    /// stops now; a task in a step that completes by itself (`TWAIT`, `TCP_ACCEPT`/`TCP_RECV`
+    /// and the other socket calls with their timeouts, a PC task's motion wait) stops when
+    /// that step completes: until then it runs (`TASK` reads 1) and [`Self::abort_pending`]
+    /// is `true`. The robot task's motion is not waited for: the caller brakes it. Returns
+    /// `true` when the task stopped now (or did not run).
+    pub fn abort_after_step(&mut self, task: TaskId) -> bool {
+        let i = TaskSlot::of(task);
+        let Some(t) = self.tasks.get_mut(i.index()) else {
+            return true;
+        };
+        if t.run == Run::Idle {
+            return true;
+        }
+        let waits =
+            t.run == Run::Running && t.wait.as_ref().is_some_and(|w| w.completes(i.is_robot()));
+        if waits {
+            t.abort_after_step = true;
+            false
+        } else {
+            self.abort(task);
+            true
+        }
+    }
+
+    /// `true` while `task` runs the step it stops after (see [`Self::abort_after_step`]).
+    pub fn abort_pending(&self, task: TaskId) -> bool {
+        self.tasks
+            .get(TaskSlot::of(task).index())
+            .is_some_and(|t| t.run != Run::Idle && t.abort_after_step)
     }
 
     pub(super) fn interrupt_time(&self, i: TaskSlot) -> Option<Ns> {
@@ -314,6 +352,12 @@ impl Interpreter {
         loop {
             let now = self.now;
             let t = &self.tasks[i];
+            // The step an ABORT waited for has completed: the task stops here.
+            if t.abort_after_step && t.run == Run::Running && t.wait.is_none() {
+                let id = t.id;
+                self.abort(id);
+                return;
+            }
             // (A pending ON is delivered at the next wake: the poll above took any earlier
             // one.)
             if t.run != Run::Running || t.wait.is_some() || t.pending_on.is_some() {

@@ -85,6 +85,24 @@ impl Wait {
         )
     }
 
+    /// A wait that is part of a step which completes by itself (a timed wait, a socket call
+    /// with its timeout, a motion): `ABORT` lets it complete first. Other waits (`WAIT`
+    /// condition, `HOLD`, `PAUSE`) end at `ABORT`.
+    pub(super) fn completes(&self, robot: bool) -> bool {
+        match self {
+            Wait::Until(_)
+            | Wait::Accept { .. }
+            | Wait::Connect { .. }
+            | Wait::Recv { .. }
+            | Wait::Send { .. }
+            | Wait::UdpRecv { .. } => true,
+            // The robot task's motion: the emulator brakes it at `ABORT` (see
+            // `Interpreter::abort_after_step`).
+            Wait::MotionPlanned | Wait::MotionDone | Wait::Till => !robot,
+            Wait::Cond | Wait::Held | Wait::Paused => false,
+        }
+    }
+
     pub(super) fn describe(&self) -> String {
         match self {
             Wait::Until(_) => "TWAIT".into(),
@@ -177,6 +195,8 @@ pub(super) struct Task {
     pub(super) error_program: Option<usize>,
     /// While that program runs: the depth of its frame (the task stops when it returns).
     pub(super) error_depth: Option<usize>,
+    /// `ABORT`/`PCABORT` came while a step waited: the task stops once that step completes.
+    pub(super) abort_after_step: bool,
 }
 
 impl Task {
@@ -200,6 +220,7 @@ impl Task {
             udp_port: None,
             error_program: None,
             error_depth: None,
+            abort_after_step: false,
         }
     }
 }

@@ -2,12 +2,21 @@
 //! would, printing each step (docs/DEPLOY.md):
 //!
 //! 1. `as check` of the file with the controller's profile — refuses on errors;
-//! 2. the terminal: log in, `ID` (the AS version), `PCSTATUS 1:`…`5:` and `DIRECTORY/P`;
-//! 3. programs of the same names: loaded or running, they are stopped (`PCABORT`), killed
-//!    (`PCKILL`) and deleted only with `--replace`;
-//! 4. `LOAD`, a syntax error answered **abort** (never "change to comment");
+//! 2. the terminal: log in, `ID` (the AS version), the survey (`STATUS`, `PCSTATUS 1:`…`5:`,
+//!    `DIRECTORY/P`: which task holds which program, the robot task included);
+//! 3. the plan computed from the survey (`survey::plan`, a pure function): programs of the
+//!    file that run are aborted (`PCABORT`/`ABORT`), polled until stopped (a task stops after
+//!    its current step), killed (`PCKILL`/`KILL`) and deleted — only with `--replace`; every
+//!    command's whole output is searched for a refusal; then the survey again shows nothing
+//!    of the file left;
+//! 4. `LOAD` under a short fixed name, a syntax error answered **abort** (never "change to
+//!    comment"), an unexpected question ended cleanly; every program of the file must be
+//!    echoed by the load and listed by `DIRECTORY/P` afterwards;
 //! 5. with `--autostart`, `SWITCH AUTOSTART.PC = ON`, read back;
 //! 6. `PCEXECUTE`, then `PCSTATUS` shows it running and the protocol port answers a poll.
+//!
+//! Any surprise stops the walk; once the controller was changed, the failure also says what it
+//! holds now.
 //!
 //! `--dry-run` reads the controller's state and prints the plan without changing anything.
 
@@ -17,16 +26,19 @@ use std::time::Duration;
 use fs020n_as::lint::Generation;
 use fs020n_as::LoadOptions;
 use fs020n_client::Robot;
-use fs020n_term::connection::TerminalConnection;
-use fs020n_term::text::{self, parse_as_version, parse_switch, parse_task_status};
+use fs020n_term::connection::{ConnectionError, TerminalConnection};
+use fs020n_term::text::{self, parse_as_version, parse_directory, parse_switch, parse_task_status};
+use fs020n_term::TerminalError;
 
 use crate::args::DeployArgs;
 use crate::bringup::{open_terminal, terminal_addr, terminal_remedy, write_transcript, Steps};
 use crate::context::{runtime, Ctx};
 use crate::error::{CliError, CliResult, Exit};
+use crate::survey::{self, Action, Conflict, Survey, PC_TASKS};
 
-/// PC tasks a controller has (`PCSTATUS 1:` … `5:`).
-const PC_TASKS: u8 = 5;
+/// The name the file is loaded under: short and fixed, as the vendor's tools do (the name only
+/// passes through the controller, which prints it in `Loading...(name)`).
+pub(crate) const LOAD_NAME: &str = "deploy.as";
 
 /// The names of the programs a file defines (`.PROGRAM name(…)`), in order.
 pub(crate) fn program_names(bytes: &[u8]) -> Vec<String> {
@@ -178,64 +190,74 @@ async fn walk(
     robot_addr: &str,
 ) -> CliResult {
     let Plan {
-        name,
+        name: _,
         bytes,
         programs,
         start,
     } = plan;
-    let step_err = |e: fs020n_term::connection::ConnectionError| e.to_string();
+    // Once the controller was changed, every failure also says what it holds now (when the
+    // terminal still answers: not after a broken or silent link).
+    let mut changed = false;
+    macro_rules! fail {
+        ($step:expr, $exit:expr, $detail:expr, $remedy:expr) => {{
+            let mut detail: String = $detail.into();
+            if changed && $exit != Exit::Link {
+                if let Ok(now) = Survey::read(term).await {
+                    detail.push_str(&format!("; the controller now: {}", now.describe()));
+                }
+            }
+            return Err(steps.fail($step, $exit, detail, $remedy));
+        }};
+    }
     macro_rules! cmd {
         ($step:expr, $line:expr, $confirm:expr) => {
             match term.command($line, $confirm).await {
                 Ok(out) => out,
                 Err(e) => {
                     let remedy = terminal_remedy(&e);
-                    return Err(steps.fail($step, Exit::Link, step_err(e), remedy));
+                    fail!($step, Exit::Link, e.to_string(), remedy)
                 }
             }
         };
     }
+    // An action refused anywhere in its output (a refusal comes after the echoed answer).
+    macro_rules! act {
+        ($step:expr, $line:expr, $confirm:expr, $remedy:expr) => {{
+            let out = cmd!($step, $line, $confirm);
+            if let Some(r) = text::refusal(&out) {
+                fail!(
+                    $step,
+                    Exit::NotReady,
+                    format!("`{}` refused: {r}", $line),
+                    $remedy
+                )
+            }
+            out
+        }};
+    }
 
-    // 2. Who the controller is and what runs on it.
+    // 2. Who the controller is and what it holds.
     let id = cmd!("identify", "ID", false);
     let version = parse_as_version(&id).unwrap_or_else(|| "unknown AS version".to_owned());
     steps.ok(
         "identify",
         format!("terminal {} — {version}", term.terminal().unwrap_or("?")),
     );
-    let mut running: Vec<(u8, String)> = Vec::new();
-    for task in 1..=PC_TASKS {
-        let out = cmd!("status", &format!("PCSTATUS {task}:"), false);
-        let s = parse_task_status(&out);
-        if let (true, Some(p)) = (s.running, s.program) {
-            running.push((task, p.to_ascii_lowercase()));
+    let survey = match Survey::read(term).await {
+        Ok(s) => s,
+        Err(e) => {
+            let remedy = terminal_remedy(&e);
+            fail!("status", Exit::Link, e.to_string(), remedy)
         }
-    }
-    let listing = cmd!("status", "DIRECTORY/P", false);
-    let loaded: Vec<String> = listing
-        .lines()
-        .skip(1)
-        .flat_map(str::split_whitespace)
-        .map(|w| w.trim_start_matches(['*', '~']).to_ascii_lowercase())
+    };
+    let ours_loaded: Vec<&String> = (programs.iter())
+        .filter(|p| survey.loaded.contains(p))
         .collect();
-    let ours_running: Vec<&(u8, String)> = running
-        .iter()
-        .filter(|(_, p)| programs.contains(p))
-        .collect();
-    let ours_loaded: Vec<&String> = programs.iter().filter(|p| loaded.contains(p)).collect();
     steps.ok(
         "status",
         format!(
-            "running: {}; of this file already loaded: {}",
-            if running.is_empty() {
-                "nothing".to_owned()
-            } else {
-                running
-                    .iter()
-                    .map(|(t, p)| format!("{p} in PC task {t}"))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            },
+            "{}; of this file already loaded: {}",
+            survey.describe(),
             if ours_loaded.is_empty() {
                 "none".to_owned()
             } else {
@@ -248,42 +270,26 @@ async fn walk(
         ),
     );
 
-    // 3. An older copy.
-    let mut plan: Vec<(String, bool)> = Vec::new();
-    for (task, _) in &ours_running {
-        plan.push((format!("PCABORT {task}:"), false));
-        plan.push((format!("PCKILL {task}:"), true));
-    }
-    for p in &ours_loaded {
-        plan.push((format!("DELETE/P {p}"), true));
-    }
-    if !plan.is_empty() && !args.replace {
-        let what = if ours_running.is_empty() {
-            format!(
-                "{} already loaded",
-                ours_loaded
-                    .iter()
-                    .map(|s| s.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        } else {
-            ours_running
-                .iter()
-                .map(|(t, p)| format!("{p} runs in PC task {t}"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
-        return Err(steps.fail(
+    // 3. The plan: an older copy stopped, waited for, killed and deleted.
+    let actions = match survey::plan(&survey, programs, args.task, args.replace) {
+        Ok(a) => a,
+        Err(Conflict::NeedsReplace(what)) => fail!(
             "replace",
             Exit::NotReady,
             format!("{what}; nothing was changed"),
             "add --replace to stop, kill and delete the older copy and load this one (a running \
-             server ends its session: the robot stops)",
-        ));
-    }
-    let plan_text: Vec<String> = plan.iter().map(|(l, _)| l.clone()).collect();
-    let mut rest = vec![format!("LOAD {name}")];
+             server ends its session: the robot stops)"
+        ),
+        Err(Conflict::Foreign(what)) => fail!(
+            "replace",
+            Exit::NotReady,
+            format!("{what}; nothing was changed"),
+            "stop that program yourself if it may be stopped (ABORT/PCABORT, then KILL/PCKILL \
+             on the terminal or the pendant), or deploy to another PC task with --task"
+        ),
+    };
+    let plan_text: Vec<String> = actions.iter().map(ToString::to_string).collect();
+    let mut rest = vec![format!("LOAD {LOAD_NAME}")];
     if args.autostart {
         rest.push("SWITCH AUTOSTART.PC = ON".to_owned());
     }
@@ -293,76 +299,186 @@ async fn walk(
         steps.note("plan", "dry run", format!("would send: {}", all.join("; ")));
         return Ok(());
     }
-    for (line, confirm) in &plan {
-        let out = cmd!("replace", line, *confirm);
-        if let Some(code) = text::monitor_error_code(&out) {
-            return Err(steps.fail(
-                "replace",
-                Exit::NotReady,
-                format!("`{line}` refused: {out} (P{code:04})"),
-                "stop the program by hand on the teach pendant or the terminal, then deploy again",
-            ));
+    for action in &actions {
+        changed = true;
+        let (line, confirm) = action.line();
+        match action {
+            Action::WaitStopped(task) => match survey::wait_stopped(term, *task).await {
+                Ok(Ok(())) => {}
+                Ok(Err(why)) => fail!(
+                    "replace",
+                    Exit::NotReady,
+                    why,
+                    "the program did not stop after its current step: stop it on the teach \
+                     pendant (or HOLD, then ABORT), then deploy again"
+                ),
+                Err(e) => {
+                    let remedy = terminal_remedy(&e);
+                    fail!("replace", Exit::Link, e.to_string(), remedy)
+                }
+            },
+            _ => {
+                act!(
+                    "replace",
+                    &line,
+                    confirm,
+                    "stop the program by hand on the teach pendant or the terminal, then deploy \
+                     again"
+                );
+            }
         }
     }
-    if !plan.is_empty() {
+    if !actions.is_empty() {
+        // The plan took effect: nothing of the file is held or loaded any more.
+        let after = match Survey::read(term).await {
+            Ok(s) => s,
+            Err(e) => {
+                let remedy = terminal_remedy(&e);
+                fail!("replace", Exit::Link, e.to_string(), remedy)
+            }
+        };
+        let left: Vec<&String> = programs
+            .iter()
+            .filter(|p| after.loaded.contains(p) || after.held.iter().any(|h| &h.program == *p))
+            .collect();
+        if !left.is_empty() {
+            fail!(
+                "replace",
+                Exit::NotReady,
+                format!(
+                    "after {} the controller still holds {}",
+                    plan_text.join("; "),
+                    left.iter()
+                        .map(|s| s.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+                "remove them by hand (KILL/PCKILL, DELETE/P), then deploy again"
+            );
+        }
         steps.ok("replace", format!("sent {}", plan_text.join("; ")));
     }
 
-    // 4. LOAD.
-    match term.load(name, bytes).await {
-        Ok(r) if r.syntax_error.is_some() => {
-            return Err(steps.fail(
+    // 4. LOAD, then every program of the file echoed and listed.
+    changed = true;
+    match term.load(LOAD_NAME, bytes).await {
+        Ok(r) if r.syntax_error.is_some() => fail!(
+            "load",
+            Exit::Input,
+            format!(
+                "the controller found a syntax error at `{}`; the load was aborted \
+                 (answered 1: delete program and abort)",
+                r.syntax_error.unwrap_or_default()
+            ),
+            format!(
+                "fix that line (`fs020n as check --controller {} FILE` shows what it \
+                 checks), then deploy again",
+                args.controller
+            )
+        ),
+        Ok(r) => {
+            if let Some(refused) = text::refusal(&r.output) {
+                fail!(
+                    "load",
+                    Exit::NotReady,
+                    format!("the controller refused part of the load: {refused}"),
+                    load_remedy(&refused)
+                );
+            }
+            if r.errors > 0 {
+                fail!(
+                    "load",
+                    Exit::Input,
+                    format!("the controller counted {} error(s) in the load", r.errors),
+                    "read the transcript (--transcript FILE) for the controller's messages"
+                );
+            }
+            let missing: Vec<&String> = programs
+                .iter()
+                .filter(|p| !r.programs.contains(p))
+                .collect();
+            if !missing.is_empty() {
+                fail!(
+                    "load",
+                    Exit::NotReady,
+                    format!(
+                        "the controller did not report loading {} ({})",
+                        missing
+                            .iter()
+                            .map(|s| s.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                        r.ending.as_deref().unwrap_or("no last line")
+                    ),
+                    "read the transcript (--transcript FILE): a program already in memory may \
+                     have aborted the load (some controllers do not overwrite); deploy again with \
+                     --replace"
+                );
+            }
+            let listed = parse_directory(&cmd!("load", "DIRECTORY/P", false));
+            let unlisted: Vec<&String> = programs.iter().filter(|p| !listed.contains(p)).collect();
+            if !unlisted.is_empty() {
+                fail!(
+                    "load",
+                    Exit::NotReady,
+                    format!(
+                        "{} not in memory after the load",
+                        unlisted
+                            .iter()
+                            .map(|s| s.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                    "read the transcript (--transcript FILE) for the controller's messages, then \
+                     deploy again"
+                );
+            }
+            steps.ok(
                 "load",
-                Exit::Input,
                 format!(
-                    "the controller found a syntax error at `{}`; the load was aborted \
-                     (answered 1: delete program and abort)",
-                    r.syntax_error.unwrap_or_default()
+                    "{} loaded ({} bytes); listed: {}",
+                    plan.name,
+                    bytes.len(),
+                    programs.join(", ")
                 ),
-                format!(
-                    "fix that line (`fs020n as check --controller {} {name}` shows what it \
-                     checks), then deploy again",
-                    args.controller
-                ),
-            ));
+            );
         }
-        Ok(r) if r.errors > 0 => {
-            return Err(steps.fail(
-                "load",
-                Exit::Input,
-                format!("the controller counted {} error(s) in the load", r.errors),
-                "read the transcript (--transcript FILE) for the controller's messages",
-            ));
-        }
-        Ok(_) => steps.ok("load", format!("{name} loaded ({} bytes)", bytes.len())),
-        Err(fs020n_term::connection::ConnectionError::Terminal(
-            fs020n_term::TerminalError::TransferInProgress,
-        )) => {
-            return Err(steps.fail(
-                "load",
-                Exit::NotReady,
-                "the controller reports an earlier SAVE/LOAD still in progress (P2076)",
-                "an earlier transfer was left unfinished: restart the controller (power off and \
-                 on), then deploy again",
-            ));
-        }
+        Err(ConnectionError::Terminal(TerminalError::TransferInProgress)) => fail!(
+            "load",
+            Exit::NotReady,
+            "the controller reports an earlier SAVE/LOAD still in progress (P2076)",
+            "an earlier transfer was left unfinished: restart the controller (power off and \
+             on), then deploy again"
+        ),
+        Err(ConnectionError::Terminal(e @ TerminalError::LoadInterrupted { .. })) => fail!(
+            "load",
+            Exit::NotReady,
+            e.to_string(),
+            "read the transcript (--transcript FILE) for the question or refusal; answer or \
+             clear its cause on the controller, then deploy again with --replace"
+        ),
         Err(e) => {
             let remedy = terminal_remedy(&e);
-            return Err(steps.fail("load", Exit::Link, e.to_string(), remedy));
+            fail!("load", Exit::Link, e.to_string(), remedy)
         }
     }
 
     // 5. AUTOSTART.
     if args.autostart {
-        cmd!("autostart", "SWITCH AUTOSTART.PC = ON", false);
+        act!(
+            "autostart",
+            "SWITCH AUTOSTART.PC = ON",
+            false,
+            "set it on the teach pendant (Aux function, system switches)"
+        );
         let out = cmd!("autostart", "SWITCH AUTOSTART.PC", false);
         if parse_switch(&out) != Some(true) {
-            return Err(steps.fail(
+            fail!(
                 "autostart",
                 Exit::NotReady,
                 format!("AUTOSTART.PC does not read ON: {out}"),
-                "set it on the teach pendant (Aux function, system switches)",
-            ));
+                "set it on the teach pendant (Aux function, system switches)"
+            );
         }
         steps.ok(
             "autostart",
@@ -374,30 +490,50 @@ async fn walk(
     // 6. Start and verify.
     let line = format!("PCEXECUTE {}: {start}", args.task);
     let out = cmd!("start", &line, false);
-    if let Some(code) = text::monitor_error_code(&out) {
-        return Err(steps.fail(
+    if let Some(r) = text::refusal(&out) {
+        fail!(
             "start",
             Exit::NotReady,
-            format!("`{line}` refused: {out}"),
-            match code {
-                1013 => "reset the controller's error (ERESET, or the pendant's reset), then deploy again",
+            format!("`{line}` refused: {r}"),
+            match r.code {
+                Some((_, 1013)) => "reset the controller's error (ERESET, or the pendant's reset), then deploy again",
                 _ => "check the controller's state (fs020n doctor), then deploy again",
-            },
-        ));
+            }
+        );
     }
     let out = cmd!("start", &format!("PCSTATUS {}:", args.task), false);
     let s = parse_task_status(&out);
-    if !s.running {
-        return Err(steps.fail(
+    // The program line may name a program it has CALLed: any program of the file will do.
+    let ours = s
+        .program
+        .as_deref()
+        .is_some_and(|p| programs.iter().any(|q| q.eq_ignore_ascii_case(p)));
+    if !s.running || !ours {
+        fail!(
             "start",
             Exit::NotReady,
             format!("{start} does not run after PCEXECUTE: {out}"),
             "read the program's messages on the terminal (TYPE, the transcript) — a TCP_LISTEN \
-             that failed ends the server",
-        ));
+             that failed ends the server"
+        );
     }
     steps.ok("start", format!("{start} runs in PC task {}", args.task));
     verify_port(ctx, steps, robot_addr).await
+}
+
+/// The remedy for a refusal printed by a LOAD.
+fn load_remedy(refused: &text::Refusal) -> &'static str {
+    match refused.code {
+        Some((_, 1014)) => {
+            "a program of the file is on a task's stack: deploy again with --replace (it \
+             kills it first)"
+        }
+        Some((_, 1039)) => {
+            "this controller does not load over a program in memory: deploy again with \
+             --replace (it deletes the older copy first)"
+        }
+        _ => "read the transcript (--transcript FILE) for the controller's messages",
+    }
 }
 
 /// The protocol port answers a side-effect-free poll.

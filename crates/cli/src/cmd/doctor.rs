@@ -1,19 +1,21 @@
 //! `doctor`: walks a bring-up in order and stops at the first broken link, each with its
-//! remedy (docs/DEPLOY.md): the terminal port, the protocol port, the controller's ID, the
-//! server program loaded and running, AUTOSTART.PC, a poll with its 14 fields, the preflight,
-//! TIMER.
+//! remedy (docs/DEPLOY.md): the protocol port, the terminal (a login, never a bare
+//! connection: the controller serves three sessions), the controller's ID, the survey `deploy`
+//! also reads (the server program loaded and running, what every task holds), AUTOSTART.PC, a
+//! poll with its 14 fields, the preflight, TIMER.
 
 use std::time::Duration;
 
 use fs020n_client::Robot;
 use fs020n_proto::TIMER_WIRE_STEP_S;
-use fs020n_term::text::{parse_as_version, parse_switch, parse_task_status};
+use fs020n_term::text::{parse_as_version, parse_switch};
 use tokio::net::TcpStream;
 
 use crate::args::DoctorArgs;
 use crate::bringup::{open_terminal, terminal_addr, terminal_remedy, Steps};
 use crate::context::{runtime, Ctx};
 use crate::error::{CliResult, Exit};
+use crate::survey::Survey;
 
 /// `doctor`.
 pub(crate) fn doctor(ctx: &Ctx, args: &DoctorArgs) -> CliResult {
@@ -22,21 +24,14 @@ pub(crate) fn doctor(ctx: &Ctx, args: &DoctorArgs) -> CliResult {
     let program = args.program.to_ascii_lowercase();
     let mut steps = Steps::new(ctx.json);
     runtime()?.block_on(async {
-        // The network: both ports answer TCP.
-        for (step, addr, remedy) in [
-            (
-                "terminal port",
-                terminal.as_str(),
-                "check the controller's IP address and network settings (the teach pendant's \
-                 network screen), the cable, and that a firewall lets port 23 through",
-            ),
-            (
-                "protocol port",
-                robot_addr.as_str(),
-                "the server program is not listening: load and start it (`fs020n deploy`); a \
-                 controller without the Ethernet TCP/IP option cannot listen at all",
-            ),
-        ] {
+        // The network: the protocol port answers TCP. (The terminal is probed by logging in:
+        // a bare connection would take one of its three sessions.)
+        for (step, addr, remedy) in [(
+            "protocol port",
+            robot_addr.as_str(),
+            "the server program is not listening: load and start it (`fs020n deploy`); a \
+             controller without the Ethernet TCP/IP option cannot listen at all",
+        )] {
             match tokio::time::timeout(ctx.connect_timeout, TcpStream::connect(addr)).await {
                 Ok(Ok(_)) => steps.ok(step, format!("{addr} accepts connections")),
                 Ok(Err(e)) if step == "protocol port" && e.kind() == std::io::ErrorKind::ConnectionRefused => {
@@ -77,35 +72,28 @@ pub(crate) fn doctor(ctx: &Ctx, args: &DoctorArgs) -> CliResult {
                 parse_as_version(&id).unwrap_or_else(|| "unknown AS version".to_owned())
             ),
         );
-        let listing = term.command("DIRECTORY/P", false).await.unwrap_or_default();
-        let loaded = listing
-            .split_whitespace()
-            .any(|w| w.trim_start_matches(['*', '~']).eq_ignore_ascii_case(&program));
-        if !loaded {
+        let survey = match Survey::read(&mut term).await {
+            Ok(s) => s,
+            Err(e) => return Err(steps.fail("server program", Exit::Link, e.to_string(), terminal_remedy(&e))),
+        };
+        if !survey.loaded.contains(&program) {
             return Err(steps.fail(
                 "server program",
                 Exit::NotReady,
-                format!("{program} is not loaded"),
+                format!("{program} is not loaded ({})", survey.describe()),
                 "load it: `fs020n deploy --autostart`",
             ));
         }
-        let mut runs_in = None;
-        for task in 1..=5u8 {
-            if let Ok(out) = term.command(&format!("PCSTATUS {task}:"), false).await {
-                let s = parse_task_status(&out);
-                if s.running && s.program.as_deref().is_some_and(|p| p.eq_ignore_ascii_case(&program)) {
-                    runs_in = Some(task);
-                    break;
-                }
-            }
-        }
-        match runs_in {
-            Some(task) => steps.ok("server program", format!("{program} is loaded and runs in PC task {task}")),
+        match survey.running(&program) {
+            Some(task) => steps.ok(
+                "server program",
+                format!("{program} is loaded and runs in {task}; {}", survey.describe()),
+            ),
             None => {
                 return Err(steps.fail(
                     "server program",
                     Exit::NotReady,
-                    format!("{program} is loaded but does not run"),
+                    format!("{program} is loaded but does not run ({})", survey.describe()),
                     format!("start it: `fs020n deploy --replace` or type `PCEXECUTE 1: {program}` on the terminal"),
                 ))
             }

@@ -79,6 +79,11 @@ pub(crate) fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOp
              (the native server runs no AS program)",
         ));
     }
+    let generation: fs020n_term::Generation = args.generation.parse().map_err(CliError::input)?;
+    let terminal_session = fs020n_term::SessionConfig {
+        load_questions: args.terminal_load_questions.clone(),
+        ..fs020n_term::SessionConfig::of(generation)
+    };
     let mut out = Vec::new();
     let robots = crate::fleet::expand(&listen, &pendant, args.robots)?;
     if terminal.is_some() && robots.len() > 1 {
@@ -102,6 +107,7 @@ pub(crate) fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOp
             bare: args.bare,
             terminal,
             terminal_piece: args.terminal_piece,
+            terminal_session: terminal_session.clone(),
         });
     }
     Ok(out)

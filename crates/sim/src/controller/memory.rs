@@ -72,6 +72,9 @@ pub(crate) struct MonitorState {
     pub(crate) stacks: [Option<String>; 6],
     /// The task was aborted (its program stays on the stack until killed).
     pub(super) kept: [bool; 6],
+    /// An abort waits for the task's current step: `PC program aborted.No = n` is printed
+    /// when it stops.
+    pub(super) aborting: [bool; 6],
     /// The memory generation the interpreter was built from.
     pub(crate) built: Option<u64>,
     /// Terminal slots AUX1–AUX3 in use.
@@ -80,6 +83,9 @@ pub(crate) struct MonitorState {
     pub(super) transfer_open: bool,
     /// Sessions in the middle of a transfer now.
     pub(super) transfers_running: usize,
+    /// Loading a program whose name is in memory is refused (AS-E p.5-34) instead of
+    /// overwriting it.
+    pub(super) refuse_overwrite: bool,
     /// Lines the programs printed, numbered, for the terminal sessions.
     pub(super) output: VecDeque<(u64, String)>,
     pub(super) next_line: u64,
@@ -102,6 +108,17 @@ pub struct LoadReport {
     pub errors: usize,
     /// Other lines the load printed.
     pub notes: Vec<String>,
+}
+
+/// What `ABORT`/`PCABORT` did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Abort {
+    /// The task did not run.
+    NotRunning,
+    /// The task stopped now.
+    Stopped,
+    /// The task stops when its current step completes.
+    AfterStep,
 }
 
 /// What a power cycle started.
@@ -283,7 +300,17 @@ impl Controller {
             .map(|m| m.data)
             .unwrap_or_default();
         let s = sections(&text);
+        let mut aborted = false;
         for p in s.programs {
+            if self.monitor.refuse_overwrite && self.memory.program(&p.name).is_some() {
+                // AS-E p.5-34: programs are not overwritten; the LOAD is aborted here.
+                report
+                    .refused
+                    .push((p.name.clone(), text::P1039_PROGRAM_EXISTS));
+                report.errors += 1;
+                aborted = true;
+                break;
+            }
             if self.on_any_stack(&p.name) {
                 report.refused.push((p.name.clone(), text::P1014_IN_USE));
                 report.errors += 1;
@@ -292,12 +319,20 @@ impl Controller {
             report.loaded.push((p.name.clone(), p.params.clone()));
             self.memory.put(p);
         }
-        for d in s.data {
-            self.memory.put_data(d);
+        if !aborted {
+            for d in s.data {
+                self.memory.put_data(d);
+            }
         }
         self.bump();
         let _ = self.sync_runtime_assigning(&assigned);
         report
+    }
+
+    /// Whether a `LOAD` refuses a program whose name is in memory (AS-E p.5-34, the C/D
+    /// terminal) instead of overwriting it (E/F captures, the default).
+    pub fn set_refuse_overwrite(&mut self, refuse: bool) {
+        self.monitor.refuse_overwrite = refuse;
     }
 
     /// Deletes a program from memory (`DELETE/P`): P1018 while it is on a task's stack,
@@ -324,10 +359,21 @@ impl Controller {
                 .is_some_and(|i| i.programs_in_use().contains(&name.as_str()))
     }
 
-    /// The program on the stack of task `i` (0 robot, 1–5 PC).
+    /// The program on the stack of task `i` (0 robot, 1–5 PC): the one the terminal started,
+    /// or, for a task a program started (`MC EXECUTE`, `PCEXECUTE` in AS), the one it runs.
     pub(super) fn stack_program(&self, i: usize) -> Option<String> {
-        let name = self.monitor.stacks.get(i)?.clone()?;
         let (running, error) = self.task_facts(i);
+        let name = match self.monitor.stacks.get(i)?.clone() {
+            Some(name) => name,
+            None if running || error => self
+                .program()?
+                .tasks(&self.machine)
+                .get(i)?
+                .program
+                .clone()?
+                .to_ascii_lowercase(),
+            None => return None,
+        };
         (running || error || self.monitor.kept[i]).then_some(name)
     }
 

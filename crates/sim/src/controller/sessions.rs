@@ -62,17 +62,29 @@ impl Controller {
     }
 
     /// Takes the lines the programs printed since the last call into the terminal's list,
-    /// and announces the PC programs that completed since (`Program completed.No = n`).
+    /// and announces the programs that completed since (`Program completed.No = n`, a robot
+    /// program started by `EXECUTE` as `No = 1`) and the PC tasks an abort stopped after
+    /// their step (`PC program aborted.No = n`).
     fn pull_output(&mut self) {
         self.pull_printed();
         let tasks = self.program().map(|p| p.tasks(&self.machine));
-        for n in 1..=5u8 {
-            let i = usize::from(n);
+        for i in 0..=5usize {
             let info = tasks.as_ref().and_then(|t| t.get(i));
             let running = info.is_some_and(|t| t.state != fs020n_as::TaskState::Idle);
             let completed = info.is_some_and(|t| t.last_error.is_none());
-            if self.monitor.ran[i] && !running && completed && !self.monitor.kept[i] {
-                self.push_output(text::pc_completed(n));
+            // The robot task's number in the message is 1 (**M**: a capture after EXECUTE).
+            let n = u8::try_from(i.max(1)).unwrap_or(1);
+            if self.monitor.ran[i] && !running {
+                if self.monitor.aborting[i] {
+                    if i > 0 {
+                        self.push_output(text::pc_aborted(n));
+                    }
+                } else if completed && !self.monitor.kept[i] {
+                    self.push_output(text::pc_completed(n));
+                }
+            }
+            if !running {
+                self.monitor.aborting[i] = false;
             }
             self.monitor.ran[i] = running;
         }

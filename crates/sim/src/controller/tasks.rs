@@ -2,13 +2,18 @@
 //! `PCKILL`/`KILL`, `EXECUTE`, `ABORT`) and the power cycle; the stacks and the rebuild of the
 //! interpreter are in `memory.rs`.
 
+use std::time::Duration;
+
 use fs020n_as::TaskId;
 use fs020n_term::text::{self, MonitorError};
 
-use super::memory::{refusal_error, task_index, PowerCycle};
+use super::memory::{refusal_error, task_index, Abort, PowerCycle};
 use super::{Controller, Server};
 use crate::native::NativeServer;
 use crate::store::AUTOSTART_SWITCHES;
+
+/// The longest a start at the terminal runs the program before the prompt comes back.
+const FIRST_STEPS: Duration = Duration::from_millis(50);
 
 impl Controller {
     // ----------------------------------------------------------------- tasks
@@ -54,23 +59,56 @@ impl Controller {
         Ok(())
     }
 
-    /// `PCABORT task:`: stops the task (its program stays on the stack); `false` when it did
-    /// not run.
-    pub fn pc_abort(&mut self, task: u8) -> bool {
+    /// `PCABORT task:`: stops the task after its current step (AS-E p.10-4, p.5-42): at once
+    /// between steps, or when the `TWAIT`/`TCP_ACCEPT`/`TCP_RECV`… it is in completes (its
+    /// program stays on the stack). Until then the task runs (`TASK` reads 1, `PCKILL` gets
+    /// P1026).
+    pub fn pc_abort(&mut self, task: u8) -> Abort {
         let i = usize::from(task.clamp(1, 5));
         self.abort_task(TaskId::Pc(task.clamp(1, 5)), i)
     }
 
-    fn abort_task(&mut self, task: TaskId, i: usize) -> bool {
+    fn abort_task(&mut self, task: TaskId, i: usize) -> Abort {
         if !self.task_facts(i).0 {
-            return false;
+            return Abort::NotRunning;
         }
-        if let Some(p) = self.program_mut() {
-            p.interpreter_mut().abort(task);
-        }
+        let now = self
+            .program_mut()
+            .is_none_or(|p| p.interpreter_mut().abort_after_step(task));
         self.monitor.kept[i] = true;
         self.bump();
-        true
+        if now {
+            Abort::Stopped
+        } else {
+            self.monitor.aborting[i] = true;
+            Abort::AfterStep
+        }
+    }
+
+    /// `true` while `task` finishes the step an abort waits for.
+    pub fn abort_pending(&self, task: TaskId) -> bool {
+        self.interpreter().is_some_and(|i| i.abort_pending(task))
+    }
+
+    /// Runs the controller on, from one program event to the next and at most 50 ms of its
+    /// time, until `task` waits or stops: a program started at the terminal has run
+    /// its first steps (its `TCP_LISTEN`, say) when the prompt comes back, as on the
+    /// controller. The clock moves only by those steps' own time.
+    pub fn run_first_steps(&mut self, task: TaskId) {
+        let end = self.now() + FIRST_STEPS;
+        for _ in 0..10_000 {
+            let waiting = self
+                .program_tasks()
+                .and_then(|t| t.get(task_index(task)).cloned())
+                .is_none_or(|t| t.state == fs020n_as::TaskState::Idle || t.waiting.is_some());
+            if waiting {
+                break;
+            }
+            match self.next_program_event() {
+                Some(t) if t <= end => self.advance_to(t.max(self.now())),
+                _ => break,
+            }
+        }
     }
 
     /// `PCKILL task:` (and `KILL` for the robot task): takes the program off the stack;
@@ -119,14 +157,22 @@ impl Controller {
         Ok(())
     }
 
-    /// `ABORT`: stops the robot program (the motion in progress ends as braked); `false` when
-    /// it did not run.
-    pub fn abort_program(&mut self) -> bool {
-        let stopped = self.abort_task(TaskId::Robot, 0);
-        if stopped {
+    /// `ABORT`: stops the robot program after its current step, as [`Controller::pc_abort`];
+    /// a motion in progress ends as braked (the emulator does not wait for a motion step).
+    pub fn abort_program(&mut self) -> Abort {
+        let abort = self.abort_task(TaskId::Robot, 0);
+        if abort == Abort::Stopped {
             self.machine.brake();
         }
-        stopped
+        abort
+    }
+
+    /// `HOLD` (`true`): the robot program pauses, its motion decelerates and stops;
+    /// `CONTINUE` (`false`) resumes it. The emulator plays both on the panel's HOLD/RUN
+    /// switch.
+    pub fn hold_program(&mut self, hold: bool) {
+        self.set_run(!hold);
+        self.bump();
     }
 
     // ----------------------------------------------------------------- power
@@ -142,6 +188,7 @@ impl Controller {
         let _ = self.machine.reset_error();
         self.monitor.stacks = Default::default();
         self.monitor.kept = [false; 6];
+        self.monitor.aborting = [false; 6];
         self.monitor.transfer_open = false;
         match &self.server {
             Server::Native(_) => {

@@ -7,7 +7,7 @@ use fs020n_term::server::{is_abbreviation, split_word};
 use fs020n_term::text::{self, MonitorError};
 use fs020n_term::{LoadAnswer, Monitor, Reply, SyntaxError};
 
-use crate::controller::Controller;
+use crate::controller::{Abort, Controller};
 
 /// What `1` confirms.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -35,13 +35,21 @@ const KEYWORDS: &[(&str, usize)] = &[
     ("SWITCH", 2),
     ("ID", 2),
     ("ERESET", 2),
-    ("ZPOW", 4),
+    ("ZPOWER", 4),
+    ("SIGNAL", 3),
+    ("WHERE", 2),
+    ("HERE", 4),
+    ("HOLD", 2),
+    ("CONTINUE", 2),
+    ("MESSAGES", 3),
 ];
 
 /// The controller seen by one session.
 pub(crate) struct ControllerMonitor<'a> {
     pub(crate) c: &'a mut Controller,
     pub(crate) pending: &'a mut Option<Pending>,
+    /// `MESSAGES ON` (the default): program output reaches this session.
+    pub(crate) messages: &'a mut bool,
 }
 
 fn lines<I: IntoIterator<Item = S>, S: Into<String>>(l: I) -> Reply {
@@ -125,13 +133,11 @@ impl ControllerMonitor<'_> {
             }
             "PCEXECUTE" => self.pc_execute(rest),
             "PCABORT" => match task_and_rest(rest) {
-                Ok((n, _)) => {
-                    if self.c.pc_abort(n) {
-                        lines([text::pc_aborted(n)])
-                    } else {
-                        Reply::Lines(Vec::new())
-                    }
-                }
+                // Stopped now: said now; after the current step: said when it stops.
+                Ok((n, _)) => match self.c.pc_abort(n) {
+                    Abort::Stopped => lines([text::pc_aborted(n)]),
+                    Abort::AfterStep | Abort::NotRunning => Reply::Lines(Vec::new()),
+                },
                 Err(e) => Reply::Error(e),
             },
             "PCSTATUS" => match task_and_rest(rest) {
@@ -147,10 +153,36 @@ impl ControllerMonitor<'_> {
                 self.c.abort_program();
                 Reply::Lines(Vec::new())
             }
+            "HOLD" => {
+                self.c.hold_program(true);
+                Reply::Lines(Vec::new())
+            }
+            "CONTINUE" => {
+                self.c.hold_program(false);
+                Reply::Lines(Vec::new())
+            }
+            "MESSAGES" => match rest.to_ascii_uppercase().as_str() {
+                "ON" => {
+                    *self.messages = true;
+                    Reply::Lines(Vec::new())
+                }
+                "OFF" => {
+                    *self.messages = false;
+                    Reply::Lines(Vec::new())
+                }
+                "" => lines([format!(
+                    "MESSAGES {}",
+                    if *self.messages { "ON" } else { "OFF" }
+                )]),
+                _ => Reply::Error(text::P0117_INVALID_NAME),
+            },
+            "SIGNAL" => self.signal(rest),
+            "WHERE" => self.where_(),
+            "HERE" => lines([text::EMULATOR_HERE_NOT_PLAYED]),
             "SWITCH" => self.switch(rest),
             "ID" => self.id(),
             "ERESET" => self.ereset(),
-            "ZPOW" => {
+            "ZPOWER" => {
                 let on = rest.eq_ignore_ascii_case("ON");
                 let _ = self.c.set_power(on);
                 Reply::Lines(Vec::new())
@@ -159,16 +191,73 @@ impl ControllerMonitor<'_> {
         }
     }
 
+    /// `SIGNAL n, -m, …`: outputs (1…) and internal signals (2001…) on (`n`) or off (`-n`);
+    /// external inputs (1001…) cannot be set from the terminal.
+    fn signal(&mut self, rest: &str) -> Reply {
+        let mut numbers = Vec::new();
+        for part in rest.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+            match part.parse::<i32>() {
+                Ok(n) if n != 0 && !(1001..=1999).contains(&n.abs()) => numbers.push(n),
+                _ => return Reply::Error(text::P0117_INVALID_NAME),
+            }
+        }
+        if numbers.is_empty() {
+            return Reply::Error(text::P0117_INVALID_NAME);
+        }
+        for n in numbers {
+            self.c.set_program_input(n.abs(), n > 0);
+        }
+        Reply::Lines(Vec::new())
+    }
+
+    /// `WHERE`: the joints, then the tool's XYZOAT, each under its heading (**L**: the layout
+    /// is the emulator's reading of the manual's description, not a capture).
+    fn where_(&self) -> Reply {
+        let j = self.c.joints().0;
+        let x = self
+            .c
+            .model()
+            .forward(&self.c.joints().to_rad())
+            .to_xyzoat();
+        let row = |v: &[f64]| v.iter().map(|v| format!("{v:>10.3}")).collect::<String>();
+        lines([
+            (1..=j.len())
+                .map(|k| format!("{:>10}", format!("JT{k}")))
+                .collect::<String>(),
+            row(&j),
+            ["X[mm]", "Y[mm]", "Z[mm]", "O[deg]", "A[deg]", "T[deg]"]
+                .iter()
+                .map(|h| format!("{h:>10}"))
+                .collect::<String>(),
+            row(&[x.x_mm, x.y_mm, x.z_mm, x.o_deg, x.a_deg, x.t_deg]),
+        ])
+    }
+
     fn ask(&mut self, p: Pending) -> Reply {
         *self.pending = Some(p);
         Reply::AreYouSure
     }
 
+    /// `DIRECTORY/P`: the names, a running program's with a `*` after it (AS-E p.10-3).
     fn directory(&self) -> Reply {
-        lines([
-            text::DIRECTORY_HEADER.to_owned(),
-            self.c.loaded_programs().join(" "),
-        ])
+        let running: Vec<String> = std::iter::once(TaskId::Robot)
+            .chain((1..=5).map(TaskId::Pc))
+            .filter(|t| self.c.task_running(*t))
+            .filter_map(|t| self.c.task_program(t))
+            .collect();
+        let names: Vec<String> = self
+            .c
+            .loaded_programs()
+            .into_iter()
+            .map(|n| {
+                if running.contains(&n) {
+                    format!("{n}*")
+                } else {
+                    n
+                }
+            })
+            .collect();
+        lines([text::DIRECTORY_HEADER.to_owned(), names.join(" ")])
     }
 
     fn list(&self, rest: &str) -> Reply {
@@ -252,7 +341,15 @@ impl ControllerMonitor<'_> {
             Err(e) => return Reply::Error(e),
         };
         match program_and_cycles(tail) {
-            Ok((name, cycles)) => done(self.c.pc_execute_cycles(task, name, cycles)),
+            Ok((name, cycles)) => {
+                let started = self.c.pc_execute_cycles(task, name, cycles);
+                if started.is_ok() {
+                    // The program has run its first steps (a TCP_LISTEN, say) by the time the
+                    // prompt comes back.
+                    self.c.run_first_steps(TaskId::Pc(task));
+                }
+                done(started)
+            }
             Err(reply) => reply,
         }
     }

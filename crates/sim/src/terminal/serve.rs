@@ -12,6 +12,11 @@ use tokio::net::TcpListener;
 use super::TerminalLink;
 use crate::server::{Emulator, TcpServer};
 
+/// How long the prompt waits after a command made a program listen (`PCEXECUTE`): the
+/// served port's listener binds in a task of its own, and a client that connects as soon as
+/// the prompt is back must not be refused.
+const LISTEN_SETTLE: Duration = Duration::from_millis(50);
+
 /// How often a session looks for program output (not at every change of the controller: a
 /// client streaming at the protocol port changes it hundreds of times a second).
 const OUTPUT_POLL: Duration = Duration::from_millis(100);
@@ -70,7 +75,16 @@ impl Emulator {
                         self.with(|c| link.handle_close(c));
                         break;
                     }
-                    Ok(n) => self.with(|c| link.handle_input(c, &buf[..n])),
+                    Ok(n) => {
+                        let started = self.with(|c| {
+                            let before = c.program_listening(None);
+                            link.handle_input(c, &buf[..n]);
+                            !before && c.program_listening(None)
+                        });
+                        if started {
+                            tokio::time::sleep(LISTEN_SETTLE).await;
+                        }
+                    }
                 },
                 _ = tokio::time::sleep(OUTPUT_POLL) => {}
             }

@@ -17,6 +17,8 @@ pub(crate) struct Shelf {
     pub(crate) pending_kill: Option<String>,
     pub(crate) last_answer: Option<LoadAnswer>,
     pub(crate) received: Vec<u8>,
+    /// What `1` to the next question prints instead of doing it.
+    pub(crate) refuse_confirmed: Option<MonitorError>,
 }
 
 fn programs_of(file: &[u8]) -> Vec<(String, String)> {
@@ -65,6 +67,10 @@ impl Monitor for Shelf {
         }
     }
     fn confirmed(&mut self) -> Reply {
+        if let Some(e) = self.refuse_confirmed {
+            self.pending_kill = None;
+            return Reply::Error(e);
+        }
         if let Some(name) = self.pending_kill.take() {
             self.programs.remove(&name);
         }
