@@ -1028,3 +1028,18 @@ fn an_older_generation_refuses_to_load_over_a_program_and_ends_with_loading_done
     assert_eq!(t.c.loaded_programs(), ["a"]);
     assert!(t.c.program_text("a").unwrap().contains("x = 1"));
 }
+
+#[test]
+fn commands_take_the_manuals_abbreviations_and_nothing_shorter() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("server1040.as", SERVER));
+    // PCEX is the manual's shortest PCEXECUTE, DI its DIRECTORY, STA its STATUS.
+    assert_eq!(t.cmd("pcex 1: autostart.pc", false), "");
+    t.advance(Duration::from_millis(200));
+    assert_eq!(t.cmd("TYPE TASK(1001)", false), "1");
+    assert!(t.cmd("di", false).contains("autostart.pc"));
+    let status = t.cmd("sta", false);
+    assert!(status.contains("Monitor speed") || !status.starts_with('('), "{status}");
+    // PCE is shorter than the manual's PCEX: the command is unknown.
+    assert!(t.cmd("PCE 1: autostart.pc", false).starts_with("(P0100)"));
+}

@@ -244,6 +244,11 @@ pub const P0117_INVALID_NAME: MonitorError = MonitorError {
     code: 117,
     text: "Invalid variable (or program) name.",
 };
+/// P0110: a short form of two commands (**H**, AS-E appendix 4).
+pub const P0110_FULL_SPELLING: MonitorError = MonitorError {
+    code: 110,
+    text: "Specify full spelling of command.",
+};
 /// An unknown command. The wording is not in the sources; the emulator's choice (**L**).
 pub const UNKNOWN_COMMAND: MonitorError = MonitorError {
     code: 100,

@@ -1,9 +1,10 @@
 //! The monitor commands on the emulated controller: the [`Monitor`] a terminal session runs
 //! its command lines, questions and transfers on. Keywords are case-insensitive and may be
-//! abbreviated down to the lengths in [`KEYWORDS`].
+//! abbreviated as the AS keyword table says (the manual's abbreviations).
 
 use fs020n_as::TaskId;
-use fs020n_term::server::{is_abbreviation, split_word};
+use fs020n_as::keywords::{self, Lookup, Role};
+use fs020n_term::server::split_word;
 use fs020n_term::text::{self, MonitorError};
 use fs020n_term::{LoadAnswer, Monitor, Reply, SyntaxError};
 
@@ -18,30 +19,13 @@ pub(crate) enum Pending {
     Delete(String),
 }
 
-/// The commands, each with the fewest letters that name it.
-const KEYWORDS: &[(&str, usize)] = &[
-    ("DIRECTORY", 2),
-    ("LIST", 2),
-    ("TYPE", 2),
-    ("KILL", 2),
-    ("PCKILL", 3),
-    ("DELETE", 2),
-    ("PCEXECUTE", 3),
-    ("PCABORT", 3),
-    ("PCSTATUS", 3),
-    ("STATUS", 2),
-    ("EXECUTE", 2),
-    ("ABORT", 2),
-    ("SWITCH", 2),
-    ("ID", 2),
-    ("ERESET", 2),
-    ("ZPOWER", 4),
-    ("SIGNAL", 3),
-    ("WHERE", 2),
-    ("HERE", 4),
-    ("HOLD", 2),
-    ("CONTINUE", 2),
-    ("MESSAGES", 3),
+/// The monitor commands the emulated terminal plays. A command line's first word is resolved
+/// against the AS keyword table (`fs020n_as::keywords`), with the manual's abbreviations
+/// (`PCEX`, `DI`, `STA`); a word short for two commands is P0110.
+const PLAYED: &[&str] = &[
+    "DIRECTORY", "LIST", "TYPE", "KILL", "PCKILL", "DELETE", "PCEXECUTE", "PCABORT", "PCSTATUS",
+    "STATUS", "EXECUTE", "ABORT", "SWITCH", "ID", "ERESET", "ZPOWER", "SIGNAL", "WHERE", "HERE",
+    "HOLD", "CONTINUE", "MESSAGES",
 ];
 
 /// The controller seen by one session.
@@ -565,12 +549,19 @@ impl Monitor for ControllerMonitor<'_> {
             Some(i) => (&word[..i], word[i..].to_ascii_uppercase()),
             None => (word, String::new()),
         };
-        let upper = word.to_ascii_uppercase();
-        match KEYWORDS
-            .iter()
-            .find(|(k, min)| is_abbreviation(&upper, k, *min))
-        {
-            Some((k, _)) => self.command(k, &options, rest),
+        let lower = word.to_ascii_lowercase();
+        // A monitor command, or a switch set at the prompt (`MESSAGES OFF`).
+        let found = match keywords::lookup(&lower, Role::MONITOR) {
+            Lookup::Unknown => keywords::lookup(&lower, Role::SWITCH),
+            found => found,
+        };
+        let keyword = match found {
+            Lookup::Found(k) => k.name.to_ascii_uppercase(),
+            Lookup::Ambiguous(..) => return Reply::Error(text::P0110_FULL_SPELLING),
+            Lookup::Unknown => return Reply::Error(text::UNKNOWN_COMMAND),
+        };
+        match PLAYED.iter().find(|k| **k == keyword) {
+            Some(k) => self.command(k, &options, rest),
             None => Reply::Error(text::UNKNOWN_COMMAND),
         }
     }
