@@ -9,6 +9,9 @@ use serde::Deserialize;
 
 use crate::error::Ros2Error;
 
+/// How long a reply waits for its reader by default before it is sent anyway.
+pub const DEFAULT_READER_WAIT: Duration = Duration::from_secs(5);
+
 /// How services are mapped onto DDS topics: this must match the ROS 2 middleware of the peers
 /// (a FastDDS-based ROS 2 — the default of Humble and Jazzy — uses `Enhanced`; a ROS 2 with
 /// `RMW_IMPLEMENTATION=rmw_cyclonedds_cpp` uses `Cyclone`).
@@ -186,7 +189,7 @@ impl Default for NodeConfig {
             speed_percent: Some(100.0),
             execution: ExecutionConfig::default(),
             result_retention_s: crate::action::DEFAULT_RESULT_RETENTION.as_secs_f64(),
-            reply_reader_wait_s: crate::reply_gate::DEFAULT_READER_WAIT.as_secs_f64(),
+            reply_reader_wait_s: DEFAULT_READER_WAIT.as_secs_f64(),
             remaps: Vec::new(),
             dds: DdsConfig::default(),
         }

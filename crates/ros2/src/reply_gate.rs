@@ -30,9 +30,6 @@ use tokio::time::Instant;
 
 use crate::config::ServiceMapping;
 
-/// How long a reply waits for its reader by default before it is sent anyway.
-pub const DEFAULT_READER_WAIT: Duration = Duration::from_secs(5);
-
 /// A request's identity as ros2-client hands it over (`RmwRequestId::writer_gid`, 16 bytes):
 /// under `Enhanced` an RTPS GUID (a 12-byte participant prefix and a 4-byte entity id whose
 /// last byte is the entity kind); under `Cyclone` the upper half of the request writer's GUID
@@ -153,6 +150,7 @@ impl<R> ReplyGate<R> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::DEFAULT_READER_WAIT;
     use proptest::prelude::*;
 
     /// A request identity under the Cyclone mapping exactly as ros2-client reassembles it from

@@ -12,7 +12,7 @@ mod memory;
 mod sessions;
 mod tasks;
 
-pub use memory::{Abort, LoadReport, PowerCycle};
+pub use memory::{Abort, MemoryLoad, PowerCycle};
 use memory::{Idle, MonitorState};
 
 use crate::fault::Fault;

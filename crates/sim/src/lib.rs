@@ -49,7 +49,7 @@ mod snapshot;
 mod store;
 mod terminal;
 
-pub use controller::{Abort, Controller, LoadReport, PowerCycle};
+pub use controller::{Abort, Controller, MemoryLoad, PowerCycle};
 pub use fault::{Fault, ReplyFault, MAX_FAULT_BYTES, MAX_FAULT_COUNT, MAX_FAULT_MS};
 /// The terminal protocol the emulator's terminal speaks (its [`fs020n_term::SessionConfig`]
 /// configures [`Emulator::serve_terminal`]).

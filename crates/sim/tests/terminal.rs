@@ -1039,7 +1039,10 @@ fn commands_take_the_manuals_abbreviations_and_nothing_shorter() {
     assert_eq!(t.cmd("TYPE TASK(1001)", false), "1");
     assert!(t.cmd("di", false).contains("autostart.pc"));
     let status = t.cmd("sta", false);
-    assert!(status.contains("Monitor speed") || !status.starts_with('('), "{status}");
+    assert!(
+        status.contains("Monitor speed") || !status.starts_with('('),
+        "{status}"
+    );
     // PCE is shorter than the manual's PCEX: the command is unknown.
     assert!(t.cmd("PCE 1: autostart.pc", false).starts_with("(P0100)"));
 }

@@ -97,9 +97,10 @@ pub(crate) struct MonitorState {
     pub(super) generation: u64,
 }
 
-/// What a `LOAD` did.
+/// What a `LOAD` did to the emulated controller's memory (the terminal client's view of a
+/// load is `fs020n_term::LoadReport`).
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct LoadReport {
+pub struct MemoryLoad {
     /// The programs loaded: name and parameter text, in file order.
     pub loaded: Vec<(String, String)>,
     /// The programs not loaded, each with the monitor's error line.
@@ -262,14 +263,14 @@ impl Controller {
     /// nothing. The programs take effect at once: the interpreter takes them (running tasks go
     /// on; the file's data sections overwrite the variables they name, other variables,
     /// signals and timers keep their values).
-    pub fn load_program_text(&mut self, text: &str, comment_out: bool) -> LoadReport {
+    pub fn load_program_text(&mut self, text: &str, comment_out: bool) -> MemoryLoad {
         self.load_program_bytes(text.as_bytes(), comment_out)
     }
 
     /// [`Controller::load_program_text`] of a file's bytes, in any code page: the memory keeps
     /// the bytes (CR LF as LF), so `SAVE` gives back what was loaded.
-    pub fn load_program_bytes(&mut self, text: &[u8], comment_out: bool) -> LoadReport {
-        let mut report = LoadReport::default();
+    pub fn load_program_bytes(&mut self, text: &[u8], comment_out: bool) -> MemoryLoad {
+        let mut report = MemoryLoad::default();
         if matches!(self.server, Server::Native(_)) {
             report.errors = 1;
             report.notes.push(text::EMULATOR_NATIVE_NO_LOAD.to_owned());

@@ -2,8 +2,8 @@
 //! its command lines, questions and transfers on. Keywords are case-insensitive and may be
 //! abbreviated as the AS keyword table says (the manual's abbreviations).
 
-use fs020n_as::TaskId;
 use fs020n_as::keywords::{self, Lookup, Role};
+use fs020n_as::TaskId;
 use fs020n_term::server::split_word;
 use fs020n_term::text::{self, MonitorError};
 use fs020n_term::{LoadAnswer, Monitor, Reply, SyntaxError};
@@ -23,9 +23,28 @@ pub(crate) enum Pending {
 /// against the AS keyword table (`fs020n_as::keywords`), with the manual's abbreviations
 /// (`PCEX`, `DI`, `STA`); a word short for two commands is P0110.
 const PLAYED: &[&str] = &[
-    "DIRECTORY", "LIST", "TYPE", "KILL", "PCKILL", "DELETE", "PCEXECUTE", "PCABORT", "PCSTATUS",
-    "STATUS", "EXECUTE", "ABORT", "SWITCH", "ID", "ERESET", "ZPOWER", "SIGNAL", "WHERE", "HERE",
-    "HOLD", "CONTINUE", "MESSAGES",
+    "DIRECTORY",
+    "LIST",
+    "TYPE",
+    "KILL",
+    "PCKILL",
+    "DELETE",
+    "PCEXECUTE",
+    "PCABORT",
+    "PCSTATUS",
+    "STATUS",
+    "EXECUTE",
+    "ABORT",
+    "SWITCH",
+    "ID",
+    "ERESET",
+    "ZPOWER",
+    "SIGNAL",
+    "WHERE",
+    "HERE",
+    "HOLD",
+    "CONTINUE",
+    "MESSAGES",
 ];
 
 /// The controller seen by one session.
