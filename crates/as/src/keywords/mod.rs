@@ -5,7 +5,7 @@
 //! whether it may follow `MC`), an editor command, a function, a system switch, a `SYSDATA`
 //! keyword or a structure word — with the argument grammar of each role, the controller
 //! generations that have it, the manual's shortest abbreviation, and which roles the emulator
-//! runs ([`Keyword::runs`]).
+//! runs (its `runs` field).
 //!
 //! **Abbreviations.** Like the controller, a keyword may be shortened to any prefix at least as
 //! long as its abbreviation in the manual's language list (`JM` = `JMOVE`, `PCEX` = `PCEXECUTE`);
