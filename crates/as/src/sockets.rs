@@ -328,6 +328,11 @@ impl SocketTable {
         self.listeners.contains_key(&port)
     }
 
+    /// The ports listening now, in order.
+    pub fn listening_ports(&self) -> Vec<u16> {
+        self.listeners.keys().copied().collect()
+    }
+
     /// `true` when `sock` is a socket the program holds open whose peer is an outside client.
     pub fn is_client(&self, sock: i32) -> bool {
         self.open(sock).is_some_and(|s| s.peer == Peer::Client)
