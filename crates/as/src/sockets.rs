@@ -25,6 +25,14 @@
 //! `UDP_RECVFROM` waits on is lost, as on a network. What `UDP_SENDTO` sends waits in an
 //! outbox ([`SocketTable::udp_take_sent`]) for the driver to deliver.
 //!
+//! **Outgoing connections** (`TCP_CONNECT` to another host, [`SocketTable::connect_remote`])
+//! have an outside peer too: the table records the wish as a [`Dial`] for the driver to make
+//! ([`SocketTable::take_dials`]), the driver reports how it went ([`SocketTable::dial_done`]),
+//! and the program's next poll takes the connected socket (or the error). From then on the
+//! socket is like an outside client's: the driver moves its bytes with
+//! [`SocketTable::client_send`] and [`SocketTable::client_read`]. A connection the program
+//! gave up on ([`SocketTable::abandon_connect`], its timeout passed) is closed.
+//!
 //! Socket ids start at 1 and are never reused. A local connection takes two ids (the
 //! connecting end, then the accepted end); an outside client takes one (the accepted end; the
 //! client names its connection by the same id).
@@ -207,6 +215,29 @@ impl Socket {
 /// The address of a local peer.
 const LOOPBACK: [u8; 4] = [127, 0, 0, 1];
 
+/// An outgoing connection the program asked for (`TCP_CONNECT` to another host), for the
+/// driver to make ([`SocketTable::take_dials`]); `id` is the socket it becomes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Dial {
+    /// The socket id (the driver names the connection by it, as an outside client's).
+    pub id: i32,
+    /// The address the program connects to.
+    pub ip: [u8; 4],
+    /// The port it connects to.
+    pub port: u16,
+}
+
+/// Where an outgoing connection stands until the program takes it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum DialState {
+    /// The driver is connecting.
+    Dialing,
+    /// Connected: the program's next poll takes the socket.
+    Connected,
+    /// Failed with this code: the program's next poll gets it.
+    Failed(i32),
+}
+
 /// The controller's listening ports and sockets (see the module documentation).
 ///
 /// ```
@@ -235,6 +266,10 @@ pub struct SocketTable {
     udp_ports: BTreeMap<u16, VecDeque<Datagram>>,
     /// Datagrams `UDP_SENDTO` sent, not yet taken by the driver.
     udp_sent: VecDeque<Datagram>,
+    /// Outgoing connections the program has not taken yet, by socket id.
+    outgoing: BTreeMap<i32, (Dial, DialState)>,
+    /// Outgoing connections not yet handed to the driver.
+    dials: VecDeque<Dial>,
 }
 
 impl SocketTable {
@@ -249,6 +284,8 @@ impl SocketTable {
             limits,
             udp_ports: BTreeMap::new(),
             udp_sent: VecDeque::new(),
+            outgoing: BTreeMap::new(),
+            dials: VecDeque::new(),
         }
     }
 
@@ -291,6 +328,11 @@ impl SocketTable {
         self.listeners.contains_key(&port)
     }
 
+    /// The ports listening now, in order.
+    pub fn listening_ports(&self) -> Vec<u16> {
+        self.listeners.keys().copied().collect()
+    }
+
     /// `true` when `sock` is a socket the program holds open whose peer is an outside client.
     pub fn is_client(&self, sock: i32) -> bool {
         self.open(sock).is_some_and(|s| s.peer == Peer::Client)
@@ -317,7 +359,9 @@ impl SocketTable {
     /// The sockets the program holds open (accepted or connected, in id order) for
     /// `TCP_STATUS`; connections still waiting to be accepted are not among them.
     pub fn status(&self) -> Vec<SocketStatus> {
-        let waiting = |id: &i32| self.listeners.values().any(|b| b.contains(id));
+        let waiting = |id: &i32| {
+            self.outgoing.contains_key(id) || self.listeners.values().any(|b| b.contains(id))
+        };
         self.sockets
             .iter()
             .filter(|(id, s)| !s.program_closed && !waiting(id))
@@ -400,6 +444,81 @@ impl SocketTable {
         self.sockets
             .insert(b, Socket::new(Peer::Local(a), port, LOOPBACK));
         Some(a)
+    }
+
+    /// `TCP_CONNECT` to another host (`ip:port`, not the program's own listeners): the socket
+    /// id once the driver connected ([`Self::dial_done`]), the driver's error code if it
+    /// failed, `Pending` meanwhile. The first call records a [`Dial`] for the driver; later
+    /// calls for the same address poll it (a second connection to the same address is dialed
+    /// once the first is taken).
+    pub fn connect_remote(&mut self, ip: [u8; 4], port: u16) -> SockPoll<i32> {
+        let found = self
+            .outgoing
+            .iter()
+            .find(|(_, (d, _))| d.ip == ip && d.port == port)
+            .map(|(id, (_, state))| (*id, *state));
+        match found {
+            Some((_, DialState::Dialing)) => SockPoll::Pending,
+            Some((id, DialState::Connected)) => {
+                self.outgoing.remove(&id);
+                self.generation += 1;
+                SockPoll::Ready(Ok(id))
+            }
+            Some((id, DialState::Failed(code))) => {
+                self.outgoing.remove(&id);
+                self.sockets.remove(&id);
+                self.generation += 1;
+                SockPoll::Ready(Err(code))
+            }
+            None => {
+                let id = self.next_id;
+                self.next_id += 1;
+                let dial = Dial { id, ip, port };
+                self.sockets.insert(id, Socket::new(Peer::Client, 0, ip));
+                self.outgoing.insert(id, (dial, DialState::Dialing));
+                self.dials.push_back(dial);
+                self.generation += 1;
+                SockPoll::Pending
+            }
+        }
+    }
+
+    /// Takes the outgoing connections to make, oldest first (the driver connects each and
+    /// reports with [`Self::dial_done`]).
+    pub fn take_dials(&mut self) -> Vec<Dial> {
+        self.dials.drain(..).collect()
+    }
+
+    /// The driver's outcome of dial `id`: connected, or the AS code the program gets
+    /// (e.g. [`TcpCode::Broken`] when refused). `false` when the program no longer waits for
+    /// it (it gave up, or the controller restarted): the driver closes the connection.
+    pub fn dial_done(&mut self, id: i32, result: Result<(), i32>) -> bool {
+        match self.outgoing.get_mut(&id) {
+            Some((_, state @ DialState::Dialing)) => {
+                *state = match result {
+                    Ok(()) => DialState::Connected,
+                    Err(code) => DialState::Failed(code),
+                };
+                self.generation += 1;
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// The program gave up its `TCP_CONNECT` to `ip:port` (its timeout passed): the outgoing
+    /// connection is dropped (closed if the driver had made it).
+    pub fn abandon_connect(&mut self, ip: [u8; 4], port: u16) {
+        let gone: Vec<i32> = (self.outgoing.iter())
+            .filter(|(_, (d, _))| d.ip == ip && d.port == port)
+            .map(|(id, _)| *id)
+            .collect();
+        for id in gone {
+            self.outgoing.remove(&id);
+            self.dials.retain(|d| d.id != id);
+            self.sockets.remove(&id);
+            self.generation += 1;
+        }
     }
 
     /// `TCP_RECV`: the bytes waiting now (at most `max`), `Pending` when none;

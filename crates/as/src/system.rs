@@ -276,6 +276,12 @@ pub trait System {
     /// `TCP_CONNECT` to `ip:port`: a socket id, or `Pending` while connecting.
     fn tcp_connect(&mut self, ip: [u8; 4], port: u16) -> SockPoll<i32>;
 
+    /// The `TCP_CONNECT` to `ip:port` that was `Pending` timed out: the program gave up, a
+    /// connection made later must not stay open. Nothing by default.
+    fn tcp_connect_abandon(&mut self, ip: [u8; 4], port: u16) {
+        let _ = (ip, port);
+    }
+
     /// `TCP_RECV`: the bytes available now (at most `max` bytes), `Pending` when none.
     /// A peer that closed gives −34025; an unknown socket −34057.
     fn tcp_recv(&mut self, sock: i32, max: usize) -> SockPoll<Vec<u8>>;

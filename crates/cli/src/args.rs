@@ -490,6 +490,20 @@ pub(crate) struct SimArgs {
     /// (repeatable); e.g. `--signal 1001=1` for a part-present sensor the program waits for.
     #[arg(long = "signal", value_name = "N=0|1", requires = "as_program")]
     pub signals: Vec<String>,
+    /// The controller's own IP address, as its AS programs see it (a `TCP_CONNECT` or
+    /// `UDP_SENDTO` to it reaches its own ports).
+    #[arg(long, default_value = "192.168.0.2", value_name = "IPV4")]
+    pub address: String,
+    /// A host of the cell: programs reach REAL when they send to CELL, e.g.
+    /// `--host 192.168.0.10=127.0.0.1` for a PC server on this machine (repeatable). An
+    /// address not mapped is not reached: the program gets E4023 and the log says so.
+    #[arg(long = "host", value_name = "CELL=REAL")]
+    pub hosts: Vec<String>,
+    /// Serve the AS program's port PROGRAM at host port HOST (repeatable; 0 picks a free
+    /// one). Every port a program listens on is served at the address of --listen, at the
+    /// same number unless mapped (the first also at --listen).
+    #[arg(long = "port-map", value_name = "PROGRAM=HOST")]
+    pub port_map: Vec<String>,
 }
 
 /// `deploy` arguments (the protocol port is `--robot`).

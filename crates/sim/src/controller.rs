@@ -22,7 +22,8 @@ use crate::machine::{
 use crate::motion::{Arm, MotionPhase};
 use crate::native::{Handled, NativeServer, SessionGone, SessionId};
 use crate::panel::Panel;
-use crate::program::{ClientId, ClientRead, ProgramServer, ServerProgram};
+use crate::network::Network;
+use crate::program::{ClientId, ClientRead, ProgramDial, ProgramServer, ServerProgram};
 use crate::snapshot::{Counters, MotionTaskState, PassInfo, Refused, SessionEnd, Snapshot};
 use crate::store::{ProgramStore, AUTOSTART_SWITCHES};
 
@@ -75,7 +76,12 @@ use crate::store::{ProgramStore, AUTOSTART_SWITCHES};
 ///   [`program_close`](Controller::program_close),
 ///   [`program_listening`](Controller::program_listening),
 ///   [`program_served_port`](Controller::program_served_port),
-///   [`program_io_generation`](Controller::program_io_generation); its state:
+///   [`program_io_generation`](Controller::program_io_generation); its connections to other
+///   hosts, which a network layer makes through the host map ([`Network`]):
+///   [`take_program_dials`](Controller::take_program_dials),
+///   [`program_dialed`](Controller::program_dialed),
+///   [`program_listening_ports`](Controller::program_listening_ports),
+///   [`network`](Controller::network), [`set_network`](Controller::set_network); its state:
 ///   [`runs_program`](Controller::runs_program), [`program_tasks`](Controller::program_tasks),
 ///   [`program_terminal`](Controller::program_terminal),
 ///   [`program_signal`](Controller::program_signal),
@@ -692,5 +698,40 @@ impl Controller {
         if let Some(p) = self.program_mut() {
             p.close(client);
         }
+    }
+
+    /// The controller's address and host map.
+    pub fn network(&self) -> &Network {
+        self.machine.network()
+    }
+
+    /// Replaces the controller's address and host map (from the next `TCP_CONNECT`,
+    /// `UDP_SENDTO` or client on).
+    pub fn set_network(&mut self, network: Network) {
+        self.machine.set_network(network);
+    }
+
+    /// The ports the program listens on now (each served on the host through the port map).
+    pub fn program_listening_ports(&self) -> Vec<u16> {
+        self.program()
+            .map(ProgramServer::listening_ports)
+            .unwrap_or_default()
+    }
+
+    /// Takes the connections the program asked for (`TCP_CONNECT` to mapped hosts) for the
+    /// network layer to make; it reports each with [`Controller::program_dialed`], then moves
+    /// its bytes as a client's ([`Controller::program_send`], [`Controller::program_recv`]).
+    pub fn take_program_dials(&mut self) -> Vec<ProgramDial> {
+        match &mut self.server {
+            Server::Program(p) => p.take_dials(&self.machine),
+            Server::Native(_) | Server::Empty => Vec::new(),
+        }
+    }
+
+    /// How a dial went: connected, or the code the program's `TCP_CONNECT` gets (−34025 when
+    /// the host refused). `false` when the program no longer waits for it: close it.
+    pub fn program_dialed(&mut self, client: ClientId, result: Result<(), i32>) -> bool {
+        self.program_mut()
+            .is_some_and(|p| p.dialed(client, result))
     }
 }

@@ -39,6 +39,7 @@ mod guard;
 mod machine;
 mod motion;
 mod native;
+mod network;
 mod panel;
 #[cfg(feature = "pendant")]
 mod pendant;
@@ -66,15 +67,18 @@ pub use motion::{
     LINEAR_SAMPLE_MM,
 };
 pub use native::{Handled, SessionGone, SessionId};
+pub use network::{Network, PortMap, Route, UnlistedPorts, DEFAULT_ADDRESS};
 pub use panel::Panel;
 #[cfg(feature = "pendant")]
 pub use pendant::{parse_fault, pendant_router, serve_pendant, ApiError, PendantServer};
 pub use program::{
-    ClientId, ClientRead, ProgramError, ServerProgram, CLIENT_BUFFER, MAX_TOOL_SPEED_MM_S,
-    SNAPSHOT_TERMINAL_LINES,
+    ClientId, ClientRead, ProgramDial, ProgramError, ServerProgram, CLIENT_BUFFER,
+    MAX_TOOL_SPEED_MM_S, SNAPSHOT_TERMINAL_LINES,
 };
 pub use run::{run_robot, RunningRobot, SimOptions};
-pub use server::{Emulator, TcpServer, PIPE_CAPACITY, RECEIVE_BUFFER, SEND_BUFFER};
+pub use server::{
+    Emulator, ProgramPorts, TcpServer, PIPE_CAPACITY, RECEIVE_BUFFER, SEND_BUFFER,
+};
 pub use snapshot::{
     CommandInfo, Counters, ErrorInfo, LastEnd, MotionTaskState, MoveKind, PassInfo, PassMotion,
     ProgramInfo, Refused, SessionEnd, SessionInfo, Snapshot,

@@ -83,6 +83,8 @@ pub struct ControllerConfig {
     pub timing: Timing,
     /// Behaviours the manuals leave open (documented choices).
     pub behaviour: Behaviour,
+    /// The controller's address and the hosts its programs reach (`crate::Network`).
+    pub network: crate::network::Network,
 }
 
 /// What happens to a motion already planned by look-ahead when command 5's `BRAKE` stops the
@@ -122,6 +124,7 @@ impl ControllerConfig {
             error: ErrorCode::NONE,
             timing: Timing::default(),
             behaviour: Behaviour::default(),
+            network: crate::network::Network::default(),
             model,
         }
     }
@@ -198,6 +201,8 @@ pub(crate) struct Machine {
     model: RobotModel,
     timing: Timing,
     behaviour: Behaviour,
+    /// The controller's address and host map.
+    network: crate::network::Network,
     /// Time of the latest event.
     now: Duration,
     /// Time up to which motion has been integrated (a multiple of the tick).
@@ -239,6 +244,7 @@ impl Machine {
             model: config.model,
             timing: config.timing,
             behaviour: config.behaviour,
+            network: config.network,
             now: Duration::ZERO,
             tick_time: Duration::ZERO,
             panel,
@@ -255,6 +261,16 @@ impl Machine {
 
     pub(crate) fn now(&self) -> Duration {
         self.now
+    }
+
+    /// The controller's address and host map.
+    pub(crate) fn network(&self) -> &crate::network::Network {
+        &self.network
+    }
+
+    /// Replaces the controller's address and host map (from the next connection on).
+    pub(crate) fn set_network(&mut self, network: crate::network::Network) {
+        self.network = network;
     }
 
     /// Time up to which motion has been integrated (a multiple of the tick).

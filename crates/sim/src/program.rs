@@ -16,7 +16,10 @@
 //! client's bytes.
 //!
 //! Choices (docs/AS.md, "In the emulator"):
-//! - the first port the program listens on is the one served at the robot's address;
+//! - the first port the program listens on is the one served at the robot's address (every
+//!   port it listens on is served too, through the port map: `server/program.rs`);
+//! - a `TCP_CONNECT` to another host is a dial the network layer makes
+//!   ([`crate::Controller::take_program_dials`]), through the host map ([`crate::Network`]);
 //! - `ACCURACY` is the distance of the flange to the target, as for the native server; FINE or
 //!   CP OFF blend only once the motion is done;
 //! - `SPEED … S` on an LMOVE is the motion time at monitor 100 % (scaled by the monitor speed),
@@ -41,8 +44,22 @@ use crate::machine::{Machine, ServerPicture};
 use crate::snapshot::{CommandInfo, MotionTaskState, ProgramInfo, Refused, SessionInfo, Snapshot};
 pub use host::MAX_TOOL_SPEED_MM_S;
 use host::{panel_of, Host, MotionLink};
-use net::{socket_table, UdpPorts};
+use net::{socket_table, Reach, UdpPorts};
 pub use net::{ClientId, ClientRead, CLIENT_BUFFER};
+
+/// An outgoing connection a program asked for (`TCP_CONNECT` to a mapped host), for the
+/// network layer to make ([`crate::Controller::take_program_dials`]): once connected (reported
+/// with [`crate::Controller::program_dialed`]) its bytes move as a client's, named by
+/// `client`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ProgramDial {
+    /// The connection's id (as a client's: [`crate::Controller::program_send`], …).
+    pub client: ClientId,
+    /// The address the program connects to, in the cell.
+    pub cell: std::net::SocketAddrV4,
+    /// The real address the host map gives for it.
+    pub to: std::net::SocketAddr,
+}
 
 /// Terminal lines shown in the snapshot.
 pub const SNAPSHOT_TERMINAL_LINES: usize = 50;
@@ -172,6 +189,8 @@ pub(crate) struct ProgramServer {
     link: MotionLink,
     /// The host's UDP sockets behind `UDP_SENDTO`/`UDP_RECVFROM`.
     udp: UdpPorts,
+    /// Where the program's connections go (and which unmapped addresses were logged).
+    reach: Reach,
     /// The robot task's state after the latest step.
     task: MotionTaskState,
 }
@@ -187,6 +206,7 @@ impl ProgramServer {
             planned: None,
             link: MotionLink::default(),
             udp: UdpPorts::default(),
+            reach: Reach::default(),
             task: MotionTaskState::NotRunning,
         };
         let mut host = Host {
@@ -195,6 +215,7 @@ impl ProgramServer {
             planned: &mut p.planned,
             link: &mut p.link,
             udp: &mut p.udp,
+            reach: &mut p.reach,
         };
         p.interp.start(&mut host);
         p
@@ -210,6 +231,7 @@ impl ProgramServer {
             planned: None,
             link: MotionLink::default(),
             udp: UdpPorts::default(),
+            reach: Reach::default(),
             task: MotionTaskState::NotRunning,
         };
         p.run_until(m, m.now());
@@ -267,6 +289,7 @@ impl ProgramServer {
             planned: &mut self.planned,
             link: &mut self.link,
             udp: &mut self.udp,
+            reach: &mut self.reach,
         };
         self.interp.execute_cycles(program, cycles, &mut host)
     }
@@ -279,6 +302,7 @@ impl ProgramServer {
             planned: &mut self.planned,
             link: &mut self.link,
             udp: &mut self.udp,
+            reach: &mut self.reach,
         };
         self.interp.run_until(&mut host, t);
         let task = self.interp.task_state(TaskId::Robot, &host);
@@ -433,6 +457,39 @@ impl ProgramServer {
     /// The port served at the robot's address (the first the program listened on).
     pub(crate) fn served_port(&self) -> Option<u16> {
         self.net.served_port()
+    }
+
+    /// The ports the program listens on now.
+    pub(crate) fn listening_ports(&self) -> Vec<u16> {
+        self.net.listening_ports()
+    }
+
+    /// Takes the outgoing connections to make (`TCP_CONNECT` to mapped hosts), each with the
+    /// real address the host map gives now; one whose address is no longer mapped fails at
+    /// once (E4023).
+    pub(crate) fn take_dials(&mut self, m: &Machine) -> Vec<ProgramDial> {
+        let mut out = Vec::new();
+        for d in self.net.take_dials() {
+            let cell = std::net::SocketAddrV4::new(d.ip.into(), d.port);
+            match m.network().route(d.ip) {
+                crate::network::Route::Host(real) => out.push(ProgramDial {
+                    client: ClientId(d.id),
+                    cell,
+                    to: std::net::SocketAddr::new(real, d.port),
+                }),
+                _ => {
+                    self.net
+                        .dial_done(d.id, Err(fs020n_as::sockets::TcpCode::Unreachable.code()));
+                }
+            }
+        }
+        out
+    }
+
+    /// The network layer's outcome of a dial; `false` when the program no longer waits for it
+    /// (the layer closes the connection).
+    pub(crate) fn dialed(&mut self, client: ClientId, result: Result<(), i32>) -> bool {
+        self.net.dial_done(client.0, result)
     }
 
     /// `true` while the program listens on `port` (`None`: the served port).

@@ -11,10 +11,11 @@ use fs020n_proto::{ErrorCode, JointsDeg};
 
 use crate::controller::Controller;
 use crate::machine::ControllerConfig;
+use crate::network::{Network, PortMap};
 use crate::panel::Panel;
 #[cfg(feature = "pendant")]
 use crate::pendant::{serve_pendant, PendantServer};
-use crate::server::{Emulator, TcpServer};
+use crate::server::{Emulator, ProgramPorts, TcpServer};
 
 /// Everything needed to start one emulated robot. `SimOptions::default()` is a ready-to-run
 /// FS020N on `127.0.0.1:10050`, monitor speed from the model (10 %), at the model's home pose,
@@ -56,6 +57,12 @@ pub struct SimOptions {
     /// How the terminal plays its controller generation and test hooks (see
     /// [`fs020n_term::SessionConfig::of`]); its `max_piece` is [`SimOptions::terminal_piece`].
     pub terminal_session: fs020n_term::SessionConfig,
+    /// The controller's address and the hosts its programs reach (`--address`, `--host`).
+    pub network: Network,
+    /// Where every port an AS program listens on is served, at the IP address of
+    /// [`SimOptions::listen`] (`--port-map`; default: the same port numbers). The first port
+    /// is also served at [`SimOptions::listen`].
+    pub ports: PortMap,
 }
 
 impl Default for SimOptions {
@@ -76,6 +83,8 @@ impl Default for SimOptions {
             terminal: None,
             terminal_piece: None,
             terminal_session: fs020n_term::SessionConfig::default(),
+            network: Network::default(),
+            ports: PortMap::default(),
         }
     }
 }
@@ -96,6 +105,18 @@ impl SimOptions {
     /// Serves the controller's AS monitor terminal on `addr`.
     pub fn terminal(mut self, addr: SocketAddr) -> Self {
         self.terminal = Some(addr);
+        self
+    }
+
+    /// Sets the controller's address and host map.
+    pub fn network(mut self, network: Network) -> Self {
+        self.network = network;
+        self
+    }
+
+    /// Sets where the AS program's listening ports are served.
+    pub fn ports(mut self, ports: PortMap) -> Self {
+        self.ports = ports;
         self
     }
 
@@ -164,6 +185,7 @@ impl SimOptions {
             (None, None) => RobotModel::fs020n(),
         };
         let mut config = ControllerConfig::new(model);
+        config.network = self.network.clone();
         config.panel = self.panel;
         config.error = self.error;
         if let Some(p) = self.monitor_speed_percent {
@@ -199,6 +221,8 @@ impl SimOptions {
 pub struct RunningRobot {
     emulator: Emulator,
     robot: TcpServer,
+    /// Every port an AS program listens on (none for the native server).
+    ports: Option<ProgramPorts>,
     terminal: Option<TcpServer>,
     #[cfg(feature = "pendant")]
     pendant: Option<PendantServer>,
@@ -231,6 +255,9 @@ impl RunningRobot {
     /// Stops both servers (an open session is dropped).
     pub fn stop(self) {
         self.robot.stop();
+        if let Some(p) = self.ports {
+            p.stop();
+        }
         if let Some(t) = self.terminal {
             t.stop();
         }
@@ -341,6 +368,14 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
         },
         None => None,
     };
+    // An AS program's every port, beside the first at the robot address.
+    let ports = (opts.bare || opts.program.is_some()).then(|| {
+        emulator.serve_program_ports(
+            opts.listen.ip(),
+            opts.ports.clone(),
+            Some(robot.local_addr()),
+        )
+    });
     if !robot.local_addr().ip().is_loopback() {
         tracing::warn!(
             robot = %robot.local_addr(),
@@ -350,10 +385,11 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
     let running = RunningRobot {
         emulator,
         robot,
+        ports,
         terminal,
         #[cfg(feature = "pendant")]
         pendant,
     };
-    tracing::info!(robot = %running.robot_addr(), pendant = ?running.pendant_addr(), terminal = ?running.terminal_addr(), "emulated robot running");
+    tracing::info!(robot = %running.robot_addr(), pendant = ?running.pendant_addr(), terminal = ?running.terminal_addr(), address = %opts.network.address, hosts = ?opts.network.hosts, "emulated robot running");
     Ok(running)
 }

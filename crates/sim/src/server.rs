@@ -1,6 +1,7 @@
 //! The emulator on a tokio runtime: the controller advanced by the runtime's clock, served over
 //! TCP (with the controller's listen windows) or over in-memory streams; an AS program's
-//! clients are served by `server/program.rs`.
+//! clients, every port it listens on and its connections to other hosts are served by
+//! `server/program.rs`.
 //!
 //! Under `tokio::time::pause()` (or `#[tokio::test(start_paused = true)]`) the runtime's clock is
 //! virtual: the emulator and a client on in-memory streams then run thousands of times faster
@@ -26,6 +27,8 @@ use crate::snapshot::{SessionEnd, Snapshot};
 
 mod program;
 
+pub use program::ProgramPorts;
+
 /// Size of the in-memory pipe of [`Emulator::connect`] in each direction, bytes (small, like a
 /// socket buffer that fills when the peer stops reading).
 pub const PIPE_CAPACITY: usize = 4096;
@@ -47,6 +50,8 @@ struct Inner {
     epoch: Instant,
     /// Bumped whenever a `with` call changes the session or the reading pause.
     changed: watch::Sender<u64>,
+    /// Where each port a program listens on is served on the host (`server/program.rs`).
+    ports: Mutex<std::collections::BTreeMap<u16, SocketAddr>>,
 }
 
 /// A running emulated controller, shared by its network tasks and its observers. Cheap to
@@ -73,6 +78,7 @@ impl Emulator {
                 controller: Mutex::new(Controller::new(config)),
                 epoch: Instant::now(),
                 changed,
+                ports: Mutex::default(),
             }),
         }
     }
@@ -86,6 +92,7 @@ impl Emulator {
                 controller: Mutex::new(controller),
                 epoch: Instant::now(),
                 changed,
+                ports: Mutex::default(),
             }),
         }
     }

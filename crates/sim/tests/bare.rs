@@ -20,6 +20,7 @@ fn loopback() -> SocketAddr {
 async fn start() -> RunningRobot {
     run_robot(
         SimOptions::default()
+            .ports(fs020n_sim::PortMap::free())
             .listen(loopback())
             .terminal(loopback())
             .bare(),
@@ -171,6 +172,7 @@ async fn output_in_small_pieces_still_serves_a_load() {
     let robot = run_robot(SimOptions {
         terminal_piece: Some(3),
         ..SimOptions::default()
+            .ports(fs020n_sim::PortMap::free())
             .listen(loopback())
             .terminal(loopback())
             .bare()

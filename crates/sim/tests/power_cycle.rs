@@ -35,6 +35,7 @@ async fn post_power_cycle_restarts_the_controller_and_runs_autostart_pc() {
     let loopback = SocketAddr::from(([127, 0, 0, 1], 0));
     let robot = run_robot(
         SimOptions::default()
+            .ports(fs020n_sim::PortMap::free())
             .listen(loopback)
             .pendant(loopback)
             .bare(),

@@ -558,6 +558,7 @@ impl Interpreter {
                         None
                     }
                     SockPoll::Pending if now >= deadline => {
+                        sys.tcp_connect_abandon(ip, port);
                         self.finish_ret(i, TcpCode::Timeout.code() as f32, sys)?;
                         None
                     }

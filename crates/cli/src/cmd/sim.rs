@@ -84,6 +84,8 @@ pub(crate) fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOp
         load_questions: args.terminal_load_questions.clone(),
         ..fs020n_term::SessionConfig::of(generation)
     };
+    let network = network(args)?;
+    let ports = port_map(args)?;
     let mut out = Vec::new();
     let robots = crate::fleet::expand(&listen, &pendant, args.robots)?;
     if terminal.is_some() && robots.len() > 1 {
@@ -108,9 +110,38 @@ pub(crate) fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOp
             terminal,
             terminal_piece: args.terminal_piece,
             terminal_session: terminal_session.clone(),
+            network: network.clone(),
+            ports: ports.clone(),
         });
     }
     Ok(out)
+}
+
+/// `--address` and `--host`: the controller's address and the hosts its programs reach.
+fn network(args: &SimArgs) -> CliResult<fs020n_sim::Network> {
+    let a = &args.address;
+    let mut network = fs020n_sim::Network::default().address(a.parse().map_err(|e| {
+        CliError::input(format!(
+            "--address {a:?}: {e} (expected the controller's IPv4 address, e.g. 192.168.0.2)"
+        ))
+    })?);
+    for h in &args.hosts {
+        let (cell, real) =
+            fs020n_sim::Network::parse_host(h).map_err(|e| CliError::input(format!("--host {e}")))?;
+        network.hosts.insert(cell, real);
+    }
+    Ok(network)
+}
+
+/// `--port-map`: where the program's listening ports are served.
+fn port_map(args: &SimArgs) -> CliResult<fs020n_sim::PortMap> {
+    let mut map = fs020n_sim::PortMap::same();
+    for p in &args.port_map {
+        let (port, host) = fs020n_sim::PortMap::parse_entry(p)
+            .map_err(|e| CliError::input(format!("--port-map {e}")))?;
+        map.ports.insert(port, host);
+    }
+    Ok(map)
 }
 
 /// Loads `--as-program` once before anything starts: a program that does not load is refused

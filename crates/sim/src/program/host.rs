@@ -4,7 +4,9 @@
 //! `ERROR` and `MC …` read and operate its panel, the `UDP_…` instructions real UDP sockets
 //! ([`UdpPorts`]), and the
 //! `TCP_…` instructions use the program's [`SocketTable`] (the emulator keeps only its fault
-//! hooks: reply faults, paused reading, counting sessions).
+//! hooks: reply faults, paused reading, counting sessions). A `TCP_CONNECT` or `UDP_SENDTO`
+//! goes where the controller's network says ([`crate::Network::route`]): its own ports, a
+//! mapped host (a dial the network layer makes), or nowhere (E4023, logged).
 
 use std::time::Duration;
 
@@ -18,9 +20,10 @@ use fs020n_as::{
 use fs020n_kin::JointMove;
 use fs020n_proto::{ErrorCode, JointsDeg};
 
-use super::net::{delivery_of, UdpPorts};
+use super::net::{delivery_of, Reach, UdpPorts};
 use crate::machine::{Machine, OnTick, PlannedAfterBrake};
 use crate::motion::{CircularPath, CircularPlanError, HybridPath, LinearPath, Motion, Shape};
+use crate::network::Route;
 
 /// Tool speed that percent and mm/s speeds of an `LMOVE` refer to, mm/s (an assumption: the
 /// FS020N's maximum TCP speed is not published; the protocol-1040 server uses time-based
@@ -79,6 +82,7 @@ pub(crate) struct Host<'a> {
     pub(crate) planned: &'a mut Option<(MotionRequest, JointsDeg)>,
     pub(crate) link: &'a mut MotionLink,
     pub(crate) udp: &'a mut UdpPorts,
+    pub(crate) reach: &'a mut Reach,
 }
 
 impl Host<'_> {
@@ -366,13 +370,21 @@ impl System for Host<'_> {
         accepted
     }
 
-    fn tcp_connect(&mut self, _ip: [u8; 4], port: u16) -> SockPoll<i32> {
-        // The program's own listeners (a controller talking to itself); nothing else is
-        // reachable from the emulator.
-        match self.net.connect_local(port) {
-            Some(id) => SockPoll::Ready(Ok(id)),
-            None => SockPoll::Ready(Err(TcpCode::Broken.code())),
+    fn tcp_connect(&mut self, ip: [u8; 4], port: u16) -> SockPoll<i32> {
+        match self.reach.route(self.m.network(), "TCP_CONNECT", ip, port) {
+            // The program's own listeners (a controller talking to itself).
+            Ok(Route::Own) => match self.net.connect_local(port) {
+                Some(id) => SockPoll::Ready(Ok(id)),
+                None => SockPoll::Ready(Err(TcpCode::Broken.code())),
+            },
+            // A real host: the network layer dials it.
+            Ok(Route::Host(_)) => self.net.connect_remote(ip, port),
+            Ok(Route::Unmapped) | Err(_) => SockPoll::Ready(Err(TcpCode::Unreachable.code())),
         }
+    }
+
+    fn tcp_connect_abandon(&mut self, ip: [u8; 4], port: u16) {
+        self.net.abandon_connect(ip, port);
     }
 
     fn tcp_recv(&mut self, sock: i32, max: usize) -> SockPoll<Vec<u8>> {
@@ -405,7 +417,7 @@ impl System for Host<'_> {
     }
 
     fn udp_recv(&mut self, port: u16) -> SockPoll<Datagram> {
-        self.udp.pump(self.net, port);
+        self.udp.pump(self.net, port, self.m.network());
         self.net.udp_recv(port)
     }
 
@@ -414,7 +426,13 @@ impl System for Host<'_> {
     }
 
     fn udp_send(&mut self, ip: [u8; 4], port: u16, data: &[u8]) -> i32 {
-        self.udp.send(ip, port, data)
+        let to = match self.reach.route(self.m.network(), "UDP_SENDTO", ip, port) {
+            Ok(Route::Own) => self.udp.own(),
+            Ok(Route::Host(real)) => real,
+            Ok(Route::Unmapped) => return TcpCode::Unreachable.code(),
+            Err(code) => return code,
+        };
+        self.udp.send(std::net::SocketAddr::new(to, port), data)
     }
 
     fn terminal(&mut self, task: TaskId, line: &str) {

@@ -1,11 +1,12 @@
 //! The program's TCP/IP stack as the emulator uses it: the controller's socket table
 //! ([`fs020n_as::sockets::SocketTable`], shared with the interpreter's test system) with the
 //! emulator's buffer sizes, the id a client of the controller is known by, the mapping
-//! from a reply fault to how the table delivers a reply, and the real UDP sockets behind
-//! `UDP_SENDTO`/`UDP_RECVFROM` ([`UdpPorts`]).
+//! from a reply fault to how the table delivers a reply, the real UDP sockets behind
+//! `UDP_SENDTO`/`UDP_RECVFROM` ([`UdpPorts`]), and the program's view of the network
+//! ([`Reach`]: where an address goes, and the log line of an address nothing answers for).
 
-use std::collections::BTreeMap;
-use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, UdpSocket};
+use std::collections::{BTreeMap, BTreeSet};
+use std::net::{IpAddr, Ipv4Addr, SocketAddr, SocketAddrV4, UdpSocket};
 use std::sync::Arc;
 
 use fs020n_as::sockets::{Delivery, SocketLimits, SocketTable, TcpCode};
@@ -15,6 +16,7 @@ use serde::Serialize;
 pub use fs020n_as::sockets::ClientRead;
 
 use crate::fault::ReplyFault;
+use crate::network::{Network, Route};
 
 /// Bytes a client's outgoing queue holds before the program's `TCP_SEND` waits (like a socket
 /// send buffer: a client that stops reading makes the program's send time out).
@@ -76,6 +78,16 @@ impl UdpPorts {
         self.address
     }
 
+    /// Where the controller's own UDP ports are on the host (its bind address; loopback when
+    /// it binds every address).
+    pub(crate) fn own(&self) -> IpAddr {
+        if self.address.is_unspecified() {
+            IpAddr::V4(Ipv4Addr::LOCALHOST)
+        } else {
+            IpAddr::V4(self.address)
+        }
+    }
+
     /// `UDP_RECVFROM` opens `port`: the table's port and a host socket on it; −34055 when the
     /// table has it open, −34019 when the host refuses the socket (the port is taken).
     pub(crate) fn open(&mut self, net: &mut SocketTable, port: u16) -> i32 {
@@ -99,8 +111,9 @@ impl UdpPorts {
     }
 
     /// Moves the datagrams waiting on `port`'s host socket into the table (IPv4 senders only;
-    /// at most [`MAX_TRANSFER`] bytes of each are kept).
-    pub(crate) fn pump(&mut self, net: &mut SocketTable, port: u16) {
+    /// at most [`MAX_TRANSFER`] bytes of each are kept); a sender from a mapped host appears
+    /// at its cell address.
+    pub(crate) fn pump(&mut self, net: &mut SocketTable, port: u16, network: &Network) {
         let Some(s) = self.open.get(&port) else {
             return;
         };
@@ -113,7 +126,7 @@ impl UdpPorts {
                     net.udp_deliver(
                         port,
                         Datagram {
-                            ip: from.ip().octets(),
+                            ip: network.cell_address_of(IpAddr::V4(*from.ip())),
                             port: from.port(),
                             bytes,
                         },
@@ -140,11 +153,14 @@ impl UdpPorts {
         self.open.clear();
     }
 
-    /// `UDP_SENDTO`: one datagram from a socket of its own; −34021 when the host refuses it.
-    pub(crate) fn send(&self, ip: [u8; 4], port: u16, data: &[u8]) -> i32 {
-        let to = SocketAddrV4::new(Ipv4Addr::from(ip), port);
-        let sent =
-            UdpSocket::bind(SocketAddrV4::new(self.address, 0)).and_then(|s| s.send_to(data, to));
+    /// `UDP_SENDTO` to `to` (a real address; the controller's own ports are at
+    /// [`Self::own`]): one datagram from a socket of its own; −34021 when the host refuses it.
+    pub(crate) fn send(&self, to: SocketAddr, data: &[u8]) -> i32 {
+        let from: SocketAddr = match to {
+            SocketAddr::V4(_) => SocketAddrV4::new(self.address, 0).into(),
+            SocketAddr::V6(_) => (std::net::Ipv6Addr::UNSPECIFIED, 0).into(),
+        };
+        let sent = UdpSocket::bind(from).and_then(|s| s.send_to(data, to));
         match sent {
             Ok(_) => 0,
             Err(e) => {
@@ -152,5 +168,45 @@ impl UdpPorts {
                 TcpCode::Communication.code()
             }
         }
+    }
+}
+
+/// The program's view of the network: where an address it sends to goes ([`Network::route`])
+/// and, for an address the host map does not name, E4023 with a log line that says how to map
+/// it (a warning the first time for each address, then at debug level: a program retrying
+/// every second does not flood the log).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Reach {
+    warned: BTreeSet<[u8; 4]>,
+}
+
+impl Reach {
+    /// Where `what` (`TCP_CONNECT`, `UDP_SENDTO`) to `ip:port` goes; `Err` with the program's
+    /// code (−34023, "Cannot reach the Host") when the address is unmapped.
+    pub(crate) fn route(
+        &mut self,
+        network: &Network,
+        what: &str,
+        ip: [u8; 4],
+        port: u16,
+    ) -> Result<Route, i32> {
+        let route = network.route(ip);
+        if route != Route::Unmapped {
+            return Ok(route);
+        }
+        let to = SocketAddrV4::new(Ipv4Addr::from(ip), port);
+        let own = network.address;
+        let cell = Ipv4Addr::from(ip);
+        if self.warned.insert(ip) {
+            tracing::warn!(
+                %to,
+                "{what} to {to}: no host is mapped at {cell} (the controller is {own}); the \
+                 program gets E4023 (cannot reach the host). Map it to a real host, e.g. \
+                 --host {cell}=127.0.0.1 (Python: hosts={{\"{cell}\": \"127.0.0.1\"}})"
+            );
+        } else {
+            tracing::debug!(%to, "{what}: unmapped address, E4023");
+        }
+        Err(TcpCode::Unreachable.code())
     }
 }

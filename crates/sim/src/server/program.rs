@@ -1,13 +1,47 @@
-//! The emulator serving an AS program's clients: a background task that advances the program
-//! at its own events, the served port (listening exactly while the program does) and the pump
-//! that moves a connection's bytes to and from the program's socket.
+//! The emulator serving an AS program's network: a background task that advances the program
+//! at its own events, the served port (listening exactly while the program does), every other
+//! port it listens on (through the port map), its connections to other hosts (`TCP_CONNECT`
+//! through the host map: the dialer) and the pump that moves a connection's bytes to and from
+//! the program's socket.
 
+use std::collections::BTreeMap;
+use std::net::{IpAddr, SocketAddr};
 use std::time::Duration;
+
+use fs020n_as::sockets::TcpCode;
+use tokio::task::JoinHandle;
 
 use super::{Emulator, TcpServer, WeakEmulator};
 use crate::controller::Controller;
 use crate::machine::ControllerConfig;
-use crate::program::{ClientId, ServerProgram};
+use crate::network::PortMap;
+use crate::program::{ClientId, ProgramDial, ServerProgram};
+
+/// The program's ports served on the host ([`Emulator::serve_program_ports`]). Dropping it
+/// does not stop them; call [`ProgramPorts::stop`].
+#[derive(Debug)]
+pub struct ProgramPorts {
+    task: JoinHandle<()>,
+}
+
+impl ProgramPorts {
+    /// Stops serving every port (open connections are dropped).
+    pub fn stop(self) {
+        self.task.abort();
+    }
+}
+
+/// Tasks aborted with their owner.
+#[derive(Default)]
+struct Children(Vec<JoinHandle<()>>);
+
+impl Drop for Children {
+    fn drop(&mut self) {
+        for t in &self.0 {
+            t.abort();
+        }
+    }
+}
 
 impl Emulator {
     /// An emulator whose controller runs `program` (see [`Controller::with_program`]), started
@@ -30,8 +64,112 @@ impl Emulator {
         let emu = Emulator::from_controller(controller);
         if let Ok(rt) = tokio::runtime::Handle::try_current() {
             rt.spawn(drive(emu.downgrade()));
+            rt.spawn(dialer(emu.downgrade()));
         }
         emu
+    }
+
+    /// Serves every port the program listens on at `bind` (127.0.0.1 by default), each at the
+    /// host port `map` gives (the same number unless mapped; 0: a free one), until
+    /// [`ProgramPorts::stop`]. Each listens exactly while the program does; a port whose host
+    /// address is `except` (the robot address [`Emulator::serve_program_tcp`] serves) is left
+    /// to it. Where each is served: [`Emulator::program_ports`].
+    pub fn serve_program_ports(
+        &self,
+        bind: IpAddr,
+        map: PortMap,
+        except: Option<SocketAddr>,
+    ) -> ProgramPorts {
+        let this = self.clone();
+        ProgramPorts {
+            task: tokio::spawn(async move { this.ports_loop(bind, map, except).await }),
+        }
+    }
+
+    /// Where each port the program has listened on is served on the host (program port →
+    /// host address), for the ports [`Emulator::serve_program_ports`] serves.
+    pub fn program_ports(&self) -> BTreeMap<u16, SocketAddr> {
+        self.inner
+            .ports
+            .lock()
+            .map(|p| p.clone())
+            .unwrap_or_else(|poisoned| poisoned.into_inner().clone())
+    }
+
+    /// Waits until the program's `port` is served on the host (at most `timeout`): its host
+    /// address, `None` when it is not served by then (the program does not listen on it, or
+    /// its host port cannot be bound: see the log).
+    pub async fn wait_program_port(&self, port: u16, timeout: Duration) -> Option<SocketAddr> {
+        let mut changes = self.changes();
+        let until = tokio::time::Instant::now() + timeout;
+        loop {
+            if let Some(a) = self.program_ports().get(&port) {
+                return Some(*a);
+            }
+            tokio::select! {
+                r = changes.changed() => if r.is_err() { return None },
+                _ = tokio::time::sleep_until(until) => return self.program_ports().get(&port).copied(),
+            }
+        }
+    }
+
+    fn record_port(&self, port: u16, addr: SocketAddr) {
+        if let Ok(mut p) = self.inner.ports.lock() {
+            p.insert(port, addr);
+        }
+        self.inner.changed.send_modify(|g| *g = g.wrapping_add(1));
+    }
+
+    async fn ports_loop(self, bind: IpAddr, map: PortMap, except: Option<SocketAddr>) {
+        let mut changes = self.changes();
+        let mut seen = std::collections::BTreeSet::new();
+        let mut children = Children::default();
+        loop {
+            let (listening, served) =
+                self.with(|c| (c.program_listening_ports(), c.program_served_port()));
+            for port in listening {
+                if !seen.insert(port) {
+                    continue;
+                }
+                let addr = SocketAddr::new(bind, map.host_port(port));
+                if Some(addr) == except {
+                    if served == Some(port) {
+                        // The robot address serves it already.
+                        self.record_port(port, addr);
+                    } else {
+                        tracing::warn!(
+                            port,
+                            host = %addr,
+                            "the AS program listens on port {port} but {addr} serves its first \
+                             port; map it to another: --port-map {port}=PORT"
+                        );
+                    }
+                    continue;
+                }
+                match super::bind_robot_port(addr).and_then(|l| Ok((l.local_addr()?, l))) {
+                    Ok((local, listener)) => {
+                        tracing::info!(port, host = %local, "the AS program's port is served");
+                        self.record_port(port, local);
+                        let this = self.clone();
+                        children.0.push(tokio::spawn(async move {
+                            this.program_accept_loop(local, Some(listener), Some(port))
+                                .await;
+                        }));
+                    }
+                    Err(e) => tracing::warn!(
+                        port,
+                        host = %addr,
+                        error = %e,
+                        "the AS program listens on port {port} but the host cannot serve it at \
+                         {addr} (is it taken?); map it to another port: --port-map {port}=PORT \
+                         (Python: port_map={{{port}: PORT}}; 0 picks a free one)"
+                    ),
+                }
+            }
+            if changes.changed().await.is_err() {
+                return;
+            }
+        }
     }
 
     /// Serves the program's port on `addr` (e.g. `127.0.0.1:10050`; port 0 picks one): the
@@ -48,7 +186,8 @@ impl Emulator {
         // controller refuses connections from the start).
         let listener = self.with(|c| c.program_listening(None)).then_some(listener);
         let this = self.clone();
-        let task = tokio::spawn(async move { this.program_accept_loop(local, listener).await });
+        let task =
+            tokio::spawn(async move { this.program_accept_loop(local, listener, None).await });
         Ok(TcpServer::new(local, task))
     }
 
@@ -63,14 +202,16 @@ impl Emulator {
         Ok(client)
     }
 
+    /// Serves the program's `port` (`None`: the served port) at `addr` while it listens.
     async fn program_accept_loop(
         self,
         addr: std::net::SocketAddr,
         mut listener: Option<tokio::net::TcpListener>,
+        port: Option<u16>,
     ) {
         let mut changes = self.changes();
         loop {
-            if !self.with(|c| c.program_listening(None)) {
+            if !self.with(|c| c.program_listening(port)) {
                 // Not listening: connections are refused.
                 listener = None;
                 if changes.changed().await.is_err() {
@@ -92,11 +233,12 @@ impl Emulator {
             tokio::select! {
                 accepted = l.accept() => {
                     if let Ok((stream, peer)) = accepted {
-                        let ip = match peer.ip() {
-                            std::net::IpAddr::V4(v4) => v4.octets(),
-                            std::net::IpAddr::V6(v6) => v6.to_ipv4_mapped().map_or([0; 4], |v| v.octets()),
-                        };
-                        match self.with(|c| c.program_connect(None, ip)) {
+                        // A client from a mapped host appears at its cell address.
+                        let connected = self.with(|c| {
+                            let ip = c.network().cell_address_of(peer.ip());
+                            c.program_connect(port, ip)
+                        });
+                        match connected {
                             Ok(id) => {
                                 let _ = stream.set_nodelay(true);
                                 tracing::info!(%peer, client = id.0, "client connected to the AS program");
@@ -137,6 +279,58 @@ async fn drive(weak: WeakEmulator) {
         tokio::select! {
             _ = tokio::time::sleep_until(at) => {}
             _ = changes.changed() => {}
+        }
+    }
+}
+
+/// Makes the program's connections to other hosts (`TCP_CONNECT` through the host map) while
+/// the emulator lives.
+async fn dialer(weak: WeakEmulator) {
+    loop {
+        let Some(emu) = weak.upgrade() else { return };
+        let mut changes = emu.changes();
+        for d in emu.with(|c| c.take_program_dials()) {
+            tokio::spawn(dial(emu.clone(), d));
+        }
+        drop(emu);
+        tokio::select! {
+            r = changes.changed() => if r.is_err() { return },
+            // Look again now and then to notice that the emulator is gone.
+            _ = tokio::time::sleep(Duration::from_secs(1)) => {}
+        }
+    }
+}
+
+/// Connects one dial to its real host, reports the outcome to the program and pumps its bytes.
+/// Refused: −34025 (connection failed); any other failure: −34023 (cannot reach the host).
+/// Bounded by the program's own timeout: a connection made after it gave up is closed.
+async fn dial(emu: Emulator, d: ProgramDial) {
+    tracing::info!(cell = %d.cell, host = %d.to, "TCP_CONNECT: connecting to the mapped host");
+    match tokio::net::TcpStream::connect(d.to).await {
+        Ok(stream) => {
+            if emu.with(|c| c.program_dialed(d.client, Ok(()))) {
+                let _ = stream.set_nodelay(true);
+                tracing::info!(cell = %d.cell, host = %d.to, socket = d.client.0, "TCP_CONNECT: connected");
+                pump(emu, d.client, stream).await;
+            } else {
+                tracing::info!(cell = %d.cell, "TCP_CONNECT: connected after the program gave up; closed");
+            }
+        }
+        Err(e) => {
+            let code = if e.kind() == std::io::ErrorKind::ConnectionRefused {
+                TcpCode::Broken
+            } else {
+                TcpCode::Unreachable
+            };
+            tracing::warn!(
+                cell = %d.cell,
+                host = %d.to,
+                error = %e,
+                "TCP_CONNECT: the mapped host does not accept the connection (is its server \
+                 running?); the program gets {}",
+                code.code()
+            );
+            emu.with(|c| c.program_dialed(d.client, Err(code.code())));
         }
     }
 }
