@@ -127,7 +127,7 @@ pub(crate) enum Cmd {
         count: u32,
     },
     /// Run the controller emulator in the foreground until Ctrl-C.
-    Sim(SimArgs),
+    Sim(Box<SimArgs>),
     /// Hold the one session with a controller and share it: web page, protocol-1040 face,
     /// safety fence, Foxglove bridge, recording (docs/HUB.md).
     Hub(HubArgs),

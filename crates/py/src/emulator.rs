@@ -1,11 +1,13 @@
 //! `fs020n.Emulator`: an emulated FS020N controller in this process, on real time, serving
 //! protocol 1040 on a free loopback port.
 
+use std::collections::HashMap;
 use std::net::SocketAddr;
 use std::sync::Mutex;
+use std::time::Duration;
 
 use fs020n_proto::{ErrorCode, JointsDeg};
-use fs020n_sim::{run_robot, Panel, PanelChange, RunningRobot, SimOptions};
+use fs020n_sim::{run_robot, Network, Panel, PanelChange, PortMap, RunningRobot, SimOptions};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
@@ -63,6 +65,38 @@ fn parse_code(py: Python<'_>, code: &Bound<'_, PyAny>) -> PyResult<ErrorCode> {
     Ok(parsed)
 }
 
+/// The controller's address and host map from the constructor's arguments.
+fn network(address: Option<String>, hosts: Option<HashMap<String, String>>) -> PyResult<Network> {
+    let mut n = Network::default();
+    if let Some(a) = address {
+        n.address = a.parse().map_err(|e| {
+            PyValueError::new_err(format!(
+                "address {a:?}: {e} (the controller's IPv4 address, e.g. \"192.168.0.2\")"
+            ))
+        })?;
+    }
+    for (cell, real) in hosts.unwrap_or_default() {
+        let (cell, real) = Network::parse_host(&format!("{cell}={real}"))
+            .map_err(|e| PyValueError::new_err(format!("hosts: {e}")))?;
+        n.hosts.insert(cell, real);
+    }
+    Ok(n)
+}
+
+/// The port map from the constructor's argument (program port → host port, 0: a free one).
+fn ports(port_map: Option<HashMap<u16, u16>>) -> PyResult<PortMap> {
+    let mut map = PortMap::same();
+    for (p, h) in port_map.unwrap_or_default() {
+        if p == 0 {
+            return Err(PyValueError::new_err(
+                "port_map: a program's port is 1 to 65535 (the host port may be 0: a free one)",
+            ));
+        }
+        map.ports.insert(p, h);
+    }
+    Ok(map)
+}
+
 impl Emulator {
     fn with<R>(&self, f: impl FnOnce(&mut fs020n_sim::Controller) -> R) -> R {
         self.emulator.with(f)
@@ -81,8 +115,14 @@ impl Emulator {
     /// (your own server program, in any code page) instead of the native server, as
     /// `fs020n sim --as-program`; `stubs=["GUNON"]` declares instructions no-ops for it (and
     /// for every program loaded into a bare controller).
+    ///
+    /// The network of an AS program: `address="192.168.0.2"` is the controller's own address
+    /// (default 192.168.0.2); `hosts={"192.168.0.10": "127.0.0.1"}` maps the cell's hosts to
+    /// real ones (a `TCP_CONNECT`/`UDP_SENDTO` to an address not mapped gets E4023); every port
+    /// the program listens on is served on 127.0.0.1 at the same number, or where
+    /// `port_map={9111: 19111}` says (0: a free port; see `program_ports`, `wait_port`).
     #[new]
-    #[pyo3(signature = (*, port=0, joints=None, monitor_speed=None, power=true, run=true, repeat=true, teach_lock=false, error=None, pendant=false, terminal=false, bare=false, as_program=None, stubs=Vec::new()))]
+    #[pyo3(signature = (*, port=0, joints=None, monitor_speed=None, power=true, run=true, repeat=true, teach_lock=false, error=None, pendant=false, terminal=false, bare=false, as_program=None, stubs=Vec::new(), address=None, hosts=None, port_map=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -99,6 +139,9 @@ impl Emulator {
         bare: bool,
         as_program: Option<std::path::PathBuf>,
         stubs: Vec<String>,
+        address: Option<String>,
+        hosts: Option<HashMap<String, String>>,
+        port_map: Option<HashMap<u16, u16>>,
     ) -> PyResult<Emulator> {
         let loopback = |port| SocketAddr::from(([127, 0, 0, 1], port));
         let mut opts = SimOptions::default().listen(loopback(port)).panel(Panel {
@@ -135,6 +178,9 @@ impl Emulator {
         if let Some(code) = error {
             opts = opts.error(parse_code(py, code)?);
         }
+        opts = opts
+            .network(network(address, hosts)?)
+            .ports(ports(port_map)?);
         let running = block(py, run_robot(opts), OnInterrupt::Nothing)?
             .map_err(|e| base_error(py, &format!("cannot start the emulator: {e}")))?;
         Ok(Emulator {
@@ -156,6 +202,54 @@ impl Emulator {
     #[getter]
     fn port(&self) -> u16 {
         self.addr.port()
+    }
+
+    /// Where each port the AS program has listened on is served: `{program_port: host_port}`
+    /// (empty for the native server).
+    #[getter]
+    fn program_ports(&self) -> HashMap<u16, u16> {
+        (self.emulator.program_ports().into_iter())
+            .map(|(p, a)| (p, a.port()))
+            .collect()
+    }
+
+    /// Waits until the AS program listens on `port` and it is served (at most `timeout`
+    /// seconds): the host port to connect to on 127.0.0.1. `TimeoutError` when it is not
+    /// served by then (the program does not listen there, or the host port is taken: map it
+    /// with `port_map`).
+    #[pyo3(signature = (port, timeout=5.0))]
+    fn wait_port(&self, py: Python<'_>, port: u16, timeout: f64) -> PyResult<u16> {
+        if !(timeout.is_finite() && timeout >= 0.0) {
+            return Err(PyValueError::new_err("timeout is seconds, 0 or more"));
+        }
+        let emu = self.emulator.clone();
+        let wait = Duration::from_secs_f64(timeout.min(3600.0));
+        let got = block(
+            py,
+            async move { emu.wait_program_port(port, wait).await },
+            OnInterrupt::Nothing,
+        )?;
+        got.map(|a| a.port()).ok_or_else(|| {
+            pyo3::exceptions::PyTimeoutError::new_err(format!(
+                "the AS program's port {port} is not served after {timeout} s: does the \
+                 program listen on it? If the host port is taken, map it: port_map={{{port}: 0}}"
+            ))
+        })
+    }
+
+    /// The controller's network: `{"address": "192.168.0.2", "hosts": {"192.168.0.10":
+    /// "127.0.0.1"}}`.
+    #[getter]
+    fn network<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let n = self.with(|c| c.network().clone());
+        let d = PyDict::new(py);
+        d.set_item("address", n.address.to_string())?;
+        let hosts = PyDict::new(py);
+        for (cell, real) in &n.hosts {
+            hosts.set_item(cell.to_string(), real.to_string())?;
+        }
+        d.set_item("hosts", hosts)?;
+        Ok(d)
     }
 
     /// `"127.0.0.1:PORT"` of the HTTP pendant API, or `None` (start with `pendant=True`).

@@ -20,8 +20,9 @@ def run(name, *args, timeout=120):
 
 
 def test_every_example_is_tested():
+    # pc_server.py and two_ports_client.py run in test_network.py (with an emulated cell).
     tested = {"quickstart.py", "stream_circle.py", "faults.py", "asyncio_move.py",
-              "servo_loop.py", "servo_bench.py"}
+              "servo_loop.py", "servo_bench.py", "pc_server.py", "two_ports_client.py"}
     assert {p.name for p in EXAMPLES.glob("*.py")} == tested
 
 

@@ -21,8 +21,8 @@ use crate::machine::{
 };
 use crate::motion::{Arm, MotionPhase};
 use crate::native::{Handled, NativeServer, SessionGone, SessionId};
-use crate::panel::Panel;
 use crate::network::Network;
+use crate::panel::Panel;
 use crate::program::{ClientId, ClientRead, ProgramDial, ProgramServer, ServerProgram};
 use crate::snapshot::{Counters, MotionTaskState, PassInfo, Refused, SessionEnd, Snapshot};
 use crate::store::{ProgramStore, AUTOSTART_SWITCHES};
@@ -731,7 +731,6 @@ impl Controller {
     /// How a dial went: connected, or the code the program's `TCP_CONNECT` gets (−34025 when
     /// the host refused). `false` when the program no longer waits for it: close it.
     pub fn program_dialed(&mut self, client: ClientId, result: Result<(), i32>) -> bool {
-        self.program_mut()
-            .is_some_and(|p| p.dialed(client, result))
+        self.program_mut().is_some_and(|p| p.dialed(client, result))
     }
 }

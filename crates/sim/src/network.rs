@@ -164,9 +164,14 @@ impl PortMap {
         let (p, h) = text.split_once('=').ok_or_else(|| {
             format!("port entry {text:?}: expected PROGRAM=HOST, e.g. 9111=19111")
         })?;
-        let p = p.trim().parse::<u16>().ok().filter(|p| *p > 0).ok_or_else(|| {
-            format!("port entry {text:?}: the program's port {p:?} is not a port (1 to 65535)")
-        })?;
+        let p = p
+            .trim()
+            .parse::<u16>()
+            .ok()
+            .filter(|p| *p > 0)
+            .ok_or_else(|| {
+                format!("port entry {text:?}: the program's port {p:?} is not a port (1 to 65535)")
+            })?;
         let h = h.trim().parse::<u16>().map_err(|_| {
             format!("port entry {text:?}: the host port {h:?} is not a port (0 to 65535)")
         })?;
@@ -223,7 +228,9 @@ mod tests {
         assert_eq!(PortMap::parse_entry("9111=19111"), Ok((9111, 19111)));
         assert_eq!(PortMap::parse_entry("9111=0"), Ok((9111, 0)));
         assert!(PortMap::parse_entry("0=5").is_err());
-        assert!(PortMap::parse_entry("9111").unwrap_err().contains("PROGRAM=HOST"));
+        assert!(PortMap::parse_entry("9111")
+            .unwrap_err()
+            .contains("PROGRAM=HOST"));
     }
 
     #[test]

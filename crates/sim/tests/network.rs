@@ -88,10 +88,16 @@ async fn tcp_connect_to_a_mapped_host_reaches_the_real_server_behind_it() {
     assert_eq!(&buf, b"HELLO");
     s.write_all(b"WORLD").await.unwrap();
     until_done(&emu, "done").await;
-    assert_eq!(emu.with(|c| c.program_real("sock")).map(|v| v >= 0.0), Some(true));
+    assert_eq!(
+        emu.with(|c| c.program_real("sock")).map(|v| v >= 0.0),
+        Some(true)
+    );
     assert_eq!(emu.with(|c| c.program_real("sret")), Some(0.0));
     assert_eq!(emu.with(|c| c.program_real("rret")), Some(0.0));
-    assert_eq!(emu.with(|c| c.program_real("answer")), Some(f32::from(b'W')));
+    assert_eq!(
+        emu.with(|c| c.program_real("answer")),
+        Some(f32::from(b'W'))
+    );
     assert_eq!(emu.with(|c| c.program_real("answer_len")), Some(5.0));
     // TCP_CLOSE closes the real connection.
     let mut rest = Vec::new();
@@ -116,9 +122,14 @@ async fn a_mapped_host_that_refuses_the_connection_gives_e4025() {
 
 #[test]
 fn tcp_connect_to_an_unmapped_address_fails_with_e4023_and_dials_nothing() {
-    let mut c = Controller::with_program(config(Network::default()), program(&hello_client(48200, 5)));
+    let mut c =
+        Controller::with_program(config(Network::default()), program(&hello_client(48200, 5)));
     c.advance_by(Duration::from_millis(50));
-    assert_eq!(c.program_real("sock"), Some(-34023.0), "cannot reach the host");
+    assert_eq!(
+        c.program_real("sock"),
+        Some(-34023.0),
+        "cannot reach the host"
+    );
     assert_eq!(c.program_real("done"), Some(1.0));
     assert!(c.take_program_dials().is_empty());
 }
@@ -158,7 +169,12 @@ fn a_tcp_connect_that_times_out_gives_e4024_and_refuses_the_late_connection() {
 
 /// Reads what the program sent to `client` until `want` appears (virtual time, 2 ms steps, at
 /// most `limit_s` seconds).
-fn read_until(c: &mut Controller, client: fs020n_sim::ClientId, want: &str, limit_s: u64) -> String {
+fn read_until(
+    c: &mut Controller,
+    client: fs020n_sim::ClientId,
+    want: &str,
+    limit_s: u64,
+) -> String {
     let mut got = String::new();
     let mut t = Duration::ZERO;
     while !got.contains(want) && t < Duration::from_secs(limit_s) {

@@ -126,8 +126,8 @@ fn network(args: &SimArgs) -> CliResult<fs020n_sim::Network> {
         ))
     })?);
     for h in &args.hosts {
-        let (cell, real) =
-            fs020n_sim::Network::parse_host(h).map_err(|e| CliError::input(format!("--host {e}")))?;
+        let (cell, real) = fs020n_sim::Network::parse_host(h)
+            .map_err(|e| CliError::input(format!("--host {e}")))?;
         network.hosts.insert(cell, real);
     }
     Ok(network)
