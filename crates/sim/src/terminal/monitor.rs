@@ -19,34 +19,6 @@ pub(crate) enum Pending {
     Delete(String),
 }
 
-/// The monitor commands the emulated terminal plays. A command line's first word is resolved
-/// against the AS keyword table (`fs020n_as::keywords`), with the manual's abbreviations
-/// (`PCEX`, `DI`, `STA`); a word short for two commands is P0110.
-const PLAYED: &[&str] = &[
-    "DIRECTORY",
-    "LIST",
-    "TYPE",
-    "KILL",
-    "PCKILL",
-    "DELETE",
-    "PCEXECUTE",
-    "PCABORT",
-    "PCSTATUS",
-    "STATUS",
-    "EXECUTE",
-    "ABORT",
-    "SWITCH",
-    "ID",
-    "ERESET",
-    "ZPOWER",
-    "SIGNAL",
-    "WHERE",
-    "HERE",
-    "HOLD",
-    "CONTINUE",
-    "MESSAGES",
-];
-
 /// The controller seen by one session.
 pub(crate) struct ControllerMonitor<'a> {
     pub(crate) c: &'a mut Controller,
@@ -568,6 +540,8 @@ impl Monitor for ControllerMonitor<'_> {
             Some(i) => (&word[..i], word[i..].to_ascii_uppercase()),
             None => (word, String::new()),
         };
+        // The word against the AS keyword table, with the manual's abbreviations (`PCEX`,
+        // `DI`, `STA`); a word short for two commands is P0110.
         let lower = word.to_ascii_lowercase();
         // A monitor command, or a switch set at the prompt (`MESSAGES OFF`).
         let found = match keywords::lookup(&lower, Role::MONITOR) {
@@ -579,10 +553,8 @@ impl Monitor for ControllerMonitor<'_> {
             Lookup::Ambiguous(..) => return Reply::Error(text::P0110_FULL_SPELLING),
             Lookup::Unknown => return Reply::Error(text::UNKNOWN_COMMAND),
         };
-        match PLAYED.iter().find(|k| **k == keyword) {
-            Some(k) => self.command(k, &options, rest),
-            None => Reply::Error(text::UNKNOWN_COMMAND),
-        }
+        // `command` plays what the emulator plays and answers any other command unknown.
+        self.command(&keyword, &options, rest)
     }
 
     fn confirmed(&mut self) -> Reply {
