@@ -22,7 +22,7 @@ async fn connects_across_a_listen_gap() {
     // The first accept window is 3 s, then a 100 ms gap: be in the gap.
     sleep_ms(3050).await;
     assert!(
-        !emu.with(|c| c.is_listening()),
+        !emu.with(|c| c.native().is_listening()),
         "the emulator should be in its listen gap"
     );
     let robot = connect(&emu).await;
@@ -132,7 +132,7 @@ async fn a_withheld_reply_is_a_typed_timeout_and_the_session_ends() {
     // The client dropped the connection: the controller ended the session, and the program
     // once signal 2007 has been stable for 50 ms.
     sleep_ms(10).await;
-    assert_eq!(emu.with(|c| c.session()), None);
+    assert_eq!(emu.with(|c| c.native().session()), None);
     sleep_ms(60).await;
     assert_eq!(emu.with(|c| c.task()), MotionTaskState::NotRunning);
 }
@@ -177,7 +177,7 @@ async fn keep_alive_holds_an_idle_session_for_30_s() {
     let robot = connect(&emu).await;
     sleep_ms(30_000).await;
     assert_eq!(emu.with(|c| c.counters().receive_timeouts), 0);
-    assert!(emu.with(|c| c.session()).is_some());
+    assert!(emu.with(|c| c.native().session()).is_some());
     assert!(robot.is_connected());
     let snap = robot.status();
     assert!(snap.age() <= Duration::from_millis(100), "{:?}", snap.age());
@@ -193,7 +193,7 @@ async fn close_sends_255_and_waits_for_the_server() {
     let emu = emulator();
     let robot = ready(&emu, 10.0).await;
     robot.close().await.expect("close");
-    let end = emu.with(|c| c.last_session_end());
+    let end = emu.with(|c| c.native().last_session_end());
     assert_eq!(end.map(|e| e.1), Some(SessionEnd::EndCommand));
     sleep_ms(60).await; // signal 2007's edge
     assert_eq!(emu.with(|c| c.task()), MotionTaskState::NotRunning);
@@ -208,7 +208,7 @@ async fn dropping_the_robot_ends_the_session() {
     drop(robot);
     sleep_ms(50).await;
     assert_eq!(
-        emu.with(|c| c.last_session_end()).map(|e| e.1),
+        emu.with(|c| c.native().last_session_end()).map(|e| e.1),
         Some(SessionEnd::EndCommand)
     );
 }
@@ -390,7 +390,7 @@ async fn preflight_names_every_blocker_with_its_remedy() {
     );
     emu.with(|c| c.reset_error().unwrap());
 
-    emu.with(|c| c.press_estop());
+    emu.with(|c| c.set_estop(true));
     let err = robot.preflight().await.unwrap_err();
     assert_eq!(
         err.blockers(),
@@ -402,7 +402,7 @@ async fn preflight_names_every_blocker_with_its_remedy() {
     assert!(err.to_string().contains(ESTOP_REMEDY), "{err}");
     assert!(err.to_string().contains("E3808"), "{err}");
     emu.with(|c| {
-        c.release_estop();
+        c.set_estop(false);
         c.reset_error().unwrap();
         c.set_power(true).unwrap();
     });
@@ -462,7 +462,7 @@ async fn invalid_requests_are_refused_before_sending() {
     let emu = emulator();
     let robot = ready(&emu, 10.0).await;
     let before = effective(&emu);
-    let newest = emu.with(|c| c.newest_command());
+    let newest = emu.with(|c| c.native().newest_command());
 
     let err = robot.move_joints(with_jt1(200.0)).await.unwrap_err();
     assert!(
@@ -537,7 +537,7 @@ async fn invalid_requests_are_refused_before_sending() {
     ));
 
     assert_eq!(effective(&emu), before, "nothing reached the controller");
-    assert_eq!(emu.with(|c| c.newest_command()), newest);
+    assert_eq!(emu.with(|c| c.native().newest_command()), newest);
     assert_eq!(emu.with(|c| c.joints()), home());
     assert!(robot.stats().refused_before_sending >= 13);
 }
@@ -554,7 +554,7 @@ async fn motion_is_refused_while_the_status_blocks_it() {
     robot.poll().await.unwrap();
     let err = robot.move_joints(with_jt1(5.0)).await.unwrap_err();
     assert_eq!(err.blockers(), &[Blocker::TeachLock]);
-    assert!(!emu.with(|c| c.newest_command().is_some_and(|n| n.is_motion())));
+    assert!(!emu.with(|c| c.native().newest_command().is_some_and(|n| n.is_motion())));
 }
 
 // ------------------------------------------------------------------ joint moves
@@ -598,7 +598,7 @@ async fn estop_mid_move_fails_the_wait_with_e3808_and_its_remedy() {
     let robot = ready(&emu, 10.0).await;
     let mv = robot.move_joints(with_jt1(60.0)).await.unwrap();
     sleep_ms(500).await;
-    emu.with(|c| c.press_estop());
+    emu.with(|c| c.set_estop(true));
     let err = mv.wait(Completion::default()).await.unwrap_err();
     assert!(
         matches!(
@@ -640,7 +640,10 @@ async fn hold_mid_move_fails_the_wait_and_the_move_does_not_resume() {
     );
     assert!(err.to_string().contains("switch RUN/HOLD to RUN"), "{err}");
     // The wait cancelled the move (command 5): back on RUN, the robot stays where it is.
-    assert_eq!(emu.with(|c| c.newest_command()), Some(Command::StopProgram));
+    assert_eq!(
+        emu.with(|c| c.native().newest_command()),
+        Some(Command::StopProgram)
+    );
     sleep_ms(1000).await;
     emu.with(|c| c.set_run(true));
     sleep_ms(5000).await;
@@ -661,7 +664,10 @@ async fn a_move_that_cannot_finish_in_time_is_cancelled() {
         .await
         .unwrap_err();
     assert!(matches!(err, ClientError::MoveTimeout { .. }), "{err:?}");
-    assert_eq!(emu.with(|c| c.newest_command()), Some(Command::StopProgram));
+    assert_eq!(
+        emu.with(|c| c.native().newest_command()),
+        Some(Command::StopProgram)
+    );
 }
 
 #[tokio::test(start_paused = true)]
@@ -700,7 +706,7 @@ async fn a_command_7_stream_tracks_the_trajectory() {
     assert!((emu.with(|c| c.joints())[0] - 20.0).abs() < 0.5);
     assert_eq!(robot.stats().stream_samples, report.samples_sent);
     assert!(matches!(
-        emu.with(|c| c.newest_command()),
+        emu.with(|c| c.native().newest_command()),
         Some(Command::StreamedMove(_))
     ));
 }
@@ -745,7 +751,10 @@ async fn cancelling_a_stream_brakes_and_reports() {
     handle.cancel().await.unwrap();
     let report = handle.wait().await.unwrap();
     assert_eq!(report.outcome, StreamOutcome::Cancelled);
-    assert_eq!(emu.with(|c| c.newest_command()), Some(Command::StopProgram));
+    assert_eq!(
+        emu.with(|c| c.native().newest_command()),
+        Some(Command::StopProgram)
+    );
     sleep_ms(2000).await;
     let j = emu.with(|c| c.joints())[0];
     assert!(j > 1.0 && j < 20.0, "stopped part-way: {j}");
@@ -768,7 +777,10 @@ async fn robot_cancel_stops_a_stream() {
     robot.cancel().await.unwrap();
     let report = handle.wait().await.unwrap();
     assert_eq!(report.outcome, StreamOutcome::Cancelled);
-    assert_eq!(emu.with(|c| c.newest_command()), Some(Command::StopProgram));
+    assert_eq!(
+        emu.with(|c| c.native().newest_command()),
+        Some(Command::StopProgram)
+    );
 }
 
 #[tokio::test(start_paused = true)]
@@ -845,7 +857,10 @@ async fn a_slow_controller_mid_stream_is_an_underrun() {
     assert!(matches!(err, ClientError::StreamUnderrun { .. }), "{err:?}");
     assert!(robot.stats().stream_underruns >= 1);
     sleep_ms(10).await;
-    assert_eq!(emu.with(|c| c.newest_command()), Some(Command::StopProgram));
+    assert_eq!(
+        emu.with(|c| c.native().newest_command()),
+        Some(Command::StopProgram)
+    );
     assert!(robot.is_connected(), "a late reply is not a lost link");
 }
 

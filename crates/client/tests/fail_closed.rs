@@ -43,7 +43,7 @@ async fn max_jt1_over(emu: &fs020n_sim::Emulator, ms: u64) -> f64 {
 }
 
 fn newest(emu: &fs020n_sim::Emulator) -> Option<Command> {
-    emu.with(|c| c.newest_command())
+    emu.with(|c| c.native().newest_command())
 }
 
 // ------------------------------------------------------------------ 1. command 7 extrapolation

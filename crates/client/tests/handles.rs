@@ -12,7 +12,7 @@ use fs020n_client::{Blocker, Cancellation, ClientError, Completion, StreamOption
 use fs020n_proto::Command;
 
 fn newest(emu: &fs020n_sim::Emulator) -> Option<Command> {
-    emu.with(|c| c.newest_command())
+    emu.with(|c| c.native().newest_command())
 }
 
 fn jt1(emu: &fs020n_sim::Emulator) -> f64 {

@@ -80,7 +80,7 @@ async fn the_server_clock_estimate_corrects_for_half_the_round_trip() {
     let st = robot.stats();
     assert!(st.rtt.min >= Duration::from_millis(8), "{st:?}");
     let estimate = robot.server_time_now().unwrap();
-    let actual = emu.with(|c| c.timer1_s());
+    let actual = emu.with(|c| c.native().timer1_s());
     // Without the RTT/2 correction the estimate would lag by 4 ms.
     assert!(
         (estimate - actual).abs() <= 0.0015,

@@ -51,7 +51,7 @@ async fn push_cosine(
 }
 
 fn newest(emu: &Emulator) -> Option<Command> {
-    emu.with(|c| c.newest_command())
+    emu.with(|c| c.native().newest_command())
 }
 
 #[tokio::test(start_paused = true)]
@@ -100,7 +100,7 @@ async fn samples_are_stamped_with_the_controller_time_of_the_push() {
     // Let the clock estimate gather a few keep-alive round trips.
     sleep_ms(600).await;
     let servo = robot.servo(ServoOptions::default()).await.unwrap();
-    let timer_at_push = emu.with(|c| c.timer1_s());
+    let timer_at_push = emu.with(|c| c.native().timer1_s());
     servo.push(home()).unwrap();
     sleep_ms(5).await;
     match newest(&emu) {
@@ -457,7 +457,7 @@ async fn estop_mid_servo_names_e3808() {
     let servo = robot.servo(ServoOptions::default()).await.unwrap();
     servo.push(home()).unwrap();
     sleep_ms(20).await;
-    emu.with(|c| c.press_estop());
+    emu.with(|c| c.set_estop(true));
     servo.push(home()).unwrap();
     let err = servo.wait().await.unwrap_err();
     let text = err.to_string();

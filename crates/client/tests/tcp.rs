@@ -55,7 +55,7 @@ async fn loopback_round_trips_and_a_move() {
     assert!(emu.with(|c| c.joints()).max_abs_diff(&target) < 0.01);
     robot.close().await.unwrap();
     assert_eq!(
-        emu.with(|c| c.last_session_end()).map(|e| e.1),
+        emu.with(|c| c.native().last_session_end()).map(|e| e.1),
         Some(SessionEnd::EndCommand)
     );
     server.stop();
@@ -137,7 +137,10 @@ fn the_blocking_api_over_loopback() {
     // Dropping the blocking handle ends the session with 255 at once.
     drop(robot);
     assert_eq!(
-        served.emu.with(|c| c.last_session_end()).map(|e| e.1),
+        served
+            .emu
+            .with(|c| c.native().last_session_end())
+            .map(|e| e.1),
         Some(SessionEnd::EndCommand)
     );
 }
@@ -170,7 +173,10 @@ fn the_blocking_robot_inside_an_async_runtime_refuses_and_still_closes_on_drop()
         drop(mv);
     });
     assert_eq!(
-        served.emu.with(|c| c.last_session_end()).map(|e| e.1),
+        served
+            .emu
+            .with(|c| c.native().last_session_end())
+            .map(|e| e.1),
         Some(SessionEnd::EndCommand)
     );
     // The program ends once signal 2007 has been stable for 50 ms.

@@ -274,7 +274,7 @@ impl Emulator {
     /// The programs in the controller's memory (loaded through the terminal or given at start).
     #[getter]
     fn programs(&self) -> Vec<String> {
-        self.with(|c| c.loaded_programs())
+        self.with(|c| c.memory().programs())
     }
 
     /// The emulated encoders: six joint angles, degrees.
@@ -322,13 +322,13 @@ impl Emulator {
     /// Presses the emergency stop: motor power is cut, the robot stops dead, the program
     /// ends and error E3808 is raised.
     fn press_estop(&self) {
-        self.with(|c| c.press_estop());
+        self.with(|c| c.set_estop(true));
     }
 
     /// Releases the emergency stop (the error stays until `reset_error()`, power stays off
     /// until `set_panel(power=True)`).
     fn release_estop(&self) {
-        self.with(|c| c.release_estop());
+        self.with(|c| c.set_estop(false));
     }
 
     /// Raises a controller error, e.g. `"E1130"` (or its wire number, -31130): the robot
@@ -379,7 +379,7 @@ impl Emulator {
     /// `True` while a client holds the session.
     #[getter]
     fn session_open(&self) -> bool {
-        self.with(|c| c.session().is_some())
+        self.with(|c| c.native().session().is_some())
     }
 
     /// The number of the newest command the controller acts on (the motion program reads
@@ -388,7 +388,7 @@ impl Emulator {
     /// before the first session.
     #[getter]
     fn newest_command(&self) -> Option<f64> {
-        self.with(|c| c.newest_command().map(|cmd| cmd.number()))
+        self.with(|c| c.native().newest_command().map(|cmd| cmd.number()))
     }
 
     /// How the latest session ended: `"end_command"` (the client sent 255),
@@ -396,7 +396,7 @@ impl Emulator {
     /// client dropped the connection), `"fault"` (injected); `None` before any ended.
     #[getter]
     fn last_session_end(&self, py: Python<'_>) -> PyResult<Option<String>> {
-        let Some((_, end)) = self.with(|c| c.last_session_end()) else {
+        let Some((_, end)) = self.with(|c| c.native().last_session_end()) else {
             return Ok(None);
         };
         let v = serde_json::to_value(end)

@@ -162,7 +162,7 @@ async fn an_emergency_stop_aborts_with_path_tolerance_violated_and_the_remedy() 
     let goal = jt1_goal(60.0, 6.0, 30);
     let estop = async {
         tokio::time::sleep(Duration::from_secs(2)).await;
-        emu.with(|c| c.press_estop());
+        emu.with(|c| c.set_estop(true));
     };
     let ((outcome, _), ()) = tokio::join!(run(&robot, &goal, cancel), estop);
     assert_eq!(outcome.end, GoalEnd::Aborted, "{outcome:?}");
@@ -307,7 +307,7 @@ async fn a_preempted_goal_ends_aborted_and_a_fault_is_not_an_own_stop() {
     let (_tx, cancel) = watch::channel(false);
     let estop = async {
         tokio::time::sleep(Duration::from_secs(1)).await;
-        emu.with(|c| c.press_estop());
+        emu.with(|c| c.set_estop(true));
     };
     let goal = jt1_goal_between(here[0], here[0] + 40.0, 6.0, 30);
     let ((outcome, _), ()) = tokio::join!(run(&robot, &goal, cancel), estop);

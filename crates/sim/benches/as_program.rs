@@ -72,7 +72,7 @@ impl Streamer {
             program,
         );
         c.advance_by(Duration::from_millis(10));
-        let id = c.program_connect(None, [127, 0, 0, 1]).unwrap();
+        let id = c.program_mut().connect(None, [127, 0, 0, 1]).unwrap();
         let mut s = Streamer {
             c,
             id,
@@ -86,10 +86,10 @@ impl Streamer {
     }
 
     fn request(&mut self, text: &str) {
-        assert!(self.c.program_send(self.id, text.as_bytes()));
+        assert!(self.c.program_mut().send(self.id, text.as_bytes()));
         for _ in 0..20 {
             self.c.advance_by(Duration::from_millis(1));
-            if !self.c.program_recv(self.id).bytes.is_empty() {
+            if !self.c.program_mut().recv(self.id).bytes.is_empty() {
                 return;
             }
         }
@@ -120,9 +120,9 @@ impl Streamer {
                     push_num(&mut req, v);
                 }
             }
-            assert!(self.c.program_send(self.id, req.as_bytes()));
+            assert!(self.c.program_mut().send(self.id, req.as_bytes()));
             self.c.advance_by(Duration::from_millis(10));
-            black_box(self.c.program_recv(self.id));
+            black_box(self.c.program_mut().recv(self.id));
             self.t += 0.01;
         }
         assert!(self.c.error().is_none(), "{}", self.c.error());
@@ -156,7 +156,7 @@ fn stream(c: &mut Criterion) {
             (Some(a), Some(b)) if b > a => format!("{:.0}", 60.0 / (b - a).as_secs_f64()),
             _ => "?".into(),
         };
-        let tasks = s.c.program_tasks().unwrap();
+        let tasks = s.c.program().tasks().unwrap();
         let steps: u64 = tasks.iter().map(|t| t.steps).sum();
         // The deterministic counts, with each task's share (the robot task runs `ros_move`,
         // pc1 the communication task).

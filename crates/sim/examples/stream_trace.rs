@@ -74,7 +74,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         let request = match request {
             Some(r) => r,
-            None => Request::new(Command::StreamedMove(sample(t, c.timer1_s()))).encode()?,
+            None => {
+                Request::new(Command::StreamedMove(sample(t, c.native().timer1_s()))).encode()?
+            }
         };
         send(&mut c, &mut out, request.as_bytes())?;
         for _ in 0..5 {

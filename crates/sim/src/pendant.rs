@@ -236,12 +236,12 @@ async fn panel_post(
 }
 
 async fn estop_press(State(st): State<AppState>) -> Json<Snapshot> {
-    st.emulator.with(|c| c.press_estop());
+    st.emulator.with(|c| c.set_estop(true));
     Json(st.emulator.snapshot())
 }
 
 async fn estop_release(State(st): State<AppState>) -> Json<Snapshot> {
-    st.emulator.with(|c| c.release_estop());
+    st.emulator.with(|c| c.set_estop(false));
     Json(st.emulator.snapshot())
 }
 

@@ -10,7 +10,7 @@
 //! its `SWITCH(…)`, `ERROR` and `MC …` read and operate the same panel, and its `TCP_…`
 //! instructions use an in-controller TCP stack whose clients are the network layer
 //! ([`crate::Emulator::serve_program_tcp`], [`crate::Emulator::connect_program`]) or a test
-//! ([`crate::Controller::program_connect`]). The pendant and fault injection work as with the
+//! ([`crate::ProgramMut::connect`]). The pendant and fault injection work as with the
 //! native server: reply faults apply to what the program sends to a client,
 //! `close_connection` breaks the client connections, `stop_reading` stops delivering the
 //! client's bytes.
@@ -19,7 +19,7 @@
 //! - the first port the program listens on is the one served at the robot's address (every
 //!   port it listens on is served too, through the port map: `server/program.rs`);
 //! - a `TCP_CONNECT` to another host is a dial the network layer makes
-//!   ([`crate::Controller::take_program_dials`]), through the host map ([`crate::Network`]);
+//!   ([`crate::ProgramMut::take_dials`]), through the host map ([`crate::Network`]);
 //! - `ACCURACY` is the distance of the flange to the target, as for the native server; FINE or
 //!   CP OFF blend only once the motion is done;
 //! - `SPEED … S` on an LMOVE is the motion time at monitor 100 % (scaled by the monitor speed),
@@ -48,12 +48,12 @@ use net::{socket_table, Reach, UdpPorts};
 pub use net::{ClientId, ClientRead, CLIENT_BUFFER};
 
 /// An outgoing connection a program asked for (`TCP_CONNECT` to a mapped host), for the
-/// network layer to make ([`crate::Controller::take_program_dials`]): once connected (reported
-/// with [`crate::Controller::program_dialed`]) its bytes move as a client's, named by
+/// network layer to make ([`crate::ProgramMut::take_dials`]): once connected (reported
+/// with [`crate::ProgramMut::dialed`]) its bytes move as a client's, named by
 /// `client`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ProgramDial {
-    /// The connection's id (as a client's: [`crate::Controller::program_send`], …).
+    /// The connection's id (as a client's: [`crate::ProgramMut::send`], …).
     pub client: ClientId,
     /// The address the program connects to, in the cell.
     pub cell: std::net::SocketAddrV4,

@@ -301,7 +301,7 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
     let (emulator, robot) = match &opts.program {
         None if opts.bare => {
             let load = opts.program_load.clone();
-            let emulator = Emulator::driven(Controller::bare_with(config, load));
+            let emulator = Emulator::driven(Controller::bare(config, load));
             let robot = emulator.serve_program_tcp(opts.listen).await;
             (emulator, robot)
         }

@@ -130,17 +130,17 @@ impl Emulator {
             let mut c = self.lock();
             // Taken before advancing: a session that times out while advancing is a change.
             let before = (
-                c.session(),
+                c.native().session(),
                 c.reading_paused_until(),
-                c.program_io_generation(),
+                c.program().io_generation(),
                 c.monitor_generation(),
             );
             c.advance_to(now);
             let r = f(&mut c);
             let after = (
-                c.session(),
+                c.native().session(),
                 c.reading_paused_until(),
-                c.program_io_generation(),
+                c.program().io_generation(),
                 c.monitor_generation(),
             );
             (r, before != after)
@@ -187,7 +187,7 @@ impl Emulator {
         let mut changes = self.inner.changed.subscribe();
         loop {
             let (listening, next_change) =
-                self.with(|c| (c.is_listening(), c.next_listen_change()));
+                self.with(|c| (c.native().is_listening(), c.native().next_listen_change()));
             if !listening {
                 listener = None;
                 match next_change {
@@ -342,8 +342,8 @@ struct SessionState {
 impl SessionState {
     fn of(c: &Controller, id: SessionId) -> SessionState {
         SessionState {
-            open: c.is_session_open(id),
-            deadline: c.receive_deadline(),
+            open: c.native().is_session_open(id),
+            deadline: c.native().receive_deadline(),
             paused: c.reading_paused_until(),
         }
     }
@@ -356,11 +356,11 @@ impl Emulator {
         let mut changes = self.inner.changed.subscribe();
         let until = Instant::now() + d;
         loop {
-            if !self.with(|c| c.is_session_open(id)) {
+            if !self.with(|c| c.native().is_session_open(id)) {
                 return false;
             }
             tokio::select! {
-                _ = tokio::time::sleep_until(until) => return self.with(|c| c.is_session_open(id)),
+                _ = tokio::time::sleep_until(until) => return self.with(|c| c.native().is_session_open(id)),
                 r = changes.changed() => if r.is_err() { return false },
             }
         }

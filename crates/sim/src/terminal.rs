@@ -39,7 +39,9 @@ impl TerminalLink {
     pub fn open(controller: &mut Controller, config: SessionConfig) -> TerminalLink {
         let mut pending = None;
         let mut messages = true;
-        controller.set_refuse_overwrite(config.refuse_overwrite);
+        controller
+            .memory_mut()
+            .set_refuse_overwrite(config.refuse_overwrite);
         let session = TerminalSession::open(
             &mut ControllerMonitor {
                 c: controller,

@@ -153,12 +153,12 @@ fn a_modified_server_with_an_extra_command() {
     let program = ServerProgram::from_file(std::path::Path::new(path)).unwrap();
     let mut c = Controller::with_program(ControllerConfig::default(), program);
     c.advance_by(Duration::from_millis(10));
-    let client = c.program_connect(None, [127, 0, 0, 1]).unwrap();
+    let client = c.program_mut().connect(None, [127, 0, 0, 1]).unwrap();
     let request = |c: &mut Controller, text: &str| {
-        assert!(c.program_send(client, text.as_bytes()));
+        assert!(c.program_mut().send(client, text.as_bytes()));
         for _ in 0..100 {
             c.advance_by(Duration::from_millis(1));
-            let r = c.program_recv(client);
+            let r = c.program_mut().recv(client);
             if !r.bytes.is_empty() {
                 return String::from_utf8(r.bytes).unwrap();
             }
@@ -167,15 +167,20 @@ fn a_modified_server_with_an_extra_command() {
     };
     let reply = request(&mut c, "1040 8 1 1");
     assert!(reply.starts_with(" 1040 0 -1 -1 0 -1 0 "), "{reply:?}");
-    assert_eq!(c.program_signal(1), Some(true), "gripper open: output 1 on");
-    assert_eq!(c.program_signal(2), Some(false));
+    assert_eq!(
+        c.program().signal(1),
+        Some(true),
+        "gripper open: output 1 on"
+    );
+    assert_eq!(c.program().signal(2), Some(false));
     request(&mut c, "1040 8 1 0");
     assert_eq!(
-        (c.program_signal(1), c.program_signal(2)),
+        (c.program().signal(1), c.program().signal(2)),
         (Some(false), Some(true))
     );
     assert!(c
-        .program_terminal()
+        .program()
+        .terminal()
         .iter()
         .any(|l| l.text == "gripper closed"));
     // Everything else is the protocol-1040 server.

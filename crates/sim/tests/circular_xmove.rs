@@ -59,7 +59,7 @@ fn the_arm_follows_the_circle_through_the_via_point_at_the_program_speed() {
     let mut c = controller(ARC);
     // To the start.
     let mut t = 0;
-    while c.program_signal(1) != Some(true) {
+    while c.program().signal(1) != Some(true) {
         c.advance_by(ms(2));
         t += 2;
         assert!(t < 20_000, "never reached the start");
@@ -68,7 +68,7 @@ fn the_arm_follows_the_circle_through_the_via_point_at_the_program_speed() {
     let centre = [1000.0, 0.0, 600.0];
     let (mut worst_radius, mut nearest_via, mut worst_z) = (0.0f64, f64::MAX, 0.0f64);
     let mut moving_since = None;
-    while c.program_signal(2) != Some(true) {
+    while c.program().signal(2) != Some(true) {
         c.advance_by(ms(2));
         t += 2;
         assert!(t < 40_000, "never reached the end");
@@ -129,7 +129,7 @@ fn draw_and_tdraw_with_rotations_reach_the_turned_pose() {
         "  LMOVE TRANS(900, 100, 600, 0, 180, 0)\n  BREAK\n  DRAW 10, 0, -20, 30, 0, 0\n  BREAK\n  SIGNAL 1\n  SWAIT 1001\n  TDRAW 0, 0, 10, 0, 15, 0\n  BREAK\n  SIGNAL 2",
     );
     let mut t = 0;
-    while c.program_signal(1) != Some(true) {
+    while c.program().signal(1) != Some(true) {
         c.advance_by(ms(10));
         t += 10;
         assert!(t < 30_000);
@@ -139,8 +139,8 @@ fn draw_and_tdraw_with_rotations_reach_the_turned_pose() {
     let got = flange(&c);
     assert!(got.distance_m(&want) < 1e-5, "{:?}", got.to_xyzoat());
     assert!(got.angle_to_rad(&want) < 1e-5, "{:?}", got.to_xyzoat());
-    c.set_program_input(1001, true);
-    while c.program_signal(2) != Some(true) {
+    c.program_mut().set_input(1001, true);
+    while c.program().signal(2) != Some(true) {
         c.advance_by(ms(10));
         t += 10;
         assert!(t < 60_000);
@@ -159,19 +159,19 @@ fn xmove_stops_on_the_scripted_input_and_the_program_goes_on() {
         "  SPEED 100 MM/S ALWAYS\n  LMOVE TRANS(900, -200, 600, 0, 180, 0)\n  BREAK\n  SIGNAL 1\n  XMOVE TRANS(900, 200, 600, 0, 180, 0) TILL 1001\n  SIGNAL 2",
     );
     let mut t = 0;
-    while c.program_signal(1) != Some(true) {
+    while c.program().signal(1) != Some(true) {
         c.advance_by(ms(2));
         t += 2;
         assert!(t < 20_000);
     }
     // 1 s into the 4 s line: about 100 mm along (the profile is slower at its start).
     c.advance_by(ms(1000));
-    assert_eq!(c.program_signal(2), Some(false), "XMOVE waits");
+    assert_eq!(c.program().signal(2), Some(false), "XMOVE waits");
     let at_signal = position_mm(&flange(&c));
     assert!(at_signal[1] > -195.0 && at_signal[1] < 0.0, "{at_signal:?}");
-    c.set_program_input(1001, true);
+    c.program_mut().set_input(1001, true);
     c.advance_by(ms(10));
-    assert_eq!(c.program_signal(2), Some(true), "the program went on");
+    assert_eq!(c.program().signal(2), Some(true), "the program went on");
     c.advance_by(ms(3000));
     let rest = position_mm(&flange(&c));
     // Braked to a stop shortly after the signal, far from the destination.
@@ -186,7 +186,7 @@ fn xmove_without_the_input_reaches_the_destination() {
         "  SPEED 200 MM/S ALWAYS\n  LMOVE TRANS(900, -200, 600, 0, 180, 0)\n  BREAK\n  XMOVE TRANS(900, 200, 600, 0, 180, 0) TILL 1001\n  SIGNAL 2",
     );
     c.advance_by(ms(15_000));
-    assert_eq!(c.program_signal(2), Some(true));
+    assert_eq!(c.program().signal(2), Some(true));
     let p = position_mm(&flange(&c));
     assert!(distance_mm(p, [900.0, 200.0, 600.0]) < 0.01, "{p:?}");
 }

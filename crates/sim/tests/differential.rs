@@ -80,7 +80,7 @@ impl Server for Program {
     }
 
     fn connect(&mut self) -> bool {
-        self.id = self.c.program_connect(None, [127, 0, 0, 1]).ok();
+        self.id = self.c.program_mut().connect(None, [127, 0, 0, 1]).ok();
         // The program's TCP_ACCEPT takes it at once.
         let now = self.c.now();
         self.c.advance_to(now);
@@ -89,14 +89,14 @@ impl Server for Program {
 
     fn request(&mut self, bytes: &[u8]) -> Option<(String, Duration)> {
         let id = self.id?;
-        if !self.c.program_send(id, bytes) {
+        if !self.c.program_mut().send(id, bytes) {
             return None;
         }
         let step = Duration::from_micros(25);
         let now = self.c.now();
         self.c.advance_to(now);
         for _ in 0..2000 {
-            let r = self.c.program_recv(id);
+            let r = self.c.program_mut().recv(id);
             if !r.bytes.is_empty() {
                 return Some((String::from_utf8(r.bytes).ok()?, self.c.now()));
             }
@@ -110,7 +110,7 @@ impl Server for Program {
 
     fn close(&mut self) {
         if let Some(id) = self.id.take() {
-            self.c.program_close(id);
+            self.c.program_mut().close(id);
         }
     }
 }
@@ -627,7 +627,7 @@ fn errors_and_hold(d: &mut Driver) {
     d.at(2.3);
     d.req("1040 1 0");
     d.at(2.4);
-    d.panel(|c| c.press_estop());
+    d.panel(|c| c.set_estop(true));
     d.at(2.5);
     d.poll();
 }

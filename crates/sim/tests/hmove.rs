@@ -30,7 +30,7 @@ fn controller() -> Controller {
 fn hmove_keeps_the_wrist_centre_on_the_line_and_turns_the_wrist_in_step() {
     let mut c = controller();
     let mut t = 0;
-    while c.program_signal(1) != Some(true) {
+    while c.program().signal(1) != Some(true) {
         c.advance_by(ms(2));
         t += 2;
         assert!(t < 30_000);
@@ -41,7 +41,7 @@ fn hmove_keeps_the_wrist_centre_on_the_line_and_turns_the_wrist_in_step() {
     let w1 = model.wrist_centre_m(&JointsDeg::new(TO).to_rad());
     let line = w1 - w0;
     let (mut off_line, mut out_of_step) = (0.0f64, 0.0f64);
-    while c.program_signal(2) != Some(true) {
+    while c.program().signal(2) != Some(true) {
         c.advance_by(ms(2));
         t += 2;
         assert!(t < 60_000, "never reached the target");

@@ -112,7 +112,7 @@ fn run(seed: u64, seconds: f64) -> (u64, u64) {
                     p[j] = p[j].clamp(spec.min_deg + 5.0, spec.max_deg - 5.0);
                 }
             }
-            let s = sample(c.timer1_s(), r.range(0.0, 3.0), p, vel, [0.0; 6]);
+            let s = sample(c.native().timer1_s(), r.range(0.0, 3.0), p, vel, [0.0; 6]);
             cmd(&mut c, id, Command::StreamedMove(s));
         } else {
             raw(&mut c, id, "0 0 0");
@@ -134,7 +134,7 @@ fn run(seed: u64, seconds: f64) -> (u64, u64) {
             waiting = true;
         }
     }
-    assert!(c.is_session_open(id));
+    assert!(c.native().is_session_open(id));
     (c.counters().motions, errors)
 }
 

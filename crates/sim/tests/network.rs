@@ -66,7 +66,7 @@ fn hello_client(port: u16, timeout_s: u32) -> String {
 /// on its assertions).
 async fn until_done(emu: &Emulator, name: &str) {
     for _ in 0..1000 {
-        if emu.with(|c| c.program_real(name)).is_some() {
+        if emu.with(|c| c.program().real(name)).is_some() {
             return;
         }
         tokio::time::sleep(Duration::from_millis(10)).await;
@@ -89,16 +89,16 @@ async fn tcp_connect_to_a_mapped_host_reaches_the_real_server_behind_it() {
     s.write_all(b"WORLD").await.unwrap();
     until_done(&emu, "done").await;
     assert_eq!(
-        emu.with(|c| c.program_real("sock")).map(|v| v >= 0.0),
+        emu.with(|c| c.program().real("sock")).map(|v| v >= 0.0),
         Some(true)
     );
-    assert_eq!(emu.with(|c| c.program_real("sret")), Some(0.0));
-    assert_eq!(emu.with(|c| c.program_real("rret")), Some(0.0));
+    assert_eq!(emu.with(|c| c.program().real("sret")), Some(0.0));
+    assert_eq!(emu.with(|c| c.program().real("rret")), Some(0.0));
     assert_eq!(
-        emu.with(|c| c.program_real("answer")),
+        emu.with(|c| c.program().real("answer")),
         Some(f32::from(b'W'))
     );
-    assert_eq!(emu.with(|c| c.program_real("answer_len")), Some(5.0));
+    assert_eq!(emu.with(|c| c.program().real("answer_len")), Some(5.0));
     // TCP_CLOSE closes the real connection.
     let mut rest = Vec::new();
     let n = tokio::time::timeout(Duration::from_secs(10), s.read_to_end(&mut rest))
@@ -117,7 +117,7 @@ async fn a_mapped_host_that_refuses_the_connection_gives_e4025() {
     };
     let emu = Emulator::with_program(config(mapped()), program(&hello_client(port, 5)));
     until_done(&emu, "done").await;
-    assert_eq!(emu.with(|c| c.program_real("sock")), Some(-34025.0));
+    assert_eq!(emu.with(|c| c.program().real("sock")), Some(-34025.0));
 }
 
 #[test]
@@ -126,12 +126,12 @@ fn tcp_connect_to_an_unmapped_address_fails_with_e4023_and_dials_nothing() {
         Controller::with_program(config(Network::default()), program(&hello_client(48200, 5)));
     c.advance_by(Duration::from_millis(50));
     assert_eq!(
-        c.program_real("sock"),
+        c.program().real("sock"),
         Some(-34023.0),
         "cannot reach the host"
     );
-    assert_eq!(c.program_real("done"), Some(1.0));
-    assert!(c.take_program_dials().is_empty());
+    assert_eq!(c.program().real("done"), Some(1.0));
+    assert!(c.program_mut().take_dials().is_empty());
 }
 
 #[test]
@@ -146,25 +146,25 @@ fn tcp_connect_to_the_controllers_own_address_reaches_its_own_listener() {
     let own = Network::default().address(Ipv4Addr::new(10, 0, 0, 7));
     let mut c = Controller::with_program(config(own), program(text));
     c.advance_by(Duration::from_millis(50));
-    assert_eq!(c.program_real("done"), Some(1.0));
-    assert!(c.program_real("sock").unwrap() >= 0.0);
-    assert!(c.program_real("asock").unwrap() >= 0.0);
-    assert!(c.take_program_dials().is_empty());
+    assert_eq!(c.program().real("done"), Some(1.0));
+    assert!(c.program().real("sock").unwrap() >= 0.0);
+    assert!(c.program().real("asock").unwrap() >= 0.0);
+    assert!(c.program_mut().take_dials().is_empty());
 }
 
 #[test]
 fn a_tcp_connect_that_times_out_gives_e4024_and_refuses_the_late_connection() {
     let mut c = Controller::with_program(config(mapped()), program(&hello_client(48200, 1)));
     c.advance_by(Duration::from_millis(10));
-    let dials = c.take_program_dials();
+    let dials = c.program_mut().take_dials();
     assert_eq!(dials.len(), 1);
     let ProgramDial { client, cell, to } = dials[0];
     assert_eq!(cell, std::net::SocketAddrV4::new(PC, 48200));
     assert_eq!(to, SocketAddr::new(LOOPBACK, 48200));
     c.advance_by(Duration::from_millis(1100));
-    assert_eq!(c.program_real("sock"), Some(-34024.0));
+    assert_eq!(c.program().real("sock"), Some(-34024.0));
     // The host answers too late: the network layer is told to close it.
-    assert!(!c.program_dialed(client, Ok(())));
+    assert!(!c.program_mut().dialed(client, Ok(())));
 }
 
 /// Reads what the program sent to `client` until `want` appears (virtual time, 2 ms steps, at
@@ -180,7 +180,9 @@ fn read_until(
     while !got.contains(want) && t < Duration::from_secs(limit_s) {
         c.advance_by(Duration::from_millis(2));
         t += Duration::from_millis(2);
-        got.push_str(&String::from_utf8_lossy(&c.program_recv(client).bytes));
+        got.push_str(&String::from_utf8_lossy(
+            &c.program_mut().recv(client).bytes,
+        ));
     }
     got
 }
@@ -191,35 +193,35 @@ fn the_pick_and_place_client_connects_to_the_pc_and_reports_each_part_it_moved()
     assert!(program.warnings().is_empty(), "{:?}", program.warnings());
     let mut c = Controller::with_program(config(mapped()), program);
     c.advance_by(Duration::from_millis(20));
-    let dials = c.take_program_dials();
+    let dials = c.program_mut().take_dials();
     assert_eq!(dials.len(), 1, "one TCP_CONNECT to the PC");
     assert_eq!(dials[0].cell, std::net::SocketAddrV4::new(PC, 48200));
     let pc = dials[0].client;
-    assert!(c.program_dialed(pc, Ok(())));
+    assert!(c.program_mut().dialed(pc, Ok(())));
     assert_eq!(read_until(&mut c, pc, "\r\n", 2), "READY\r\n");
     let home = c.joints();
-    assert!(c.program_send(pc, b"PICK\r\n"));
+    assert!(c.program_mut().send(pc, b"PICK\r\n"));
     let mut closed_hand = false;
     let mut got = String::new();
     let mut t = 0;
     while !got.contains("\r\n") && t < 30_000 {
         c.advance_by(Duration::from_millis(2));
         t += 2;
-        closed_hand |= c.program_signal(2) == Some(true);
-        got.push_str(&String::from_utf8_lossy(&c.program_recv(pc).bytes));
+        closed_hand |= c.program().signal(2) == Some(true);
+        got.push_str(&String::from_utf8_lossy(&c.program_mut().recv(pc).bytes));
     }
     assert_eq!(got, "PLACED 1\r\n");
     assert!(closed_hand, "CLOSEI at the pick");
-    assert_eq!(c.program_signal(1), Some(true), "OPENI at the place");
+    assert_eq!(c.program().signal(1), Some(true), "OPENI at the place");
     assert_ne!(c.joints(), home, "the arm moved (it ends above the place)");
-    assert!(c.program_send(pc, b"PICK\r\n"));
+    assert!(c.program_mut().send(pc, b"PICK\r\n"));
     assert_eq!(read_until(&mut c, pc, "\r\n", 30), "PLACED 2\r\n");
-    assert!(c.program_send(pc, b"QUIT\r\n"));
+    assert!(c.program_mut().send(pc, b"QUIT\r\n"));
     assert_eq!(read_until(&mut c, pc, "\r\n", 2), "BYE\r\n");
     let mut closed = false;
     for _ in 0..100 {
         c.advance_by(Duration::from_millis(2));
-        closed |= c.program_recv(pc).closed;
+        closed |= c.program_mut().recv(pc).closed;
     }
     assert!(closed, "TCP_CLOSE ends the connection");
 }
@@ -229,11 +231,11 @@ fn the_pick_and_place_client_tries_again_while_the_pc_refuses() {
     let program = ServerProgram::from_file(&examples("pick_place_client.as")).unwrap();
     let mut c = Controller::with_program(config(mapped()), program);
     c.advance_by(Duration::from_millis(20));
-    let first = c.take_program_dials();
+    let first = c.program_mut().take_dials();
     assert_eq!(first.len(), 1);
-    assert!(c.program_dialed(first[0].client, Err(-34025)));
+    assert!(c.program_mut().dialed(first[0].client, Err(-34025)));
     c.advance_by(Duration::from_millis(1100));
-    let second = c.take_program_dials();
+    let second = c.program_mut().take_dials();
     assert_eq!(second.len(), 1, "a second TCP_CONNECT a second later");
     assert_ne!(second[0].client, first[0].client);
 }
@@ -269,7 +271,7 @@ async fn every_port_a_program_listens_on_is_served_and_a_plain_client_drives_bot
     let mut rd = BufReader::new(rd);
     wr.write_all(b"OUT 5\r\n").await.unwrap();
     assert_eq!(line(&mut rd).await, "OK\r\n");
-    assert_eq!(emu.with(|c| c.program_signal(5)), Some(true));
+    assert_eq!(emu.with(|c| c.program().signal(5)), Some(true));
     wr.write_all(b"SPEED 30\r\n").await.unwrap();
     assert_eq!(line(&mut rd).await, "OK\r\n");
     assert_eq!(emu.with(|c| c.monitor_speed()), 30.0);
@@ -306,7 +308,7 @@ async fn a_client_from_a_mapped_host_appears_to_the_program_at_its_cell_address(
     until_done(&emu, "done").await;
     let got: Vec<Option<f32>> = ["a", "b", "c", "d"]
         .iter()
-        .map(|v| emu.with(|c| c.program_real(v)))
+        .map(|v| emu.with(|c| c.program().real(v)))
         .collect();
     assert_eq!(got, [Some(192.0), Some(168.0), Some(0.0), Some(10.0)]);
     ports.stop();
@@ -329,8 +331,8 @@ fn udp_sendto_a_mapped_host_reaches_the_real_socket_and_an_unmapped_one_gives_e4
     );
     let mut c = Controller::with_program(config(mapped()), program(&text));
     c.advance_by(Duration::from_millis(50));
-    assert_eq!(c.program_real("mapped"), Some(0.0));
-    assert_eq!(c.program_real("unmapped"), Some(-34023.0));
+    assert_eq!(c.program().real("mapped"), Some(0.0));
+    assert_eq!(c.program().real("unmapped"), Some(-34023.0));
     let mut buf = [0u8; 16];
     let (n, _) = peer.recv_from(&mut buf).expect("the datagram");
     assert_eq!(&buf[..n], b"PING");

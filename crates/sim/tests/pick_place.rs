@@ -49,8 +49,8 @@ fn the_pick_and_place_example_picks_on_the_sensor_and_reports_each_part() {
     let mut c = Controller::with_program(ControllerConfig::default(), program);
     c.advance_by(Duration::from_secs(3));
     // Started, hand open, at #safe, waiting for a part.
-    assert_eq!(c.program_signal(1), Some(true), "OPENI: output 1 ON");
-    assert_eq!(c.program_signal(2), Some(false));
+    assert_eq!(c.program().signal(1), Some(true), "OPENI: output 1 ON");
+    assert_eq!(c.program().signal(2), Some(false));
     let safe = c.joints().0;
     assert!(
         safe.iter()
@@ -58,32 +58,35 @@ fn the_pick_and_place_example_picks_on_the_sensor_and_reports_each_part() {
             .all(|(a, b)| (a - b).abs() < 0.01),
         "{safe:?}"
     );
-    let tasks = c.program_tasks().unwrap();
+    let tasks = c.program().tasks().unwrap();
     assert!(
         tasks[0].waiting.is_some(),
         "the robot waits at SWAIT: {tasks:?}"
     );
-    let client = c.program_connect(Some(10060), [127, 0, 0, 1]).unwrap();
+    let client = c
+        .program_mut()
+        .connect(Some(10060), [127, 0, 0, 1])
+        .unwrap();
     c.advance_by(Duration::from_secs(2));
     assert_eq!(c.joints().0, safe, "no part, no motion");
 
     // A part arrives.
-    c.set_program_input(1001, true);
+    c.program_mut().set_input(1001, true);
     let (mut closed_at, mut opened_at) = (None, None);
     let mut received = Vec::new();
     let mut t = 0;
     while t < 30_000 && received.is_empty() {
         c.advance_by(Duration::from_millis(2));
         t += 2;
-        if closed_at.is_none() && c.program_signal(2) == Some(true) {
+        if closed_at.is_none() && c.program().signal(2) == Some(true) {
             closed_at = Some(tip(&c));
             // The part leaves the sensor once picked.
-            c.set_program_input(1001, false);
+            c.program_mut().set_input(1001, false);
         }
-        if closed_at.is_some() && opened_at.is_none() && c.program_signal(1) == Some(true) {
+        if closed_at.is_some() && opened_at.is_none() && c.program().signal(1) == Some(true) {
             opened_at = Some(tip(&c));
         }
-        received.extend(c.program_recv(client).bytes);
+        received.extend(c.program_mut().recv(client).bytes);
     }
     let closed_at = closed_at.expect("the hand closed");
     let opened_at = opened_at.expect("the hand opened again");
@@ -96,14 +99,15 @@ fn the_pick_and_place_example_picks_on_the_sensor_and_reports_each_part() {
         "OPENI at the place point: {opened_at:?}"
     );
     assert_eq!(String::from_utf8_lossy(&received), "PLACED 1\r\n");
-    assert_eq!(c.program_real("pp_placed"), Some(1.0));
+    assert_eq!(c.program().real("pp_placed"), Some(1.0));
     // LDEPART 100 from the place point, then back to SWAIT: no part, the robot waits there.
     c.advance_by(Duration::from_secs(3));
     assert!(near(tip(&c), [900.0, -300.0, 900.0], 0.5), "{:?}", tip(&c));
     c.advance_by(Duration::from_secs(5));
-    assert_eq!(c.program_real("pp_placed"), Some(1.0));
+    assert_eq!(c.program().real("pp_placed"), Some(1.0));
     assert!(c
-        .program_terminal()
+        .program()
+        .terminal()
         .iter()
         .any(|l| l.text == "placed part  1"));
 }

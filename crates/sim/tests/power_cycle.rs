@@ -45,20 +45,24 @@ async fn post_power_cycle_restarts_the_controller_and_runs_autostart_pc() {
     let pendant = robot.pendant_addr().expect("a pendant");
     let report = robot
         .emulator()
-        .with(|c| c.load_program_text(fs020n_as::SERVER_1040, false));
+        .with(|c| c.memory_mut().load(fs020n_as::SERVER_1040, false));
     assert_eq!(report.errors, 0);
     // AUTOSTART.PC OFF: the power cycle starts nothing.
     let (code, _) = post(pendant, "/power-cycle").await;
     assert_eq!(code, 200);
-    assert!(!robot.emulator().with(|c| c.task_running(TaskId::Pc(1))));
+    assert!(!robot
+        .emulator()
+        .with(|c| c.program().task_running(TaskId::Pc(1))));
     robot
         .emulator()
-        .with(|c| assert!(c.set_switch("AUTOSTART.PC", true)));
+        .with(|c| assert!(c.memory_mut().set_switch("AUTOSTART.PC", true)));
     let (code, body) = post(pendant, "/power-cycle").await;
     assert_eq!(code, 200, "{body}");
-    assert!(robot.emulator().with(|c| c.task_running(TaskId::Pc(1))));
+    assert!(robot
+        .emulator()
+        .with(|c| c.program().task_running(TaskId::Pc(1))));
     assert_eq!(
-        robot.emulator().with(|c| c.loaded_programs()),
+        robot.emulator().with(|c| c.memory().programs()),
         vec!["autostart.pc", "ros_move"]
     );
     let mut answered = false;

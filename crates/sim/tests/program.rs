@@ -34,7 +34,7 @@ fn start_refused_with(setup: impl FnOnce(&mut Controller), blocker: &str) {
         c.start_blockers()
     );
     assert_eq!(
-        c.newest_command(),
+        c.native().newest_command(),
         Some(Command::StartProgram),
         "still recorded"
     );
@@ -138,8 +138,11 @@ fn joint_move_takes_the_planned_time_at_the_monitor_speed() {
         (took.as_secs_f64() - expected).abs() <= 0.006,
         "took {took:?}, JMOVE at 10 % takes {expected} s"
     );
-    assert_eq!(c.last_pass().unwrap().motion.unwrap().kind, MoveKind::Joint);
-    assert_eq!(c.last_pass().unwrap().motion.unwrap().speed, 10.0);
+    assert_eq!(
+        c.native().last_pass().unwrap().motion.unwrap().kind,
+        MoveKind::Joint
+    );
+    assert_eq!(c.native().last_pass().unwrap().motion.unwrap().speed, 10.0);
 }
 
 #[test]
@@ -172,7 +175,7 @@ fn a_straight_line_with_no_ik_path_raises_e1088() {
     raw(&mut c, id, "1040 3 1 100");
     // from elbow-down at home to an elbow-up configuration: no continuous IK path on a line
     let s = sample(
-        c.timer1_s(),
+        c.native().timer1_s(),
         0.0,
         [0.0, 0.0, 60.0, 0.0, -60.0, 0.0],
         [0.0; 6],
@@ -181,7 +184,7 @@ fn a_straight_line_with_no_ik_path_raises_e1088() {
     cmd(&mut c, id, Command::StreamedMove(s));
     c.advance_by(ms(20));
     assert_eq!(
-        c.last_pass().unwrap().motion.unwrap().kind,
+        c.native().last_pass().unwrap().motion.unwrap().kind,
         MoveKind::Linear
     );
     assert_eq!(c.error(), ErrorCode::DESTINATION_OUT_OF_RANGE);
@@ -357,7 +360,7 @@ fn exactly_one_motion_is_planned_and_blends_within_accuracy() {
     // (zero-length) JMOVE A and waits there until the tool is within ACCURACY of A. That is the
     // one motion of look-ahead; nothing else is queued.
     assert!(c.arm().has_planned());
-    assert_eq!(c.last_pass().unwrap().motion.unwrap().target, a);
+    assert_eq!(c.native().last_pass().unwrap().motion.unwrap().target, a);
     assert_eq!(c.arm().target(), a);
     let passes = c.counters().passes;
     jmove(&mut c, id, b.values());
@@ -430,7 +433,7 @@ fn command_7_extrapolates_exactly_as_the_formula_says() {
     let mut checked = 0;
     let mut steps = Vec::new();
     for k in 0..100 {
-        let t = c.timer1_s();
+        let t = c.native().timer1_s();
         // a stamp that is sometimes late, sometimes early, sometimes off by more than 0.5 s
         let t0 = match k % 4 {
             0 => t - 0.03,
@@ -450,7 +453,7 @@ fn command_7_extrapolates_exactly_as_the_formula_says() {
         let before = c.counters().passes;
         c.advance_by(ms(10));
         if c.counters().passes > before {
-            let pass = c.last_pass().unwrap();
+            let pass = c.native().last_pass().unwrap();
             assert_eq!(pass.command, 7.0);
             let ms_count = pass.tm_s * 1000.0;
             assert!(
@@ -458,7 +461,7 @@ fn command_7_extrapolates_exactly_as_the_formula_says() {
                 "TIMER: 1 ms resolution"
             );
             // the sample as the controller parsed it (3 decimals on the wire, AS reals)
-            let Some(Command::StreamedMove(parsed)) = c.newest_command() else {
+            let Some(Command::StreamedMove(parsed)) = c.native().newest_command() else {
                 panic!("newest is not a 7")
             };
             assert!((parsed.t0_s - s.t0_s).abs() < 1e-3);
@@ -479,7 +482,11 @@ fn command_7_extrapolates_exactly_as_the_formula_says() {
     // wait — though these passes waited for their LMOVEs to blend in
     let overhead = fs020n_sim::PASS_TIME.as_secs_f64();
     assert!(steps.iter().all(|&s| s <= overhead + 0.001), "{steps:?}");
-    assert!(c.step_s() >= overhead * 0.5, "{}", c.step_s());
+    assert!(
+        c.native().step_s() >= overhead * 0.5,
+        "{}",
+        c.native().step_s()
+    );
     assert!(c.error().is_none());
 }
 
@@ -487,18 +494,18 @@ fn command_7_extrapolates_exactly_as_the_formula_says() {
 fn step_is_the_running_average_of_the_loop_overhead() {
     let (mut c, id) = running();
     raw(&mut c, id, "1040 4 0"); // passes that do nothing: one every PASS_TIME = 4 ms
-    assert_eq!(c.step_s(), 0.0, "step starts at 0");
+    assert_eq!(c.native().step_s(), 0.0, "step starts at 0");
     // the first pass runs at the next tick, 2 ms after `last_tm` was set at program start
     c.advance_by(ms(2));
     let mut expected = 0.1 * 0.002;
-    assert!((c.step_s() - expected).abs() < 1e-12);
+    assert!((c.native().step_s() - expected).abs() < 1e-12);
     for _ in 0..30 {
         c.advance_by(fs020n_sim::PASS_TIME);
         expected = 0.9 * expected + 0.1 * fs020n_sim::PASS_TIME.as_secs_f64();
         assert!(
-            (c.step_s() - expected).abs() < 1e-12,
+            (c.native().step_s() - expected).abs() < 1e-12,
             "{} vs {expected}",
-            c.step_s()
+            c.native().step_s()
         );
     }
 }
@@ -517,17 +524,17 @@ fn a_large_lookahead_extrapolates_by_the_loop_overhead_not_the_motion_wait() {
     // a steady stream at 100 Hz: every sample stamped with the controller's own clock, so the
     // clamp term is ≈ 0 and only ARG2 × step moves the point beyond the sample
     for k in 0..300 {
-        let t = c.timer1_s();
+        let t = c.native().timer1_s();
         let p = [start[0] + v * 0.01 * k as f64, 10.0, -80.0, 0.0, -80.0, 0.0];
         let s = sample(t, lookahead, p, [v, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0; 6]);
         cmd(&mut c, id, Command::StreamedMove(s));
         let before = c.counters().passes;
         c.advance_by(ms(10));
         if k > 100 && c.counters().passes > before {
-            let pass = c.last_pass().unwrap();
+            let pass = c.native().last_pass().unwrap();
             if let Some(m) = pass.motion {
                 // how far beyond the sample (in time) the controller aimed
-                let Some(Command::StreamedMove(parsed)) = c.newest_command() else {
+                let Some(Command::StreamedMove(parsed)) = c.native().newest_command() else {
                     panic!("newest is not a 7")
                 };
                 let dt_clamp = (pass.tm_s - parsed.t0_s).clamp(-0.5, 0.5);
@@ -585,7 +592,7 @@ fn near_singularities_the_30_percent_joint_move_is_used() {
         stream_to(&mut c, id, p);
         // the first pass (at the next tick) reads the 7
         c.advance_by(ms(3));
-        let m = c.last_pass().unwrap().motion.unwrap();
+        let m = c.native().last_pass().unwrap().motion.unwrap();
         assert_eq!(m.kind, MoveKind::Joint, "{what}");
         // SPEED 30 with the monitor at 10 %: product, 3 %
         assert!((m.speed - 3.0).abs() < 1e-9, "{what}: {}", m.speed);
@@ -595,7 +602,7 @@ fn near_singularities_the_30_percent_joint_move_is_used() {
     let p = [1.0, 10.0, -5.0, 0.0, -5.0, 0.0];
     stream_to(&mut c, id, p);
     c.advance_by(ms(3));
-    let m = c.last_pass().unwrap().motion.unwrap();
+    let m = c.native().last_pass().unwrap().motion.unwrap();
     assert_eq!(m.kind, MoveKind::Linear);
     assert!((m.speed - 1.0).abs() < 1e-9, "{}", m.speed);
 }
@@ -636,7 +643,7 @@ fn speed_is_a_product_before_command_3_and_a_minimum_after() {
     stream_to(&mut c, id, p);
     c.advance_by(ms(3));
     assert!(
-        (c.last_pass().unwrap().motion.unwrap().speed - 15.0).abs() < 1e-9,
+        (c.native().last_pass().unwrap().motion.unwrap().speed - 15.0).abs() < 1e-9,
         "30 % x 50 %"
     );
     raw(&mut c, id, "1040 2 0");
@@ -655,7 +662,7 @@ fn speed_is_a_product_before_command_3_and_a_minimum_after() {
     stream_to(&mut c, id, p2);
     c.advance_by(ms(3));
     assert!(
-        (c.last_pass().unwrap().motion.unwrap().speed - 30.0).abs() < 1e-9,
+        (c.native().last_pass().unwrap().motion.unwrap().speed - 30.0).abs() < 1e-9,
         "min(30, 50)"
     );
     // command 3: > 100 clamps, <= 0 is ignored (but ABS.SPEED still switches on)
@@ -755,7 +762,7 @@ fn power_off_mid_move_stops_dead_and_ends_the_program() {
 fn estop_mid_move_cuts_power_raises_e3808_and_needs_release_and_reset() {
     let (mut c, id) = moving_fast();
     let q = c.joints();
-    c.press_estop();
+    c.set_estop(true);
     c.advance_by(ms(100));
     assert_eq!(c.joints(), q);
     let s = raw(&mut c, id, "1040 1 0");
@@ -763,7 +770,7 @@ fn estop_mid_move_cuts_power_raises_e3808_and_needs_release_and_reset() {
     assert_eq!(s.error.raw(), -33808);
     assert!(c.set_power(true).is_err(), "power stays off while pressed");
     assert!(c.reset_error().is_err(), "cannot reset while pressed");
-    c.release_estop();
+    c.set_estop(false);
     assert_eq!(c.error().raw(), -33808, "the error stays after release");
     c.reset_error().unwrap();
     c.set_power(true).unwrap();
@@ -839,7 +846,7 @@ fn a_first_7_at_the_current_joints_issues_no_motion() {
     let (mut c, id) = running();
     let here = c.joints().values();
     let before = c.counters().motions;
-    let t0 = c.timer1_s();
+    let t0 = c.native().timer1_s();
     cmd(
         &mut c,
         id,
@@ -876,19 +883,19 @@ fn arguments_beyond_count_are_stale_not_zero() {
 fn a_short_command_7_extrapolates_with_old_velocities() {
     let start = [0.0, 10.0, -80.0, 0.0, -80.0, 0.0];
     let (mut c, id) = streaming_at(start, 100.0);
-    let t = c.timer1_s();
+    let t = c.native().timer1_s();
     let full = sample(t, 0.0, start, [10.0, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0; 6]);
     cmd(&mut c, id, Command::StreamedMove(full));
     c.advance_by(ms(3));
     // now a 7 with COUNT 9 (positions only): the velocities are the previous pass's 10 deg/s
-    let t = c.timer1_s();
+    let t = c.native().timer1_s();
     raw(
         &mut c,
         id,
         &format!("1040 7 9 {:.3} 0 0 1 10 -80 0 -80 0", t - 0.2),
     );
     c.advance_by(ms(4));
-    let pass = c.last_pass().unwrap();
+    let pass = c.native().last_pass().unwrap();
     let m = pass.motion.expect("a motion");
     // dt = clamp(tm − t0) + 0 ≈ 0.2 s (+ the ms since): JT1 = 1 + 10 × dt, not 1
     let dt = (pass.tm_s - (t - 0.2)).clamp(-0.5, 0.5);

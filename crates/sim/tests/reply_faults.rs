@@ -47,7 +47,7 @@ async fn the_receive_timeout_starts_after_a_delayed_reply_is_sent() {
     tokio::time::sleep(ms(5100)).await;
     assert!(request(&mut s, "0 0 0").await.is_none());
     assert_eq!(
-        emu.with(|c| c.last_session_end()).map(|e| e.1),
+        emu.with(|c| c.native().last_session_end()).map(|e| e.1),
         Some(SessionEnd::ReceiveTimeout)
     );
 }
@@ -63,7 +63,7 @@ async fn a_delay_longer_than_the_receive_timeout_still_delivers() {
         })
     });
     assert!(request(&mut s, "0 0 0").await.is_some());
-    assert!(emu.with(|c| c.session().is_some()));
+    assert!(emu.with(|c| c.native().session().is_some()));
 }
 
 #[tokio::test(start_paused = true)]

@@ -58,7 +58,7 @@ async fn silence_closes_the_session_and_stops_the_robot() {
     assert!(!snap.session.open && snap.session.listening);
     // signal 2007 is raised; the program's ONI fires once it has been stable for 50 ms: the
     // program ends, the arm brakes (TASK(1) = 3 until it stands)
-    assert!(emu.with(|c| c.stop_signal()));
+    assert!(emu.with(|c| c.native().stop_signal()));
     sleep(fs020n_sim::SIGNAL_EDGE + Duration::from_millis(2)).await;
     assert_eq!(emu.snapshot().task, MotionTaskState::Finishing);
     sleep(Duration::from_secs(1)).await;
@@ -110,7 +110,7 @@ async fn send_timeout_ends_the_session_when_the_client_does_not_read() {
             s.write_all(b"0 0 0").await.unwrap();
         }
         sleep(Duration::from_millis(10)).await;
-        let (n, open) = emu.with(|c| (c.counters().requests, c.session().is_some()));
+        let (n, open) = emu.with(|c| (c.counters().requests, c.native().session().is_some()));
         if n > last_count {
             last_count = n;
             last_growth = Instant::now();
@@ -130,7 +130,7 @@ async fn send_timeout_ends_the_session_when_the_client_does_not_read() {
         stuck >= Duration::from_millis(1990) && stuck <= Duration::from_millis(2020),
         "ended {stuck:?} after the blocked send"
     );
-    let end = emu.with(|c| c.last_session_end()).expect("ended");
+    let end = emu.with(|c| c.native().last_session_end()).expect("ended");
     assert_eq!(end.1, SessionEnd::SendTimeout);
     sleep(fs020n_sim::SIGNAL_EDGE + Duration::from_millis(2)).await;
     assert_eq!(emu.with(|c| c.task()), MotionTaskState::NotRunning);
@@ -264,7 +264,7 @@ async fn fault_stop_reading_stalls_the_client() {
     );
     sleep(Duration::from_secs(5)).await;
     assert_eq!(
-        emu.with(|c| c.last_session_end()).unwrap().1,
+        emu.with(|c| c.native().last_session_end()).unwrap().1,
         SessionEnd::ReceiveTimeout
     );
 }

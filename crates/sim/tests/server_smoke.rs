@@ -34,7 +34,7 @@ async fn in_memory_session_times_out_after_5s_of_silence() {
     tokio::time::sleep(Duration::from_millis(5100)).await;
     let mut buf = [0u8; 16];
     assert_eq!(s.read(&mut buf).await.unwrap(), 0, "closed");
-    let end = emu.with(|c| c.last_session_end());
+    let end = emu.with(|c| c.native().last_session_end());
     assert_eq!(end.map(|e| e.1), Some(SessionEnd::ReceiveTimeout));
     assert_eq!(
         emu.with(|c| c.task()),

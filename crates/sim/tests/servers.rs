@@ -25,51 +25,51 @@ fn program() -> Controller {
 #[test]
 fn a_controller_running_a_program_refuses_native_sessions_and_counts_the_refusal() {
     let mut c = program();
-    assert!(c.runs_program());
+    assert!(c.program().runs());
     assert_eq!(c.try_accept(), Err(Refused::ListenGap));
     assert_eq!(c.counters().refused, 1);
-    assert!(!c.is_listening());
-    assert_eq!(c.next_listen_change(), None);
-    assert_eq!(c.session(), None);
+    assert!(!c.native().is_listening());
+    assert_eq!(c.native().next_listen_change(), None);
+    assert_eq!(c.native().session(), None);
     assert_eq!(
         c.handle_request(SessionId(1), b"1040 1 0"),
         Err(SessionGone)
     );
     // Its own clients connect to the port the program listens on.
-    assert!(c.program_listening(None));
-    assert!(c.program_connect(None, [127, 0, 0, 1]).is_ok());
+    assert!(c.program().listening(None));
+    assert!(c.program_mut().connect(None, [127, 0, 0, 1]).is_ok());
 }
 
 #[test]
 fn a_native_controller_has_no_program_clients() {
     let mut c = native();
-    assert!(!c.runs_program());
+    assert!(!c.program().runs());
     assert_eq!(
-        c.program_connect(None, [127, 0, 0, 1]),
+        c.program_mut().connect(None, [127, 0, 0, 1]),
         Err(Refused::ListenGap)
     );
     assert_eq!(c.counters().refused, 1);
-    assert_eq!(c.program_tasks(), None);
-    assert_eq!(c.next_program_event(), None);
+    assert_eq!(c.program().tasks(), None);
+    assert_eq!(c.program().next_event(), None);
     assert!(c.snapshot().program.is_none());
     // Its own clients are accepted in a listen window.
-    assert!(c.is_listening());
+    assert!(c.native().is_listening());
     assert!(c.try_accept().is_ok());
 }
 
 #[test]
 fn the_emergency_stop_acts_on_the_machine_under_either_server() {
     for mut c in [native(), program()] {
-        c.press_estop();
+        c.set_estop(true);
         assert_eq!(c.error(), ErrorCode::EMERGENCY_STOP);
         assert!(!c.panel().power);
         assert_eq!(c.reset_error(), Err(PanelError::EstopPressed));
         assert_eq!(c.set_power(true), Err(PanelError::EstopPressed));
-        c.release_estop();
+        c.set_estop(false);
         assert_eq!(c.reset_error(), Ok(()));
         assert!(c.error().is_none());
         let s = c.snapshot();
-        assert_eq!(s.counters.errors, 1, "runs_program: {}", c.runs_program());
+        assert_eq!(s.counters.errors, 1, "runs_program: {}", c.program().runs());
         assert_eq!(s.task, MotionTaskState::NotRunning);
     }
 }
@@ -78,7 +78,12 @@ fn the_emergency_stop_acts_on_the_machine_under_either_server() {
 fn reply_faults_wait_in_the_machine_under_either_server() {
     for mut c in [native(), program()] {
         c.inject(Fault::WithholdReplies { count: 2 });
-        assert_eq!(c.pending_faults(), 2, "runs_program: {}", c.runs_program());
+        assert_eq!(
+            c.pending_faults(),
+            2,
+            "runs_program: {}",
+            c.program().runs()
+        );
         c.clear_faults();
         assert_eq!(c.pending_faults(), 0);
     }
@@ -89,7 +94,7 @@ fn the_pendant_switches_abs_speed_as_the_server_sees_it() {
     for mut c in [native(), program()] {
         assert!(!c.abs_speed());
         c.set_abs_speed(true);
-        assert!(c.abs_speed(), "runs_program: {}", c.runs_program());
+        assert!(c.abs_speed(), "runs_program: {}", c.program().runs());
         assert!(c.snapshot().abs_speed);
         c.set_abs_speed(false);
         assert!(!c.abs_speed());

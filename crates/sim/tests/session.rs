@@ -17,15 +17,18 @@ fn five_seconds_of_silence_end_the_session_and_stop_the_robot() {
     assert!(c.velocity()[0] != 0.0, "moving");
     c.advance_to(Duration::from_millis(5999));
     assert!(
-        c.is_session_open(id),
+        c.native().is_session_open(id),
         "open until 5 s after the last request"
     );
     c.advance_to(Duration::from_millis(6000));
-    assert!(!c.is_session_open(id));
-    assert_eq!(c.last_session_end(), Some((id, SessionEnd::ReceiveTimeout)));
+    assert!(!c.native().is_session_open(id));
+    assert_eq!(
+        c.native().last_session_end(),
+        Some((id, SessionEnd::ReceiveTimeout))
+    );
     assert_eq!(c.counters().receive_timeouts, 1);
     // the communication task raises signal 2007; the program's ONI fires after the edge
-    assert!(c.stop_signal());
+    assert!(c.native().stop_signal());
     c.advance_by(SIGNAL_EDGE);
     assert_eq!(c.task(), MotionTaskState::NotRunning);
     // the robot stops at once (braking), then stands
@@ -45,9 +48,12 @@ fn a_second_client_is_refused_while_a_session_is_open() {
     c.advance_by(ms(4000)); // a session never closes the port "by window"
     raw(&mut c, id, "0 0 0");
     assert_eq!(c.try_accept(), Err(Refused::SessionOpen));
-    assert!(!c.is_listening());
+    assert!(!c.native().is_listening());
     raw(&mut c, id, "1040 255 0");
-    assert!(c.is_listening(), "listening again right after the session");
+    assert!(
+        c.native().is_listening(),
+        "listening again right after the session"
+    );
     assert!(c.try_accept().is_ok());
     assert_eq!(c.counters().refused, 2);
 }
@@ -58,23 +64,26 @@ fn listen_gap_refuses_then_a_later_connect_succeeds() {
     let gap = c.timing().listen_gap;
     assert_eq!(gap, ms(100));
     c.advance_to(Duration::from_millis(2999));
-    assert!(c.is_listening());
+    assert!(c.native().is_listening());
     c.advance_to(Duration::from_secs(3));
-    assert!(!c.is_listening());
-    assert_eq!(c.next_listen_change(), Some(Duration::from_secs(3) + gap));
+    assert!(!c.native().is_listening());
+    assert_eq!(
+        c.native().next_listen_change(),
+        Some(Duration::from_secs(3) + gap)
+    );
     assert_eq!(c.try_accept(), Err(Refused::ListenGap));
     c.advance_to(Duration::from_millis(3050));
     assert_eq!(c.try_accept(), Err(Refused::ListenGap));
     c.advance_to(Duration::from_secs(3) + gap);
     let id = c.try_accept().expect("next window");
-    assert_eq!(c.session(), Some(id));
+    assert_eq!(c.native().session(), Some(id));
     // windows are counted from the end of the last session
     raw(&mut c, id, "1040 255 0");
     let ended = c.now();
     c.advance_to(ended + ms(2999));
-    assert!(c.is_listening());
+    assert!(c.native().is_listening());
     c.advance_to(ended + ms(3000));
-    assert!(!c.is_listening());
+    assert!(!c.native().is_listening());
 }
 
 #[test]
@@ -84,19 +93,19 @@ fn timer_and_ring_reset_on_accept() {
     c.advance_by(ms(2500));
     let s = raw(&mut c, a, "1040 4 0");
     assert_eq!(s.timer.seconds(), Some(2.5));
-    assert_eq!(c.newest_index(), Some(1));
-    assert_eq!(c.newest_command(), Some(Command::Reserved));
+    assert_eq!(c.native().newest_index(), Some(1));
+    assert_eq!(c.native().newest_command(), Some(Command::Reserved));
     raw(&mut c, a, "1040 255 0");
     c.advance_by(ms(700));
     let b = c.try_accept().unwrap();
     assert_ne!(a, b);
-    assert_eq!(c.newest_index(), Some(0), "ring cleared");
+    assert_eq!(c.native().newest_index(), Some(0), "ring cleared");
     assert_eq!(
-        c.newest_command().unwrap().number(),
+        c.native().newest_command().unwrap().number(),
         0.0,
         "slot 0 holds command 0"
     );
-    assert_eq!(c.timer1_s(), 0.0);
+    assert_eq!(c.native().timer1_s(), 0.0);
     c.advance_by(ms(1234));
     let s = raw(&mut c, b, "0 0 0");
     assert_eq!(s.timer.seconds(), Some(1.234), "TIMER(1) since this accept");
@@ -121,12 +130,12 @@ fn ring_has_16_entries_and_publishes_the_newest_index() {
     let id = c.try_accept().unwrap();
     for k in 1..=17 {
         raw(&mut c, id, "1040 4 0");
-        assert_eq!(c.newest_index(), Some(k % 16));
+        assert_eq!(c.native().newest_index(), Some(k % 16));
     }
     // mismatched versions are not stored
     raw(&mut c, id, "1041 4 0");
     raw(&mut c, id, "0 0 0");
-    assert_eq!(c.newest_index(), Some(1));
+    assert_eq!(c.native().newest_index(), Some(1));
     assert_eq!(c.counters().requests, 19);
     assert_eq!(c.counters().effective_requests, 17);
 }
@@ -144,13 +153,13 @@ fn version_mismatch_and_leading_blank_move_nothing() {
         );
     }
     assert_eq!(c.task(), MotionTaskState::NotRunning);
-    assert_eq!(c.newest_index(), Some(0));
+    assert_eq!(c.native().newest_index(), Some(0));
     // a run of blanks between tokens is one separator ($DECODE mode 1 cuts the whole run):
     // the double blank after the version acts
     let s = raw(&mut c, id, "1040  1 0");
     assert!(s.task_running, "\"1040  1 0\" starts the program");
-    assert_eq!(c.newest_index(), Some(1));
-    assert_eq!(c.newest_command().unwrap().number(), 1.0);
+    assert_eq!(c.native().newest_index(), Some(1));
+    assert_eq!(c.native().newest_command().unwrap().number(), 1.0);
     for req in [
         " 1040 6 9 0 0 0 45 0 -90 0 -90 0",
         "1039 6 9 0 0 0 45 0 -90 0 -90 0",
@@ -172,7 +181,7 @@ fn only_the_first_255_bytes_of_one_read_count() {
     raw(&mut c, id, "1040 1 0");
     // Two requests in one read are one request: the second is trailing tokens, ignored.
     raw(&mut c, id, "1040 4 01040 6 9 0 0 0 45 0 -90 0 -90 0");
-    assert_eq!(c.newest_command(), Some(Command::Reserved));
+    assert_eq!(c.native().newest_command(), Some(Command::Reserved));
     // A target beyond byte 255 is lost: JT1 reads from the first 255 bytes only.
     let mut req = String::from("1040 6 9 0 0 0 ");
     while req.len() < 254 {
@@ -180,7 +189,7 @@ fn only_the_first_255_bytes_of_one_read_count() {
     }
     req.push_str(" 45 0 -90 0 -90 0");
     raw(&mut c, id, &req);
-    match c.newest_command() {
+    match c.native().newest_command() {
         Some(Command::JointMove { target }) => assert_eq!(target[1], 0.0),
         other => panic!("{other:?}"),
     }
@@ -233,7 +242,10 @@ fn command_255_replies_then_ends_the_session_and_the_program() {
     assert!(h.close);
     let s = Status::decode(std::str::from_utf8(&h.reply).unwrap()).unwrap();
     assert!(s.task_running, "the reply is built before the session ends");
-    assert_eq!(c.last_session_end(), Some((id, SessionEnd::EndCommand)));
+    assert_eq!(
+        c.native().last_session_end(),
+        Some((id, SessionEnd::EndCommand))
+    );
     // then `SIGNAL 2007`: the program ends once the signal has been stable for 50 ms; the arm
     // brakes, and until it stands the brake is the program's last motion (TASK(1) = 3)
     assert_eq!(c.task(), MotionTaskState::Running);
@@ -258,7 +270,7 @@ fn command_2_stops_after_the_signal_edge_and_the_session_stays() {
     // `SIGNAL 2007` + `ros_move_run = 0`: the reply is built at once, TASK(1) still 1
     let s = raw(&mut c, id, "1040 2 0");
     assert!(s.task_running, "the ONI needs the signal stable for 50 ms");
-    assert!(c.is_session_open(id));
+    assert!(c.native().is_session_open(id));
     let q = c.joints();
     c.advance_by(SIGNAL_EDGE - ms(2));
     assert!(c.joints()[0] > q[0], "still moving during the edge");
@@ -313,7 +325,7 @@ fn a_1_sent_right_after_a_2_is_lost() {
     });
     assert!(raw(&mut c, id, "1040 1 0").task_running);
     assert!(
-        !c.stop_signal(),
+        !c.native().stop_signal(),
         "the program clears signal 2007 when it starts"
     );
 }
@@ -363,9 +375,9 @@ fn a_1040_poll_stops_a_stream_after_its_current_motion_a_0_poll_does_not() {
         c.joints() == fs020n_proto::JointsDeg::new(start)
     });
     // Stream a trajectory JT1 = 20 deg/s * (t - t_start) that keeps going.
-    let t_start = c.timer1_s();
+    let t_start = c.native().timer1_s();
     for _ in 0..50 {
-        let t = c.timer1_s();
+        let t = c.native().timer1_s();
         let p = [20.0 * (t - t_start), 10.0, -80.0, 0.0, -80.0, 0.0];
         cmd(
             &mut c,
@@ -381,10 +393,10 @@ fn a_1040_poll_stops_a_stream_after_its_current_motion_a_0_poll_does_not() {
     let before = d.joints()[0];
     d.advance_by(ms(300));
     assert!(d.joints()[0] > before + 2.0, "kept extrapolating");
-    assert_eq!(d.newest_command().unwrap().number(), 7.0);
+    assert_eq!(d.native().newest_command().unwrap().number(), 7.0);
     // a 1040 0 0 poll becomes the newest command: the robot finishes its motion and stands
     raw(&mut c, id, "1040 0 0");
-    assert_eq!(c.newest_command().unwrap().number(), 0.0);
+    assert_eq!(c.native().newest_command().unwrap().number(), 0.0);
     until(&mut c, ms(3000), is_still);
     let stop = c.joints();
     c.advance_by(ms(1000));

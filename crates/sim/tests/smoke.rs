@@ -32,7 +32,7 @@ fn joint_move_reaches_target() {
         let mut p = target;
         p[0] += 10.0 * (k as f64 * 0.01);
         let s = fs020n_proto::StreamSample {
-            t0_s: c.timer1_s(),
+            t0_s: c.native().timer1_s(),
             lookahead_passes: 1.0,
             position: p,
             velocity: JointsDeg::new([10.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
@@ -41,7 +41,7 @@ fn joint_move_reaches_target() {
         send(&mut c, id, Command::StreamedMove(s));
     }
     let _ = t;
-    println!("after stream {} step {}", c.joints(), c.step_s());
+    println!("after stream {} step {}", c.joints(), c.native().step_s());
     assert!((c.joints()[0] - 60.0).abs() < 1.0, "{}", c.joints());
     assert!(c.error().is_none());
 }

@@ -69,13 +69,13 @@ async fn a_client_that_stops_reading_loses_its_session_within_seconds() {
         }
     });
     // The session must have been accepted before its end can be awaited.
-    while emu.with(|c| c.session()).is_none() {
+    while emu.with(|c| c.native().session()).is_none() {
         assert!(started.elapsed() < Duration::from_secs(5), "never accepted");
         tokio::time::sleep(Duration::from_millis(5)).await;
     }
     let mut ended = None;
     while started.elapsed() < Duration::from_secs(15) {
-        if emu.with(|c| c.session()).is_none() {
+        if emu.with(|c| c.native().session()).is_none() {
             ended = Some(started.elapsed());
             break;
         }
@@ -91,7 +91,7 @@ async fn a_client_that_stops_reading_loses_its_session_within_seconds() {
         ended >= Duration::from_secs(2),
         "the 2 s send timeout ran: {ended:?}"
     );
-    let end = emu.with(|c| c.last_session_end()).unwrap();
+    let end = emu.with(|c| c.native().last_session_end()).unwrap();
     assert_eq!(end.1, SessionEnd::SendTimeout);
     server.stop();
 }

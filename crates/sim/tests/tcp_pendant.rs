@@ -138,7 +138,7 @@ async fn tcp_session_one_client_255_and_relisten() {
     let mut buf = [0u8; 16];
     assert_eq!(s.read(&mut buf).await.unwrap(), 0, "then the socket closes");
     // then signal 2007 ends the program once stable for 50 ms
-    assert!(emu.with(|c| c.stop_signal()));
+    assert!(emu.with(|c| c.native().stop_signal()));
     let mut waited = 0;
     while emu.with(|c| c.task()) != MotionTaskState::NotRunning {
         assert!(waited < 200, "the program did not end");
@@ -174,13 +174,13 @@ async fn tcp_listen_gap_refuses_connections() {
     let server = emu.serve_tcp(local()).await.unwrap();
     // wait for the gap, and a little more for the accept loop to close the port
     let mut waited = 0;
-    while emu.with(|c| c.is_listening()) {
+    while emu.with(|c| c.native().is_listening()) {
         tokio::time::sleep(Duration::from_millis(5)).await;
         waited += 1;
         assert!(waited < 200);
     }
     tokio::time::sleep(Duration::from_millis(50)).await;
-    assert!(!emu.with(|c| c.is_listening()));
+    assert!(!emu.with(|c| c.native().is_listening()));
     let refused = TcpStream::connect(server.local_addr()).await;
     assert!(refused.is_err(), "refused during the gap");
     // a client that retries gets in with the next window

@@ -19,7 +19,7 @@ struct Term {
 }
 
 fn bare() -> Controller {
-    Controller::bare(ControllerConfig::default())
+    Controller::bare(ControllerConfig::default(), fs020n_as::LoadOptions::new())
 }
 
 impl Term {
@@ -119,13 +119,14 @@ fn loaded_ok(e: &Event) -> &str {
 /// A poll of protocol 1040 through the program's served port: the reply's fields.
 fn poll(c: &mut Controller) -> Vec<String> {
     let client = c
-        .program_connect(None, [127, 0, 0, 1])
+        .program_mut()
+        .connect(None, [127, 0, 0, 1])
         .expect("the program listens");
     c.advance_by(Duration::from_millis(50));
-    assert!(c.program_send(client, b"1040 0 0"));
+    assert!(c.program_mut().send(client, b"1040 0 0"));
     c.advance_by(Duration::from_millis(100));
-    let reply = c.program_recv(client);
-    c.program_close(client);
+    let reply = c.program_mut().recv(client);
+    c.program_mut().close(client);
     String::from_utf8_lossy(&reply.bytes)
         .split_whitespace()
         .map(str::to_owned)
@@ -139,8 +140,8 @@ fn a_bare_controller_lists_nothing_and_serves_no_port() {
     let mut t = Term::new(bare());
     assert_eq!(t.cmd("DIRECTORY/P", false).trim(), "Program list");
     t.advance(Duration::from_secs(1));
-    assert!(!t.c.program_listening(None));
-    assert!(t.c.program_connect(None, [127, 0, 0, 1]).is_err());
+    assert!(!t.c.program().listening(None));
+    assert!(t.c.program_mut().connect(None, [127, 0, 0, 1]).is_err());
 }
 
 #[test]
@@ -208,7 +209,7 @@ fn a_running_program_cannot_be_killed_and_an_aborted_one_can() {
         out.contains("(P1026)Cannot KILL program that is running."),
         "{out}"
     );
-    assert!(t.c.task_running(TaskId::Pc(1)));
+    assert!(t.c.program().task_running(TaskId::Pc(1)));
     // The server waits in its 3 s TCP_ACCEPT: PCABORT takes effect when that step completes.
     let out = t.cmd("PCABORT 1:", false);
     assert_eq!(out, "");
@@ -218,7 +219,7 @@ fn a_running_program_cannot_be_killed_and_an_aborted_one_can() {
     t.advance(Duration::from_millis(3100));
     assert_eq!(t.cmd("TYPE TASK (1001)", false), "0");
     assert_eq!(
-        t.c.task_program(TaskId::Pc(1)).as_deref(),
+        t.c.program().task_program(TaskId::Pc(1)).as_deref(),
         Some("autostart.pc")
     );
     // On the stack: a new LOAD of it is refused, the other program loads.
@@ -231,7 +232,7 @@ fn a_running_program_cannot_be_killed_and_an_aborted_one_can() {
         other => panic!("{other:?}"),
     }
     t.cmd("PCKILL 1:", true);
-    assert_eq!(t.c.task_program(TaskId::Pc(1)), None);
+    assert_eq!(t.c.program().task_program(TaskId::Pc(1)), None);
     loaded_ok(&t.load("server1040.as", SERVER));
 }
 
@@ -253,7 +254,7 @@ fn kill_of_the_running_robot_program_is_refused_and_abort_then_kill_works() {
     t.cmd("KILL", true);
     assert!(t.cmd("STATUS", false).ends_with("No program is running."));
     assert!(!t.cmd("DELETE/P spin", true).contains("(P"));
-    assert_eq!(t.c.loaded_programs(), Vec::<String>::new());
+    assert_eq!(t.c.memory().programs(), Vec::<String>::new());
 }
 
 #[test]
@@ -289,7 +290,7 @@ fn a_syntax_error_answered_abort_loads_nothing() {
             ..
         })
     ));
-    assert!(t.c.loaded_programs().is_empty());
+    assert!(t.c.memory().programs().is_empty());
 }
 
 #[test]
@@ -314,7 +315,7 @@ fn a_syntax_error_answered_comment_out_loads_the_file_with_the_line_commented() 
     let text = feed(&mut c, &mut link, &client_frame(Letter::E, b""));
     assert!(text.contains("Program x()"), "{text}");
     assert!(text.contains("File load completed. (1 errors)"), "{text}");
-    let listing = c.program_text("x").unwrap();
+    let listing = String::from_utf8_lossy(c.memory().program("x").unwrap()).into_owned();
     assert!(
         listing.contains("; ") && listing.contains("NOT AS AT ALL"),
         "{listing}"
@@ -327,7 +328,7 @@ fn a_transfer_left_open_gives_p2076_until_a_power_cycle() {
     let mut dropped = TerminalLink::open(&mut c, SessionConfig::default());
     dropped.handle_input(&mut c, b"as\r\nLOAD x.as\r\n");
     dropped.handle_close(&mut c);
-    assert!(c.transfer_open());
+    assert!(c.memory().transfer_open());
     let mut t = Term::new(c);
     t.client
         .load(t.now, "y.as", b".PROGRAM y()\n.END\n")
@@ -358,9 +359,9 @@ fn a_transfer_in_progress_in_one_session_gives_p2076_in_another() {
     busy.handle_input(&mut t.c, &client_frame(Letter::C, b".PROGRAM x()\n.END\n"));
     busy.handle_input(&mut t.c, &client_frame(Letter::C, &[SUB]));
     busy.handle_input(&mut t.c, &client_frame(Letter::E, b""));
-    assert!(!t.c.transfer_open());
+    assert!(!t.c.memory().transfer_open());
     loaded_ok(&t.load("y.as", ".PROGRAM y()\n.END\n"));
-    assert_eq!(t.c.loaded_programs(), vec!["x", "y"]);
+    assert_eq!(t.c.memory().programs(), vec!["x", "y"]);
 }
 
 #[test]
@@ -370,7 +371,7 @@ fn switch_reads_and_sets_autostart_in_both_forms_and_refuses_unknown_names() {
     assert_eq!(t.cmd("SWITCH AUTOSTART.PC = ON", false), "");
     assert_eq!(t.cmd("sw autostart.pc", false), "AUTOSTART.PC    ON");
     assert_eq!(t.cmd("SWITCH AUTOSTART3.PC ON", false), "");
-    assert_eq!(t.c.switch("AUTOSTART3.PC"), Some(true));
+    assert_eq!(t.c.memory().switch("AUTOSTART3.PC"), Some(true));
     assert_eq!(t.cmd("SWITCH CP", false), "CP              ON");
     assert_eq!(t.cmd("SWITCH ABS.SPEED=ON", false), "");
     assert!(t.c.abs_speed());
@@ -388,13 +389,13 @@ fn a_power_cycle_starts_autostart_pc_only_when_its_switch_is_on() {
     loaded_ok(&t.load("server1040.as", SERVER));
     t.c.power_cycle();
     t.advance(Duration::from_millis(200));
-    assert!(!t.c.program_listening(None));
+    assert!(!t.c.program().listening(None));
     t.cmd("SWITCH AUTOSTART.PC = ON", false);
     let started = t.c.power_cycle();
     assert_eq!(started.started, vec![(1, "autostart.pc".to_owned())]);
     t.advance(Duration::from_millis(200));
     assert_eq!(poll(&mut t.c).len(), 14);
-    assert_eq!(t.c.loaded_programs(), vec!["autostart.pc", "ros_move"]);
+    assert_eq!(t.c.memory().programs(), vec!["autostart.pc", "ros_move"]);
 }
 
 #[test]
@@ -403,16 +404,16 @@ fn a_power_cycle_stops_tasks_closes_sockets_and_clears_the_error() {
     loaded_ok(&t.load("server1040.as", SERVER));
     t.cmd("PCEXECUTE 1: autostart.pc", false);
     t.advance(Duration::from_millis(200));
-    let client = t.c.program_connect(None, [127, 0, 0, 1]).unwrap();
+    let client = t.c.program_mut().connect(None, [127, 0, 0, 1]).unwrap();
     t.c.inject(Fault::RaiseError {
         code: fs020n_proto::ErrorCode(-31130),
     });
     t.c.power_cycle();
-    assert!(!t.c.task_running(TaskId::Pc(1)));
+    assert!(!t.c.program().task_running(TaskId::Pc(1)));
     assert!(t.c.error().is_none());
     assert!(!t.c.panel().power);
-    assert!(t.c.program_recv(client).closed);
-    assert_eq!(t.c.task_program(TaskId::Pc(1)), None);
+    assert!(t.c.program_mut().recv(client).closed);
+    assert_eq!(t.c.program().task_program(TaskId::Pc(1)), None);
 }
 
 #[test]
@@ -540,7 +541,10 @@ fn a_load_while_a_task_counts_takes_effect_at_once_and_the_count_never_resets_or
     assert_eq!(t.cmd("TYPE TASK (1001)", false), "1");
     assert_eq!(t.cmd("TYPE TASK (1002)", false), "1");
     assert_eq!(type_real(&mut t, "m"), 20.0);
-    assert_eq!(t.c.task_program(TaskId::Pc(1)).as_deref(), Some("count"));
+    assert_eq!(
+        t.c.program().task_program(TaskId::Pc(1)).as_deref(),
+        Some("count")
+    );
 }
 
 /// The 1040 server in PC task 1 and one client session of six polls; with `load`, a file of
@@ -552,7 +556,8 @@ fn server_session(load: bool) -> Vec<Vec<u8>> {
     t.cmd("PCEXECUTE 1: autostart.pc", false);
     t.advance(Duration::from_millis(100));
     let client =
-        t.c.program_connect(None, [127, 0, 0, 1])
+        t.c.program_mut()
+            .connect(None, [127, 0, 0, 1])
             .expect("the program listens");
     t.c.advance_by(Duration::from_millis(50));
     let mut replies = Vec::new();
@@ -563,9 +568,9 @@ fn server_session(load: bool) -> Vec<Vec<u8>> {
             loaded_ok(&t.load("other.as", OTHER));
             assert_eq!(t.cmd("PCEXECUTE 2: other", false), "");
         }
-        assert!(t.c.program_send(client, b"1040 0 0"), "poll {k} sent");
+        assert!(t.c.program_mut().send(client, b"1040 0 0"), "poll {k} sent");
         t.c.advance_by(Duration::from_millis(100));
-        replies.push(t.c.program_recv(client).bytes);
+        replies.push(t.c.program_mut().recv(client).bytes);
     }
     if load {
         assert_eq!(t.cmd("TYPE TASK (1002)", false), "1");
@@ -602,7 +607,7 @@ fn a_load_replacing_the_running_program_is_refused_with_p1014_and_nothing_change
         }
         other => panic!("{other:?}"),
     }
-    assert_eq!(t.c.program_text("count").as_deref(), Some(COUNT));
+    assert_eq!(t.c.memory().program("count"), Some(COUNT.as_bytes()));
     for _ in 0..10 {
         t.advance(Duration::from_millis(100));
         reference.advance(Duration::from_millis(100));
@@ -651,7 +656,7 @@ fn a_power_cycle_keeps_the_system_switches() {
     t.cmd("SWITCH CP = OFF", false);
     t.c.power_cycle();
     assert_eq!(t.cmd("SWITCH CP", false), "CP              OFF");
-    assert_eq!(t.c.switch("cp"), Some(false));
+    assert_eq!(t.c.memory().switch("cp"), Some(false));
 }
 
 #[test]
@@ -671,10 +676,10 @@ fn save_sends_the_programs_and_they_load_again_elsewhere() {
     assert!(text.contains(".END\r\n") && !text.replace("\r\n", "").contains('\n'));
     let mut other = Term::new(bare());
     loaded_ok(&other.load("backup.as", &text));
-    assert_eq!(other.c.loaded_programs(), t.c.loaded_programs());
+    assert_eq!(other.c.memory().programs(), t.c.memory().programs());
     assert_eq!(
-        other.c.program_text("ros_move"),
-        t.c.program_text("ros_move")
+        other.c.memory().program("ros_move"),
+        t.c.memory().program("ros_move")
     );
 }
 
@@ -683,8 +688,8 @@ fn a_load_overwrites_a_program_of_the_same_name() {
     let mut t = Term::new(bare());
     loaded_ok(&t.load("a.as", ".PROGRAM p()\n  x = 1\n.END\n"));
     loaded_ok(&t.load("b.as", ".PROGRAM p()\n  x = 2\n.END\n"));
-    assert_eq!(t.c.loaded_programs(), vec!["p"]);
-    assert!(t.c.program_text("p").unwrap().contains("x = 2"));
+    assert_eq!(t.c.memory().programs(), vec!["p"]);
+    assert!(String::from_utf8_lossy(t.c.memory().program("p").unwrap()).contains("x = 2"));
 }
 
 #[test]
@@ -693,7 +698,7 @@ fn data_sections_load_with_their_programs_and_are_saved_without_p() {
     let file = ".PROGRAM p()\n  y = limit\n.END\n.REALS\nlimit = 3\n.END\n";
     loaded_ok(&t.load("d.as", file));
     loaded_ok(&t.load("d.as", file));
-    assert_eq!(t.c.data_sections().len(), 1);
+    assert_eq!(t.c.memory().data_sections().len(), 1);
     t.cmd("PCEXECUTE 2: p", false);
     t.advance(Duration::from_millis(50));
     assert_eq!(t.cmd("TYPE y", false), "3");
@@ -747,7 +752,7 @@ fn the_native_server_refuses_loads_and_says_how_to_load() {
         }
         other => panic!("{other:?}"),
     }
-    assert!(t.c.loaded_programs().is_empty());
+    assert!(t.c.memory().programs().is_empty());
 }
 
 #[test]
@@ -762,11 +767,11 @@ fn pcexecute_runs_the_program_as_many_cycles_as_asked_and_pcstatus_counts_them()
     assert!(status.contains("Remaining cycles: 2"), "{status}");
     t.advance(Duration::from_millis(2000));
     assert_eq!(t.cmd("TYPE n", false), "3");
-    assert!(!t.c.task_running(TaskId::Pc(2)));
+    assert!(!t.c.program().task_running(TaskId::Pc(2)));
     // A count that is not a number is refused and nothing starts.
     let refused = t.cmd("PCEXECUTE 2: count, many", false);
     assert!(refused.contains("whole number"), "{refused}");
-    assert!(!t.c.task_running(TaskId::Pc(2)));
+    assert!(!t.c.program().task_running(TaskId::Pc(2)));
 }
 
 #[test]
@@ -776,14 +781,14 @@ fn pcexecute_minus_one_runs_until_pcabort() {
     loaded_ok(&t.load("count.as", p));
     t.cmd("PCEXECUTE 3: count, -1", false);
     t.advance(Duration::from_millis(5050));
-    assert!(t.c.task_running(TaskId::Pc(3)));
+    assert!(t.c.program().task_running(TaskId::Pc(3)));
     let status = t.cmd("PCSTATUS 3:", false);
     assert!(status.contains("Remaining cycles: Infinite"), "{status}");
     let n: u32 = t.cmd("TYPE n", false).parse().unwrap();
     assert!((45..=51).contains(&n), "{n} cycles of 0.1 s in 5 s");
     t.cmd("PCABORT 3:", false);
     t.advance(Duration::from_millis(500));
-    assert!(!t.c.task_running(TaskId::Pc(3)));
+    assert!(!t.c.program().task_running(TaskId::Pc(3)));
     let after: u32 = t.cmd("TYPE n", false).parse().unwrap();
     t.advance(Duration::from_millis(1000));
     assert_eq!(
@@ -803,7 +808,7 @@ fn execute_with_a_cycle_count_repeats_the_robot_program() {
     t.cmd("EXECUTE rob, 4", false);
     t.advance(Duration::from_millis(2000));
     assert_eq!(t.cmd("TYPE m", false), "4");
-    assert!(!t.c.task_running(TaskId::Robot));
+    assert!(!t.c.program().task_running(TaskId::Robot));
 }
 
 /// A file as bytes: a Shift-JIS comment (「あ」 is 82 A0), a Windows-1250 string (`Łódź` is
@@ -830,7 +835,7 @@ fn a_file_in_any_code_page_loads_runs_and_saves_back_byte_for_byte() {
 #[test]
 fn instructions_stubbed_for_a_bare_controller_stay_stubbed_through_loads_and_power_cycles() {
     let load = fs020n_as::LoadOptions::new().stub("FROBNICATE");
-    let mut t = Term::new(Controller::bare_with(ControllerConfig::default(), load));
+    let mut t = Term::new(Controller::bare(ControllerConfig::default(), load));
     let file = ".PROGRAM autostart.pc()\n  FROBNICATE 3\n  done = 1\n.END\n";
     loaded_ok(&t.load("s.as", file));
     t.cmd("PCEXECUTE 1: autostart.pc", false);
@@ -853,7 +858,7 @@ fn instructions_stubbed_for_a_bare_controller_stay_stubbed_through_loads_and_pow
         } => assert_eq!(line, "FROBNICATE 3"),
         other => panic!("{other:?}"),
     }
-    assert!(plain.c.loaded_programs().is_empty());
+    assert!(plain.c.memory().programs().is_empty());
 }
 
 #[test]
@@ -863,7 +868,7 @@ fn a_load_with_no_task_running_keeps_variables_signals_and_timers_and_its_data_o
     loaded_ok(&t.load("setx.as", p));
     t.cmd("PCEXECUTE 2: setx", false);
     t.advance(Duration::from_millis(500));
-    assert!(!t.c.task_running(TaskId::Pc(2)));
+    assert!(!t.c.program().task_running(TaskId::Pc(2)));
     // An unrelated file: what the finished program left stays, as on a controller.
     loaded_ok(&t.load("other.as", ".PROGRAM other()\n  y = x\n.END\n"));
     assert_eq!(t.cmd("TYPE x", false), "42");
@@ -926,7 +931,7 @@ fn a_pc_program_listens_by_the_time_the_prompt_of_pcexecute_returns() {
     loaded_ok(&t.load("server1040.as", SERVER));
     assert_eq!(t.cmd("PCEXECUTE 1: autostart.pc", false), "");
     // No time given to the controller after the prompt.
-    assert!(t.c.program_listening(Some(10050)));
+    assert!(t.c.program().listening(Some(10050)));
 }
 
 #[test]
@@ -1025,8 +1030,8 @@ fn an_older_generation_refuses_to_load_over_a_program_and_ends_with_loading_done
         }
         other => panic!("{other:?}"),
     }
-    assert_eq!(t.c.loaded_programs(), ["a"]);
-    assert!(t.c.program_text("a").unwrap().contains("x = 1"));
+    assert_eq!(t.c.memory().programs(), ["a"]);
+    assert!(String::from_utf8_lossy(t.c.memory().program("a").unwrap()).contains("x = 1"));
 }
 
 #[test]

@@ -9,9 +9,9 @@ use proptest::prelude::*;
 
 /// A controller with the project's server loaded and running, and a logged-in session.
 fn setup() -> (Controller, TerminalLink) {
-    let mut c = Controller::bare(ControllerConfig::default());
-    assert_eq!(c.load_program_text(fs020n_as::SERVER_1040, false).errors, 0);
-    c.pc_execute(1, "autostart.pc").unwrap();
+    let mut c = Controller::bare(ControllerConfig::default(), fs020n_as::LoadOptions::new());
+    assert_eq!(c.memory_mut().load(fs020n_as::SERVER_1040, false).errors, 0);
+    c.program_mut().pc_execute(1, "autostart.pc", 1).unwrap();
     c.advance_by(Duration::from_millis(50));
     let mut link = TerminalLink::open(&mut c, SessionConfig::default());
     link.handle_input(&mut c, b"as\r\n");
@@ -85,12 +85,12 @@ proptest! {
 
     #[test]
     fn any_file_text_is_checked_and_loaded_without_panic(text in "[ -~\n]{0,400}") {
-        let mut c = Controller::bare(ControllerConfig::default());
+        let mut c = Controller::bare(ControllerConfig::default(), fs020n_as::LoadOptions::new());
         let file = format!(".PROGRAM p()\n{text}\n.END\n");
-        let errors = c.check_program_text(&file);
-        let report = c.load_program_text(&file, true);
+        let errors = c.memory().check(&file);
+        let report = c.memory_mut().load(&file, true);
         prop_assert!(errors.is_empty() || report.errors >= 1);
-        let _ = c.pc_execute(1, "p");
+        let _ = c.program_mut().pc_execute(1, "p", 1);
         c.advance_by(Duration::from_millis(20));
     }
 }

@@ -40,23 +40,26 @@ fn a_loopback_peer_and_the_program_exchange_datagrams() {
     );
     let mut c = controller(&text);
     c.advance_by(Duration::from_millis(20));
-    assert_eq!(c.program_udp_address(), Some(std::net::Ipv4Addr::LOCALHOST));
+    assert_eq!(
+        c.program().udp_address(),
+        Some(std::net::Ipv4Addr::LOCALHOST)
+    );
     peer.send_to(b"hello", ("127.0.0.1", port)).expect("send");
     // The datagram is on the loopback interface: the program's next poll reads it.
     let mut waited = 0;
-    while c.program_real("done").is_none() && waited < 200 {
+    while c.program().real("done").is_none() && waited < 200 {
         c.advance_by(Duration::from_millis(10));
         waited += 1;
         std::thread::sleep(Duration::from_millis(1));
     }
-    assert_eq!(c.program_real("ret"), Some(0.0));
+    assert_eq!(c.program().real("ret"), Some(0.0));
     assert_eq!(
-        c.program_real("n"),
+        c.program().real("n"),
         Some(2.0),
         "hello in elements of 4 bytes"
     );
-    assert_eq!(c.program_real("sret"), Some(0.0));
-    assert_eq!(c.program_real("done"), Some(1.0));
+    assert_eq!(c.program().real("sret"), Some(0.0));
+    assert_eq!(c.program().real("done"), Some(1.0));
     let mut buf = [0u8; 64];
     let (n, from) = peer.recv_from(&mut buf).expect("the answer");
     assert_eq!(&buf[..n], b"got hell");
@@ -74,15 +77,15 @@ fn udp_recvfrom_with_no_datagram_times_out_on_the_controller_clock() {
     );
     let mut c = controller(&text);
     c.advance_by(Duration::from_millis(1900));
-    assert_eq!(c.program_real("ret"), None, "still waiting");
+    assert_eq!(c.program().real("ret"), None, "still waiting");
     // The port is really open on the host while it waits.
     assert!(
         UdpSocket::bind(("127.0.0.1", port)).is_err(),
         "the program holds the port"
     );
     c.advance_by(Duration::from_millis(200));
-    assert_eq!(c.program_real("ret"), Some(-34024.0));
-    let at = c.program_real("at").expect("went on");
+    assert_eq!(c.program().real("ret"), Some(-34024.0));
+    let at = c.program().real("at").expect("went on");
     assert!((2.0..2.01).contains(&at), "timed out at {at} s");
     // …and closed when the instruction ended.
     assert!(UdpSocket::bind(("127.0.0.1", port)).is_ok(), "released");
@@ -111,9 +114,9 @@ fn garbage_datagrams_do_not_disturb_the_program() {
         std::thread::sleep(Duration::from_millis(5));
         c.advance_by(Duration::from_millis(20));
     }
-    assert_eq!(c.program_real("count"), Some(3.0));
+    assert_eq!(c.program().real("count"), Some(3.0));
     assert_eq!(
-        c.program_real("n"),
+        c.program().real("n"),
         Some(17.0),
         "4096 bytes kept, in 255-byte elements"
     );

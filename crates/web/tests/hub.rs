@@ -15,7 +15,7 @@ use fs020n_web::HubConfig;
 use tokio::time::Instant;
 
 fn newest(emu: &fs020n_sim::Emulator) -> Option<Command> {
-    emu.with(|c| c.newest_command())
+    emu.with(|c| c.native().newest_command())
 }
 
 #[tokio::test(start_paused = true)]
@@ -258,14 +258,14 @@ async fn a_killed_controlling_client_stops_the_arm_within_half_a_second() {
     let emu = emulator();
     let hub = hub(&emu, HubConfig::default()).await;
     let a = moving(&hub, &emu).await;
-    let session = emu.with(|c| c.session());
+    let session = emu.with(|c| c.native().session());
     drop(a); // the process dies: its connection closes
     let t = time_to_standstill(&emu).await;
     assert!(t <= Duration::from_millis(500), "stopped after {t:?}");
     assert_eq!(newest(&emu), Some(Command::StopProgram), "by command 2");
     assert_eq!(emu.with(|c| c.task()), MotionTaskState::NotRunning);
     assert_eq!(
-        emu.with(|c| c.session()),
+        emu.with(|c| c.native().session()),
         session,
         "the hub's session goes on"
     );
@@ -308,7 +308,7 @@ async fn end_command_stops_releases_control_and_keeps_the_session() {
     let hub = hub(&emu, HubConfig::default()).await;
     let mut a = Raw::connect(&hub, "a");
     a.request("1040 1 0").await;
-    let session = emu.with(|c| c.session());
+    let session = emu.with(|c| c.native().session());
     let r = a.request("1040 255 0").await;
     assert_eq!(
         r.status.version, 1040,
@@ -318,7 +318,11 @@ async fn end_command_stops_releases_control_and_keeps_the_session() {
     // Signal 2007 ends the program once it has been stable for 50 ms.
     sleep_ms(100).await;
     assert_eq!(emu.with(|c| c.task()), MotionTaskState::NotRunning);
-    assert_eq!(emu.with(|c| c.session()), session, "255 was not forwarded");
+    assert_eq!(
+        emu.with(|c| c.native().session()),
+        session,
+        "255 was not forwarded"
+    );
     assert_eq!(newest(&emu), Some(Command::StopProgram));
     assert_eq!(hub.controller(), None);
     // Another client may take control now.

@@ -162,13 +162,13 @@ fn check_program(args: &SimArgs) -> CliResult<Option<String>> {
 /// `--trace`: prints the executed program lines of every robot as they run.
 async fn print_trace(emulators: Vec<fs020n_sim::Emulator>, as_json: bool) {
     for e in &emulators {
-        e.with(|c| c.set_program_trace(true));
+        e.with(|c| c.program_mut().set_trace(true));
     }
     let mut tick = tokio::time::interval(std::time::Duration::from_millis(20));
     loop {
         tick.tick().await;
         for (i, e) in emulators.iter().enumerate() {
-            let lines = e.with(|c| c.take_program_trace());
+            let lines = e.with(|c| c.program_mut().take_trace());
             let mut out = String::new();
             for l in lines {
                 if as_json {
@@ -236,7 +236,7 @@ pub(crate) fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResul
         }
         for r in &robots {
             for &(n, on) in &inputs {
-                r.emulator().with(|c| c.set_program_input(n, on));
+                r.emulator().with(|c| c.program_mut().set_input(n, on));
             }
         }
         for (i, r) in robots.iter().enumerate() {

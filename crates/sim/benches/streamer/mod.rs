@@ -159,7 +159,7 @@ impl Streamer {
     /// [`second`](Self::second), handing every request to `keep` after it was sent.
     fn second_with(&mut self, mut keep: impl FnMut(&[u8])) {
         for _ in 0..100 {
-            let s = sample(self.t, self.c.timer1_s());
+            let s = sample(self.t, self.c.native().timer1_s());
             if self.client_encoder {
                 self.request = Request::new(Command::StreamedMove(s))
                     .encode()

@@ -188,49 +188,10 @@ const LOAD_FILE: &str = "load";
 impl Controller {
     // ----------------------------------------------------------------- memory
 
-    /// The programs in memory, in load order (lower case).
-    pub fn loaded_programs(&self) -> Vec<String> {
-        self.memory
-            .programs()
-            .iter()
-            .map(|p| p.name.clone())
-            .collect()
-    }
-
-    /// A program's text, `.PROGRAM` to `.END` (bytes outside UTF-8 shown as U+FFFD; the
-    /// bytes themselves: [`Controller::program_bytes`]).
-    pub fn program_text(&self, name: &str) -> Option<String> {
-        self.program_bytes(name)
-            .map(|b| String::from_utf8_lossy(&b).into_owned())
-    }
-
-    /// A program's bytes as loaded, `.PROGRAM` to `.END`, LF line ends.
-    pub fn program_bytes(&self, name: &str) -> Option<Vec<u8>> {
-        self.memory.program(name).map(|p| p.text.clone())
-    }
-
-    /// The data sections in memory (`.REALS` … `.END`, …), as text (see
-    /// [`Controller::data_section_bytes`]).
-    pub fn data_sections(&self) -> Vec<String> {
-        (self.memory.data().iter())
-            .map(|d| String::from_utf8_lossy(d).into_owned())
-            .collect()
-    }
-
-    /// The data sections in memory, as the bytes loaded (LF line ends).
-    pub fn data_section_bytes(&self) -> Vec<Vec<u8>> {
-        self.memory.data().to_vec()
-    }
-
-    /// [`Controller::check_program_bytes`] of a text.
-    pub fn check_program_text(&self, text: &str) -> Vec<(u32, String)> {
-        self.check_program_bytes(text.as_bytes())
-    }
-
     /// The syntax errors of an AS file (its bytes, in any code page) as the controller's
     /// `LOAD` finds them, with the programs in memory it would join: `(line, text)` each, in
     /// file order; empty when it loads.
-    pub fn check_program_bytes(&self, text: &[u8]) -> Vec<(u32, String)> {
+    fn check_bytes(&self, text: &[u8]) -> Vec<(u32, String)> {
         // The controller knows its keywords: a step whose word is in no keyword table is a
         // syntax error of its LOAD (what loads as not emulated elsewhere).
         let strict = self.memory.load_options().clone().known_words_only();
@@ -256,20 +217,8 @@ impl Controller {
         }
     }
 
-    /// Loads an AS file into memory as `LOAD` does: each program is added (a program of the
-    /// same name is overwritten) unless it is on a task's stack (P1014); data sections are
-    /// added. With `comment_out`, the lines with syntax errors are commented out first (the
-    /// answer `0` to the controller's question); without, a file with syntax errors loads
-    /// nothing. The programs take effect at once: the interpreter takes them (running tasks go
-    /// on; the file's data sections overwrite the variables they name, other variables,
-    /// signals and timers keep their values).
-    pub fn load_program_text(&mut self, text: &str, comment_out: bool) -> MemoryLoad {
-        self.load_program_bytes(text.as_bytes(), comment_out)
-    }
-
-    /// [`Controller::load_program_text`] of a file's bytes, in any code page: the memory keeps
-    /// the bytes (CR LF as LF), so `SAVE` gives back what was loaded.
-    pub fn load_program_bytes(&mut self, text: &[u8], comment_out: bool) -> MemoryLoad {
+    /// [`MemoryMut::load`].
+    fn load_bytes(&mut self, text: &[u8], comment_out: bool) -> MemoryLoad {
         let mut report = MemoryLoad::default();
         if matches!(self.server, Server::Native(_)) {
             report.errors = 1;
@@ -277,7 +226,7 @@ impl Controller {
             return report;
         }
         let mut text: Vec<u8> = text.iter().copied().filter(|&b| b != b'\r').collect();
-        let errors = self.check_program_bytes(&text);
+        let errors = self.check_bytes(&text);
         if !errors.is_empty() {
             if !comment_out {
                 report.errors = errors.len();
@@ -293,7 +242,7 @@ impl Controller {
                 }
             }
             text = lines.join(&b'\n');
-            if !self.check_program_bytes(&text).is_empty() {
+            if !self.check_bytes(&text).is_empty() {
                 return report;
             }
         }
@@ -330,15 +279,8 @@ impl Controller {
         report
     }
 
-    /// Whether a `LOAD` refuses a program whose name is in memory (AS-E p.5-34, the C/D
-    /// terminal) instead of overwriting it (E/F captures, the default).
-    pub fn set_refuse_overwrite(&mut self, refuse: bool) {
-        self.monitor.refuse_overwrite = refuse;
-    }
-
-    /// Deletes a program from memory (`DELETE/P`): P1018 while it is on a task's stack,
-    /// P1038 when there is none.
-    pub fn delete_program(&mut self, name: &str) -> Result<(), MonitorError> {
+    /// [`MemoryMut::delete`].
+    fn delete_program(&mut self, name: &str) -> Result<(), MonitorError> {
         if self.on_any_stack(name) {
             return Err(text::P1018_KILL_FIRST);
         }
@@ -367,7 +309,7 @@ impl Controller {
         let name = match self.monitor.stacks.get(i)?.clone() {
             Some(name) => name,
             None if running || error => self
-                .program()?
+                .server_program()?
                 .tasks(&self.machine)
                 .get(i)?
                 .program
@@ -380,7 +322,7 @@ impl Controller {
 
     /// Whether task `i` runs (or is paused or finishing), and whether an error stopped it.
     pub(super) fn task_facts(&self, i: usize) -> (bool, bool) {
-        self.program()
+        self.server_program()
             .and_then(|p| p.tasks(&self.machine).get(i).cloned())
             .map_or((false, false), |t| {
                 (
@@ -388,22 +330,6 @@ impl Controller {
                     t.last_error.is_some(),
                 )
             })
-    }
-
-    /// `true` while `task` runs (running, paused or finishing its motion).
-    pub fn task_running(&self, task: TaskId) -> bool {
-        self.task_facts(task_index(task)).0
-    }
-
-    /// `task`'s cycle counts as `PCSTATUS` shows them: `(completed, remaining)`, remaining
-    /// negative for a task started to run until aborted; `(0, 0)` without AS programs.
-    pub fn task_cycles(&self, task: TaskId) -> (u32, i64) {
-        self.interpreter().map_or((0, 0), |i| i.cycles(task))
-    }
-
-    /// The program on `task`'s stack: started and not killed (and not completed).
-    pub fn task_program(&self, task: TaskId) -> Option<String> {
-        self.stack_program(task_index(task))
     }
 
     /// Brings the interpreter to the memory's programs if they changed: rebuilt when no task
@@ -424,7 +350,7 @@ impl Controller {
             return Ok(());
         }
         let running = (0..6).any(|i| self.task_facts(i).0);
-        if self.program().is_none() {
+        if self.server_program().is_none() {
             // The first programs of a bare controller: nothing to keep.
             return self.rebuild(false);
         }
@@ -452,7 +378,7 @@ impl Controller {
     /// just loaded (`assigned`) overwrite the variables they name.
     fn adopt_memory(&mut self, assigned: &[DataItem]) -> Result<(), AdoptError> {
         let interp = self.memory.build().map_err(AdoptError::Build)?;
-        let Some(p) = self.program_mut() else {
+        let Some(p) = self.server_program_mut() else {
             return Err(AdoptError::NoInterpreter);
         };
         p.interpreter_mut()
@@ -499,7 +425,7 @@ impl Controller {
 
     /// Copies the interpreter's system switches into memory (before it is replaced).
     pub(super) fn keep_switches(&mut self) {
-        if let Some(p) = self.program() {
+        if let Some(p) = self.server_program() {
             let values: Vec<(&str, bool)> = SYSTEM_SWITCHES
                 .iter()
                 .filter_map(|(n, _)| p.interpreter().system_switch(n).map(|v| (*n, v)))
@@ -514,16 +440,16 @@ impl Controller {
         self.monitor.generation = self.monitor.generation.wrapping_add(1);
     }
 
-    /// Counts every change the monitor made (loads, starts, stops, power cycles).
-    pub fn monitor_generation(&self) -> u64 {
+    /// Counts every change the monitor made (loads, starts, stops, power cycles): a network
+    /// layer waits for it to change.
+    pub(crate) fn monitor_generation(&self) -> u64 {
         self.monitor.generation
     }
 
     // ----------------------------------------------------------------- switches
 
-    /// A switch by name (case-insensitive): AUTOSTART.PC … AUTOSTART5.PC, and the system
-    /// switches the interpreter models (ABS.SPEED, CP, SCREEN, …). `None` for another name.
-    pub fn switch(&self, name: &str) -> Option<bool> {
+    /// [`MemoryView::switch`].
+    fn switch_of(&self, name: &str) -> Option<bool> {
         let upper = name.to_ascii_uppercase();
         if let Some(n) = (1u8..)
             .zip(AUTOSTART_SWITCHES)
@@ -536,7 +462,7 @@ impl Controller {
         if lower == "abs.speed" {
             return Some(self.abs_speed());
         }
-        match self.program() {
+        match self.server_program() {
             Some(p) => p.interpreter().system_switch(&lower),
             None => self
                 .memory
@@ -547,8 +473,8 @@ impl Controller {
         }
     }
 
-    /// Sets a switch (see [`Controller::switch`]); `false` for an unknown name.
-    pub fn set_switch(&mut self, name: &str, on: bool) -> bool {
+    /// [`MemoryMut::set_switch`].
+    fn set_switch_to(&mut self, name: &str, on: bool) -> bool {
         let upper = name.to_ascii_uppercase();
         if let Some(n) = (1u8..)
             .zip(AUTOSTART_SWITCHES)
@@ -560,40 +486,125 @@ impl Controller {
             return true;
         }
         let lower = name.to_ascii_lowercase();
-        if self.switch(&lower).is_none() {
+        if self.switch_of(&lower).is_none() {
             return false;
         }
         self.memory.set_system_switch(&lower, on);
         if lower == "abs.speed" {
             self.set_abs_speed(on);
-        } else if let Some(p) = self.program_mut() {
+        } else if let Some(p) = self.server_program_mut() {
             p.interpreter_mut().set_system_switch(&lower, on);
         }
         self.bump();
         true
     }
 
+    /// The interpreter, when the controller runs AS programs.
+    pub(crate) fn interpreter(&self) -> Option<&Interpreter> {
+        self.server_program().map(ProgramServer::interpreter)
+    }
+
+    /// The stored programs.
+    pub(crate) fn stored_programs(&self) -> &[StoredProgram] {
+        self.memory.programs()
+    }
+}
+
+/// The program memory and switches of a [`Controller`], borrowed to read
+/// ([`Controller::memory`]).
+#[derive(Debug, Clone, Copy)]
+pub struct MemoryView<'a> {
+    pub(super) c: &'a Controller,
+}
+
+/// The program memory and switches of a [`Controller`], borrowed to change
+/// ([`Controller::memory_mut`]).
+#[derive(Debug)]
+pub struct MemoryMut<'a> {
+    pub(super) c: &'a mut Controller,
+}
+
+impl<'a> MemoryView<'a> {
+    /// The programs in memory, in load order (lower case).
+    pub fn programs(&self) -> Vec<String> {
+        (self.c.memory.programs().iter())
+            .map(|p| p.name.clone())
+            .collect()
+    }
+
+    /// A program's bytes as loaded, `.PROGRAM` to `.END`, LF line ends (in any code page:
+    /// `String::from_utf8_lossy` shows them as text).
+    pub fn program(&self, name: &str) -> Option<&'a [u8]> {
+        self.c.memory.program(name).map(|p| p.text.as_slice())
+    }
+
+    /// The data sections in memory (`.REALS` … `.END`, …), as the bytes loaded (LF line
+    /// ends).
+    pub fn data_sections(&self) -> Vec<&'a [u8]> {
+        self.c.memory.data().iter().map(Vec::as_slice).collect()
+    }
+
+    /// The syntax errors of an AS file (its bytes or text, in any code page) as the
+    /// controller's `LOAD` finds them, with the programs in memory it would join:
+    /// `(line, text)` each, in file order; empty when it loads.
+    pub fn check(&self, text: impl AsRef<[u8]>) -> Vec<(u32, String)> {
+        self.c.check_bytes(text.as_ref())
+    }
+
+    /// A switch by name (case-insensitive): AUTOSTART.PC … AUTOSTART5.PC, and the system
+    /// switches the interpreter models (ABS.SPEED, CP, SCREEN, …). `None` for another name.
+    pub fn switch(&self, name: &str) -> Option<bool> {
+        self.c.switch_of(name)
+    }
+
     /// Every switch with its state, AUTOSTART ones first (upper case, as `SWITCH` lists them).
     pub fn switches(&self) -> Vec<(String, bool)> {
         let mut out: Vec<(String, bool)> = (1u8..)
             .zip(AUTOSTART_SWITCHES)
-            .map(|(n, (s, _, _))| (s.to_owned(), self.memory.autostart(n)))
+            .map(|(n, (s, _, _))| (s.to_owned(), self.c.memory.autostart(n)))
             .collect();
         for (n, _) in SYSTEM_SWITCHES {
-            if let Some(v) = self.switch(n) {
+            if let Some(v) = self.c.switch_of(n) {
                 out.push((n.to_ascii_uppercase(), v));
             }
         }
         out
     }
 
-    /// The interpreter, when the controller runs AS programs.
-    pub(crate) fn interpreter(&self) -> Option<&Interpreter> {
-        self.program().map(ProgramServer::interpreter)
+    /// `true` while a `LOAD`/`SAVE` is in progress in a terminal session, and once a transfer
+    /// was abandoned (every `LOAD`/`SAVE` then gets P2076 until a power cycle).
+    pub fn transfer_open(&self) -> bool {
+        self.c.monitor.transfer_open || self.c.monitor.transfers_running > 0
+    }
+}
+
+impl MemoryMut<'_> {
+    /// Loads an AS file (its bytes or text, in any code page) into memory as `LOAD` does:
+    /// each program is added (a program of the same name is overwritten) unless it is on a
+    /// task's stack (P1014); data sections are added. With `comment_out`, the lines with
+    /// syntax errors are commented out first (the answer `0` to the controller's question);
+    /// without, a file with syntax errors loads nothing. The memory keeps the bytes (CR LF as
+    /// LF), so `SAVE` gives back what was loaded. The programs take effect at once: the
+    /// interpreter takes them (running tasks go on; the file's data sections overwrite the
+    /// variables they name, other variables, signals and timers keep their values).
+    pub fn load(&mut self, text: impl AsRef<[u8]>, comment_out: bool) -> MemoryLoad {
+        self.c.load_bytes(text.as_ref(), comment_out)
     }
 
-    /// The stored programs.
-    pub(crate) fn stored_programs(&self) -> &[StoredProgram] {
-        self.memory.programs()
+    /// Deletes a program from memory (`DELETE/P`): P1018 while it is on a task's stack,
+    /// P1038 when there is none.
+    pub fn delete(&mut self, name: &str) -> Result<(), MonitorError> {
+        self.c.delete_program(name)
+    }
+
+    /// Sets a switch (see [`MemoryView::switch`]); `false` for an unknown name.
+    pub fn set_switch(&mut self, name: &str, on: bool) -> bool {
+        self.c.set_switch_to(name, on)
+    }
+
+    /// Whether a `LOAD` refuses a program whose name is in memory (AS-E p.5-34, the C/D
+    /// terminal) instead of overwriting it (E/F captures, the default).
+    pub(crate) fn set_refuse_overwrite(&mut self, refuse: bool) {
+        self.c.monitor.refuse_overwrite = refuse;
     }
 }

@@ -10,14 +10,14 @@ impl Controller {
     // ----------------------------------------------------------------- terminal
 
     /// A terminal session opens: its name (`AUX1`…`AUX3`), or `None` when all are in use.
-    pub fn open_terminal(&mut self) -> Option<String> {
+    pub(crate) fn open_terminal(&mut self) -> Option<String> {
         let i = self.monitor.sessions.iter().position(|used| !used)?;
         self.monitor.sessions[i] = true;
         Some(format!("AUX{}", i + 1))
     }
 
     /// A terminal session ended.
-    pub fn close_terminal(&mut self, terminal: &str) {
+    pub(crate) fn close_terminal(&mut self, terminal: &str) {
         let slot = terminal
             .strip_prefix("AUX")
             .and_then(|n| n.parse::<usize>().ok())
@@ -27,14 +27,8 @@ impl Controller {
         }
     }
 
-    /// `true` while a `LOAD`/`SAVE` is in progress in a session, and once a transfer was
-    /// abandoned (every `LOAD`/`SAVE` then gets P2076 until a power cycle).
-    pub fn transfer_open(&self) -> bool {
-        self.monitor.transfer_open || self.monitor.transfers_running > 0
-    }
-
     /// A session began (`true`) or ended (`false`) a transfer.
-    pub fn transfer_running(&mut self, running: bool) {
+    pub(crate) fn transfer_running(&mut self, running: bool) {
         let n = &mut self.monitor.transfers_running;
         *n = if running {
             n.saturating_add(1)
@@ -44,7 +38,7 @@ impl Controller {
     }
 
     /// A `LOAD`/`SAVE` was left open (a dropped link, a client that stopped answering).
-    pub fn abandon_transfer(&mut self) {
+    pub(crate) fn abandon_transfer(&mut self) {
         tracing::warn!(
             "a terminal transfer was abandoned: SAVE/LOAD in progress until a power cycle"
         );
@@ -67,7 +61,7 @@ impl Controller {
     /// their step (`PC program aborted.No = n`).
     fn pull_output(&mut self) {
         self.pull_printed();
-        let tasks = self.program().map(|p| p.tasks(&self.machine));
+        let tasks = self.server_program().map(|p| p.tasks(&self.machine));
         for i in 0..=5usize {
             let info = tasks.as_ref().and_then(|t| t.get(i));
             let running = info.is_some_and(|t| t.state != fs020n_as::TaskState::Idle);
@@ -124,7 +118,7 @@ impl Controller {
 
     /// The lines programs printed (`PRINT`, the controller's messages) numbered from `from`
     /// on, and the number to ask from next time. Lines older than the last 200 are gone.
-    pub fn terminal_output_since(&mut self, from: u64) -> (Vec<String>, u64) {
+    pub(crate) fn terminal_output_since(&mut self, from: u64) -> (Vec<String>, u64) {
         self.pull_output();
         let lines = self
             .monitor
@@ -137,7 +131,7 @@ impl Controller {
     }
 
     /// The number the next printed line will have (a new session reads from there).
-    pub fn terminal_output_next(&mut self) -> u64 {
+    pub(crate) fn terminal_output_next(&mut self) -> u64 {
         self.pull_output();
         self.monitor.next_line
     }

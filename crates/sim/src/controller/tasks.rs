@@ -8,54 +8,42 @@ use fs020n_as::TaskId;
 use fs020n_term::text::{self, MonitorError};
 
 use super::memory::{refusal_error, task_index, Abort, PowerCycle};
-use super::{Controller, Server};
+use super::{Controller, ProgramMut, Server};
 use crate::native::NativeServer;
 use crate::store::AUTOSTART_SWITCHES;
 
 /// The longest a start at the terminal runs the program before the prompt comes back.
 const FIRST_STEPS: Duration = Duration::from_millis(50);
 
-impl Controller {
-    // ----------------------------------------------------------------- tasks
-
-    /// `PCEXECUTE task: program`, one cycle: P1019 while the task runs, P1038 without the
-    /// program, P1014 when the program runs in another task (or the running tasks could not
-    /// take the programs loaded meanwhile, which then wait).
-    pub fn pc_execute(&mut self, task: u8, program: &str) -> Result<(), MonitorError> {
-        self.pc_execute_cycles(task, program, 1)
-    }
-
-    /// `PCEXECUTE task: program, cycles`: as [`Controller::pc_execute`], the program run
-    /// `cycles` times (0 counts as 1; negative, the usual `-1`, until `PCABORT`).
-    pub fn pc_execute_cycles(
-        &mut self,
-        task: u8,
-        program: &str,
-        cycles: i64,
-    ) -> Result<(), MonitorError> {
+impl ProgramMut<'_> {
+    /// `PCEXECUTE task: program, cycles`: the program run `cycles` times (0 counts as 1;
+    /// negative, the usual `-1`, until `PCABORT`) in PC task `task`: P1019 while the task
+    /// runs, P1038 without the program, P1014 when the program runs in another task (or the
+    /// running tasks could not take the programs loaded meanwhile, which then wait).
+    pub fn pc_execute(&mut self, task: u8, program: &str, cycles: i64) -> Result<(), MonitorError> {
+        let c = &mut *self.c;
         let name = program.to_ascii_lowercase();
         if !(1..=5).contains(&task) {
             return Err(text::P1019_PC_RUNNING);
         }
-        if self.task_facts(usize::from(task)).0 {
+        if c.task_facts(usize::from(task)).0 {
             return Err(text::P1019_PC_RUNNING);
         }
-        if self.memory.program(&name).is_none() {
+        if c.memory.program(&name).is_none() {
             return Err(text::P1038_NO_PROGRAM);
         }
-        if (0..6).any(|i| self.task_facts(i).0 && self.monitor.stacks[i].as_deref() == Some(&name))
-        {
+        if (0..6).any(|i| c.task_facts(i).0 && c.monitor.stacks[i].as_deref() == Some(&name)) {
             return Err(text::P1014_IN_USE);
         }
-        self.sync_runtime()?;
-        let p = self.program_mut().ok_or(text::P1038_NO_PROGRAM)?;
+        c.sync_runtime()?;
+        let p = c.server_program_mut().ok_or(text::P1038_NO_PROGRAM)?;
         p.interpreter_mut()
             .pc_execute_cycles(task, &name, cycles)
             .map_err(|r| refusal_error(&r))?;
         let i = usize::from(task);
-        self.monitor.stacks[i] = Some(name);
-        self.monitor.kept[i] = false;
-        self.bump();
+        c.monitor.stacks[i] = Some(name);
+        c.monitor.kept[i] = false;
+        c.bump();
         Ok(())
     }
 
@@ -65,15 +53,97 @@ impl Controller {
     /// P1026).
     pub fn pc_abort(&mut self, task: u8) -> Abort {
         let i = usize::from(task.clamp(1, 5));
-        self.abort_task(TaskId::Pc(task.clamp(1, 5)), i)
+        self.c.abort_task(TaskId::Pc(task.clamp(1, 5)), i)
     }
 
+    /// Runs the controller on, from one program event to the next and at most 50 ms of its
+    /// time, until `task` waits or stops: a program started at the terminal has run
+    /// its first steps (its `TCP_LISTEN`, say) when the prompt comes back, as on the
+    /// controller. The clock moves only by those steps' own time.
+    pub(crate) fn run_first_steps(&mut self, task: TaskId) {
+        let c = &mut *self.c;
+        let end = c.now() + FIRST_STEPS;
+        for _ in 0..10_000 {
+            let waiting = c
+                .program()
+                .tasks()
+                .and_then(|t| t.get(task_index(task)).cloned())
+                .is_none_or(|t| t.state == fs020n_as::TaskState::Idle || t.waiting.is_some());
+            if waiting {
+                break;
+            }
+            match c.program().next_event() {
+                Some(t) if t <= end => c.advance_to(t.max(c.now())),
+                _ => break,
+            }
+        }
+    }
+
+    /// `PCKILL task:` (and `KILL` for the robot task): takes the program off the stack;
+    /// P1026 while it runs.
+    pub fn kill(&mut self, task: TaskId) -> Result<(), MonitorError> {
+        let c = &mut *self.c;
+        let i = task_index(task);
+        if c.task_facts(i).0 {
+            return Err(text::P1026_CANNOT_KILL_RUNNING);
+        }
+        c.monitor.stacks[i] = None;
+        c.monitor.kept[i] = false;
+        c.bump();
+        let _ = c.sync_runtime();
+        Ok(())
+    }
+
+    /// `EXECUTE program, cycles` in robot task 1, the program run `cycles` times (0 counts as
+    /// 1; negative until `ABORT`), with the controller's checks (power, REPEAT, teach lock,
+    /// error, already running).
+    pub fn execute(&mut self, program: &str, cycles: i64) -> Result<(), MonitorError> {
+        let c = &mut *self.c;
+        let name = program.to_ascii_lowercase();
+        if c.task_facts(0).0 {
+            return Err(text::P1009_ALREADY_RUNNING);
+        }
+        if c.memory.program(&name).is_none() {
+            return Err(text::P1038_NO_PROGRAM);
+        }
+        c.sync_runtime()?;
+        let Server::Program(p) = &mut c.server else {
+            return Err(text::P1038_NO_PROGRAM);
+        };
+        p.execute(&mut c.machine, &name, cycles)
+            .map_err(|r| refusal_error(&r))?;
+        c.monitor.stacks[0] = Some(name);
+        c.monitor.kept[0] = false;
+        c.bump();
+        Ok(())
+    }
+
+    /// `ABORT`: stops the robot program after its current step, as [`ProgramMut::pc_abort`];
+    /// a motion in progress ends as braked (the emulator does not wait for a motion step).
+    pub fn abort(&mut self) -> Abort {
+        let abort = self.c.abort_task(TaskId::Robot, 0);
+        if abort == Abort::Stopped {
+            self.c.machine.brake();
+        }
+        abort
+    }
+
+    /// `HOLD` (`true`): the robot program pauses, its motion decelerates and stops;
+    /// `CONTINUE` (`false`) resumes it. The emulator plays both on the panel's HOLD/RUN
+    /// switch.
+    pub fn hold(&mut self, hold: bool) {
+        self.c.set_run(!hold);
+        self.c.bump();
+    }
+}
+
+impl Controller {
     fn abort_task(&mut self, task: TaskId, i: usize) -> Abort {
         if !self.task_facts(i).0 {
             return Abort::NotRunning;
         }
         let now = self
-            .program_mut()
+            .server_program_mut()
             .is_none_or(|p| p.interpreter_mut().abort_after_step(task));
         self.monitor.kept[i] = true;
         self.bump();
@@ -83,96 +153,6 @@ impl Controller {
             self.monitor.aborting[i] = true;
             Abort::AfterStep
         }
-    }
-
-    /// `true` while `task` finishes the step an abort waits for.
-    pub fn abort_pending(&self, task: TaskId) -> bool {
-        self.interpreter().is_some_and(|i| i.abort_pending(task))
-    }
-
-    /// Runs the controller on, from one program event to the next and at most 50 ms of its
-    /// time, until `task` waits or stops: a program started at the terminal has run
-    /// its first steps (its `TCP_LISTEN`, say) when the prompt comes back, as on the
-    /// controller. The clock moves only by those steps' own time.
-    pub fn run_first_steps(&mut self, task: TaskId) {
-        let end = self.now() + FIRST_STEPS;
-        for _ in 0..10_000 {
-            let waiting = self
-                .program_tasks()
-                .and_then(|t| t.get(task_index(task)).cloned())
-                .is_none_or(|t| t.state == fs020n_as::TaskState::Idle || t.waiting.is_some());
-            if waiting {
-                break;
-            }
-            match self.next_program_event() {
-                Some(t) if t <= end => self.advance_to(t.max(self.now())),
-                _ => break,
-            }
-        }
-    }
-
-    /// `PCKILL task:` (and `KILL` for the robot task): takes the program off the stack;
-    /// P1026 while it runs.
-    pub fn kill_task(&mut self, task: TaskId) -> Result<(), MonitorError> {
-        let i = task_index(task);
-        if self.task_facts(i).0 {
-            return Err(text::P1026_CANNOT_KILL_RUNNING);
-        }
-        self.monitor.stacks[i] = None;
-        self.monitor.kept[i] = false;
-        self.bump();
-        let _ = self.sync_runtime();
-        Ok(())
-    }
-
-    /// `EXECUTE program` in robot task 1, one cycle, with the controller's checks (power,
-    /// REPEAT, teach lock, error, already running).
-    pub fn execute_program(&mut self, program: &str) -> Result<(), MonitorError> {
-        self.execute_program_cycles(program, 1)
-    }
-
-    /// `EXECUTE program, cycles`: as [`Controller::execute_program`], the program run `cycles`
-    /// times (0 counts as 1; negative until `ABORT`).
-    pub fn execute_program_cycles(
-        &mut self,
-        program: &str,
-        cycles: i64,
-    ) -> Result<(), MonitorError> {
-        let name = program.to_ascii_lowercase();
-        if self.task_facts(0).0 {
-            return Err(text::P1009_ALREADY_RUNNING);
-        }
-        if self.memory.program(&name).is_none() {
-            return Err(text::P1038_NO_PROGRAM);
-        }
-        self.sync_runtime()?;
-        let Server::Program(p) = &mut self.server else {
-            return Err(text::P1038_NO_PROGRAM);
-        };
-        p.execute(&mut self.machine, &name, cycles)
-            .map_err(|r| refusal_error(&r))?;
-        self.monitor.stacks[0] = Some(name);
-        self.monitor.kept[0] = false;
-        self.bump();
-        Ok(())
-    }
-
-    /// `ABORT`: stops the robot program after its current step, as [`Controller::pc_abort`];
-    /// a motion in progress ends as braked (the emulator does not wait for a motion step).
-    pub fn abort_program(&mut self) -> Abort {
-        let abort = self.abort_task(TaskId::Robot, 0);
-        if abort == Abort::Stopped {
-            self.machine.brake();
-        }
-        abort
-    }
-
-    /// `HOLD` (`true`): the robot program pauses, its motion decelerates and stops;
-    /// `CONTINUE` (`false`) resumes it. The emulator plays both on the panel's HOLD/RUN
-    /// switch.
-    pub fn hold_program(&mut self, hold: bool) {
-        self.set_run(!hold);
-        self.bump();
     }
 
     // ----------------------------------------------------------------- power
@@ -210,7 +190,7 @@ impl Controller {
             if !self.memory.autostart(n) {
                 continue;
             }
-            match self.pc_execute(task, name) {
+            match self.program_mut().pc_execute(task, name, 1) {
                 Ok(()) => out.started.push((task, name.to_owned())),
                 Err(_) => {
                     self.push_output(format!(

@@ -55,7 +55,7 @@ impl Emulator {
     /// now: no protocol port answers until a program is loaded through the terminal
     /// ([`Emulator::serve_terminal`]) and started. Create it inside a tokio runtime.
     pub fn bare(config: ControllerConfig) -> Emulator {
-        Emulator::driven(Controller::bare(config))
+        Emulator::driven(Controller::bare(config, fs020n_as::LoadOptions::new()))
     }
 
     /// An emulator of `controller` whose AS programs a background task advances at their own
@@ -126,7 +126,7 @@ impl Emulator {
         let mut children = Children::default();
         loop {
             let (listening, served) =
-                self.with(|c| (c.program_listening_ports(), c.program_served_port()));
+                self.with(|c| (c.program().listening_ports(), c.program().served_port()));
             for port in listening {
                 if !seen.insert(port) {
                     continue;
@@ -184,7 +184,9 @@ impl Emulator {
         let local = listener.local_addr()?;
         // Bound once to learn the port; kept only if the program listens already (a bare
         // controller refuses connections from the start).
-        let listener = self.with(|c| c.program_listening(None)).then_some(listener);
+        let listener = self
+            .with(|c| c.program().listening(None))
+            .then_some(listener);
         let this = self.clone();
         let task =
             tokio::spawn(async move { this.program_accept_loop(local, listener, None).await });
@@ -195,7 +197,7 @@ impl Emulator {
     /// does not listen).
     pub fn connect_program(&self) -> std::io::Result<tokio::io::DuplexStream> {
         let id = self
-            .with(|c| c.program_connect(None, [127, 0, 0, 1]))
+            .with(|c| c.program_mut().connect(None, [127, 0, 0, 1]))
             .map_err(|e| std::io::Error::new(std::io::ErrorKind::ConnectionRefused, e))?;
         let (client, server) = tokio::io::duplex(super::PIPE_CAPACITY);
         tokio::spawn(pump(self.clone(), id, server));
@@ -211,7 +213,7 @@ impl Emulator {
     ) {
         let mut changes = self.changes();
         loop {
-            if !self.with(|c| c.program_listening(port)) {
+            if !self.with(|c| c.program().listening(port)) {
                 // Not listening: connections are refused.
                 listener = None;
                 if changes.changed().await.is_err() {
@@ -236,7 +238,7 @@ impl Emulator {
                         // A client from a mapped host appears at its cell address.
                         let connected = self.with(|c| {
                             let ip = c.network().cell_address_of(peer.ip());
-                            c.program_connect(port, ip)
+                            c.program_mut().connect(port, ip)
                         });
                         match connected {
                             Ok(id) => {
@@ -268,7 +270,7 @@ async fn drive(weak: WeakEmulator) {
         // connecting, bytes arriving) must wake this loop, not wait for the program's next
         // timeout.
         let mut changes = emu.changes();
-        let next = emu.with(|c| c.next_program_event());
+        let next = emu.with(|c| c.program().next_event());
         // Without an event of its own the program only waits for clients; look again now and
         // then to notice that the emulator is gone.
         let at = match next {
@@ -289,7 +291,7 @@ async fn dialer(weak: WeakEmulator) {
     loop {
         let Some(emu) = weak.upgrade() else { return };
         let mut changes = emu.changes();
-        for d in emu.with(|c| c.take_program_dials()) {
+        for d in emu.with(|c| c.program_mut().take_dials()) {
             tokio::spawn(dial(emu.clone(), d));
         }
         drop(emu);
@@ -308,7 +310,7 @@ async fn dial(emu: Emulator, d: ProgramDial) {
     tracing::info!(cell = %d.cell, host = %d.to, "TCP_CONNECT: connecting to the mapped host");
     match tokio::net::TcpStream::connect(d.to).await {
         Ok(stream) => {
-            if emu.with(|c| c.program_dialed(d.client, Ok(()))) {
+            if emu.with(|c| c.program_mut().dialed(d.client, Ok(()))) {
                 let _ = stream.set_nodelay(true);
                 tracing::info!(cell = %d.cell, host = %d.to, socket = d.client.0, "TCP_CONNECT: connected");
                 pump(emu, d.client, stream).await;
@@ -330,7 +332,7 @@ async fn dial(emu: Emulator, d: ProgramDial) {
                  running?); the program gets {}",
                 code.code()
             );
-            emu.with(|c| c.program_dialed(d.client, Err(code.code())));
+            emu.with(|c| c.program_mut().dialed(d.client, Err(code.code())));
         }
     }
 }
@@ -354,11 +356,11 @@ where
                 }
                 match rd.read(&mut buf).await {
                     Ok(0) | Err(_) => {
-                        emu.with(|c| c.program_close(id));
+                        emu.with(|c| c.program_mut().close(id));
                         return;
                     }
                     Ok(n) => {
-                        if !emu.with(|c| c.program_send(id, &buf[..n])) {
+                        if !emu.with(|c| c.program_mut().send(id, &buf[..n])) {
                             return;
                         }
                     }
@@ -369,14 +371,14 @@ where
     let writer = async move {
         let mut changes = emu.changes();
         loop {
-            let r = emu.with(|c| c.program_recv(id));
+            let r = emu.with(|c| c.program_mut().recv(id));
             if !r.bytes.is_empty() {
                 let sent = async {
                     wr.write_all(&r.bytes).await?;
                     wr.flush().await
                 };
                 if sent.await.is_err() {
-                    emu.with(|c| c.program_close(id));
+                    emu.with(|c| c.program_mut().close(id));
                     return;
                 }
                 continue;

@@ -109,7 +109,7 @@ impl ControllerMonitor<'_> {
             "PCEXECUTE" => self.pc_execute(rest),
             "PCABORT" => match task_and_rest(rest) {
                 // Stopped now: said now; after the current step: said when it stops.
-                Ok((n, _)) => match self.c.pc_abort(n) {
+                Ok((n, _)) => match self.c.program_mut().pc_abort(n) {
                     Abort::Stopped => lines([text::pc_aborted(n)]),
                     Abort::AfterStep | Abort::NotRunning => Reply::Lines(Vec::new()),
                 },
@@ -121,19 +121,19 @@ impl ControllerMonitor<'_> {
             },
             "STATUS" => self.status(),
             "EXECUTE" => match program_and_cycles(rest) {
-                Ok((name, cycles)) => done(self.c.execute_program_cycles(name, cycles)),
+                Ok((name, cycles)) => done(self.c.program_mut().execute(name, cycles)),
                 Err(reply) => reply,
             },
             "ABORT" => {
-                self.c.abort_program();
+                self.c.program_mut().abort();
                 Reply::Lines(Vec::new())
             }
             "HOLD" => {
-                self.c.hold_program(true);
+                self.c.program_mut().hold(true);
                 Reply::Lines(Vec::new())
             }
             "CONTINUE" => {
-                self.c.hold_program(false);
+                self.c.program_mut().hold(false);
                 Reply::Lines(Vec::new())
             }
             "MESSAGES" => match rest.to_ascii_uppercase().as_str() {
@@ -180,7 +180,7 @@ impl ControllerMonitor<'_> {
             return Reply::Error(text::P0117_INVALID_NAME);
         }
         for n in numbers {
-            self.c.set_program_input(n.abs(), n > 0);
+            self.c.program_mut().set_input(n.abs(), n > 0);
         }
         Reply::Lines(Vec::new())
     }
@@ -217,12 +217,13 @@ impl ControllerMonitor<'_> {
     fn directory(&self) -> Reply {
         let running: Vec<String> = std::iter::once(TaskId::Robot)
             .chain((1..=5).map(TaskId::Pc))
-            .filter(|t| self.c.task_running(*t))
-            .filter_map(|t| self.c.task_program(t))
+            .filter(|t| self.c.program().task_running(*t))
+            .filter_map(|t| self.c.program().task_program(t))
             .collect();
         let names: Vec<String> = self
             .c
-            .loaded_programs()
+            .memory()
+            .programs()
             .into_iter()
             .map(|n| {
                 if running.contains(&n) {
@@ -237,14 +238,14 @@ impl ControllerMonitor<'_> {
 
     fn list(&self, rest: &str) -> Reply {
         let names: Vec<String> = if rest.is_empty() {
-            self.c.loaded_programs()
+            self.c.memory().programs()
         } else {
             rest.split(',').map(|n| n.trim().to_owned()).collect()
         };
         let mut out = Vec::new();
         for n in names {
-            match self.c.program_text(&n) {
-                Some(t) => out.extend(t.lines().map(str::to_owned)),
+            match self.c.memory().program(&n) {
+                Some(t) => out.extend(String::from_utf8_lossy(t).lines().map(str::to_owned)),
                 None => return Reply::Error(text::P1038_NO_PROGRAM),
             }
         }
@@ -257,7 +258,8 @@ impl ControllerMonitor<'_> {
         if let Some(n) = call_arg(expr, "TASK") {
             let state = self
                 .c
-                .program_tasks()
+                .program()
+                .tasks()
                 .and_then(|tasks| {
                     let i = match n {
                         1 => 0,
@@ -274,7 +276,7 @@ impl ControllerMonitor<'_> {
             return lines([format_real(v)]);
         }
         if let Some(n) = call_arg(expr, "SIG") {
-            let on = self.c.program_signal(n.abs()).unwrap_or(false) == (n > 0);
+            let on = self.c.program().signal(n.abs()).unwrap_or(false) == (n > 0);
             return lines([format_real(if on { -1.0 } else { 0.0 })]);
         }
         if let Ok(v) = expr.parse::<f32>() {
@@ -317,11 +319,11 @@ impl ControllerMonitor<'_> {
         };
         match program_and_cycles(tail) {
             Ok((name, cycles)) => {
-                let started = self.c.pc_execute_cycles(task, name, cycles);
+                let started = self.c.program_mut().pc_execute(task, name, cycles);
                 if started.is_ok() {
                     // The program has run its first steps (a TCP_LISTEN, say) by the time the
                     // prompt comes back.
-                    self.c.run_first_steps(TaskId::Pc(task));
+                    self.c.program_mut().run_first_steps(TaskId::Pc(task));
                 }
                 done(started)
             }
@@ -331,7 +333,7 @@ impl ControllerMonitor<'_> {
 
     /// The program line of `STATUS`/`PCSTATUS`: its name, priority 0 and step.
     fn program_table(&self, task: TaskId) -> Vec<String> {
-        let Some(name) = self.c.task_program(task) else {
+        let Some(name) = self.c.program().task_program(task) else {
             return vec![text::NO_PROGRAM_RUNNING.to_owned()];
         };
         let i = match task {
@@ -340,7 +342,8 @@ impl ControllerMonitor<'_> {
         };
         let line = self
             .c
-            .program_tasks()
+            .program()
+            .tasks()
             .and_then(|t| t.get(i).and_then(|t| t.line))
             .unwrap_or(0);
         // The task's line is in the memory's whole text: the step counts from the program's
@@ -360,9 +363,9 @@ impl ControllerMonitor<'_> {
     }
 
     fn pc_status(&self, n: u8) -> Reply {
-        let running = self.c.task_running(TaskId::Pc(n));
+        let running = self.c.program().task_running(TaskId::Pc(n));
         let mut out = vec![text::pc_status_line(running).to_owned()];
-        let (completed, remaining) = self.c.task_cycles(TaskId::Pc(n));
+        let (completed, remaining) = self.c.program().task_cycles(TaskId::Pc(n));
         out.extend(text::cycle_lines(completed, remaining));
         out.extend(self.program_table(TaskId::Pc(n)));
         Reply::Lines(out)
@@ -370,7 +373,7 @@ impl ControllerMonitor<'_> {
 
     fn status(&self) -> Reply {
         let panel = self.c.panel();
-        let running = self.c.task_running(TaskId::Robot);
+        let running = self.c.program().task_running(TaskId::Robot);
         let mut out = vec!["Robot status:".to_owned()];
         out.push(
             if panel.power {
@@ -410,7 +413,7 @@ impl ControllerMonitor<'_> {
                 "Program is not running."
             }
         ));
-        let (completed, remaining) = self.c.task_cycles(TaskId::Robot);
+        let (completed, remaining) = self.c.program().task_cycles(TaskId::Robot);
         out.extend(text::cycle_lines(completed, remaining));
         out.extend(self.program_table(TaskId::Robot));
         Reply::Lines(out)
@@ -419,7 +422,7 @@ impl ControllerMonitor<'_> {
     fn switch(&mut self, rest: &str) -> Reply {
         let rest = rest.trim();
         if rest.is_empty() {
-            let all = self.c.switches();
+            let all = self.c.memory().switches();
             let out = all
                 .chunks(2)
                 .map(|pair| {
@@ -444,13 +447,13 @@ impl ControllerMonitor<'_> {
         };
         match state {
             Some(on) => {
-                if self.c.set_switch(name, on) {
+                if self.c.memory_mut().set_switch(name, on) {
                     Reply::Lines(Vec::new())
                 } else {
                     Reply::Error(text::P0117_INVALID_NAME)
                 }
             }
-            None => match self.c.switch(name) {
+            None => match self.c.memory().switch(name) {
                 Some(v) => lines([format!(
                     "{:<16}{}",
                     name.to_ascii_uppercase(),
@@ -500,14 +503,14 @@ impl ControllerMonitor<'_> {
         }
         let names: Vec<String> = match target.split_once('=') {
             Some((_, list)) => list.split(',').map(|n| n.trim().to_owned()).collect(),
-            None => self.c.loaded_programs(),
+            None => self.c.memory().programs(),
         };
         let mut bytes = Vec::new();
         for n in &names {
-            bytes.extend(self.c.program_bytes(n).ok_or(text::P1038_NO_PROGRAM)?);
+            bytes.extend(self.c.memory().program(n).ok_or(text::P1038_NO_PROGRAM)?);
         }
         if !programs_only {
-            for d in self.c.data_section_bytes() {
+            for d in self.c.memory().data_sections() {
                 bytes.extend(d);
             }
         }
@@ -559,14 +562,14 @@ impl Monitor for ControllerMonitor<'_> {
 
     fn confirmed(&mut self) -> Reply {
         match self.pending.take() {
-            Some(Pending::Kill(task)) => done(self.c.kill_task(task)),
-            Some(Pending::Delete(name)) => done(self.c.delete_program(&name)),
+            Some(Pending::Kill(task)) => done(self.c.program_mut().kill(task)),
+            Some(Pending::Delete(name)) => done(self.c.memory_mut().delete(&name)),
             None => Reply::Lines(Vec::new()),
         }
     }
 
     fn transfer_blocked(&self) -> bool {
-        self.c.transfer_open()
+        self.c.memory().transfer_open()
     }
 
     fn transfer_abandoned(&mut self) {
@@ -575,7 +578,8 @@ impl Monitor for ControllerMonitor<'_> {
 
     fn check_load(&mut self, file: &[u8]) -> Vec<SyntaxError> {
         self.c
-            .check_program_bytes(file)
+            .memory()
+            .check(file)
             .into_iter()
             .map(|(_, line)| SyntaxError { line })
             .collect()
@@ -585,7 +589,7 @@ impl Monitor for ControllerMonitor<'_> {
         if answer == LoadAnswer::Abort {
             return (Vec::new(), 0);
         }
-        let report = self.c.load_program_bytes(file, true);
+        let report = self.c.memory_mut().load(file, true);
         let mut out: Vec<String> = report
             .loaded
             .iter()

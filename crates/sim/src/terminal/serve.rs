@@ -77,9 +77,9 @@ impl Emulator {
                     }
                     Ok(n) => {
                         let started = self.with(|c| {
-                            let before = c.program_listening(None);
+                            let before = c.program().listening(None);
                             link.handle_input(c, &buf[..n]);
-                            !before && c.program_listening(None)
+                            !before && c.program().listening(None)
                         });
                         if started {
                             tokio::time::sleep(LISTEN_SETTLE).await;

@@ -80,7 +80,7 @@ pub(crate) fn wait_polling(c: &mut Controller, id: SessionId, d: Duration) {
     while c.now() < end {
         let step = (end - c.now()).min(Duration::from_secs(1));
         c.advance_by(step);
-        if c.is_session_open(id) {
+        if c.native().is_session_open(id) {
             raw(c, id, "0 0 0");
         }
     }
@@ -92,6 +92,6 @@ pub(crate) fn is_still(c: &Controller) -> bool {
 
 /// Sends a command 7 holding `p` (zero velocity and acceleration), stamped now.
 pub(crate) fn stream_to(c: &mut Controller, id: SessionId, p: [f64; 6]) -> Status {
-    let s = sample(c.timer1_s(), 0.0, p, [0.0; 6], [0.0; 6]);
+    let s = sample(c.native().timer1_s(), 0.0, p, [0.0; 6], [0.0; 6]);
     cmd(c, id, Command::StreamedMove(s))
 }
