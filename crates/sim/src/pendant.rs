@@ -121,6 +121,8 @@ pub fn pendant_router(emulator: Emulator, token: Option<String>, bound: SocketAd
         .route("/faults", post(faults_post).delete(faults_delete))
         .route("/abs_speed", get(abs_speed_get).post(abs_speed_post))
         .route("/tasks", get(tasks_get))
+        .route("/network", get(network_get))
+        .route("/network/hosts", post(network_hosts_post))
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(middleware::from_fn_with_state(state.clone(), guard))
@@ -188,7 +190,7 @@ async fn index() -> Json<Value> {
             "POST /estop/press", "POST /estop/release", "POST /reset", "POST /power-cycle",
             "POST /speed",
             "GET /abs_speed", "POST /abs_speed", "POST /faults", "DELETE /faults",
-            "GET /tasks"
+            "GET /tasks", "GET /network", "POST /network/hosts"
         ],
         "docs": "docs/EMULATOR.md"
     }))
@@ -283,6 +285,60 @@ async fn tasks_get(
             "start the emulator with an AS program (fs020n sim --as-program FILE) to see its tasks",
         )
     })
+}
+
+/// The emulated controller's place on the network: its address, the host map, the port map,
+/// the ports its AS program listens on and where each is served on the host.
+#[derive(Debug, Serialize)]
+struct NetworkView {
+    address: std::net::Ipv4Addr,
+    hosts: std::collections::BTreeMap<std::net::Ipv4Addr, std::net::IpAddr>,
+    port_map: Option<crate::network::PortMap>,
+    listening: Vec<u16>,
+    served: std::collections::BTreeMap<u16, SocketAddr>,
+}
+
+fn network_view(emulator: &Emulator) -> NetworkView {
+    let (network, listening) =
+        emulator.with(|c| (c.network().clone(), c.program().listening_ports()));
+    NetworkView {
+        address: network.address,
+        hosts: network.hosts,
+        port_map: emulator.port_map(),
+        listening,
+        served: emulator.program_ports(),
+    }
+}
+
+async fn network_get(State(st): State<AppState>) -> Json<NetworkView> {
+    Json(network_view(&st.emulator))
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct HostsBody {
+    hosts: std::collections::BTreeMap<std::net::Ipv4Addr, std::net::IpAddr>,
+}
+
+/// Replaces the host map (from the program's next `TCP_CONNECT`/`UDP_SENDTO` on); the
+/// controller's address and the port map stay.
+async fn network_hosts_post(
+    State(st): State<AppState>,
+    body: Result<Json<HostsBody>, JsonRejection>,
+) -> Result<Json<NetworkView>, ApiError> {
+    let Json(b) = body.map_err(|e| {
+        bad_json(
+            e,
+            r#"{"hosts": {"192.168.0.10": "127.0.0.1"}} (cell address -> real host)"#,
+        )
+    })?;
+    tracing::info!(hosts = ?b.hosts, "host map replaced through the pendant API");
+    st.emulator.with(|c| {
+        let mut network = c.network().clone();
+        network.hosts = b.hosts;
+        c.set_network(network);
+    });
+    Ok(Json(network_view(&st.emulator)))
 }
 
 async fn abs_speed_get(State(st): State<AppState>) -> Json<Value> {

@@ -52,6 +52,8 @@ struct Inner {
     changed: watch::Sender<u64>,
     /// Where each port a program listens on is served on the host (`server/program.rs`).
     ports: Mutex<std::collections::BTreeMap<u16, SocketAddr>>,
+    /// The port map those ports are served through, once they are (`server/program.rs`).
+    port_map: Mutex<Option<crate::network::PortMap>>,
 }
 
 /// A running emulated controller, shared by its network tasks and its observers. Cheap to
@@ -79,6 +81,7 @@ impl Emulator {
                 epoch: Instant::now(),
                 changed,
                 ports: Mutex::default(),
+                port_map: Mutex::default(),
             }),
         }
     }
@@ -93,6 +96,7 @@ impl Emulator {
                 epoch: Instant::now(),
                 changed,
                 ports: Mutex::default(),
+                port_map: Mutex::default(),
             }),
         }
     }

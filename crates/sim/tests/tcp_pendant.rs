@@ -542,3 +542,73 @@ async fn pendant_validates_fault_parameters_and_switches_abs_speed_off() {
     assert_eq!(v["abs_speed"], false);
     pendant.stop();
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn pendant_network_shows_the_address_host_map_and_served_ports_and_replaces_the_host_map() {
+    let text = ".PROGRAM autostart.pc()\n\
+  TCP_LISTEN lret, 9500\n\
+  TCP_ACCEPT sock, 9500, 60\n\
+.END\n";
+    let program = fs020n_sim::ServerProgram::from_source("net.as", text).unwrap();
+    let network = fs020n_sim::Network::default().address("10.0.0.7".parse().unwrap());
+    let emu = Emulator::with_program(
+        ControllerConfig {
+            network,
+            ..ControllerConfig::default()
+        },
+        program,
+    );
+    let ports = emu.serve_program_ports(
+        "127.0.0.1".parse().unwrap(),
+        fs020n_sim::PortMap::same().map(9500, 0),
+        None,
+    );
+    let served = emu
+        .wait_program_port(9500, Duration::from_secs(10))
+        .await
+        .expect("port 9500 served");
+    let p = serve_pendant(emu.clone(), local(), None).await.unwrap();
+    let addr = p.local_addr();
+
+    let (code, v) = http(addr, "GET", "/network", None, None).await;
+    assert_eq!(code, 200, "{v}");
+    assert_eq!(v["address"], "10.0.0.7");
+    assert_eq!(v["hosts"], serde_json::json!({}));
+    assert_eq!(v["listening"], serde_json::json!([9500]));
+    assert_eq!(v["served"]["9500"], served.to_string());
+    assert_eq!(v["port_map"]["ports"]["9500"], 0);
+    assert_eq!(v["port_map"]["unlisted"], "same");
+
+    let body = r#"{"hosts": {"192.168.0.10": "127.0.0.1"}}"#;
+    let (code, v) = http(addr, "POST", "/network/hosts", Some(body), None).await;
+    assert_eq!(code, 200, "{v}");
+    assert_eq!(v["hosts"]["192.168.0.10"], "127.0.0.1");
+    assert_eq!(v["address"], "10.0.0.7", "the address stays");
+    let cell = std::net::Ipv4Addr::new(192, 168, 0, 10);
+    assert_eq!(
+        emu.with(|c| c.network().hosts.get(&cell).copied()),
+        Some("127.0.0.1".parse().unwrap()),
+        "the controller routes through the new map"
+    );
+
+    let (code, v) = http(
+        addr,
+        "POST",
+        "/network/hosts",
+        Some(r#"{"hosts": {"pc": "127.0.0.1"}}"#),
+        None,
+    )
+    .await;
+    assert!(code == 400 || code == 422, "{code} {v}");
+    assert!(
+        v["remedy"].as_str().unwrap().contains("192.168.0.10"),
+        "{v}"
+    );
+    let (_, v) = http(addr, "GET", "/network", None, None).await;
+    assert_eq!(
+        v["hosts"]["192.168.0.10"], "127.0.0.1",
+        "a refused map changes nothing"
+    );
+    ports.stop();
+    p.stop();
+}

@@ -80,6 +80,9 @@ impl Emulator {
         map: PortMap,
         except: Option<SocketAddr>,
     ) -> ProgramPorts {
+        if let Ok(mut m) = self.inner.port_map.lock() {
+            *m = Some(map.clone());
+        }
         let this = self.clone();
         ProgramPorts {
             task: tokio::spawn(async move { this.ports_loop(bind, map, except).await }),
@@ -93,6 +96,16 @@ impl Emulator {
             .ports
             .lock()
             .map(|p| p.clone())
+            .unwrap_or_else(|poisoned| poisoned.into_inner().clone())
+    }
+
+    /// The port map the program's ports are served through ([`Emulator::serve_program_ports`]),
+    /// `None` until they are served.
+    pub fn port_map(&self) -> Option<PortMap> {
+        self.inner
+            .port_map
+            .lock()
+            .map(|m| m.clone())
             .unwrap_or_else(|poisoned| poisoned.into_inner().clone())
     }
 
