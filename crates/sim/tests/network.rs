@@ -337,3 +337,35 @@ fn udp_sendto_a_mapped_host_reaches_the_real_socket_and_an_unmapped_one_gives_e4
     let (n, _) = peer.recv_from(&mut buf).expect("the datagram");
     assert_eq!(&buf[..n], b"PING");
 }
+
+/// PCABORT while a `TCP_CONNECT` to a real host is pending: the task stops once the connect's
+/// own timeout has passed (the abort waits for the step, AS-E p.10-4), and a connection the
+/// network layer makes after that is refused to the program — `dialed` says "close it".
+#[test]
+fn an_outgoing_connection_made_after_its_task_was_aborted_is_closed() {
+    let mut c = Controller::with_program(config(mapped()), program(&hello_client(5000, 2)));
+    c.advance_by(Duration::from_millis(20));
+    let dials = c.program_mut().take_dials();
+    assert_eq!(
+        dials.len(),
+        1,
+        "the TCP_CONNECT waits for the network layer"
+    );
+    let task = fs020n_as::TaskId::Pc(1);
+    assert!(c.program().task_running(task));
+    assert_eq!(c.program_mut().pc_abort(1), fs020n_sim::Abort::AfterStep);
+    c.advance_by(Duration::from_millis(2100));
+    assert!(
+        !c.program().task_running(task),
+        "stopped after its TCP_CONNECT gave up"
+    );
+    assert_eq!(
+        c.program().real("done"),
+        None,
+        "the program went no further"
+    );
+    assert!(
+        !c.program_mut().dialed(dials[0].client, Ok(())),
+        "a connection made now is closed by the network layer"
+    );
+}
