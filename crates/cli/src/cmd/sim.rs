@@ -93,6 +93,7 @@ pub(crate) fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOp
             "--terminal serves one robot's terminal: start one robot with it",
         ));
     }
+    let ports = fleet_ports(ports, robots.len(), args.as_program.is_some() || args.bare)?;
     for (listen, pendant) in robots {
         out.push(SimOptions {
             listen,
@@ -142,6 +143,29 @@ fn port_map(args: &SimArgs) -> CliResult<fs020n_sim::PortMap> {
         map.ports.insert(port, host);
     }
     Ok(map)
+}
+
+/// The port map of each of `robots` robots running AS programs: with several, every program
+/// port is served at a free host port (each robot's own, read on its pendant: `GET /network`),
+/// since the same number for every robot would clash; a `--port-map` to a fixed host port is
+/// refused with the remedy. The first port of each robot stays at its own `--listen`.
+fn fleet_ports(
+    ports: fs020n_sim::PortMap,
+    robots: usize,
+    programs: bool,
+) -> CliResult<fs020n_sim::PortMap> {
+    if robots <= 1 || !programs {
+        return Ok(ports);
+    }
+    if let Some((p, h)) = ports.ports.iter().find(|(_, h)| **h != 0) {
+        return Err(CliError::input(format!(
+            "--port-map {p}={h} with --robots {robots}: every robot's program port {p} would be              served at host port {h}; give --port-map {p}=0 (a free port for each robot, shown by              GET /network on its pendant) or start the robots one by one"
+        )));
+    }
+    Ok(fs020n_sim::PortMap {
+        unlisted: fs020n_sim::UnlistedPorts::Free,
+        ..ports
+    })
 }
 
 /// Loads `--as-program` once before anything starts: a program that does not load is refused
@@ -353,5 +377,35 @@ impl ShutdownSignals {
         }
         ctrl_c().await;
         "Ctrl-C"
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::fleet_ports;
+    use fs020n_sim::{PortMap, UnlistedPorts};
+
+    #[test]
+    fn several_robots_serve_their_program_ports_at_free_host_ports() {
+        let one = fleet_ports(PortMap::same(), 1, true).unwrap();
+        assert_eq!(one.host_port(9111), 9111, "one robot: the same number");
+        let native = fleet_ports(PortMap::same(), 3, false).unwrap();
+        assert_eq!(
+            native.unlisted,
+            UnlistedPorts::Same,
+            "no program: nothing to serve"
+        );
+        let fleet = fleet_ports(PortMap::same().map(9112, 0), 3, true).unwrap();
+        assert_eq!(fleet.host_port(9111), 0, "a free port for each robot");
+        assert_eq!(fleet.host_port(9112), 0);
+    }
+
+    #[test]
+    fn several_robots_refuse_a_fixed_host_port_with_the_remedy() {
+        let e = fleet_ports(PortMap::same().map(9111, 19111), 2, true)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--port-map 9111=0"), "{e}");
+        assert!(e.contains("--robots 2"), "{e}");
     }
 }
