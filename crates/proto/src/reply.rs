@@ -95,6 +95,52 @@ pub struct Status {
     pub joints: JointsDeg,
 }
 
+/// Bytes of the six joint fields of a reply (fields 9–14, `/F10.3` each).
+const JOINTS_TEXT: usize = 6 * F10_WIDTH;
+
+/// The six joint fields of a reply.
+fn write_joints(joints: &JointsDeg, out: &mut [u8; JOINTS_TEXT]) {
+    for (field, j) in out.chunks_exact_mut(F10_WIDTH).zip(joints.iter()) {
+        field.copy_from_slice(&f10_3_field(j));
+    }
+}
+
+/// Encodes replies like [`Status::encode_bytes`], byte for byte, remembering the text of the
+/// joint fields: a server whose arm stands still (most polls of a fleet) formats its six joint
+/// angles once instead of per reply. The memo is keyed on the angles' exact bits.
+///
+/// ```
+/// use fs020n_proto::{ReplyEncoder, Status};
+/// let mut encoder = ReplyEncoder::default();
+/// let s = Status::default();
+/// assert_eq!(encoder.encode(&s), s.encode_bytes());
+/// assert_eq!(encoder.encode(&s), s.encode_bytes()); // from the memo
+/// ```
+#[derive(Debug, Clone, Default)]
+pub struct ReplyEncoder {
+    memo: Option<([u64; 6], [u8; JOINTS_TEXT])>,
+}
+
+impl ReplyEncoder {
+    /// The reply bytes of `status`.
+    pub fn encode(&mut self, status: &Status) -> Vec<u8> {
+        let memo = &mut self.memo;
+        status.encode_with(&mut |joints: &JointsDeg, out: &mut [u8; JOINTS_TEXT]| {
+            let mut key = [0u64; 6];
+            for (k, j) in key.iter_mut().zip(joints.iter()) {
+                *k = j.to_bits();
+            }
+            match memo {
+                Some((bits, text)) if *bits == key => *out = *text,
+                _ => {
+                    write_joints(joints, out);
+                    *memo = Some((key, *out));
+                }
+            }
+        })
+    }
+}
+
 fn as_bool(b: bool) -> i64 {
     if b {
         AS_TRUE
@@ -113,6 +159,17 @@ impl Status {
 
     /// [`Status::encode`] as bytes (what a server sends), without the text conversion.
     pub fn encode_bytes(&self) -> Vec<u8> {
+        self.encode_with(&mut |joints: &JointsDeg, out: &mut [u8; JOINTS_TEXT]| {
+            write_joints(joints, out)
+        })
+    }
+
+    /// The reply with the joint fields' 60 bytes written by `joints_text` (a memo of
+    /// [`ReplyEncoder`], or [`write_joints`]).
+    fn encode_with(
+        &self,
+        joints_text: &mut impl FnMut(&JointsDeg, &mut [u8; JOINTS_TEXT]),
+    ) -> Vec<u8> {
         // Built on the stack, then copied once into a vector of the exact length.
         let mut buf = [b' '; ENCODED_MAX];
         let mut n = 0;
@@ -133,10 +190,10 @@ impl Status {
         };
         buf[n..n + F10_WIDTH].copy_from_slice(&timer);
         n += F10_WIDTH;
-        for j in self.joints.iter() {
-            buf[n..n + F10_WIDTH].copy_from_slice(&f10_3_field(j));
-            n += F10_WIDTH;
-        }
+        let mut joints = [b' '; JOINTS_TEXT];
+        joints_text(&self.joints, &mut joints);
+        buf[n..n + JOINTS_TEXT].copy_from_slice(&joints);
+        n += JOINTS_TEXT;
         // The final blank (the buffer is blanks).
         buf[..n + 1].to_vec()
     }
