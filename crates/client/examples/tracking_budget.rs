@@ -8,7 +8,7 @@
 //!
 //! Rows: the default stream (command 7 at 50 Hz, lead estimated online); the same with the lead
 //! fixed at the lag measured without compensation (what a perfect estimate of the controller's
-//! pipeline would give); at 250 Hz; the waypoints (command 6) it is compared with; and the
+//! pipeline would give); a sweep of fixed leads; at 250 Hz; the waypoints (command 6) it is compared with; and the
 //! floors computed from the trajectory: the 0.001° resolution of the reply's joints and the
 //! 1 ms resolution of its TIMER(1), by which the report finds the trajectory's time of each reply.
 
@@ -86,6 +86,16 @@ async fn main() -> Result<(), ClientError> {
     let lag = Duration::from_secs_f64(off.lag_s.unwrap_or(0.0).clamp(0.0, 0.5));
     let oracle = run(look, LagCompensation::Fixed(lag), p50).await?;
     row("command 7, 50 Hz, lead fixed at the measured lag", &oracle);
+    // The error against a fixed lead: where its minimum lies, and how flat it is.
+    for lead_ms in [30u64, 36, 42, 48, 54] {
+        let r = run(
+            look,
+            LagCompensation::Fixed(Duration::from_millis(lead_ms)),
+            p50,
+        )
+        .await?;
+        row(&format!("command 7, 50 Hz, lead fixed at {lead_ms} ms"), &r);
+    }
     let fast = run(look, online, p250).await?;
     row("command 7, 250 Hz, lead estimated online", &fast);
     let fast_oracle = run(look, LagCompensation::Fixed(lag), p250).await?;
