@@ -118,26 +118,55 @@ fn write_joints(joints: &JointsDeg, out: &mut [u8; JOINTS_TEXT]) {
 /// ```
 #[derive(Debug, Clone, Default)]
 pub struct ReplyEncoder {
-    memo: Option<([u64; 6], [u8; JOINTS_TEXT])>,
+    /// Fields 1–7 and their text.
+    prefix: Option<(PrefixKey, Vec<u8>)>,
+    /// The joints' bits and the text of fields 9–14.
+    joints: Option<([u64; 6], [u8; JOINTS_TEXT])>,
 }
+
+/// What fields 1–7 are made of.
+type PrefixKey = (i64, i32, [bool; 5]);
 
 impl ReplyEncoder {
     /// The reply bytes of `status`.
     pub fn encode(&mut self, status: &Status) -> Vec<u8> {
-        let memo = &mut self.memo;
-        status.encode_with(&mut |joints: &JointsDeg, out: &mut [u8; JOINTS_TEXT]| {
-            let mut key = [0u64; 6];
-            for (k, j) in key.iter_mut().zip(joints.iter()) {
-                *k = j.to_bits();
+        let mut out = Vec::with_capacity(ENCODED_MAX);
+        let key: PrefixKey = (
+            status.version,
+            status.error.raw(),
+            [
+                status.run,
+                status.repeat,
+                status.teach_lock,
+                status.power,
+                status.task_running,
+            ],
+        );
+        match &self.prefix {
+            Some((k, text)) if *k == key => out.extend_from_slice(text),
+            _ => {
+                let mut buf = [b' '; 7 * DEFAULT_INT_MAX];
+                let n = status.write_prefix(&mut buf);
+                out.extend_from_slice(&buf[..n]);
+                self.prefix = Some((key, buf[..n].to_vec()));
             }
-            match memo {
-                Some((bits, text)) if *bits == key => *out = *text,
-                _ => {
-                    write_joints(joints, out);
-                    *memo = Some((key, *out));
-                }
+        }
+        out.extend_from_slice(&status.timer_field());
+        let mut bits = [0u64; 6];
+        for (k, j) in bits.iter_mut().zip(status.joints.iter()) {
+            *k = j.to_bits();
+        }
+        match &self.joints {
+            Some((b, text)) if *b == bits => out.extend_from_slice(text),
+            _ => {
+                let mut text = [b' '; JOINTS_TEXT];
+                write_joints(&status.joints, &mut text);
+                out.extend_from_slice(&text);
+                self.joints = Some((bits, text));
             }
-        })
+        }
+        out.push(b' ');
+        out
     }
 }
 
@@ -159,19 +188,20 @@ impl Status {
 
     /// [`Status::encode`] as bytes (what a server sends), without the text conversion.
     pub fn encode_bytes(&self) -> Vec<u8> {
-        self.encode_with(&mut |joints: &JointsDeg, out: &mut [u8; JOINTS_TEXT]| {
-            write_joints(joints, out)
-        })
+        let mut out = Vec::with_capacity(ENCODED_MAX);
+        let mut prefix = [b' '; 7 * DEFAULT_INT_MAX];
+        let n = self.write_prefix(&mut prefix);
+        out.extend_from_slice(&prefix[..n]);
+        out.extend_from_slice(&self.timer_field());
+        let mut joints = [b' '; JOINTS_TEXT];
+        write_joints(&self.joints, &mut joints);
+        out.extend_from_slice(&joints);
+        out.push(b' ');
+        out
     }
 
-    /// The reply with the joint fields' 60 bytes written by `joints_text` (a memo of
-    /// [`ReplyEncoder`], or [`write_joints`]).
-    fn encode_with(
-        &self,
-        joints_text: &mut impl FnMut(&JointsDeg, &mut [u8; JOINTS_TEXT]),
-    ) -> Vec<u8> {
-        // Built on the stack, then copied once into a vector of the exact length.
-        let mut buf = [b' '; ENCODED_MAX];
+    /// Fields 1–7 (`$ENCODE` of integers: each preceded by a blank) into `out`; their length.
+    fn write_prefix(&self, out: &mut [u8; 7 * DEFAULT_INT_MAX]) -> usize {
         let mut n = 0;
         for v in [
             self.version,
@@ -182,20 +212,17 @@ impl Status {
             as_bool(self.power),
             as_bool(self.task_running),
         ] {
-            n += put_default_int(&mut buf[n..], v);
+            n += put_default_int(&mut out[n..], v);
         }
-        let timer = match self.timer {
+        n
+    }
+
+    /// Field 8, TIMER(1), as `/F10.3`.
+    fn timer_field(&self) -> [u8; F10_WIDTH] {
+        match self.timer {
             Timer::Seconds(s) => f10_3_field(s),
             Timer::Overflow => [b'*'; F10_WIDTH],
-        };
-        buf[n..n + F10_WIDTH].copy_from_slice(&timer);
-        n += F10_WIDTH;
-        let mut joints = [b' '; JOINTS_TEXT];
-        joints_text(&self.joints, &mut joints);
-        buf[n..n + JOINTS_TEXT].copy_from_slice(&joints);
-        n += JOINTS_TEXT;
-        // The final blank (the buffer is blanks).
-        buf[..n + 1].to_vec()
+        }
     }
 
     /// Decodes one complete reply, tolerantly: runs of blanks, a leading blank, a missing
