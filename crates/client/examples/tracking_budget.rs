@@ -11,6 +11,8 @@
 //! pipeline would give); a sweep of fixed leads; at 250 Hz; the waypoints (command 6) it is compared with; and the
 //! floors computed from the trajectory: the 0.001° resolution of the reply's joints and the
 //! 1 ms resolution of its TIMER(1), by which the report finds the trajectory's time of each reply.
+//! Then the same comparison on a second, faster path (a figure eight), so that a change is
+//! judged on more than the circle.
 
 use std::time::Duration;
 
@@ -35,7 +37,42 @@ fn circle() -> Trajectory {
     Trajectory::new(points).expect("examples/circle.csv is a valid trajectory")
 }
 
+/// A second path, unlike the circle: a figure eight of JT1/JT3 with JT5 turning, 5 s, slower
+/// in one axis and twice as fast in the other, at 50 Hz.
+fn figure_eight() -> Trajectory {
+    let points: Vec<TrajectoryPoint> = (0..=250)
+        .map(|k| {
+            let t = f64::from(k) * 0.02;
+            // Smooth start and stop: the phase follows a cycloid from 0 to 2π.
+            let u = t / 5.0;
+            let phase = std::f64::consts::TAU
+                * (u - (std::f64::consts::TAU * u).sin() / std::f64::consts::TAU);
+            TrajectoryPoint::new(
+                t,
+                JointsDeg::new([
+                    15.0 * phase.sin(),
+                    0.0,
+                    -90.0 + 6.0 * (2.0 * phase).sin(),
+                    0.0,
+                    -90.0 + 10.0 * (1.0 - phase.cos()),
+                    0.0,
+                ]),
+            )
+        })
+        .collect();
+    Trajectory::new(points).expect("the figure eight is a valid trajectory")
+}
+
 async fn run(
+    mode: StreamMode,
+    lag: LagCompensation,
+    period: Duration,
+) -> Result<StreamReport, ClientError> {
+    run_path(circle(), mode, lag, period).await
+}
+
+async fn run_path(
+    path: Trajectory,
     mode: StreamMode,
     lag: LagCompensation,
     period: Duration,
@@ -51,7 +88,7 @@ async fn run(
         period,
         ..StreamOptions::default()
     };
-    let report = robot.stream(circle(), options).await?.wait().await?;
+    let report = robot.stream(path, options).await?.wait().await?;
     robot.close().await?;
     Ok(report)
 }
@@ -133,6 +170,24 @@ async fn main() -> Result<(), ClientError> {
     println!(
         "{:<58} rms {:.4}°",
         "floor: TIMER(1) in whole milliseconds (±0.5 ms)", timer_floor
+    );
+    // The same comparison on another path, so that a choice is not tuned to the circle.
+    let eight_stream = run_path(figure_eight(), look, online, p50).await?;
+    row("figure eight: command 7, 50 Hz, lead online", &eight_stream);
+    let eight_fast = run_path(figure_eight(), look, online, p250).await?;
+    row("figure eight: command 7, 250 Hz, lead online", &eight_fast);
+    let eight_waypoints = run_path(
+        figure_eight(),
+        StreamMode::Waypoints,
+        LagCompensation::Off,
+        p50,
+    )
+    .await?;
+    row("figure eight: command 6 waypoints, 50 Hz", &eight_waypoints);
+    println!(
+        "figure eight, ratio command 7 ÷ command 6: 50 Hz {:.3}, 250 Hz {:.3}",
+        eight_stream.tracking_error_rms_deg / eight_waypoints.tracking_error_rms_deg,
+        eight_fast.tracking_error_rms_deg / eight_waypoints.tracking_error_rms_deg
     );
     println!(
         "ratio command 7 ÷ command 6: default {:.3}, lead fixed {:.3}, 250 Hz {:.3}",
