@@ -22,7 +22,7 @@ use fs020n_client::{
     StreamReport, Trajectory, TrajectoryPoint,
 };
 
-fn circle() -> Trajectory {
+fn circle() -> Result<Trajectory, Box<dyn std::error::Error>> {
     let text = include_str!("../../../examples/circle.csv");
     let points: Vec<TrajectoryPoint> = text
         .lines()
@@ -34,12 +34,12 @@ fn circle() -> Trajectory {
             })
         })
         .collect();
-    Trajectory::new(points).expect("examples/circle.csv is a valid trajectory")
+    Ok(Trajectory::new(points)?)
 }
 
 /// A second path, unlike the circle: a figure eight of JT1/JT3 with JT5 turning, 5 s, slower
 /// in one axis and twice as fast in the other, at 50 Hz.
-fn figure_eight() -> Trajectory {
+fn figure_eight() -> Result<Trajectory, Box<dyn std::error::Error>> {
     let points: Vec<TrajectoryPoint> = (0..=250)
         .map(|k| {
             let t = f64::from(k) * 0.02;
@@ -60,15 +60,15 @@ fn figure_eight() -> Trajectory {
             )
         })
         .collect();
-    Trajectory::new(points).expect("the figure eight is a valid trajectory")
+    Ok(Trajectory::new(points)?)
 }
 
 async fn run(
     mode: StreamMode,
     lag: LagCompensation,
     period: Duration,
-) -> Result<StreamReport, ClientError> {
-    run_path(circle(), mode, lag, period).await
+) -> Result<StreamReport, Box<dyn std::error::Error>> {
+    Ok(run_path(circle()?, mode, lag, period).await?)
 }
 
 async fn run_path(
@@ -105,7 +105,7 @@ fn row(name: &str, r: &StreamReport) {
 }
 
 #[tokio::main(flavor = "current_thread", start_paused = true)]
-async fn main() -> Result<(), ClientError> {
+async fn main() -> Result<(), Box<dyn std::error::Error>> {
     let look = StreamMode::Extrapolated {
         lookahead_passes: 2.0,
     };
@@ -147,7 +147,7 @@ async fn main() -> Result<(), ClientError> {
     // 0.001° (uniform error, rms 0.001/√12 per joint), and its TIMER(1) to 1 ms, so the
     // trajectory is read up to 1 ms off: rms of (largest joint speed × uniform 0–1 ms), with the
     // mean half millisecond a constant lag the lead absorbs, the rest ±0.5 ms.
-    let t = circle();
+    let t = circle()?;
     let (t0, t1) = (t.start_s(), t.end_s());
     let (mut sq, mut n) = (0.0, 0u32);
     let mut tau = t0;
@@ -172,12 +172,12 @@ async fn main() -> Result<(), ClientError> {
         "floor: TIMER(1) in whole milliseconds (±0.5 ms)", timer_floor
     );
     // The same comparison on another path, so that a choice is not tuned to the circle.
-    let eight_stream = run_path(figure_eight(), look, online, p50).await?;
+    let eight_stream = run_path(figure_eight()?, look, online, p50).await?;
     row("figure eight: command 7, 50 Hz, lead online", &eight_stream);
-    let eight_fast = run_path(figure_eight(), look, online, p250).await?;
+    let eight_fast = run_path(figure_eight()?, look, online, p250).await?;
     row("figure eight: command 7, 250 Hz, lead online", &eight_fast);
     let eight_waypoints = run_path(
-        figure_eight(),
+        figure_eight()?,
         StreamMode::Waypoints,
         LagCompensation::Off,
         p50,
