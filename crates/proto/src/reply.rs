@@ -105,9 +105,10 @@ fn write_joints(joints: &JointsDeg, out: &mut [u8; JOINTS_TEXT]) {
     }
 }
 
-/// Encodes replies like [`Status::encode_bytes`], byte for byte, remembering the text of the
-/// joint fields: a server whose arm stands still (most polls of a fleet) formats its six joint
-/// angles once instead of per reply. The memo is keyed on the angles' exact bits.
+/// Encodes replies like [`Status::encode_bytes`], byte for byte, remembering the text of
+/// fields 1–7 and of the joint fields: a server whose arm stands still (most polls of a fleet)
+/// formats its six joint angles and its switches once instead of per reply, and only TIMER(1)
+/// each time. The joints' memo is keyed on the angles' exact bits.
 ///
 /// ```
 /// use fs020n_proto::{ReplyEncoder, Status};

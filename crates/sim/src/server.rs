@@ -415,7 +415,7 @@ pub(crate) async fn sleep_until_opt(t: Option<Instant>) {
 /// How a reply went out.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Sent {
-    /// In the same instant as it was built: no time passed on the runtime's clock.
+    /// Without waiting: the first write took all of it.
     AtOnce,
     /// After waiting for the peer to read.
     Later,
