@@ -25,8 +25,10 @@ use crate::machine::ControllerConfig;
 use crate::native::SessionId;
 use crate::snapshot::{SessionEnd, Snapshot};
 
+mod fleet;
 mod program;
 
+pub use fleet::{FleetServer, FleetStop};
 pub use program::ProgramPorts;
 
 /// Size of the in-memory pipe of [`Emulator::connect`] in each direction, bytes (small, like a
