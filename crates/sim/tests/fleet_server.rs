@@ -2,6 +2,8 @@
 //! the same client scripts over real loopback TCP, the same replies (TIMER(1), a wall-clock
 //! reading, left out of the comparison), the same refusals and session ends.
 
+#![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
+
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::thread;
