@@ -237,3 +237,41 @@ fn many_robots_are_served_by_one_loop() {
         );
     }
 }
+
+#[test]
+fn a_client_that_stops_reading_loses_its_session_to_the_send_timeout() {
+    let fleet = FleetServer::bind(vec![(
+        Controller::new(ControllerConfig::default()),
+        "127.0.0.1:0".parse().expect("address"),
+    )])
+    .expect("bind");
+    let addr = fleet.local_addrs()[0];
+    let stop = fleet.stopper();
+    let running = thread::spawn(move || fleet.run());
+    // A small receive buffer of the test's own, so that the figure does not depend on this
+    // machine's defaults; the emulator's 4096-byte send buffer is what is under test.
+    let socket =
+        socket2::Socket::new(socket2::Domain::IPV4, socket2::Type::STREAM, None).expect("socket");
+    socket.set_recv_buffer_size(4096).expect("buffer");
+    socket.connect(&addr.into()).expect("connect");
+    let mut s: TcpStream = socket.into();
+    s.set_nodelay(true).ok();
+    s.set_write_timeout(Some(Duration::from_millis(100))).ok();
+    let started = Instant::now();
+    // Poll every 2 ms and never read a reply, until the emulator stops taking requests.
+    let mut closed = false;
+    while started.elapsed() < Duration::from_secs(15) {
+        if s.write_all(b"0 0 0").is_err() {
+            closed = true;
+            break;
+        }
+        thread::sleep(Duration::from_millis(2));
+    }
+    stop.stop();
+    let controllers = running.join().expect("the loop").expect("served");
+    assert!(closed, "the session was never dropped");
+    assert_eq!(
+        controllers[0].last_session_end().map(|(_, why)| why),
+        Some(SessionEnd::SendTimeout)
+    );
+}

@@ -218,7 +218,13 @@ impl FleetServer {
             let (mut stream, peer) = match listener.accept() {
                 Ok(s) => s,
                 Err(e) if e.kind() == io::ErrorKind::WouldBlock => return,
-                Err(_) => continue,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                // Out of descriptors, a connection reset before it was taken: the next
+                // connection tries again.
+                Err(e) => {
+                    tracing::warn!(addr = %robot.addr, error = %e, "cannot accept");
+                    return;
+                }
             };
             robot.controller.advance_to(now);
             match robot.controller.try_accept() {
@@ -367,7 +373,19 @@ fn serve_session(
         // What is due goes out first (command 255's reply too, though its session has ended):
         // the session loop receives again only after a reply.
         match flush(c, s, now) {
-            Flush::Done => {}
+            Flush::Done => {
+                if s.writable_interest {
+                    // Everything went out: no more wake-ups for room in the send buffer.
+                    if registry
+                        .reregister(&mut s.stream, token, Interest::READABLE)
+                        .is_err()
+                    {
+                        c.end_session_of(s.id, SessionEnd::Disconnected);
+                        return false;
+                    }
+                    s.writable_interest = false;
+                }
+            }
             Flush::Wait => {
                 let want = s.blocked_since.is_some();
                 if want != s.writable_interest {
