@@ -415,7 +415,8 @@ pub(crate) struct SimArgs {
     #[arg(long, default_value_t = 1, value_name = "N")]
     pub robots: u16,
     /// Threads serving the robots (1: one thread does everything, without cross-thread
-    /// wake-ups, and leaves the other cores to the clients of a fleet on the same machine).
+    /// wake-ups, and leaves the other cores to the clients of a fleet on the same machine;
+    /// robots with nothing but their protocol port are then served by one readiness loop).
     #[arg(long, default_value_t = 2, value_name = "N")]
     pub threads: u16,
     /// Token required by the pendant API (mandatory off loopback).

@@ -45,7 +45,9 @@ pub use decoder::{ReplyDecoder, ReplyFrame, MAX_BUFFERED};
 pub use error::{DecodeError, EncodeError};
 pub use error_code::{ErrorClass, ErrorCode};
 pub use joints::{JointsDeg, JointsRad, JOINT_COUNT};
-pub use reply::{Status, Timer, REPLY_FIELDS, TIMER_COARSE_AFTER_S, TIMER_WIRE_STEP_S};
+pub use reply::{
+    ReplyEncoder, Status, Timer, REPLY_FIELDS, TIMER_COARSE_AFTER_S, TIMER_WIRE_STEP_S,
+};
 pub use request::{Command, Request, StreamSample};
 pub use rules::{
     ACCEPT_WINDOW, ACCURACY_MM, AS_FALSE, AS_TRUE, COMMAND_RING_LEN, DEFAULT_PORT,

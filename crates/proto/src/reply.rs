@@ -95,6 +95,82 @@ pub struct Status {
     pub joints: JointsDeg,
 }
 
+/// Bytes of the six joint fields of a reply (fields 9–14, `/F10.3` each).
+const JOINTS_TEXT: usize = 6 * F10_WIDTH;
+
+/// The six joint fields of a reply.
+fn write_joints(joints: &JointsDeg, out: &mut [u8; JOINTS_TEXT]) {
+    for (field, j) in out.chunks_exact_mut(F10_WIDTH).zip(joints.iter()) {
+        field.copy_from_slice(&f10_3_field(j));
+    }
+}
+
+/// Encodes replies like [`Status::encode_bytes`], byte for byte, remembering the text of
+/// fields 1–7 and of the joint fields: a server whose arm stands still (most polls of a fleet)
+/// formats its six joint angles and its switches once instead of per reply, and only TIMER(1)
+/// each time. The joints' memo is keyed on the angles' exact bits.
+///
+/// ```
+/// use fs020n_proto::{ReplyEncoder, Status};
+/// let mut encoder = ReplyEncoder::default();
+/// let s = Status::default();
+/// assert_eq!(encoder.encode(&s), s.encode_bytes());
+/// assert_eq!(encoder.encode(&s), s.encode_bytes()); // from the memo
+/// ```
+#[derive(Debug, Clone, Default)]
+pub struct ReplyEncoder {
+    /// Fields 1–7 and their text.
+    prefix: Option<(PrefixKey, Vec<u8>)>,
+    /// The joints' bits and the text of fields 9–14.
+    joints: Option<([u64; 6], [u8; JOINTS_TEXT])>,
+}
+
+/// What fields 1–7 are made of.
+type PrefixKey = (i64, i32, [bool; 5]);
+
+impl ReplyEncoder {
+    /// The reply bytes of `status`.
+    pub fn encode(&mut self, status: &Status) -> Vec<u8> {
+        let mut out = Vec::with_capacity(ENCODED_MAX);
+        let key: PrefixKey = (
+            status.version,
+            status.error.raw(),
+            [
+                status.run,
+                status.repeat,
+                status.teach_lock,
+                status.power,
+                status.task_running,
+            ],
+        );
+        match &self.prefix {
+            Some((k, text)) if *k == key => out.extend_from_slice(text),
+            _ => {
+                let mut buf = [b' '; 7 * DEFAULT_INT_MAX];
+                let n = status.write_prefix(&mut buf);
+                out.extend_from_slice(&buf[..n]);
+                self.prefix = Some((key, buf[..n].to_vec()));
+            }
+        }
+        out.extend_from_slice(&status.timer_field());
+        let mut bits = [0u64; 6];
+        for (k, j) in bits.iter_mut().zip(status.joints.iter()) {
+            *k = j.to_bits();
+        }
+        match &self.joints {
+            Some((b, text)) if *b == bits => out.extend_from_slice(text),
+            _ => {
+                let mut text = [b' '; JOINTS_TEXT];
+                write_joints(&status.joints, &mut text);
+                out.extend_from_slice(&text);
+                self.joints = Some((bits, text));
+            }
+        }
+        out.push(b' ');
+        out
+    }
+}
+
 fn as_bool(b: bool) -> i64 {
     if b {
         AS_TRUE
@@ -113,8 +189,20 @@ impl Status {
 
     /// [`Status::encode`] as bytes (what a server sends), without the text conversion.
     pub fn encode_bytes(&self) -> Vec<u8> {
-        // Built on the stack, then copied once into a vector of the exact length.
-        let mut buf = [b' '; ENCODED_MAX];
+        let mut out = Vec::with_capacity(ENCODED_MAX);
+        let mut prefix = [b' '; 7 * DEFAULT_INT_MAX];
+        let n = self.write_prefix(&mut prefix);
+        out.extend_from_slice(&prefix[..n]);
+        out.extend_from_slice(&self.timer_field());
+        let mut joints = [b' '; JOINTS_TEXT];
+        write_joints(&self.joints, &mut joints);
+        out.extend_from_slice(&joints);
+        out.push(b' ');
+        out
+    }
+
+    /// Fields 1–7 (`$ENCODE` of integers: each preceded by a blank) into `out`; their length.
+    fn write_prefix(&self, out: &mut [u8; 7 * DEFAULT_INT_MAX]) -> usize {
         let mut n = 0;
         for v in [
             self.version,
@@ -125,20 +213,17 @@ impl Status {
             as_bool(self.power),
             as_bool(self.task_running),
         ] {
-            n += put_default_int(&mut buf[n..], v);
+            n += put_default_int(&mut out[n..], v);
         }
-        let timer = match self.timer {
+        n
+    }
+
+    /// Field 8, TIMER(1), as `/F10.3`.
+    fn timer_field(&self) -> [u8; F10_WIDTH] {
+        match self.timer {
             Timer::Seconds(s) => f10_3_field(s),
             Timer::Overflow => [b'*'; F10_WIDTH],
-        };
-        buf[n..n + F10_WIDTH].copy_from_slice(&timer);
-        n += F10_WIDTH;
-        for j in self.joints.iter() {
-            buf[n..n + F10_WIDTH].copy_from_slice(&f10_3_field(j));
-            n += F10_WIDTH;
         }
-        // The final blank (the buffer is blanks).
-        buf[..n + 1].to_vec()
     }
 
     /// Decodes one complete reply, tolerantly: runs of blanks, a leading blank, a missing

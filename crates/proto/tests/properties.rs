@@ -292,3 +292,44 @@ fn check_error_is_sensible(r: &Result<Status, DecodeError>) {
         Err(DecodeError::Overflow { len }) => assert!(*len > MAX_BUFFERED),
     }
 }
+
+/// A sequence of statuses in which the joints often repeat (an arm standing still), sometimes
+/// as `-0.0` against `0.0` or with any float (NaN, infinities, huge values).
+fn arb_reply_sequence() -> impl Strategy<Value = Vec<Status>> {
+    let any_joint = prop_oneof![
+        4 => req_value(),
+        1 => any::<f64>(),
+        1 => Just(-0.0),
+        1 => Just(0.0),
+    ];
+    let step = (
+        arb_status(),
+        proptest::bool::weighted(0.6),
+        proptest::array::uniform6(any_joint),
+    );
+    proptest::collection::vec(step, 1..12).prop_map(|steps| {
+        let mut out: Vec<Status> = Vec::new();
+        for (mut s, repeat, joints) in steps {
+            s.joints = match out.last() {
+                Some(prev) if repeat => prev.joints,
+                _ => JointsDeg::new(joints),
+            };
+            out.push(s);
+        }
+        out
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(512))]
+
+    // The memoizing encoder writes every reply byte for byte as `Status::encode_bytes`, whatever
+    // came before it.
+    #[test]
+    fn reply_encoder_writes_what_encode_bytes_writes(seq in arb_reply_sequence()) {
+        let mut encoder = fs020n_proto::ReplyEncoder::default();
+        for s in &seq {
+            prop_assert_eq!(encoder.encode(s), s.encode_bytes());
+        }
+    }
+}

@@ -11,6 +11,16 @@ import fs020n
 from conftest import HOME
 
 
+@pytest.fixture(autouse=True)
+def ctrl_c_raises():
+    """A process started in the background by a non-interactive shell inherits SIGINT ignored,
+    and Python then leaves it ignored: Ctrl-C is what these tests are about, so they install
+    Python's own handler for their duration (as an interactive session has it)."""
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, before)
+
+
 def test_ctrl_c_during_a_wait_cancels_the_motion_closes_and_reraises(robot, emu):
     robot.set_speed(10)
     timer = threading.Timer(0.5, signal.raise_signal, args=(signal.SIGINT,))

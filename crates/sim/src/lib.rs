@@ -79,7 +79,10 @@ pub use program::{
     MAX_TOOL_SPEED_MM_S, SNAPSHOT_TERMINAL_LINES,
 };
 pub use run::{run_robot, RunningRobot, SimOptions};
-pub use server::{Emulator, ProgramPorts, TcpServer, PIPE_CAPACITY, RECEIVE_BUFFER, SEND_BUFFER};
+pub use server::{
+    Emulator, FleetServer, FleetStop, ProgramPorts, TcpServer, PIPE_CAPACITY, RECEIVE_BUFFER,
+    SEND_BUFFER,
+};
 pub use snapshot::{
     CommandInfo, Counters, ErrorInfo, LastEnd, MotionTaskState, MoveKind, PassInfo, PassMotion,
     ProgramInfo, Refused, SessionEnd, SessionInfo, Snapshot,

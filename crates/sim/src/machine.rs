@@ -579,7 +579,12 @@ impl Machine {
                     Some(d) if d <= t => d.max(self.tick_time + tick),
                     _ => t,
                 };
-                let n = ((limit - self.tick_time).as_nanos() / tick.as_nanos()).max(1) as u32;
+                // u64 nanoseconds (584 years): a 128-bit division per idle skip was measurable
+                // on a polled fleet.
+                let span_ns =
+                    u64::try_from((limit - self.tick_time).as_nanos()).unwrap_or(u64::MAX);
+                let tick_ns = u64::try_from(tick.as_nanos()).unwrap_or(u64::MAX).max(1);
+                let n = u32::try_from((span_ns / tick_ns).max(1)).unwrap_or(u32::MAX);
                 self.tick_time += tick * n;
                 self.now = self.now.max(self.tick_time);
                 server.on_time(self);

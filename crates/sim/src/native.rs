@@ -6,10 +6,10 @@
 use std::time::Duration;
 
 use fs020n_kin::JointMove;
-use fs020n_proto::ServerRequest;
 use fs020n_proto::{
     Command, ErrorCode, JointsDeg, Status, StreamSample, JOINT_COUNT, PROTOCOL_VERSION,
 };
+use fs020n_proto::{ReplyEncoder, ServerRequest};
 use fs020n_proto::{
     COMMAND_RING_LEN, RECEIVE_TIMEOUT, SINGULAR_JMOVE_SPEED_PERCENT, SINGULAR_ZONE_DEG,
     STEP_AVERAGE_WEIGHT, STREAM_LMOVE_TIME_S,
@@ -134,6 +134,8 @@ pub(crate) struct NativeServer {
     next_session: u64,
     last_session_end: Option<(SessionId, SessionEnd)>,
     last_pass: Option<PassInfo>,
+    /// Formats replies, the joint fields once while the arm stands still.
+    reply_encoder: ReplyEncoder,
 }
 
 /// Below this many seconds a 32-bit AS real holds every millisecond of a timer.
@@ -160,6 +162,7 @@ impl NativeServer {
             next_session: 1,
             last_session_end: None,
             last_pass: None,
+            reply_encoder: ReplyEncoder::default(),
         }
     }
 
@@ -483,7 +486,7 @@ impl NativeServer {
             }
             self.newest = slot;
         }
-        let reply = self.status(m).encode_bytes();
+        let reply = self.reply_encoder.encode(&self.status(m));
         tracing::debug!(reply = %String::from_utf8_lossy(&reply), "reply");
         let fault = m.next_reply_fault();
         if let Some(s) = &mut self.session {

@@ -25,8 +25,10 @@ use crate::machine::ControllerConfig;
 use crate::native::SessionId;
 use crate::snapshot::{SessionEnd, Snapshot};
 
+mod fleet;
 mod program;
 
+pub use fleet::{FleetServer, FleetStop};
 pub use program::ProgramPorts;
 
 /// Size of the in-memory pipe of [`Emulator::connect`] in each direction, bytes (small, like a
@@ -271,7 +273,10 @@ impl Emulator {
             if timer.is_elapsed() || timer.deadline() > armed {
                 timer.as_mut().reset(armed);
             }
+            // Biased: the request first (the common wake-up), so that a wake-up by a request
+            // does not also poll the timer and the change watcher.
             let n = tokio::select! {
+                biased;
                 r = stream.read(&mut buf) => r,
                 _ = &mut timer => {
                     state = self.with(|c| SessionState::of(c, id));
@@ -293,9 +298,11 @@ impl Emulator {
             let Ok(handled) = self.with(|c| c.handle_request(id, &buf[..n])) else {
                 break;
             };
+            // Only a reply without a fault can go out in the instant it was built.
+            let plain = handled.fault.is_none();
             let sent = match handled.fault {
                 None => send(&mut stream, &handled.reply).await,
-                Some(ReplyFault::Withhold) => Ok(()),
+                Some(ReplyFault::Withhold) => Ok(Sent::Later),
                 Some(ReplyFault::Delay(d)) => {
                     if !self.pause(id, d).await {
                         break;
@@ -305,7 +312,7 @@ impl Emulator {
                 Some(ReplyFault::Garbage(bytes)) => send(&mut stream, &bytes).await,
                 Some(ReplyFault::Split { parts, gap }) => {
                     let size = handled.reply.len().div_ceil(parts.max(1)).max(1);
-                    let mut sent = Ok(());
+                    let mut sent = Ok(Sent::Later);
                     for (k, chunk) in handled.reply.chunks(size).enumerate() {
                         if k > 0 && !self.pause(id, gap).await {
                             break;
@@ -318,15 +325,26 @@ impl Emulator {
                     sent
                 }
             };
-            if let Err(why) = sent {
-                self.with(|c| c.end_session_of(id, why));
-                break;
-            }
+            let sent = match sent {
+                Ok(sent) if plain => sent,
+                Ok(_) => Sent::Later,
+                Err(why) => {
+                    self.with(|c| c.end_session_of(id, why));
+                    break;
+                }
+            };
             // The communication task receives again only now (its 5 s timeout starts here).
-            state = self.with(|c| {
+            let received_again = |c: &mut Controller| {
                 c.reply_sent(id);
                 SessionState::of(c, id)
-            });
+            };
+            state = match sent {
+                // The reply went out without waiting: the controller stays at the instant it
+                // handled the request (microseconds ago on a real clock, the same instant on
+                // virtual time), and `reply_sent` changes nothing an observer waits for.
+                Sent::AtOnce => received_again(&mut self.lock()),
+                Sent::Later => self.with(received_again),
+            };
             if handled.close {
                 break;
             }
@@ -400,14 +418,48 @@ pub(crate) async fn sleep_until_opt(t: Option<Instant>) {
     }
 }
 
-async fn send<W: AsyncWrite + Unpin>(wr: &mut W, bytes: &[u8]) -> Result<(), SessionEnd> {
+/// How a reply went out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Sent {
+    /// Without waiting: the first write took all of it.
+    AtOnce,
+    /// After waiting for the peer to read.
+    Later,
+}
+
+async fn send<W: AsyncWrite + Unpin>(wr: &mut W, bytes: &[u8]) -> Result<Sent, SessionEnd> {
+    // A reply nearly always fits the socket's free buffer: one write, polled once, without
+    // arming the send timeout's timer (a timer per reply was a tenth of a polled robot's cost).
+    // Whatever does not go out at once is sent under the timeout as before.
+    use std::task::Poll;
+    let first = std::future::poll_fn(|cx| {
+        let written = match std::pin::Pin::new(&mut *wr).poll_write(cx, bytes) {
+            Poll::Ready(Ok(n)) => n.min(bytes.len()),
+            Poll::Ready(Err(_)) => return Poll::Ready(None),
+            Poll::Pending => 0,
+        };
+        if written == bytes.len() && written > 0 {
+            match std::pin::Pin::new(&mut *wr).poll_flush(cx) {
+                Poll::Ready(Ok(())) => return Poll::Ready(Some((written, true))),
+                Poll::Ready(Err(_)) => return Poll::Ready(None),
+                Poll::Pending => {}
+            }
+        }
+        Poll::Ready(Some((written, false)))
+    })
+    .await;
+    let rest = match first {
+        None => return Err(SessionEnd::Disconnected),
+        Some((_, true)) => return Ok(Sent::AtOnce),
+        Some((written, false)) => &bytes[written..],
+    };
     match tokio::time::timeout(SEND_TIMEOUT, async {
-        wr.write_all(bytes).await?;
+        wr.write_all(rest).await?;
         wr.flush().await
     })
     .await
     {
-        Ok(Ok(())) => Ok(()),
+        Ok(Ok(())) => Ok(Sent::Later),
         Ok(Err(_)) => Err(SessionEnd::Disconnected),
         Err(_) => Err(SessionEnd::SendTimeout),
     }

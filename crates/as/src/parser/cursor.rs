@@ -45,6 +45,17 @@ impl<'a> Cur<'a> {
         self.toks.get(self.pos + k).map(|t| &t.tok)
     }
 
+    /// The robot number at `k` tokens ahead (`2` in `ABS.SPEED 2: ON`, `POINT 2: …`,
+    /// `INRANGE:2(…)`), when that token can be one: a number or a variable. The emulator is
+    /// robot 1; any other number, or a variable, names [`RobotNumber::Other`].
+    pub(super) fn robot_number_at(&self, k: usize) -> Option<RobotNumber> {
+        match self.peek_at(k)? {
+            Tok::Num(n) if *n == 1.0 => Some(RobotNumber::This),
+            Tok::Num(_) | Tok::Name(_) => Some(RobotNumber::Other),
+            _ => None,
+        }
+    }
+
     pub(super) fn span(&self) -> Span {
         match self.toks.get(self.pos) {
             Some(t) => t.span,
@@ -195,4 +206,14 @@ impl<'a> Cur<'a> {
             )),
         }
     }
+}
+
+/// Which robot a robot number before or after a colon names (multi-robot controllers write
+/// `POINT 2: …`, `SWITCH(name, 2)`, `INRANGE:2(…)`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum RobotNumber {
+    /// Robot 1: the emulated arm.
+    This,
+    /// Another robot (or one given by a variable): not emulated.
+    Other,
 }

@@ -7,7 +7,7 @@ use crate::error::ParseError;
 use crate::keywords;
 use crate::lexer::{Name, Sigil, Tok};
 
-use super::cursor::{Cur, PResult, MAX_NESTING};
+use super::cursor::{Cur, PResult, RobotNumber, MAX_NESTING};
 
 impl Cur<'_> {
     pub(super) fn lvalue(&mut self) -> PResult<LValue> {
@@ -247,12 +247,12 @@ impl Cur<'_> {
                 let name_span = span;
                 // `INRANGE:2(…)`, `#S_HERE:2`: a function of robot n. Robot 1 is this robot;
                 // another's is a function the emulator does not compute (not emulated).
-                if !name.local
-                    && self.peek() == Some(&Tok::Colon)
-                    && matches!(self.peek_at(1), Some(Tok::Num(_) | Tok::Name(_)))
+                let robot_after_colon = self.robot_number_at(1);
+                if let (false, Some(Tok::Colon), Some(robot)) =
+                    (name.local, self.peek(), robot_after_colon)
                 {
                     let at = self.pos;
-                    let robot_one = self.peek_at(1) == Some(&Tok::Num(1.0));
+                    let robot_one = robot == RobotNumber::This;
                     self.pos += 1;
                     // The robot number: a number or a variable (`CVPOS2:arm[.i](…)`).
                     let robot = match self.next().map(|t| t.tok) {

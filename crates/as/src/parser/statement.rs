@@ -7,7 +7,7 @@ use crate::keywords;
 use crate::lexer::{Sigil, Tok, Token};
 use crate::span::Span;
 
-use super::cursor::{describe, Cur, PResult};
+use super::cursor::{describe, Cur, PResult, RobotNumber};
 
 #[derive(Debug)]
 pub(super) enum LineKind {
@@ -103,14 +103,11 @@ impl Cur<'_> {
                     }
                 }
                 // `ABS.SPEED 1: ON`: the robot number first. The emulator has robot 1.
-                if let (
-                    Some(r @ (Tok::Num(_) | Tok::Name(_))),
-                    Some(Tok::Colon),
-                    Some(Tok::Name(v)),
-                ) = (self.peek_at(1), self.peek_at(2), self.peek_at(3))
+                if let (Some(robot), Some(Tok::Colon), Some(Tok::Name(v))) =
+                    (self.robot_number_at(1), self.peek_at(2), self.peek_at(3))
                 {
                     if matches!(v.text.as_str(), "on" | "off") && self.toks.len() == self.pos + 4 {
-                        if *r != Tok::Num(1.0) {
+                        if robot == RobotNumber::Other {
                             let what = format!("{} of another robot", n.text.to_uppercase());
                             return Ok(self.not_emulated_rest(&what));
                         }
@@ -153,11 +150,12 @@ impl Cur<'_> {
         let simple = |k: StmtKind| Ok(LineKind::Stmt(k));
         // `POINT .rno: …`, `DECOMPOSE 2: …`: the robot number first, as multi-robot
         // controllers write it. Robot 1 is this robot; another is not emulated.
-        if !OWN_COLON.contains(&kw)
-            && matches!(self.peek(), Some(Tok::Num(_) | Tok::Name(_)))
-            && self.peek_at(1) == Some(&Tok::Colon)
-        {
-            if self.peek() != Some(&Tok::Num(1.0)) {
+        if let (false, Some(robot), Some(Tok::Colon)) = (
+            OWN_COLON.contains(&kw),
+            self.robot_number_at(0),
+            self.peek_at(1),
+        ) {
+            if robot == RobotNumber::Other {
                 return Ok(
                     self.not_emulated_rest(&format!("{} for another robot", kw.to_uppercase()))
                 );

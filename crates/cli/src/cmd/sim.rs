@@ -246,6 +246,14 @@ pub(crate) fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResul
         .map(|s| input_signal(s))
         .collect::<CliResult<Vec<_>>>()?;
     let program = check_program(args)?;
+    // Native robots with nothing beside their protocol port, on one thread: one readiness loop
+    // serves them all (`fs020n_sim::FleetServer`), without a task per robot.
+    let plain = all
+        .iter()
+        .all(|o| o.pendant.is_none() && o.terminal.is_none() && o.program.is_none() && !o.bare);
+    if args.threads == 1 && plain && inputs.is_empty() && !args.trace {
+        return sim_fleet(all, model, as_json);
+    }
     let rt = crate::fleet::runtime(args.threads)?;
     rt.block_on(async {
         // Handlers first: a signal that arrives as soon as the addresses are printed must
@@ -334,6 +342,71 @@ pub(crate) fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResul
         }
         for r in robots {
             r.stop();
+        }
+        if !as_json {
+            println!("stopped ({signal})");
+        }
+        Ok(())
+    })
+}
+
+/// `sim` for native robots with no pendant, terminal, program, trace or input: the robots'
+/// ports served by one readiness loop on its own thread, until Ctrl-C or SIGTERM.
+fn sim_fleet(all: Vec<SimOptions>, model: &RobotModel, as_json: bool) -> CliResult {
+    let robots = all
+        .iter()
+        .map(|o| {
+            let config = o
+                .controller_config()
+                .map_err(|e| CliError::input(format!("cannot start the emulator: {e}")))?;
+            Ok((fs020n_sim::Controller::new(config), o.listen))
+        })
+        .collect::<CliResult<Vec<_>>>()?;
+    let fleet = fs020n_sim::FleetServer::bind(robots)
+        .map_err(|e| CliError::input(format!("cannot start the emulator: {e}")))?;
+    let addrs = fleet.local_addrs();
+    let stop = fleet.stopper();
+    let rt = crate::fleet::runtime(1)?;
+    rt.block_on(async {
+        // Handlers first, as in the other path.
+        let mut signals = ShutdownSignals::install();
+        let running = std::thread::Builder::new()
+            .name("fs020n-fleet".into())
+            .spawn(move || fleet.run())
+            .map_err(|e| CliError::failure(format!("cannot start the emulator's thread: {e}")))?;
+        for (i, addr) in addrs.iter().enumerate() {
+            if as_json {
+                println!(
+                    "{}",
+                    json!({ "robot": i + 1, "listen": addr.to_string(), "pendant": null, "terminal": null })
+                );
+            } else {
+                println!("robot {}: protocol 1040 on {addr}", i + 1);
+            }
+            if !addr.ip().is_loopback() {
+                eprintln!(
+                    "WARNING: the robot port {addr} is reachable from the network: protocol 1040 \
+                     has no authentication, anyone who can reach it can start the emulated \
+                     program and move the arm. Bind --listen to 127.0.0.1 unless you mean it."
+                );
+            }
+        }
+        if !as_json {
+            println!(
+                "{} emulated {} running; Ctrl-C to stop",
+                addrs.len(),
+                model.name()
+            );
+        }
+        use std::io::Write as _;
+        let _ = std::io::stdout().flush();
+        let signal = signals.recv().await;
+        tracing::info!("{signal}: stopping the emulator");
+        stop.stop();
+        match running.join() {
+            Ok(Ok(_)) => {}
+            Ok(Err(e)) => return Err(CliError::failure(format!("the emulator stopped: {e}"))),
+            Err(_) => return Err(CliError::failure("the emulator's thread panicked")),
         }
         if !as_json {
             println!("stopped ({signal})");

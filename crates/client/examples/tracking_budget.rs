@@ -1,0 +1,199 @@
+//! Where command 7's tracking error comes from: `examples/circle.csv` streamed to an emulated
+//! controller on virtual time (reproducible, no scheduling jitter), once per source switched
+//! off or changed, and the error of each run (docs/PERFORMANCE.md, "Command-7 tracking").
+//!
+//! ```text
+//! cargo run --release -p fs020n-client --features sim --example tracking_budget
+//! ```
+//!
+//! Rows: the default stream (command 7 at 50 Hz, lead estimated online); the same with the lead
+//! fixed at the lag measured without compensation (what a perfect estimate of the controller's
+//! pipeline would give); a sweep of fixed leads; at 250 Hz; the waypoints (command 6) it is compared with; and the
+//! floors computed from the trajectory: the 0.001° resolution of the reply's joints and the
+//! 1 ms resolution of its TIMER(1), by which the report finds the trajectory's time of each reply.
+//! Then the same comparison on a second, faster path (a figure eight), so that a change is
+//! judged on more than the circle.
+
+use std::time::Duration;
+
+use fs020n_client::emulated::{ControllerConfig, Emulator, EmulatorConnector};
+use fs020n_client::{
+    ClientConfig, ClientError, JointsDeg, LagCompensation, Robot, StreamMode, StreamOptions,
+    StreamReport, Trajectory, TrajectoryPoint,
+};
+
+fn circle() -> Result<Trajectory, Box<dyn std::error::Error>> {
+    let text = include_str!("../../../examples/circle.csv");
+    let points: Vec<TrajectoryPoint> = text
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.starts_with("time") && !l.trim().is_empty())
+        .filter_map(|l| {
+            let v: Vec<f64> = l.split(',').filter_map(|x| x.trim().parse().ok()).collect();
+            (v.len() == 7).then(|| {
+                TrajectoryPoint::new(v[0], JointsDeg::new([v[1], v[2], v[3], v[4], v[5], v[6]]))
+            })
+        })
+        .collect();
+    Ok(Trajectory::new(points)?)
+}
+
+/// A second path, unlike the circle: a figure eight of JT1/JT3 with JT5 turning, 5 s, slower
+/// in one axis and twice as fast in the other, at 50 Hz.
+fn figure_eight() -> Result<Trajectory, Box<dyn std::error::Error>> {
+    let points: Vec<TrajectoryPoint> = (0..=250)
+        .map(|k| {
+            let t = f64::from(k) * 0.02;
+            // Smooth start and stop: the phase follows a cycloid from 0 to 2π.
+            let u = t / 5.0;
+            let phase = std::f64::consts::TAU
+                * (u - (std::f64::consts::TAU * u).sin() / std::f64::consts::TAU);
+            TrajectoryPoint::new(
+                t,
+                JointsDeg::new([
+                    15.0 * phase.sin(),
+                    0.0,
+                    -90.0 + 6.0 * (2.0 * phase).sin(),
+                    0.0,
+                    -90.0 + 10.0 * (1.0 - phase.cos()),
+                    0.0,
+                ]),
+            )
+        })
+        .collect();
+    Ok(Trajectory::new(points)?)
+}
+
+async fn run(
+    mode: StreamMode,
+    lag: LagCompensation,
+    period: Duration,
+) -> Result<StreamReport, Box<dyn std::error::Error>> {
+    Ok(run_path(circle()?, mode, lag, period).await?)
+}
+
+async fn run_path(
+    path: Trajectory,
+    mode: StreamMode,
+    lag: LagCompensation,
+    period: Duration,
+) -> Result<StreamReport, ClientError> {
+    let emulator = Emulator::new(ControllerConfig::default());
+    let robot =
+        Robot::connect_with(EmulatorConnector::new(&emulator), ClientConfig::default()).await?;
+    robot.set_speed(100.0).await?;
+    robot.start().await?;
+    let options = StreamOptions {
+        mode,
+        lag_compensation: lag,
+        period,
+        ..StreamOptions::default()
+    };
+    let report = robot.stream(path, options).await?.wait().await?;
+    robot.close().await?;
+    Ok(report)
+}
+
+fn row(name: &str, r: &StreamReport) {
+    println!(
+        "{name:<58} rms {:.4}°  max {:.4}°  lag {:>7}  lead {:.1} ms",
+        r.tracking_error_rms_deg,
+        r.tracking_error_max_deg,
+        r.lag_s
+            .map_or("-".to_string(), |l| format!("{:.1} ms", l * 1e3)),
+        r.lead_s * 1e3
+    );
+}
+
+#[tokio::main(flavor = "current_thread", start_paused = true)]
+async fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let look = StreamMode::Extrapolated {
+        lookahead_passes: 2.0,
+    };
+    let p50 = Duration::from_millis(20);
+    let p250 = Duration::from_millis(4);
+    let online = LagCompensation::default();
+
+    let base = run(look, online, p50).await?;
+    row(
+        "command 7, 50 Hz, lead estimated online (the default)",
+        &base,
+    );
+    let off = run(look, LagCompensation::Off, p50).await?;
+    row("command 7, 50 Hz, no lead", &off);
+    let lag = Duration::from_secs_f64(off.lag_s.unwrap_or(0.0).clamp(0.0, 0.5));
+    let oracle = run(look, LagCompensation::Fixed(lag), p50).await?;
+    row("command 7, 50 Hz, lead fixed at the measured lag", &oracle);
+    // The error against a fixed lead: where its minimum lies, and how flat it is.
+    for lead_ms in [30u64, 36, 42, 48, 54] {
+        let r = run(
+            look,
+            LagCompensation::Fixed(Duration::from_millis(lead_ms)),
+            p50,
+        )
+        .await?;
+        row(&format!("command 7, 50 Hz, lead fixed at {lead_ms} ms"), &r);
+    }
+    let fast = run(look, online, p250).await?;
+    row("command 7, 250 Hz, lead estimated online", &fast);
+    let fast_oracle = run(look, LagCompensation::Fixed(lag), p250).await?;
+    row(
+        "command 7, 250 Hz, lead fixed at the measured lag",
+        &fast_oracle,
+    );
+    let waypoints = run(StreamMode::Waypoints, LagCompensation::Off, p50).await?;
+    row("command 6 waypoints, 50 Hz", &waypoints);
+
+    // Floors of the measurement itself, from the trajectory: a reply's joints are rounded to
+    // 0.001° (uniform error, rms 0.001/√12 per joint), and its TIMER(1) to 1 ms, so the
+    // trajectory is read up to 1 ms off: rms of (largest joint speed × uniform 0–1 ms), with the
+    // mean half millisecond a constant lag the lead absorbs, the rest ±0.5 ms.
+    let t = circle()?;
+    let (t0, t1) = (t.start_s(), t.end_s());
+    let (mut sq, mut n) = (0.0, 0u32);
+    let mut tau = t0;
+    while tau + 0.001 <= t1 {
+        let step = t
+            .sample(tau + 0.001)
+            .position
+            .max_abs_diff(&t.sample(tau).position);
+        // Uniform over ±0.5 ms: rms = speed × 1 ms / √12.
+        sq += (step / 12f64.sqrt()).powi(2);
+        n += 1;
+        tau += 0.02;
+    }
+    let timer_floor = (sq / f64::from(n.max(1))).sqrt();
+    println!(
+        "{:<58} rms {:.4}°",
+        "floor: reply joints rounded to 0.001°",
+        0.001 / 12f64.sqrt()
+    );
+    println!(
+        "{:<58} rms {:.4}°",
+        "floor: TIMER(1) in whole milliseconds (±0.5 ms)", timer_floor
+    );
+    // The same comparison on another path, so that a choice is not tuned to the circle.
+    let eight_stream = run_path(figure_eight()?, look, online, p50).await?;
+    row("figure eight: command 7, 50 Hz, lead online", &eight_stream);
+    let eight_fast = run_path(figure_eight()?, look, online, p250).await?;
+    row("figure eight: command 7, 250 Hz, lead online", &eight_fast);
+    let eight_waypoints = run_path(
+        figure_eight()?,
+        StreamMode::Waypoints,
+        LagCompensation::Off,
+        p50,
+    )
+    .await?;
+    row("figure eight: command 6 waypoints, 50 Hz", &eight_waypoints);
+    println!(
+        "figure eight, ratio command 7 ÷ command 6: 50 Hz {:.3}, 250 Hz {:.3}",
+        eight_stream.tracking_error_rms_deg / eight_waypoints.tracking_error_rms_deg,
+        eight_fast.tracking_error_rms_deg / eight_waypoints.tracking_error_rms_deg
+    );
+    println!(
+        "ratio command 7 ÷ command 6: default {:.3}, lead fixed {:.3}, 250 Hz {:.3}",
+        base.tracking_error_rms_deg / waypoints.tracking_error_rms_deg,
+        oracle.tracking_error_rms_deg / waypoints.tracking_error_rms_deg,
+        fast.tracking_error_rms_deg / waypoints.tracking_error_rms_deg
+    );
+    Ok(())
+}
