@@ -14,7 +14,7 @@ use std::time::Duration;
 
 use fs020n_proto::SEND_TIMEOUT;
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt, DuplexStream};
-use tokio::net::{TcpListener, TcpSocket};
+use tokio::net::TcpListener;
 use tokio::sync::watch;
 use tokio::task::JoinHandle;
 use tokio::time::Instant;
@@ -398,17 +398,26 @@ async fn next_change(mut rx: watch::Receiver<u64>) -> watch::Receiver<u64> {
     rx
 }
 
-/// Binds the robot port with the controller's small send buffer (accepted sockets inherit it).
+/// The robot port, bound and listening, non-blocking, with the controller's small send buffer
+/// (accepted sockets inherit it): the one place its socket options are set, for the tokio
+/// server ([`bind_robot_port`]) and the fleet's loop (`server/fleet.rs`).
+pub(crate) fn robot_port_socket(addr: SocketAddr) -> io::Result<std::net::TcpListener> {
+    let socket = socket2::Socket::new(
+        socket2::Domain::for_address(addr),
+        socket2::Type::STREAM,
+        None,
+    )?;
+    socket.set_reuse_address(true)?;
+    socket.set_send_buffer_size(SEND_BUFFER as usize)?;
+    socket.set_nonblocking(true)?;
+    socket.bind(&addr.into())?;
+    socket.listen(16)?;
+    Ok(socket.into())
+}
+
+/// [`robot_port_socket`] on the tokio runtime.
 pub(crate) fn bind_robot_port(addr: SocketAddr) -> io::Result<TcpListener> {
-    let socket = if addr.is_ipv4() {
-        TcpSocket::new_v4()?
-    } else {
-        TcpSocket::new_v6()?
-    };
-    socket.set_reuseaddr(true)?;
-    socket.set_send_buffer_size(SEND_BUFFER)?;
-    socket.bind(addr)?;
-    socket.listen(16)
+    TcpListener::from_std(robot_port_socket(addr)?)
 }
 
 pub(crate) async fn sleep_until_opt(t: Option<Instant>) {

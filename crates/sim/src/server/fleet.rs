@@ -27,7 +27,7 @@ use fs020n_proto::SEND_TIMEOUT;
 use mio::net::{TcpListener, TcpStream};
 use mio::{Events, Interest, Poll, Token, Waker};
 
-use super::{RECEIVE_BUFFER, SEND_BUFFER};
+use super::RECEIVE_BUFFER;
 use crate::controller::Controller;
 use crate::fault::ReplyFault;
 use crate::native::SessionId;
@@ -526,18 +526,7 @@ fn flush(c: &mut Controller, s: &mut Session, now: Duration) -> Flush {
     }
 }
 
-/// The robot port with the controller's small send buffer (accepted sockets inherit it), as
-/// [`super::bind_robot_port`] binds it.
+/// The robot port on the loop's poll ([`super::robot_port_socket`]).
 fn bind_robot_port(addr: SocketAddr) -> io::Result<TcpListener> {
-    let socket = socket2::Socket::new(
-        socket2::Domain::for_address(addr),
-        socket2::Type::STREAM,
-        None,
-    )?;
-    socket.set_reuse_address(true)?;
-    socket.set_send_buffer_size(SEND_BUFFER as usize)?;
-    socket.set_nonblocking(true)?;
-    socket.bind(&addr.into())?;
-    socket.listen(16)?;
-    Ok(TcpListener::from_std(socket.into()))
+    Ok(TcpListener::from_std(super::robot_port_socket(addr)?))
 }
