@@ -271,41 +271,14 @@ pub(crate) fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResul
                 r.emulator().with(|c| c.program_mut().set_input(n, on));
             }
         }
-        for (i, r) in robots.iter().enumerate() {
-            if as_json {
-                println!(
-                    "{}",
-                    json!({
-                        "robot": i + 1,
-                        "listen": r.robot_addr().to_string(),
-                        "pendant": r.pendant_addr().map(|a| format!("http://{a}")),
-                        "terminal": r.terminal_addr().map(|a| a.to_string()),
-                    })
-                );
-            } else {
-                if let Some(t) = r.terminal_addr() {
-                    println!("robot {}: AS terminal on {t} (login: as)", i + 1);
-                }
-                match r.pendant_addr() {
-                    Some(p) => println!(
-                        "robot {}: protocol 1040 on {}, pendant on http://{p}/ (API: /api)",
-                        i + 1,
-                        r.robot_addr()
-                    ),
-                    None => println!("robot {}: protocol 1040 on {}", i + 1, r.robot_addr()),
-                }
-            }
-        }
-        for r in &robots {
-            if !r.robot_addr().ip().is_loopback() {
-                eprintln!(
-                    "WARNING: the robot port {} is reachable from the network: protocol 1040 has \
-                     no authentication, anyone who can reach it can start the emulated program \
-                     and move the arm. Bind --listen to 127.0.0.1 unless you mean it.",
-                    r.robot_addr()
-                );
-            }
-        }
+        let addrs: Vec<RobotAddrs> = (robots.iter())
+            .map(|r| RobotAddrs {
+                listen: r.robot_addr(),
+                pendant: r.pendant_addr(),
+                terminal: r.terminal_addr(),
+            })
+            .collect();
+        announce(&addrs, as_json);
         if !as_json {
             if args.bare {
                 println!(
@@ -350,6 +323,53 @@ pub(crate) fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResul
     })
 }
 
+/// Where one robot is served.
+struct RobotAddrs {
+    listen: SocketAddr,
+    pendant: Option<SocketAddr>,
+    terminal: Option<SocketAddr>,
+}
+
+/// Prints where each robot is served (one JSON line per robot with `--json`), and warns of a
+/// robot port reachable from the network.
+fn announce(robots: &[RobotAddrs], as_json: bool) {
+    for (i, r) in robots.iter().enumerate() {
+        if as_json {
+            println!(
+                "{}",
+                json!({
+                    "robot": i + 1,
+                    "listen": r.listen.to_string(),
+                    "pendant": r.pendant.map(|a| format!("http://{a}")),
+                    "terminal": r.terminal.map(|a| a.to_string()),
+                })
+            );
+        } else {
+            if let Some(t) = r.terminal {
+                println!("robot {}: AS terminal on {t} (login: as)", i + 1);
+            }
+            match r.pendant {
+                Some(p) => println!(
+                    "robot {}: protocol 1040 on {}, pendant on http://{p}/ (API: /api)",
+                    i + 1,
+                    r.listen
+                ),
+                None => println!("robot {}: protocol 1040 on {}", i + 1, r.listen),
+            }
+        }
+    }
+    for r in robots {
+        if !r.listen.ip().is_loopback() {
+            eprintln!(
+                "WARNING: the robot port {} is reachable from the network: protocol 1040 has \
+                 no authentication, anyone who can reach it can start the emulated program \
+                 and move the arm. Bind --listen to 127.0.0.1 unless you mean it.",
+                r.listen
+            );
+        }
+    }
+}
+
 /// `sim` for native robots with no pendant, terminal, program, trace or input: the robots'
 /// ports served by one readiness loop on its own thread, until Ctrl-C or SIGTERM.
 fn sim_fleet(all: Vec<SimOptions>, model: &RobotModel, as_json: bool) -> CliResult {
@@ -374,23 +394,14 @@ fn sim_fleet(all: Vec<SimOptions>, model: &RobotModel, as_json: bool) -> CliResu
             .name("fs020n-fleet".into())
             .spawn(move || fleet.run())
             .map_err(|e| CliError::failure(format!("cannot start the emulator's thread: {e}")))?;
-        for (i, addr) in addrs.iter().enumerate() {
-            if as_json {
-                println!(
-                    "{}",
-                    json!({ "robot": i + 1, "listen": addr.to_string(), "pendant": null, "terminal": null })
-                );
-            } else {
-                println!("robot {}: protocol 1040 on {addr}", i + 1);
-            }
-            if !addr.ip().is_loopback() {
-                eprintln!(
-                    "WARNING: the robot port {addr} is reachable from the network: protocol 1040 \
-                     has no authentication, anyone who can reach it can start the emulated \
-                     program and move the arm. Bind --listen to 127.0.0.1 unless you mean it."
-                );
-            }
-        }
+        let robots: Vec<RobotAddrs> = (addrs.iter())
+            .map(|&listen| RobotAddrs {
+                listen,
+                pendant: None,
+                terminal: None,
+            })
+            .collect();
+        announce(&robots, as_json);
         if !as_json {
             println!(
                 "{} emulated {} running; Ctrl-C to stop",
