@@ -69,10 +69,11 @@ fn sim_in_the_background_exits_cleanly_on_sigint_and_sigterm() {
     }
 }
 
-#[test]
-fn sim_in_the_foreground_exits_cleanly_on_sigterm() {
+/// Starts `fs020n` with `args` in the foreground, waits until it runs, sends SIGTERM: it must
+/// exit 0 saying it stopped.
+fn exits_cleanly_on_sigterm(args: &[&str]) {
     let mut child = Command::new(assert_cmd::cargo::cargo_bin("fs020n"))
-        .args(["sim", "--listen", "127.0.0.1:0"])
+        .args(args)
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
@@ -92,32 +93,20 @@ fn sim_in_the_foreground_exits_cleanly_on_sigterm() {
 }
 
 #[test]
+fn sim_in_the_foreground_exits_cleanly_on_sigterm() {
+    exits_cleanly_on_sigterm(&["sim", "--listen", "127.0.0.1:0"]);
+}
+
+#[test]
 fn a_fleet_on_one_thread_exits_cleanly_on_sigterm() {
     // `--threads 1` with plain native robots: the readiness loop on its own thread.
-    let mut child = Command::new(assert_cmd::cargo::cargo_bin("fs020n"))
-        .args([
-            "sim",
-            "--robots",
-            "3",
-            "--threads",
-            "1",
-            "--listen",
-            "127.0.0.1:0",
-        ])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("spawn");
-    let mut out = BufReader::new(child.stdout.take().expect("stdout"));
-    let mut line = String::new();
-    while !line.contains("running") {
-        line.clear();
-        assert!(out.read_line(&mut line).expect("read") > 0);
-    }
-    kill("-TERM", child.id());
-    let status = wait_with_timeout(&mut child, Duration::from_secs(20));
-    assert_eq!(status.code(), Some(0), "{status:?}");
-    let mut rest = String::new();
-    std::io::Read::read_to_string(&mut out, &mut rest).expect("read");
-    assert!(rest.contains("stopped (SIGTERM)"), "{rest}");
+    exits_cleanly_on_sigterm(&[
+        "sim",
+        "--robots",
+        "3",
+        "--threads",
+        "1",
+        "--listen",
+        "127.0.0.1:0",
+    ]);
 }

@@ -127,8 +127,12 @@ fn with_tokio(script: &[Step]) -> (Vec<String>, Option<SessionEnd>) {
     (seen, end)
 }
 
-/// The same against the fleet's loop.
-fn with_fleet(script: &[Step]) -> (Vec<String>, Option<SessionEnd>) {
+/// One default controller on the fleet's loop, running on its own thread.
+fn one_robot_fleet() -> (
+    SocketAddr,
+    fs020n_sim::FleetStop,
+    thread::JoinHandle<std::io::Result<Vec<Controller>>>,
+) {
     let fleet = FleetServer::bind(vec![(
         Controller::new(ControllerConfig::default()),
         "127.0.0.1:0".parse().expect("address"),
@@ -136,7 +140,12 @@ fn with_fleet(script: &[Step]) -> (Vec<String>, Option<SessionEnd>) {
     .expect("bind");
     let addr = fleet.local_addrs()[0];
     let stop = fleet.stopper();
-    let running = thread::spawn(move || fleet.run());
+    (addr, stop, thread::spawn(move || fleet.run()))
+}
+
+/// The same against the fleet's loop.
+fn with_fleet(script: &[Step]) -> (Vec<String>, Option<SessionEnd>) {
+    let (addr, stop, running) = one_robot_fleet();
     let seen = run_script(addr, script);
     thread::sleep(Duration::from_millis(100));
     stop.stop();
@@ -243,14 +252,7 @@ fn many_robots_are_served_by_one_loop() {
 
 #[test]
 fn a_client_that_stops_reading_loses_its_session_to_the_send_timeout() {
-    let fleet = FleetServer::bind(vec![(
-        Controller::new(ControllerConfig::default()),
-        "127.0.0.1:0".parse().expect("address"),
-    )])
-    .expect("bind");
-    let addr = fleet.local_addrs()[0];
-    let stop = fleet.stopper();
-    let running = thread::spawn(move || fleet.run());
+    let (addr, stop, running) = one_robot_fleet();
     // A small receive buffer of the test's own, so that the figure does not depend on this
     // machine's defaults; the emulator's 4096-byte send buffer is what is under test.
     let socket =
