@@ -58,6 +58,18 @@ pub(crate) struct Held {
     pub(crate) running: bool,
 }
 
+impl Held {
+    /// `prog runs in task`, `prog is stopped in task`.
+    pub(crate) fn describe(&self) -> String {
+        format!(
+            "{} {} in {}",
+            self.program,
+            if self.running { "runs" } else { "is stopped" },
+            self.task
+        )
+    }
+}
+
 /// The controller's tasks and memory as the terminal shows them.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub(crate) struct Survey {
@@ -105,14 +117,7 @@ impl Survey {
         }
         self.held
             .iter()
-            .map(|h| {
-                format!(
-                    "{} {} in {}",
-                    h.program,
-                    if h.running { "runs" } else { "is stopped" },
-                    h.task
-                )
-            })
+            .map(Held::describe)
             .collect::<Vec<_>>()
             .join(", ")
     }
@@ -224,14 +229,7 @@ pub(crate) fn plan(
         } else {
             ours_held
                 .iter()
-                .map(|h| {
-                    format!(
-                        "{} {} in {}",
-                        h.program,
-                        if h.running { "runs" } else { "is stopped" },
-                        h.task
-                    )
-                })
+                .map(|h| h.describe())
                 .collect::<Vec<_>>()
                 .join(", ")
         };
