@@ -56,6 +56,8 @@ struct Inner {
     ports: Mutex<std::collections::BTreeMap<u16, SocketAddr>>,
     /// The port map those ports are served through, once they are (`server/program.rs`).
     port_map: Mutex<Option<crate::network::PortMap>>,
+    /// Which of the program's ports have a host socket listening now (`server/program.rs`).
+    listeners: Mutex<program::Listeners>,
 }
 
 /// A running emulated controller, shared by its network tasks and its observers. Cheap to
@@ -84,6 +86,7 @@ impl Emulator {
                 changed,
                 ports: Mutex::default(),
                 port_map: Mutex::default(),
+                listeners: Mutex::default(),
             }),
         }
     }
@@ -99,6 +102,7 @@ impl Emulator {
                 changed,
                 ports: Mutex::default(),
                 port_map: Mutex::default(),
+                listeners: Mutex::default(),
             }),
         }
     }

@@ -189,3 +189,48 @@ async fn output_in_small_pieces_still_serves_a_load() {
     assert!(dir.contains("autostart.pc"), "{dir}");
     robot.stop();
 }
+
+/// Two PC programs, each listening on its own port, started from the terminal one after the
+/// other; the ports are 9111 (the served port) and 9112.
+const TWO_LISTENERS: &str = ".PROGRAM first.pc()\n\
+  TCP_LISTEN .ret, 9111\n\
+  WHILE TRUE DO\n    TWAIT 0.1\n  END\n\
+.END\n\
+.PROGRAM second.pc()\n\
+  TCP_LISTEN .ret, 9112\n\
+  WHILE TRUE DO\n    TWAIT 0.1\n  END\n\
+.END\n";
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn every_port_a_pcexecute_made_listen_accepts_a_connection_as_soon_as_the_prompt_returns() {
+    let robot = start().await;
+    let mut term = terminal(&robot).await;
+    let report = term.load("two.as", TWO_LISTENERS.as_bytes()).await.unwrap();
+    assert_eq!(report.errors, 0, "{}", report.output);
+    let emu = robot.emulator();
+    assert!(emu.program_listeners_ready(), "nothing listens yet");
+
+    assert_eq!(
+        term.command("PCEXECUTE 1: first.pc", false).await.unwrap(),
+        ""
+    );
+    // No wait and no retry: the prompt came back only once the host socket listened.
+    assert!(emu.program_listeners_ready());
+    TcpStream::connect(robot.robot_addr())
+        .await
+        .expect("the served port accepts at once");
+
+    assert_eq!(
+        term.command("PCEXECUTE 2: second.pc", false).await.unwrap(),
+        ""
+    );
+    assert!(emu.program_listeners_ready());
+    let second = *emu
+        .program_ports()
+        .get(&9112)
+        .expect("port 9112 is served on the host");
+    TcpStream::connect(second)
+        .await
+        .expect("the second port accepts at once");
+    robot.stop();
+}

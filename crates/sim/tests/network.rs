@@ -369,3 +369,24 @@ fn an_outgoing_connection_made_after_its_task_was_aborted_is_closed() {
         "a connection made now is closed by the network layer"
     );
 }
+
+#[tokio::test(flavor = "current_thread")]
+async fn the_listeners_are_ready_only_once_each_port_the_program_listens_on_accepts_on_the_host() {
+    let program = ServerProgram::from_file(&examples("two_ports.as")).unwrap();
+    let emu = Emulator::with_program(config(Network::default()), program);
+    assert!(
+        emu.program_listeners_ready(),
+        "no port is served on the host yet, so none is waited for"
+    );
+    let ports = emu.serve_program_ports(LOOPBACK, PortMap::free(), None);
+    // The serving task has not run yet on this one thread: the program listens, the host
+    // does not.
+    assert!(emu.with(|c| c.program().listening(Some(9111))));
+    assert!(!emu.program_listeners_ready());
+    assert!(emu.wait_program_listeners(Duration::from_secs(10)).await);
+    for port in [9111, 9112] {
+        let addr = *emu.program_ports().get(&port).expect("served");
+        TcpStream::connect(addr).await.expect("accepts at once");
+    }
+    ports.stop();
+}

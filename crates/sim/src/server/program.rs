@@ -4,7 +4,7 @@
 //! through the host map: the dialer) and the pump that moves a connection's bytes to and from
 //! the program's socket.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::net::{IpAddr, SocketAddr};
 use std::time::Duration;
 
@@ -28,6 +28,57 @@ impl ProgramPorts {
     /// Stops serving every port (open connections are dropped).
     pub fn stop(self) {
         self.task.abort();
+    }
+}
+
+/// Which of the program's ports have a host socket listening now, so that a monitor command
+/// that makes the program listen (`PCEXECUTE`) returns its prompt only once a client can
+/// connect ([`Emulator::program_listeners_ready`]).
+#[derive(Debug, Default)]
+pub(super) struct Listeners {
+    /// Every port the program listens on is served ([`Emulator::serve_program_ports`]).
+    every_port: bool,
+    /// The program's served port is served ([`Emulator::serve_program_tcp`]).
+    served_port: bool,
+    /// Program ports with a host socket listening now.
+    bound: BTreeSet<u16>,
+    /// Program ports the host cannot serve now (taken, or left to an address that does not
+    /// serve them): nobody waits for them.
+    unservable: BTreeSet<u16>,
+}
+
+/// What became of a program port's host socket.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Listener {
+    /// Listening: a client can connect.
+    Bound,
+    /// Closed (the program stopped listening, or its server stopped).
+    Closed,
+    /// The host cannot listen on it.
+    Unservable,
+}
+
+/// Marks its port closed when the accept loop that holds it ends (aborted with its server).
+struct BoundMark {
+    emu: Emulator,
+    port: Option<u16>,
+}
+
+impl BoundMark {
+    fn set(&mut self, port: u16, state: Listener) {
+        if let Some(old) = self.port.filter(|&old| old != port) {
+            self.emu.mark_listener(old, Listener::Closed);
+        }
+        self.port = Some(port);
+        self.emu.mark_listener(port, state);
+    }
+}
+
+impl Drop for BoundMark {
+    fn drop(&mut self) {
+        if let Some(port) = self.port {
+            self.emu.mark_listener(port, Listener::Closed);
+        }
     }
 }
 
@@ -83,6 +134,7 @@ impl Emulator {
         if let Ok(mut m) = self.inner.port_map.lock() {
             *m = Some(map.clone());
         }
+        self.serve_listeners(true);
         let this = self.clone();
         ProgramPorts {
             task: tokio::spawn(async move { this.ports_loop(bind, map, except).await }),
@@ -126,6 +178,69 @@ impl Emulator {
         }
     }
 
+    /// Whether every port the program listens on that this emulator serves on the host has a
+    /// host socket listening now, so that a client can connect to each at once (ports the
+    /// host cannot serve are not waited for; see the log).
+    pub fn program_listeners_ready(&self) -> bool {
+        let (listening, served) =
+            self.with(|c| (c.program().listening_ports(), c.program().served_port()));
+        let l = self
+            .inner
+            .listeners
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        listening.into_iter().all(|p| {
+            let served_here = l.every_port || (l.served_port && Some(p) == served);
+            !served_here || l.bound.contains(&p) || l.unservable.contains(&p)
+        })
+    }
+
+    /// Waits until [`Emulator::program_listeners_ready`], at most `timeout`; `false` when
+    /// they are not ready by then.
+    pub async fn wait_program_listeners(&self, timeout: Duration) -> bool {
+        let mut changes = self.changes();
+        let until = tokio::time::Instant::now() + timeout;
+        loop {
+            if self.program_listeners_ready() {
+                return true;
+            }
+            tokio::select! {
+                r = changes.changed() => if r.is_err() { return false },
+                _ = tokio::time::sleep_until(until) => return self.program_listeners_ready(),
+            }
+        }
+    }
+
+    fn serve_listeners(&self, every_port: bool) {
+        if let Ok(mut l) = self.inner.listeners.lock() {
+            if every_port {
+                l.every_port = true;
+            } else {
+                l.served_port = true;
+            }
+        }
+    }
+
+    fn mark_listener(&self, port: u16, state: Listener) {
+        let changed = match self.inner.listeners.lock() {
+            Ok(mut l) => {
+                let bound = match state {
+                    Listener::Bound => l.bound.insert(port),
+                    Listener::Closed | Listener::Unservable => l.bound.remove(&port),
+                };
+                let unservable = match state {
+                    Listener::Unservable => l.unservable.insert(port),
+                    Listener::Bound | Listener::Closed => l.unservable.remove(&port),
+                };
+                bound || unservable
+            }
+            Err(_) => false,
+        };
+        if changed {
+            self.inner.changed.send_modify(|g| *g = g.wrapping_add(1));
+        }
+    }
+
     fn record_port(&self, port: u16, addr: SocketAddr) {
         if let Ok(mut p) = self.inner.ports.lock() {
             p.insert(port, addr);
@@ -150,6 +265,7 @@ impl Emulator {
                         // The robot address serves it already.
                         self.record_port(port, addr);
                     } else {
+                        self.mark_listener(port, Listener::Unservable);
                         tracing::warn!(
                             port,
                             host = %addr,
@@ -169,14 +285,17 @@ impl Emulator {
                                 .await;
                         }));
                     }
-                    Err(e) => tracing::warn!(
-                        port,
-                        host = %addr,
-                        error = %e,
-                        "the AS program listens on port {port} but the host cannot serve it at \
-                         {addr} (is it taken?); map it to another port: --port-map {port}=PORT \
-                         (Python: port_map={{{port}: PORT}}; 0 picks a free one)"
-                    ),
+                    Err(e) => {
+                        self.mark_listener(port, Listener::Unservable);
+                        tracing::warn!(
+                            port,
+                            host = %addr,
+                            error = %e,
+                            "the AS program listens on port {port} but the host cannot serve it \
+                             at {addr} (is it taken?); map it to another port: --port-map \
+                             {port}=PORT (Python: port_map={{{port}: PORT}}; 0 picks a free one)"
+                        )
+                    }
                 }
             }
             if changes.changed().await.is_err() {
@@ -200,6 +319,7 @@ impl Emulator {
         let listener = self
             .with(|c| c.program().listening(None))
             .then_some(listener);
+        self.serve_listeners(false);
         let this = self.clone();
         let task =
             tokio::spawn(async move { this.program_accept_loop(local, listener, None).await });
@@ -225,10 +345,21 @@ impl Emulator {
         port: Option<u16>,
     ) {
         let mut changes = self.changes();
+        let mut mark = BoundMark {
+            emu: self.clone(),
+            port: None,
+        };
         loop {
-            if !self.with(|c| c.program().listening(port)) {
+            let (listening, program_port) = self.with(|c| {
+                let p = c.program();
+                (p.listening(port), port.or_else(|| p.served_port()))
+            });
+            if !listening {
                 // Not listening: connections are refused.
                 listener = None;
+                if let Some(p) = program_port {
+                    mark.set(p, Listener::Closed);
+                }
                 if changes.changed().await.is_err() {
                     return;
                 }
@@ -239,12 +370,18 @@ impl Emulator {
                 None => match super::bind_robot_port(addr) {
                     Ok(l) => l,
                     Err(e) => {
+                        if let Some(p) = program_port {
+                            mark.set(p, Listener::Unservable);
+                        }
                         tracing::warn!(%addr, error = %e, "cannot listen; retrying");
                         tokio::time::sleep(Duration::from_millis(100)).await;
                         continue;
                     }
                 },
             };
+            if let Some(p) = program_port {
+                mark.set(p, Listener::Bound);
+            }
             tokio::select! {
                 accepted = l.accept() => {
                     if let Ok((stream, peer)) = accepted {

@@ -12,10 +12,11 @@ use tokio::net::TcpListener;
 use super::TerminalLink;
 use crate::server::{Emulator, TcpServer};
 
-/// How long the prompt waits after a command made a program listen (`PCEXECUTE`): the
-/// served port's listener binds in a task of its own, and a client that connects as soon as
-/// the prompt is back must not be refused.
-const LISTEN_SETTLE: Duration = Duration::from_millis(50);
+/// How long the prompt waits at most after a command made a program listen (`PCEXECUTE`)
+/// for the host sockets of its ports to listen: each binds in a task of its own, and a client
+/// that connects as soon as the prompt is back must not be refused. They are bound within
+/// microseconds; the bound only keeps a stuck host from holding the terminal.
+const LISTENERS_WAIT: Duration = Duration::from_secs(2);
 
 /// How often a session looks for program output (not at every change of the controller: a
 /// client streaming at the protocol port changes it hundreds of times a second).
@@ -76,13 +77,14 @@ impl Emulator {
                         break;
                     }
                     Ok(n) => {
-                        let started = self.with(|c| {
-                            let before = c.program().listening(None);
-                            link.handle_input(c, &buf[..n]);
-                            !before && c.program().listening(None)
-                        });
-                        if started {
-                            tokio::time::sleep(LISTEN_SETTLE).await;
+                        self.with(|c| link.handle_input(c, &buf[..n]));
+                        if !self.program_listeners_ready()
+                            && !self.wait_program_listeners(LISTENERS_WAIT).await
+                        {
+                            tracing::warn!(
+                                "the AS program listens on a port whose host socket is not \
+                                 listening after {LISTENERS_WAIT:?}; the prompt returns anyway"
+                            );
                         }
                     }
                 },
