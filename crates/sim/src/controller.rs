@@ -13,7 +13,7 @@ mod program_view;
 mod sessions;
 mod tasks;
 
-pub use memory::{Abort, MemoryLoad, MemoryMut, MemoryView, PowerCycle};
+pub use memory::{Abort, MemoryLoad, MemoryMut, MemoryView, PoseValue, PowerCycle};
 use memory::{Idle, MonitorState};
 pub use native_view::NativeView;
 pub use program_view::{ProgramMut, ProgramView};
@@ -97,7 +97,7 @@ use crate::store::{ProgramStore, AUTOSTART_SWITCHES};
 /// - **Memory and switches** (what the monitor terminal lists, loads, saves and deletes):
 ///   [`memory`](Controller::memory) ([`MemoryView`]: the programs, their bytes, the data
 ///   sections, a syntax check, the switches) and [`memory_mut`](Controller::memory_mut)
-///   ([`MemoryMut`]: load, delete, set a switch).
+///   ([`MemoryMut`]: load, delete, define a pose, set a switch).
 #[derive(Debug, Clone)]
 pub struct Controller {
     machine: Machine,

@@ -118,6 +118,9 @@ pub(crate) struct ProgramStore {
     programs: Vec<StoredProgram>,
     /// Data sections, in load order.
     data: Vec<Vec<u8>>,
+    /// Variables defined at the terminal (`HERE`), a data section each, by name: a new
+    /// definition of a name replaces its earlier one. After the loaded data, so that they win.
+    defined: Vec<(String, Vec<u8>)>,
     /// AUTOSTART.PC … AUTOSTART5.PC.
     autostart: [bool; 5],
     /// The interpreter's system switches (`ABS.SPEED`, `CP`, …) while no interpreter holds them.
@@ -136,6 +139,7 @@ impl ProgramStore {
         ProgramStore {
             programs: Vec::new(),
             data: Vec::new(),
+            defined: Vec::new(),
             autostart: [false; 5],
             system: SYSTEM_SWITCHES
                 .iter()
@@ -179,8 +183,10 @@ impl ProgramStore {
         self.programs.iter().find(|p| p.name == name)
     }
 
-    pub(crate) fn data(&self) -> &[Vec<u8>] {
-        &self.data
+    /// The data sections: those loaded, in load order, then the variables defined at the
+    /// terminal.
+    pub(crate) fn data(&self) -> impl Iterator<Item = &[u8]> {
+        (self.data.iter().map(Vec::as_slice)).chain(self.defined.iter().map(|(_, d)| d.as_slice()))
     }
 
     /// Adds (or, with [`OVERWRITE_EXISTING`], replaces) a program.
@@ -200,6 +206,15 @@ impl ProgramStore {
             self.data.push(section);
             self.generation += 1;
         }
+    }
+
+    /// Defines variable `name` (with its sigil, `#pick`) by a data section of its own,
+    /// replacing the one an earlier definition of that name at the terminal made.
+    pub(crate) fn put_defined(&mut self, name: &str, section: Vec<u8>) {
+        let name = name.to_ascii_lowercase();
+        self.defined.retain(|(n, _)| *n != name);
+        self.defined.push((name, section));
+        self.generation += 1;
     }
 
     /// Removes a program; `false` when there is none of that name.
@@ -222,7 +237,7 @@ impl ProgramStore {
                 text.extend_from_slice(&p.text);
             }
         }
-        for d in &self.data {
+        for d in self.data() {
             text.extend_from_slice(d);
         }
         text

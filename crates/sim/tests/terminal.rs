@@ -8,6 +8,7 @@ use std::time::Duration;
 use fs020n_as::TaskId;
 use fs020n_sim::{Controller, ControllerConfig, Fault, TerminalLink};
 use fs020n_term::frame::{client_frame, Letter, SUB};
+use fs020n_term::text;
 use fs020n_term::{ClientConfig, Event, Question, SessionConfig, TerminalClient, TerminalError};
 
 /// The client and one terminal session on the controller, on one fake clock.
@@ -1050,4 +1051,108 @@ fn commands_take_the_manuals_abbreviations_and_nothing_shorter() {
     );
     // PCE is shorter than the manual's PCEX: the command is unknown.
     assert!(t.cmd("PCE 1: autostart.pc", false).starts_with("(P0100)"));
+}
+
+/// What the session sends back for `typed` (raw, as a telnet user types it).
+fn typed(t: &mut Term, line: &str) -> String {
+    t.link.handle_input(&mut t.c, line.as_bytes());
+    let mut out = Vec::new();
+    while let Some(b) = t.link.poll_transmit() {
+        out.extend(b);
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+/// A real the programs see, through `TYPE`.
+fn typed_real(t: &mut Term, expr: &str) -> f64 {
+    let out = t.cmd(&format!("TYPE {expr}"), false);
+    out.trim()
+        .parse()
+        .unwrap_or_else(|_| panic!("TYPE {expr}: {out}"))
+}
+
+#[test]
+fn here_stores_the_joints_offers_them_for_editing_and_the_programs_see_the_edit() {
+    let mut t = Term::new(bare());
+    let j = t.c.joints().0;
+    let out = typed(&mut t, "HERE #p\r\n");
+    assert!(out.contains("JT1") && out.contains("JT6"), "{out}");
+    assert!(out.contains(&format!("{:>10.3}", j[0])), "{out}");
+    assert!(
+        out.ends_with(&format!("{}\r\n", text::CHANGE_QUESTION)),
+        "the question, no prompt: {out:?}"
+    );
+    // AS-E p.5-49: `,,,-15` changes the fourth value; the values are offered again.
+    let out = typed(&mut t, ",,,-15\r\n");
+    assert!(out.contains("   -15.000"), "{out}");
+    assert!(out.ends_with(&format!("{}\r\n", text::CHANGE_QUESTION)));
+    // Not a number: nothing changes, asked again.
+    let out = typed(&mut t, "x\r\n");
+    assert!(out.contains("   -15.000"), "{out}");
+    let out = typed(&mut t, "\r\n");
+    assert!(
+        out.ends_with('>'),
+        "an empty line ends the editing: {out:?}"
+    );
+
+    loaded_ok(&t.load("show.as", ".PROGRAM show()\n  DECOMPOSE a[1] = #p\n.END\n"));
+    t.cmd("PCEXECUTE 2: show", false);
+    t.advance(Duration::from_millis(50));
+    assert!((typed_real(&mut t, "a[1]") - j[0]).abs() < 1e-3);
+    assert_eq!(typed_real(&mut t, "a[4]"), -15.0);
+
+    // SAVE writes the variable once, with its last value, after a second HERE too.
+    t.cmd("HERE #p", false);
+    let saved = String::from_utf8(t.c.memory().data_sections().concat()).unwrap();
+    assert_eq!(saved.matches("#p ").count(), 1, "{saved}");
+    assert!(saved.contains(".JOINTS\n#p "), "{saved}");
+}
+
+#[test]
+fn here_of_a_transformation_is_the_tool_in_the_world_as_a_programs_here_gives_it() {
+    let mut t = Term::new(bare());
+    t.c.set_power(true).unwrap();
+    let program = ".PROGRAM tooled()\n  TOOL TRANS(0, 0, 100, 0, 0, 0)\n  HERE q\n  DECOMPOSE d[1] = q\n.END\n\
+.PROGRAM seen()\n  DECOMPOSE c[1] = pose\n.END\n";
+    loaded_ok(&t.load("tooled.as", program));
+    t.cmd("EXECUTE tooled", false);
+    t.advance(Duration::from_millis(200));
+    let out = t.cmd("HERE pose", false);
+    assert!(out.contains("X[mm]") && out.contains("T[deg]"), "{out}");
+    assert!(out.contains(text::CHANGE_QUESTION), "{out}");
+    t.cmd("PCEXECUTE 2: seen", false);
+    t.advance(Duration::from_millis(50));
+    for k in 1..=6 {
+        let by_program = typed_real(&mut t, &format!("d[{k}]"));
+        let by_terminal = typed_real(&mut t, &format!("c[{k}]"));
+        assert!(
+            (by_program - by_terminal).abs() < 0.01,
+            "value {k}: the program's HERE {by_program}, the terminal's {by_terminal}"
+        );
+    }
+    // The TOOL is applied: the tool tip is 100 mm from the flange WHERE shows.
+    let w = t.cmd("WHERE", false);
+    let flange: Vec<f64> = w
+        .lines()
+        .nth(3)
+        .unwrap()
+        .split_whitespace()
+        .map(|v| v.parse().unwrap())
+        .collect();
+    let tip: Vec<f64> = (1..=3)
+        .map(|k| typed_real(&mut t, &format!("c[{k}]")))
+        .collect();
+    let d = ((tip[0] - flange[0]).powi(2)
+        + (tip[1] - flange[1]).powi(2)
+        + (tip[2] - flange[2]).powi(2))
+    .sqrt();
+    assert!((d - 100.0).abs() < 0.1, "{d}");
+}
+
+#[test]
+fn here_refuses_a_name_that_is_not_a_variable_and_says_a_compound_pose_is_not_played() {
+    let mut t = Term::new(bare());
+    assert!(t.cmd("HERE 1abc", false).starts_with("(P0117)"));
+    assert!(t.cmd("HERE", false).starts_with("(P0117)"));
+    assert!(t.cmd("HERE a+b", false).contains("not played"));
 }

@@ -698,7 +698,7 @@ impl TerminalClient {
                 "0"
             }),
             Question::SyntaxError(_) => Some(text::ANSWER_ABORT_LOAD),
-            Question::Confirm | Question::PressEnter => Some(""),
+            Question::Confirm | Question::PressEnter | Question::Change => Some(""),
             Question::MorePages => Some(" "),
             Question::LoadQuery => Some(text::ANSWER_LOAD_EXIT),
             Question::ForceLoad => Some(text::ANSWER_FORCE_LOAD_STOP),

@@ -27,6 +27,10 @@ pub enum Reply {
     Error(MonitorError),
     /// Ask `Are you sure ? (Yes:1, No:0)` first; on `1`, [`Monitor::confirmed`] runs.
     AreYouSure,
+    /// Values offered for editing (`HERE`, `POINT`): the lines, then `Change? (If not, Hit
+    /// RETURN only)`; each line typed next goes to [`Monitor::change`], which answers with
+    /// the edited values (asked again) or, for an empty line, ends the editing.
+    Change(Vec<String>),
 }
 
 /// A syntax error found while loading: the session asks the controller's question about it.
@@ -56,6 +60,10 @@ pub trait Monitor {
     fn run(&mut self, line: &str) -> Reply;
     /// The user answered `1` to the question of the last command.
     fn confirmed(&mut self) -> Reply;
+    /// A line typed after `Change?` ([`Reply::Change`]): comma-separated new values (an empty
+    /// field keeps its value), or an empty line, which ends the editing (answer with
+    /// [`Reply::Lines`]: the prompt follows).
+    fn change(&mut self, line: &str) -> Reply;
     /// `true` while an earlier transfer was left open (every `LOAD`/`SAVE` gets P2076).
     fn transfer_blocked(&self) -> bool;
     /// A transfer was left open: the link dropped or the client stopped mid-transfer.
@@ -176,6 +184,8 @@ enum State {
     Login,
     Monitor,
     Confirm,
+    /// Values offered for editing: the next line goes to [`Monitor::change`].
+    Change,
     LoadOpening,
     LoadBlocks,
     /// A question of [`SessionConfig::load_questions`]: `next` is the one asked.
@@ -321,7 +331,7 @@ impl TerminalSession {
     /// the question stays pending); not during a transfer.
     pub fn print_unsolicited(&mut self, line: &str) {
         match self.state {
-            State::Monitor => self.say(&format!("{line}\r\n")),
+            State::Monitor | State::Change => self.say(&format!("{line}\r\n")),
             State::Confirm => self.say(&format!("\r\n{line}")),
             _ => {}
         }
@@ -368,6 +378,7 @@ impl TerminalSession {
             State::Login
                 | State::Monitor
                 | State::Confirm
+                | State::Change
                 | State::LoadQuestion { .. }
                 | State::LoadExtra { .. }
                 | State::LoadConfirm { .. }
@@ -412,6 +423,10 @@ impl TerminalSession {
                 } else {
                     self.prompt();
                 }
+            }
+            State::Change => {
+                let reply = monitor.change(line);
+                self.reply(reply);
             }
             State::LoadExtra { next } => self.ask_extra(next + 1),
             State::LoadConfirm { errors } => self.ask_or_close(errors, 0),
@@ -616,6 +631,14 @@ impl TerminalSession {
             Reply::AreYouSure => {
                 self.say(text::ARE_YOU_SURE);
                 self.state = State::Confirm;
+            }
+            Reply::Change(lines) => {
+                for l in lines {
+                    self.say(&format!("{l}\r\n"));
+                }
+                self.say(text::CHANGE_QUESTION);
+                self.say("\r\n");
+                self.state = State::Change;
             }
         }
     }

@@ -12,7 +12,8 @@ use crate::telnet::TelnetFilter;
 use crate::text::{self, MonitorError};
 
 /// A controller that answers everything, and in every way the session knows: an even-length
-/// command asks "Are you sure", an odd one echoes; a `LOAD` of `n` bytes finds `n % 3` syntax
+/// command asks "Are you sure", an odd one of a length divisible by 3 offers itself for
+/// editing (`Change?`, until an empty line), another odd one echoes; a `LOAD` of `n` bytes finds `n % 3` syntax
 /// errors; `SAVE` sends its own spec back.
 #[derive(Debug, Default, Clone, Copy)]
 pub struct AnswerAnything;
@@ -25,12 +26,21 @@ impl Monitor for AnswerAnything {
     fn run(&mut self, line: &str) -> Reply {
         if line.len() % 2 == 0 {
             Reply::AreYouSure
+        } else if line.len() % 3 == 0 {
+            Reply::Change(vec![line.to_owned()])
         } else {
             Reply::Lines(vec![line.to_owned()])
         }
     }
     fn confirmed(&mut self) -> Reply {
         Reply::Lines(vec![])
+    }
+    fn change(&mut self, line: &str) -> Reply {
+        if line.is_empty() {
+            Reply::Lines(vec![])
+        } else {
+            Reply::Change(vec![line.to_owned()])
+        }
     }
     fn transfer_blocked(&self) -> bool {
         false

@@ -89,6 +89,12 @@ pub const FORCE_LOAD_MARK: &str = "Force load";
 /// The answer to the `.NETCONF` question that stops the load.
 pub const ANSWER_FORCE_LOAD_STOP: &str = "0";
 
+/// The question after values offered for editing (`HERE`, `POINT`, `TIME`), on a line of
+/// its own and without a prompt after it; a line end keeps the values (**M**: the wording of a
+/// controller mock said to match K-ROSET for `TIME`; the E manual prints it with small
+/// differences of case and blanks, AS-E p.3-13, p.5-49).
+pub const CHANGE_QUESTION: &str = "Change? (If not, Hit RETURN only)";
+
 /// A pause that waits for Enter (**M**: a client answers it in the middle of a LOAD).
 pub const PRESS_ENTER: &str = "Press ENTER.";
 
@@ -527,10 +533,10 @@ pub fn cycle_lines(completed: u32, remaining: i64) -> [String; 2] {
 pub const EMULATOR_CYCLES_NOT_A_NUMBER: &str =
     "(emulator) give the cycle count as a whole number (-1: until PCABORT)";
 
-/// The emulator's answer to `HERE` (emulator only: it does not record locations from the
-/// terminal).
-pub const EMULATOR_HERE_NOT_PLAYED: &str =
-    "(emulator) HERE is not played: teach the location in the program (HERE inside AS runs)";
+/// The emulator's answer to `HERE a+b` (emulator only: a compound pose is not taught from
+/// the terminal).
+pub const EMULATOR_HERE_COMPOUND_NOT_PLAYED: &str =
+    "(emulator) HERE of a compound pose is not played: HERE one variable, or teach it in the program";
 
 /// The emulator's answer to `ERESET` while the emergency stop is pressed (emulator only).
 pub const EMULATOR_ESTOP_PRESSED: &str =

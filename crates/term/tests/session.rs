@@ -251,6 +251,60 @@ fn kill_asks_are_you_sure_and_only_confirm_answers_yes() {
 }
 
 #[test]
+fn values_offered_for_editing_are_kept_with_a_line_end_and_the_reply_shows_them() {
+    let mut link = Link::new(ClientConfig::default(), 4);
+    link.login();
+    let events = link.command("HERE #p", false);
+    assert_eq!(
+        events[0],
+        Event::Answered {
+            question: Question::Change,
+            answer: String::new()
+        }
+    );
+    match events.last() {
+        Some(Event::Reply { output, .. }) => {
+            assert!(output.contains("1.000 2.000"), "{output}");
+            assert!(output.contains(text::CHANGE_QUESTION), "{output}");
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(link.shelf.edits.is_empty(), "a line end changes nothing");
+}
+
+#[test]
+fn an_edit_line_after_change_is_offered_back_until_an_empty_line_ends_it() {
+    let mut shelf = Shelf::default();
+    let mut session = TerminalSession::open(&mut shelf, SessionConfig::default());
+    session.handle_input(&mut shelf, b"as\r\n");
+    while session.poll_transmit().is_some() {}
+    let said = |session: &mut TerminalSession, shelf: &mut Shelf, line: &[u8]| {
+        session.handle_input(shelf, line);
+        let mut out = Vec::new();
+        while let Some(p) = session.poll_transmit() {
+            out.extend(p);
+        }
+        String::from_utf8_lossy(&out).into_owned()
+    };
+    let out = said(&mut session, &mut shelf, b"HERE #p\r\n");
+    assert!(
+        out.ends_with(&format!("{}\r\n", text::CHANGE_QUESTION)),
+        "no prompt after the question: {out:?}"
+    );
+    let out = said(&mut session, &mut shelf, b",5\r\n");
+    assert!(out.contains(",5\r\n"), "{out:?}");
+    assert!(out.ends_with(&format!("{}\r\n", text::CHANGE_QUESTION)));
+    assert_eq!(shelf.edits, [",5"]);
+    let out = said(&mut session, &mut shelf, b"\r\n");
+    assert!(
+        out.ends_with('>'),
+        "the prompt after an empty line: {out:?}"
+    );
+    let out = said(&mut session, &mut shelf, b"KILL x\r\n");
+    assert!(out.contains("(P1038)"), "back at the monitor: {out:?}");
+}
+
+#[test]
 fn a_monitor_error_comes_back_as_its_p_line() {
     let mut link = Link::new(ClientConfig::default(), usize::MAX);
     link.login();

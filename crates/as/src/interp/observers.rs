@@ -117,6 +117,12 @@ impl Interpreter {
         self.globals.strs[s].get(idx).map(|b| b.to_vec())
     }
 
+    /// The transformation a program's `HERE` gives for the flange pose `flange` (the tool in
+    /// the world: BASE · flange · TOOL, with the BASE and TOOL the programs set last).
+    pub fn tool_in_world(&self, flange: &crate::system::Trans) -> [f32; 6] {
+        self.world_of_flange(flange)
+    }
+
     /// A global joint point (`name` without `#`).
     pub fn joints(&self, name: &str) -> Option<[f32; 6]> {
         let s = self.global_slot(Ty::Joint, name)?;

@@ -279,6 +279,33 @@ impl Controller {
         report
     }
 
+    /// [`MemoryMut::define_pose`].
+    fn define_pose_value(&mut self, name: &str, value: PoseValue) -> Result<(), MonitorError> {
+        let (bare, section, values) = match value {
+            PoseValue::Joints(v) => (name.strip_prefix('#'), "JOINTS", v),
+            PoseValue::Trans(v) => (Some(name), "TRANS", v),
+        };
+        let valid = bare.is_some_and(|n| {
+            n.starts_with(|c: char| c.is_ascii_alphabetic())
+                && n.chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '.')
+                && n.len() <= 15
+        });
+        if !valid || !values.iter().all(|v| v.is_finite()) {
+            return Err(text::P0117_INVALID_NAME);
+        }
+        let numbers: Vec<String> = values.iter().map(|v| format!("{v:.6}")).collect();
+        let text = format!(".{section}\n{name} {}\n.END\n", numbers.join(" "));
+        let assigned =
+            fs020n_as::parse_bytes(LOAD_FILE, text.as_bytes(), self.memory.load_options())
+                .map(|m| m.data)
+                .map_err(|_| text::P0117_INVALID_NAME)?;
+        self.memory.put_defined(name, text.into_bytes());
+        self.bump();
+        let _ = self.sync_runtime_assigning(&assigned);
+        Ok(())
+    }
+
     /// [`MemoryMut::delete`].
     fn delete_program(&mut self, name: &str) -> Result<(), MonitorError> {
         if self.on_any_stack(name) {
@@ -517,6 +544,32 @@ pub struct MemoryView<'a> {
     pub(super) c: &'a Controller,
 }
 
+/// A pose variable's value as a monitor command defines it ([`MemoryMut::define_pose`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PoseValue {
+    /// Joint displacement values (`#name`), JT1…JT6 in degrees.
+    Joints([f32; 6]),
+    /// Transformation values (`name`): X, Y, Z in mm, O, A, T in degrees.
+    Trans([f32; 6]),
+}
+
+impl PoseValue {
+    /// The six values.
+    pub fn values(&self) -> [f32; 6] {
+        match self {
+            PoseValue::Joints(v) | PoseValue::Trans(v) => *v,
+        }
+    }
+
+    /// The same kind of value with `values`.
+    pub fn with_values(self, values: [f32; 6]) -> PoseValue {
+        match self {
+            PoseValue::Joints(_) => PoseValue::Joints(values),
+            PoseValue::Trans(_) => PoseValue::Trans(values),
+        }
+    }
+}
+
 /// The program memory and switches of a [`Controller`], borrowed to change
 /// ([`Controller::memory_mut`]).
 #[derive(Debug)]
@@ -541,7 +594,7 @@ impl<'a> MemoryView<'a> {
     /// The data sections in memory (`.REALS` … `.END`, …), as the bytes loaded (LF line
     /// ends).
     pub fn data_sections(&self) -> Vec<&'a [u8]> {
-        self.c.memory.data().iter().map(Vec::as_slice).collect()
+        self.c.memory.data().collect()
     }
 
     /// The syntax errors of an AS file (its bytes or text, in any code page) as the
@@ -589,6 +642,14 @@ impl MemoryMut<'_> {
     /// variables they name, other variables, signals and timers keep their values).
     pub fn load(&mut self, text: impl AsRef<[u8]>, comment_out: bool) -> MemoryLoad {
         self.c.load_bytes(text.as_ref(), comment_out)
+    }
+
+    /// Defines the pose variable `name` (`#name` for joint values) as the monitor's `HERE`
+    /// does: a data section of its own in memory (`SAVE` writes it; a later definition of the
+    /// name replaces it), and the running programs see the value at once. P0117 for a name
+    /// that is not a variable's (or a `#` that does not match the value).
+    pub fn define_pose(&mut self, name: &str, value: PoseValue) -> Result<(), MonitorError> {
+        self.c.define_pose_value(name, value)
     }
 
     /// Deletes a program from memory (`DELETE/P`): P1018 while it is on a task's stack,

@@ -8,15 +8,17 @@ use fs020n_term::server::split_word;
 use fs020n_term::text::{self, MonitorError};
 use fs020n_term::{LoadAnswer, Monitor, Reply, SyntaxError};
 
-use crate::controller::{Abort, Controller};
+use crate::controller::{Abort, Controller, PoseValue};
 
-/// What `1` confirms.
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// What the answer to the session's question acts on.
+#[derive(Debug, Clone, PartialEq)]
 pub(crate) enum Pending {
-    /// `KILL` (robot task) or `PCKILL n:`.
+    /// `KILL` (robot task) or `PCKILL n:`: what `1` confirms.
     Kill(TaskId),
-    /// `DELETE/P name`.
+    /// `DELETE/P name`: what `1` confirms.
     Delete(String),
+    /// `HERE name`: the pose variable offered for editing after `Change?`, and its value.
+    Edit { name: String, value: PoseValue },
 }
 
 /// The controller seen by one session.
@@ -26,6 +28,12 @@ pub(crate) struct ControllerMonitor<'a> {
     /// `MESSAGES ON` (the default): program output reaches this session.
     pub(crate) messages: &'a mut bool,
 }
+
+/// The headings of joint values (`WHERE`, `HERE #name`).
+const JOINT_HEADINGS: [&str; 6] = ["JT1", "JT2", "JT3", "JT4", "JT5", "JT6"];
+
+/// The headings of transformation values (`WHERE`, `HERE name`).
+const TRANS_HEADINGS: [&str; 6] = ["X[mm]", "Y[mm]", "Z[mm]", "O[deg]", "A[deg]", "T[deg]"];
 
 fn lines<I: IntoIterator<Item = S>, S: Into<String>>(l: I) -> Reply {
     Reply::Lines(l.into_iter().map(Into::into).collect())
@@ -153,7 +161,7 @@ impl ControllerMonitor<'_> {
             },
             "SIGNAL" => self.signal(rest),
             "WHERE" => self.where_(),
-            "HERE" => lines([text::EMULATOR_HERE_NOT_PLAYED]),
+            "HERE" => self.here(rest),
             "SWITCH" => self.switch(rest),
             "ID" => self.id(),
             "ERESET" => self.ereset(),
@@ -195,16 +203,52 @@ impl ControllerMonitor<'_> {
             .forward(&self.c.joints().to_rad())
             .to_xyzoat();
         let row = |v: &[f64]| v.iter().map(|v| format!("{v:>10.3}")).collect::<String>();
+        let heading = |h: &[&str]| h.iter().map(|h| format!("{h:>10}")).collect::<String>();
         lines([
-            (1..=j.len())
-                .map(|k| format!("{:>10}", format!("JT{k}")))
-                .collect::<String>(),
+            heading(&JOINT_HEADINGS),
             row(&j),
-            ["X[mm]", "Y[mm]", "Z[mm]", "O[deg]", "A[deg]", "T[deg]"]
-                .iter()
-                .map(|h| format!("{h:>10}"))
-                .collect::<String>(),
+            heading(&TRANS_HEADINGS),
             row(&[x.x_mm, x.y_mm, x.z_mm, x.o_deg, x.a_deg, x.t_deg]),
+        ])
+    }
+
+    /// `HERE name` (`#name`: joint values): the current pose is stored in the variable at
+    /// once and offered for editing (AS-E p.5-47): the values under their headings, then
+    /// `Change?`. A transformation is the tool in the world, with the BASE and TOOL the
+    /// programs set (a bare controller: the flange in the robot's base frame).
+    fn here(&mut self, rest: &str) -> Reply {
+        let name = rest.trim();
+        if name.contains('+') {
+            return lines([text::EMULATOR_HERE_COMPOUND_NOT_PLAYED]);
+        }
+        let joints = self.c.joints().0;
+        let value = if name.starts_with('#') {
+            PoseValue::Joints(joints.map(|v| v as f32))
+        } else {
+            let flange = fs020n_as::flange::forward(self.c.model(), &joints);
+            PoseValue::Trans(match self.c.interpreter() {
+                Some(i) => i.tool_in_world(&flange),
+                None => flange.map(|v| v as f32),
+            })
+        };
+        self.define(name.to_owned(), value)
+    }
+
+    /// Stores `value` in `name` and offers it for editing again.
+    fn define(&mut self, name: String, value: PoseValue) -> Reply {
+        if let Err(e) = self.c.memory_mut().define_pose(&name, value) {
+            *self.pending = None;
+            return Reply::Error(e);
+        }
+        let headings = match value {
+            PoseValue::Joints(_) => JOINT_HEADINGS,
+            PoseValue::Trans(_) => TRANS_HEADINGS,
+        };
+        let values = value.values();
+        *self.pending = Some(Pending::Edit { name, value });
+        Reply::Change(vec![
+            headings.iter().map(|h| format!("{h:>10}")).collect(),
+            values.iter().map(|v| format!("{v:>10.3}")).collect(),
         ])
     }
 
@@ -564,8 +608,32 @@ impl Monitor for ControllerMonitor<'_> {
         match self.pending.take() {
             Some(Pending::Kill(task)) => done(self.c.program_mut().kill(task)),
             Some(Pending::Delete(name)) => done(self.c.memory_mut().delete(&name)),
-            None => Reply::Lines(Vec::new()),
+            Some(Pending::Edit { .. }) | None => Reply::Lines(Vec::new()),
         }
+    }
+
+    /// A line after `Change?`: new values separated by commas, an empty field keeping its
+    /// value (`,,,-15` changes the fourth); an empty line ends the editing. A field that is
+    /// not a number changes nothing and the values are offered again.
+    fn change(&mut self, line: &str) -> Reply {
+        let Some(Pending::Edit { name, value }) = self.pending.take() else {
+            return Reply::Lines(Vec::new());
+        };
+        if line.trim().is_empty() {
+            return Reply::Lines(Vec::new());
+        }
+        let mut edited = value.values();
+        for (slot, field) in edited.iter_mut().zip(line.split(',')) {
+            let field = field.trim();
+            if field.is_empty() {
+                continue;
+            }
+            match field.parse::<f32>() {
+                Ok(v) if v.is_finite() => *slot = v,
+                _ => return self.define(name, value),
+            }
+        }
+        self.define(name, value.with_values(edited))
     }
 
     fn transfer_blocked(&self) -> bool {

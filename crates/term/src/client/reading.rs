@@ -21,6 +21,9 @@ pub enum Question {
     ForceLoad,
     /// `Press ENTER.` (answered with a line end).
     PressEnter,
+    /// `Change? (If not, Hit RETURN only)` after values offered for editing (`HERE`,
+    /// `POINT`; answered with a line end: the values stay as shown).
+    Change,
 }
 
 /// The last line of a text before its prompt.
@@ -74,6 +77,9 @@ pub(super) fn classify(line: &str) -> Option<Question> {
     }
     if line.ends_with(text::CONFIRM) {
         return Some(Question::Confirm);
+    }
+    if line.trim_start().starts_with("Change?") {
+        return Some(Question::Change);
     }
     if line.ends_with(text::PRESS_ENTER) {
         return Some(Question::PressEnter);
@@ -175,6 +181,11 @@ mod tests {
             Some(Question::ForceLoad)
         );
         assert_eq!(classify(text::PRESS_ENTER), Some(Question::PressEnter));
+        assert_eq!(classify(text::CHANGE_QUESTION), Some(Question::Change));
+        assert_eq!(
+            classify("Change?(if not, hit RETURN only)"),
+            Some(Question::Change)
+        );
         assert_eq!(classify(text::CONFIRM), Some(Question::Confirm));
         assert_eq!(classify(text::PRESS_SPACE), Some(Question::MorePages));
         assert!(matches!(

@@ -19,6 +19,8 @@ pub(crate) struct Shelf {
     pub(crate) received: Vec<u8>,
     /// What `1` to the next question prints instead of doing it.
     pub(crate) refuse_confirmed: Option<MonitorError>,
+    /// The lines typed after `Change?`, in order.
+    pub(crate) edits: Vec<String>,
 }
 
 fn programs_of(file: &[u8]) -> Vec<(String, String)> {
@@ -56,6 +58,8 @@ impl Monitor for Shelf {
                 "Program list".into(),
                 self.programs.keys().cloned().collect::<Vec<_>>().join(" "),
             ]),
+            // Offers made-up values for editing; an edit line is recorded and shown back.
+            "HERE" => Reply::Change(vec!["JT1 JT2".into(), "1.000 2.000".into()]),
             "KILL" => match self.programs.contains_key(rest) {
                 true => {
                     self.pending_kill = Some(rest.to_owned());
@@ -75,6 +79,13 @@ impl Monitor for Shelf {
             self.programs.remove(&name);
         }
         Reply::Lines(vec![])
+    }
+    fn change(&mut self, line: &str) -> Reply {
+        if line.is_empty() {
+            return Reply::Lines(vec![]);
+        }
+        self.edits.push(line.to_owned());
+        Reply::Change(vec!["JT1 JT2".into(), line.to_owned()])
     }
     fn transfer_blocked(&self) -> bool {
         self.blocked
