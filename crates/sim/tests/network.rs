@@ -379,9 +379,16 @@ async fn the_listeners_are_ready_only_once_each_port_the_program_listens_on_acce
         "no port is served on the host yet, so none is waited for"
     );
     let ports = emu.serve_program_ports(LOOPBACK, PortMap::free(), None);
-    // The serving task has not run yet on this one thread: the program listens, the host
-    // does not.
+    // The program runs on the emulator's clock: let it reach its TCP_LISTEN without
+    // yielding, so that the serving task cannot run on this one thread.
+    for _ in 0..200 {
+        if emu.with(|c| c.program().listening(Some(9111))) {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
     assert!(emu.with(|c| c.program().listening(Some(9111))));
+    // The program listens, the host does not yet.
     assert!(!emu.program_listeners_ready());
     assert!(emu.wait_program_listeners(Duration::from_secs(10)).await);
     for port in [9111, 9112] {
