@@ -1156,3 +1156,26 @@ fn here_refuses_a_name_that_is_not_a_variable_and_says_a_compound_pose_is_not_pl
     assert!(t.cmd("HERE", false).starts_with("(P0117)"));
     assert!(t.cmd("HERE a+b", false).contains("not played"));
 }
+
+#[test]
+fn abort_lets_the_arm_finish_its_motion_and_the_one_planned_then_the_program_stops() {
+    let mut t = Term::new(bare());
+    t.c.set_power(true).unwrap();
+    let program = ".PROGRAM three()\n  JMOVE #a\n  JMOVE #b\n  JMOVE #c\n.END\n\
+.JOINTS\n#a 20 0 0 0 -30 0\n#b 20 20 0 0 -30 0\n#c -20 20 0 0 -30 0\n.END\n";
+    loaded_ok(&t.load("three.as", program));
+    assert_eq!(t.cmd("EXECUTE three", false), "");
+    t.advance(Duration::from_millis(300));
+    let moving = t.c.joints().0;
+    assert!(moving[0] > 0.5 && moving[0] < 19.5, "on the way to #a: {moving:?}");
+    assert_eq!(t.cmd("ABORT", false), "");
+    // The step in progress (JMOVE #b, waiting to be planned) completes: still running.
+    assert_eq!(t.cmd("TYPE TASK (1)", false), "1");
+    t.advance(Duration::from_secs(20));
+    assert_eq!(t.cmd("TYPE TASK (1)", false), "0");
+    let end = t.c.joints().0;
+    let b = [20.0, 20.0, 0.0, 0.0, -30.0, 0.0];
+    for k in 0..6 {
+        assert!((end[k] - b[k]).abs() < 0.01, "stopped at #b, not braked nor at #c: {end:?}");
+    }
+}

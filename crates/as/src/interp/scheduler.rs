@@ -137,8 +137,10 @@ impl Interpreter {
     /// stops now; a task in a step that completes by itself (`TWAIT`, `TCP_ACCEPT`/`TCP_RECV`
     /// and the other socket calls with their timeouts, a PC task's motion wait) stops when
     /// that step completes: until then it runs (`TASK` reads 1) and [`Self::abort_pending`]
-    /// is `true`. The robot task's motion is not waited for: the caller brakes it. Returns
-    /// `true` when the task stopped now (or did not run).
+    /// is `true`. A robot task waiting to plan its next motion plans it and stops after it
+    /// (AS-E p.5-42: the robot may perform one more motion after the current one); the
+    /// motions already planned complete. Returns `true` when the task stopped now (or did not
+    /// run).
     pub fn abort_after_step(&mut self, task: TaskId) -> bool {
         let i = TaskSlot::of(task);
         let Some(t) = self.tasks.get_mut(i.index()) else {
@@ -147,8 +149,7 @@ impl Interpreter {
         if t.run == Run::Idle {
             return true;
         }
-        let waits =
-            t.run == Run::Running && t.wait.as_ref().is_some_and(|w| w.completes(i.is_robot()));
+        let waits = t.run == Run::Running && t.wait.as_ref().is_some_and(|w| w.completes());
         if waits {
             t.abort_after_step = true;
             false

@@ -88,7 +88,7 @@ impl Wait {
     /// A wait that is part of a step which completes by itself (a timed wait, a socket call
     /// with its timeout, a motion): `ABORT` lets it complete first. Other waits (`WAIT`
     /// condition, `HOLD`, `PAUSE`) end at `ABORT`.
-    pub(super) fn completes(&self, robot: bool) -> bool {
+    pub(super) fn completes(&self) -> bool {
         match self {
             Wait::Until(_)
             | Wait::Accept { .. }
@@ -96,9 +96,9 @@ impl Wait {
             | Wait::Recv { .. }
             | Wait::Send { .. }
             | Wait::UdpRecv { .. } => true,
-            // The robot task's motion: the emulator brakes it at `ABORT` (see
-            // `Interpreter::abort_after_step`).
-            Wait::MotionPlanned | Wait::MotionDone | Wait::Till => !robot,
+            // A motion step completes with its motion (AS-E p.5-42: "if the robot is in
+            // motion, the execution stops after that motion is completed"), in every task.
+            Wait::MotionPlanned | Wait::MotionDone | Wait::Till => true,
             Wait::Cond | Wait::Held | Wait::Paused => false,
         }
     }

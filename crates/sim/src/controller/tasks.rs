@@ -118,14 +118,11 @@ impl ProgramMut<'_> {
         Ok(())
     }
 
-    /// `ABORT`: stops the robot program after its current step, as [`ProgramMut::pc_abort`];
-    /// a motion in progress ends as braked (the emulator does not wait for a motion step).
+    /// `ABORT`: stops the robot program after its current step, as [`ProgramMut::pc_abort`].
+    /// A motion step is complete when its motion is: the arm finishes the motions already
+    /// planned (AS-E p.5-42), it is not braked (`HOLD` stops it at once).
     pub fn abort(&mut self) -> Abort {
-        let abort = self.c.abort_task(TaskId::Robot, 0);
-        if abort == Abort::Stopped {
-            self.c.machine.brake();
-        }
-        abort
+        self.c.abort_task(TaskId::Robot, 0)
     }
 
     /// `HOLD` (`true`): the robot program pauses, its motion decelerates and stops;
