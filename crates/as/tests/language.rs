@@ -137,7 +137,7 @@ fn strings_and_decode() {
     assert_eq!(st("set"), "B,c");
     assert_eq!(st("all"), "abc");
     assert_eq!(i.real("n"), Some(0.0));
-    assert_eq!(st("err"), "Variable not defined");
+    assert_eq!(st("err"), "Variable is not defined");
 }
 
 #[test]
@@ -520,7 +520,8 @@ fn an_error_inside_a_run_of_computation_names_its_line_steps_and_time() {
                 .s = .s + x[.i]\n  END";
     let (i, s) = run_pc(&format!("{body}\n  done = 1"), 0.1);
     assert_eq!(s.raised, vec![ErrorCode(-30102)]);
-    let message = "(E0102) variable not defined: x[50] (autostart.pc line 7)";
+    let message =
+        "(E0102) variable not defined: x[50] (assign it before reading it) (autostart.pc line 7)";
     let info = i.tasks(&s);
     assert_eq!(info[1].last_error.as_deref(), Some(message));
     assert_eq!(info[1].steps, 200, "the failed step counts");

@@ -126,8 +126,8 @@ fn listen_errors() {
     let (_, s) = run_pc("  TCP_SEND a, 1, $b[0], 1, 1", 0.1);
     assert_eq!(
         s.raised,
-        vec![ErrorCode(-30102)],
-        "sending an element never assigned"
+        vec![ErrorCode(-30104)],
+        "sending a string element never assigned"
     );
 }
 
