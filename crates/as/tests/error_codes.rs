@@ -103,7 +103,12 @@ fn division_by_zero_is_e0108() {
 
 #[test]
 fn a_result_too_large_for_a_real_is_e0109() {
-    stops_with(&pc("  a = 1E30 * 1E30"), 1, "E0109", "floating point overflow");
+    stops_with(
+        &pc("  a = 1E30 * 1E30"),
+        1,
+        "E0109",
+        "floating point overflow",
+    );
 }
 
 #[test]
@@ -123,7 +128,12 @@ fn sqrt_of_a_negative_number_is_e0114() {
 
 #[test]
 fn an_array_index_outside_0_to_9999_is_e0115() {
-    stops_with(&pc("  a[10000] = 1"), 1, "E0115", "indices go from 0 to 9999");
+    stops_with(
+        &pc("  a[10000] = 1"),
+        1,
+        "E0115",
+        "indices go from 0 to 9999",
+    );
     stops_with(&pc("  a[-1] = 1"), 1, "E0115", "indices go from 0 to 9999");
 }
 
@@ -139,7 +149,12 @@ fn runaway_recursion_is_e0118() {
 
 #[test]
 fn a_program_not_loaded_is_e0119() {
-    stops_with(&pc("  CALL nowhere"), 1, "E0119", "load the file that holds it");
+    stops_with(
+        &pc("  CALL nowhere"),
+        1,
+        "E0119",
+        "load the file that holds it",
+    );
 }
 
 #[test]
@@ -165,12 +180,7 @@ fn a_motion_in_a_pc_program_is_e1095() {
 
 #[test]
 fn execute_or_mc_in_the_robot_program_is_p1023() {
-    stops_with(
-        &robot("  MC ABORT"),
-        1,
-        "P1023",
-        "move it to a PC program",
-    );
+    stops_with(&robot("  MC ABORT"), 1, "P1023", "move it to a PC program");
 }
 
 #[test]
@@ -224,7 +234,12 @@ fn filling_the_variable_memory_is_p1031() {
 #[test]
 fn an_instruction_not_emulated_is_the_emulators_own_e0199() {
     assert_eq!(NOT_EMULATED.to_string(), "E0199");
-    stops_with(&pc("  INTFCHK 1001"), 1, "E0199", "--stub makes one a no-op");
+    stops_with(
+        &pc("  INTFCHK 1001"),
+        1,
+        "E0199",
+        "--stub makes one a no-op",
+    );
     // E0111 is the manual's "operation with a negative exponent", not this.
     assert_ne!(error_message(-30111), error_message(NOT_EMULATED.raw()));
 }

@@ -222,10 +222,16 @@ pub(crate) const ERROR_MESSAGES: &[(i32, &str)] = &[
     (-30119, "Nonexistent subroutine"),
     (-30120, "No destination program"),
     (-30121, "Cannot jump to the program the jump comes from"),
-    (-31095, "Cannot execute a motion instruction in a PC program"),
+    (
+        -31095,
+        "Cannot execute a motion instruction in a PC program",
+    ),
     (-31097, "C1MOVE or C2MOVE instruction missing"),
     (-31098, "C2MOVE needs a C1MOVE before it"),
-    (-31099, "Cannot create the arc: check the positions of the three points"),
+    (
+        -31099,
+        "Cannot create the arc: check the positions of the three points",
+    ),
     (-31082, "Beyond absolute lower motion limit"),
     (-31083, "Beyond absolute upper motion limit"),
     (-31084, "Beyond set lower motion limit"),

@@ -154,9 +154,7 @@ impl Interpreter {
             };
             // A variable may be given before it is defined: it receives the result.
             let v = match v {
-                Err(e) if a.var.is_some() && e.is_undefined() => {
-                    ArgVal::Undefined
-                }
+                Err(e) if a.var.is_some() && e.is_undefined() => ArgVal::Undefined,
                 v => v?,
             };
             let target = match &a.var {
