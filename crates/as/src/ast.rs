@@ -443,7 +443,7 @@ pub enum StmtKind {
     /// of its statements fails (docs/AS.md, "ONE").
     OnError(Option<String>),
     /// An instruction that loads but is not emulated (`TOOL`, `JAPPRO`, a block-teaching
-    /// step, …): a task that reaches it stops with E0111 naming it — unless it is stubbed,
+    /// step, …): a task that reaches it stops with E0199 naming it — unless it is stubbed,
     /// when it does nothing. Modelling one is local: the parser gives it its own statement.
     NotEmulated {
         /// The instruction as the warnings and the error name it (`JAPPRO`, `JOINT`).

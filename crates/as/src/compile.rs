@@ -399,7 +399,7 @@ pub(crate) enum Op {
     UdpRecvFrom(Box<UdpRecvFrom>),
     /// `ONE program`: the task's error program (`None`: none).
     OnError(Option<usize>),
-    /// An instruction that loads but is not emulated: the task stops with E0111 naming it.
+    /// An instruction that loads but is not emulated: the task stops with E0199 naming it.
     NotEmulated(Box<str>),
     /// The end of the program (`.END`).
     End,
@@ -780,7 +780,7 @@ impl Compiler {
                         format!("the function {f}")
                     };
                     self.emit(Op::NotEmulated(instruction.as_str().into()), s.span.line);
-                    self.warnings.push(ParseError::new(&self.file, e.span, format!("{instruction} loads but is not emulated: a task that reaches this line stops with E0111")));
+                    self.warnings.push(ParseError::new(&self.file, e.span, format!("{instruction} loads but is not emulated: a task that reaches this line stops with {}", crate::error::NOT_EMULATED)));
                     continue;
                 }
                 if self.errors.len() < MAX_REPORTED {

@@ -63,55 +63,76 @@ impl From<ParseError> for LoadError {
     }
 }
 
-/// E0112, "circular motion not defined" ([`RuntimeError::Circular`]; the system's code for a
-/// circle it cannot plan, too).
-pub const CIRCLE_NOT_DEFINED: ErrorCode = ErrorCode(-30112);
+/// The code a task stops with when it reaches an instruction that loads but is not emulated
+/// (E0199, the emulator's own: the AS manual's error list has no E0122–E0899, and its E0111
+/// means "operation with a negative exponent").
+pub const NOT_EMULATED: ErrorCode = ErrorCode(-30199);
 
 /// An error while a program runs: the task stops and the controller's `ERROR` becomes
 /// [`RuntimeError::code`], as on the controller.
 ///
-/// Only E0102 ("variable not defined") is confirmed by the AS manuals this interpreter was
-/// written from; the other E01xx numbers are this interpreter's own (docs/AS.md, "Runtime
-/// errors"), chosen in the range AS uses for program errors.
+/// The codes are those of the error list of the AS manual (E series, Appendix 4), except
+/// [`RuntimeError::NotEmulated`] ([`NOT_EMULATED`], the emulator's own). docs/AS.md, "Runtime
+/// errors", maps each.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum RuntimeError {
-    /// A variable or array element was read before anything was assigned to it.
-    #[error("(E0102) variable not defined: {0}")]
+    /// A real variable or array element was read before anything was assigned to it (E0102).
+    #[error("(E0102) variable not defined: {0} (assign it before reading it)")]
     Undefined(String),
-    /// Division (or MOD) by zero.
-    #[error("(E0103) division by zero")]
+    /// A location (transformation or joint) variable was read before anything was assigned to
+    /// it (E0103).
+    #[error("(E0103) location not defined: {0} (teach it with HERE or assign it with POINT before using it)")]
+    LocationUndefined(String),
+    /// A string variable was read before anything was assigned to it (E0104).
+    #[error("(E0104) string variable not defined: {0} (assign it before reading it)")]
+    StringUndefined(String),
+    /// Division (or MOD) by zero (E0108).
+    #[error("(E0108) division by zero (check the divisor before dividing)")]
     DivisionByZero,
-    /// An array index outside 0–9999, or more than 3 dimensions.
-    #[error("(E0104) array index out of range: {0}")]
+    /// An array index outside 0–9999, or more than 3 dimensions (E0115).
+    #[error("(E0115) array index out of range: {0} (indices go from 0 to 9999)")]
     IndexRange(String),
-    /// An argument outside what the instruction or function accepts.
-    #[error("(E0105) illegal value: {0}")]
-    IllegalValue(String),
-    /// A result too large for a 32-bit real, or not a number (`SQRT(-1)`).
+    /// An argument outside what the instruction or function accepts (E0106).
     #[error("(E0106) value out of range: {0}")]
+    IllegalValue(String),
+    /// A result too large for a 32-bit real, or not a number (E0109).
+    #[error("(E0109) floating point overflow: {0}")]
     Overflow(String),
-    /// A string longer than 255 characters.
-    #[error("(E0107) string too long ({0} characters, at most 255)")]
+    /// `SQRT` of a negative number (E0114).
+    #[error("(E0114) SQRT of a negative number: {0}")]
+    SqrtNegative(String),
+    /// A string longer than 255 characters (E0110).
+    #[error("(E0110) string too long ({0} characters, at most 255)")]
     StringTooLong(usize),
-    /// An instruction that this kind of task cannot execute (a motion in a PC program, `MC`
-    /// in a robot program, `ONI` in a PC program).
-    #[error("(E0108) {0}")]
-    WrongTask(String),
-    /// `CALL`s nested deeper than the interpreter allows (runaway recursion).
-    #[error("(E0109) too many nested CALLs (at most {0})")]
+    /// An instruction only a robot program may execute (a motion, `ONI`, …) reached in a PC
+    /// program (E1095).
+    #[error("(E1095) {0} (move it to the robot program)")]
+    RobotOnly(String),
+    /// An instruction only a PC program may execute (`EXECUTE`, `MC …`) reached in the robot
+    /// program (P1023).
+    #[error("(P1023) {0} (move it to a PC program)")]
+    PcOnly(String),
+    /// `CALL`s nested deeper than the interpreter allows (runaway recursion; E0118).
+    #[error("(E0118) too many nested CALLs (at most {0}): a subroutine that calls itself needs a condition that ends it")]
     CallDepth(usize),
-    /// More array elements or variables than the interpreter's memory holds.
-    #[error("(E0110) variable memory full (at most {0} array elements)")]
+    /// More array elements or variables than the interpreter's memory holds (P1031).
+    #[error("(P1031) no free memory: variable memory is full (at most {0} array elements)")]
     MemoryFull(usize),
-    /// An instruction that loads but is not emulated was reached (the emulator's own code:
-    /// the controller would run it).
-    #[error("(E0111) {0} is not emulated (fs020n as check lists these; --stub makes one a no-op)")]
+    /// An instruction that loads but is not emulated was reached ([`NOT_EMULATED`], the
+    /// emulator's own code: the controller would run it).
+    #[error("(E0199) {0} is not emulated (fs020n as check lists these; --stub makes one a no-op)")]
     NotEmulated(String),
-    /// A circular motion that is not defined: a `C2MOVE` without its `C1MOVE`, a `C1MOVE`
-    /// followed by another motion (or by the program's end), or three points that define no
-    /// circle (two coincide, or all on one line).
-    #[error("(E0112) circular motion not defined: {0}")]
-    Circular(String),
+    /// A `C2MOVE` without a `C1MOVE` before it (E1098).
+    #[error("(E1098) {0}")]
+    C1MoveRequired(String),
+    /// A `C1MOVE` not followed by its `C2MOVE`: another `C1MOVE`, another motion or the end of
+    /// the program comes next (E1097).
+    #[error("(E1097) {0}")]
+    C2MoveMissing(String),
+    /// Three points of a circular motion that define no circle: two coincide, or all lie on one
+    /// line (E1099).
+    #[error("(E1099) cannot create the arc: {0} (check the three points: all distinct, not on one line)")]
+    NoArc(String),
     /// A program named by CALL, EXECUTE, PCEXECUTE or ON … CALL that no loaded file defines
     /// (the manual's E0119 "Nonexistent subroutine.").
     #[error(
@@ -137,42 +158,49 @@ impl RuntimeError {
     /// The AS error code that `ERROR` returns after this error (E0102 → −30102).
     pub fn code(&self) -> ErrorCode {
         match self {
-            RuntimeError::Undefined(_) => ErrorCode(-30102),
-            RuntimeError::DivisionByZero => ErrorCode(-30103),
-            RuntimeError::IndexRange(_) => ErrorCode(-30104),
-            RuntimeError::IllegalValue(_) => ErrorCode(-30105),
-            RuntimeError::Overflow(_) => ErrorCode(-30106),
-            RuntimeError::StringTooLong(_) => ErrorCode(-30107),
-            RuntimeError::WrongTask(_) => ErrorCode(-30108),
-            RuntimeError::CallDepth(_) => ErrorCode(-30109),
-            RuntimeError::MemoryFull(_) => ErrorCode(-30110),
-            RuntimeError::NotEmulated(_) => ErrorCode(-30111),
-            RuntimeError::NoProgram(_) => ErrorCode(-30119),
-            RuntimeError::NoLabel(_) => ErrorCode(-30101),
-            RuntimeError::Circular(_) => CIRCLE_NOT_DEFINED,
+            RuntimeError::Undefined(_) => ErrorCode::VARIABLE_NOT_DEFINED,
+            RuntimeError::LocationUndefined(_) => ErrorCode::LOCATION_NOT_DEFINED,
+            RuntimeError::StringUndefined(_) => ErrorCode::STRING_NOT_DEFINED,
+            RuntimeError::DivisionByZero => ErrorCode::DIVIDED_BY_ZERO,
+            RuntimeError::IndexRange(_) => ErrorCode::ARRAY_INDEX_OUT_OF_RANGE,
+            RuntimeError::IllegalValue(_) => ErrorCode::VALUE_OUT_OF_RANGE,
+            RuntimeError::Overflow(_) => ErrorCode::FLOATING_POINT_OVERFLOW,
+            RuntimeError::SqrtNegative(_) => ErrorCode::SQRT_OF_NEGATIVE,
+            RuntimeError::StringTooLong(_) => ErrorCode::STRING_TOO_LONG,
+            RuntimeError::RobotOnly(_) => ErrorCode::MOTION_IN_PC_PROGRAM,
+            RuntimeError::PcOnly(_) => ErrorCode::NOT_IN_ROBOT_PROGRAM,
+            RuntimeError::CallDepth(_) => ErrorCode::TOO_MANY_SUBROUTINE_CALLS,
+            RuntimeError::MemoryFull(_) => ErrorCode::NO_FREE_MEMORY,
+            RuntimeError::NotEmulated(_) => NOT_EMULATED,
+            RuntimeError::C1MoveRequired(_) => ErrorCode::C1MOVE_REQUIRED_BEFORE_C2MOVE,
+            RuntimeError::C2MoveMissing(_) => ErrorCode::C1MOVE_OR_C2MOVE_MISSING,
+            RuntimeError::NoArc(_) => ErrorCode::NO_ARC_THROUGH_POINTS,
+            RuntimeError::NoProgram(_) => ErrorCode::NONEXISTENT_SUBROUTINE,
+            RuntimeError::NoLabel(_) => ErrorCode::NONEXISTENT_LABEL,
             RuntimeError::System(c) => *c,
         }
     }
+
+    /// Whether this is the error of reading a variable never assigned (E0102, E0103 or E0104,
+    /// whatever its type).
+    pub fn is_undefined(&self) -> bool {
+        matches!(
+            self,
+            RuntimeError::Undefined(_)
+                | RuntimeError::LocationUndefined(_)
+                | RuntimeError::StringUndefined(_)
+        )
+    }
 }
 
-/// The message `$ERROR(code)` returns for the codes this interpreter raises (and those the
-/// protocol reference names).
+/// The message `$ERROR(code)` returns: the controller's codes ([`ErrorCode::message`]), the
+/// socket codes ([`TcpCode`]) and [`NOT_EMULATED`].
 pub fn error_message(code: i32) -> Option<&'static str> {
-    match code {
-        -30102 => Some("Variable not defined"),
-        -30103 => Some("Division by zero"),
-        -30104 => Some("Array index out of range"),
-        -30105 => Some("Illegal value"),
-        -30106 => Some("Value out of range"),
-        -30107 => Some("String too long"),
-        -30108 => Some("Instruction not allowed in this task"),
-        -30109 => Some("Too many nested CALLs"),
-        -30110 => Some("Variable memory full"),
-        -30111 => Some("Instruction not emulated"),
-        -30112 => Some("Circular motion not defined"),
-        other => match TcpCode::from_code(other) {
-            Some(tcp) => Some(tcp.message()),
-            None => ErrorCode(other).message(),
-        },
+    if code == NOT_EMULATED.0 {
+        return Some("Instruction not emulated");
+    }
+    match TcpCode::from_code(code) {
+        Some(tcp) => Some(tcp.message()),
+        None => ErrorCode(code).message(),
     }
 }

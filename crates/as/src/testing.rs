@@ -14,7 +14,6 @@ use std::time::Duration;
 use fs020n_kin::{CircularArc, RobotModel};
 use fs020n_proto::{ErrorCode, JointsDeg};
 
-use crate::error::CIRCLE_NOT_DEFINED;
 use crate::flange;
 use crate::sockets::{Delivery, SocketLimits, SocketTable, TcpCode};
 use crate::system::{
@@ -379,7 +378,7 @@ impl System for VirtualSystem {
             let end = flange::pose_of(&flange::forward(&self.model, &to));
             let via = req.via.map(|v| flange::pose_of(&v));
             if via.is_none_or(|v| CircularArc::through(&start, &v, &end).is_err()) {
-                return Err(CIRCLE_NOT_DEFINED);
+                return Err(ErrorCode::NO_ARC_THROUGH_POINTS);
             }
         }
         let (dur, rate) = self.duration(req, &from, &to);

@@ -91,7 +91,7 @@ impl std::fmt::Debug for Bytes {
 pub(crate) const MAX_INDEX: i32 = 9999;
 
 /// Most array elements the whole interpreter holds (a runaway loop that fills arrays stops
-/// with E0110 instead of exhausting memory).
+/// with P1031 instead of exhausting memory).
 pub(crate) const MAX_ELEMENTS: usize = 200_000;
 
 /// A multiplicative hasher for packed array indices (fast, deterministic, good enough for

@@ -1,7 +1,8 @@
 //! Circular motion on the test system: `C1MOVE via` then `C2MOVE end` issue one circular
 //! motion through the via point (converted by TOOL and BASE like any target), and every way of
 //! leaving the pair incomplete, or giving three points that define no circle, stops the
-//! program with E0112 before anything moves. (The arc itself is drawn by the emulator's
+//! program before anything moves: E1098 for a `C2MOVE` without its `C1MOVE`, E1097 for a
+//! `C1MOVE` without its `C2MOVE`, E1099 for three points that define no circle. (The arc itself is drawn by the emulator's
 //! planner: `fs020n-sim`'s tests measure it.)
 #![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
@@ -13,7 +14,9 @@ use fs020n_as::testing::VirtualSystem;
 use fs020n_as::{Interpreter, TaskId, TaskState};
 use fs020n_proto::ErrorCode;
 
-const E0112: ErrorCode = ErrorCode(-30112);
+const E1097: ErrorCode = ErrorCode(-31097);
+const E1098: ErrorCode = ErrorCode(-31098);
+const E1099: ErrorCode = ErrorCode(-31099);
 
 /// Runs `body` as the robot program `rob` for `secs` seconds.
 fn robot(body: &str, secs: u64) -> (Interpreter, VirtualSystem) {
@@ -81,37 +84,37 @@ fn the_circle_points_are_the_tool_tip_in_the_world_and_the_system_gets_the_flang
 }
 
 #[test]
-fn c2move_without_c1move_stops_with_e0112_and_does_not_move() {
+fn c2move_without_c1move_stops_with_e1098_and_does_not_move() {
     let (i, s) = robot(&format!("  C2MOVE {END}"), 2);
-    assert_eq!(s.raised, vec![E0112]);
+    assert_eq!(s.raised, vec![E1098]);
     assert!(s.motions.is_empty());
     assert_eq!(i.task_state(TaskId::Robot, &s), TaskState::Idle);
 }
 
 #[test]
-fn another_motion_between_c1move_and_c2move_stops_with_e0112() {
+fn another_motion_between_c1move_and_c2move_stops_with_e1097() {
     let (_, s) = robot(
         &format!("  C1MOVE {VIA}\n  LMOVE {START}\n  C2MOVE {END}"),
         2,
     );
-    assert_eq!(s.raised, vec![E0112]);
+    assert_eq!(s.raised, vec![E1097]);
     assert!(s.motions.is_empty(), "{:?}", s.motions);
 }
 
 #[test]
-fn two_c1moves_in_a_row_stop_with_e0112() {
+fn two_c1moves_in_a_row_stop_with_e1097() {
     let (_, s) = robot(
         &format!("  C1MOVE {VIA}\n  C1MOVE {START}\n  C2MOVE {END}"),
         2,
     );
-    assert_eq!(s.raised, vec![E0112]);
+    assert_eq!(s.raised, vec![E1097]);
     assert!(s.motions.is_empty());
 }
 
 #[test]
-fn a_program_ending_after_c1move_stops_with_e0112() {
+fn a_program_ending_after_c1move_stops_with_e1097() {
     let (_, s) = robot(&format!("  C1MOVE {VIA}"), 2);
-    assert_eq!(s.raised, vec![E0112]);
+    assert_eq!(s.raised, vec![E1097]);
     assert!(s.motions.is_empty());
 }
 
@@ -131,46 +134,54 @@ fn c1move_then_c2move_in_a_called_program_and_back_is_one_circle() {
 }
 
 #[test]
-fn collinear_points_stop_with_e0112_before_anything_moves() {
+fn collinear_points_stop_with_e1099_before_anything_moves() {
     let (_, s) = robot(
         &format!(
             "  LMOVE {START}\n  BREAK\n  C1MOVE TRANS(1000, 0, 600, 0, 180, 0)\n  C2MOVE {END}"
         ),
         20,
     );
-    assert_eq!(s.raised, vec![E0112]);
+    assert_eq!(s.raised, vec![E1099]);
     assert_eq!(s.motions.len(), 1, "only the LMOVE");
     assert!(
         s.lines_of(TaskId::Robot)
             .iter()
             .chain(s.lines_of(TaskId::Pc(1)).iter())
-            .any(|l| l.contains("E0112") && l.contains("one straight line")),
+            .any(|l| l.contains("E1099") && l.contains("one straight line")),
         "{:?}",
         s.terminal
     );
 }
 
 #[test]
-fn a_via_point_on_the_start_stops_with_e0112() {
+fn a_via_point_on_the_start_stops_with_e1099() {
     let (_, s) = robot(
         &format!("  LMOVE {START}\n  BREAK\n  C1MOVE {START}\n  C2MOVE {END}"),
         20,
     );
-    assert_eq!(s.raised, vec![E0112]);
+    assert_eq!(s.raised, vec![E1099]);
     assert_eq!(s.motions.len(), 1);
 }
 
 #[test]
-fn c1move_in_a_pc_program_is_e0108() {
+fn c1move_in_a_pc_program_is_e1095() {
     let (mut i, mut s) = start(&pc(&format!("  C1MOVE {VIA}")));
     i.run_until(&mut s, ms(10));
-    assert_eq!(s.raised, vec![ErrorCode(-30108)]);
+    assert_eq!(s.raised, vec![ErrorCode(-31095)]);
 }
 
 #[test]
-fn error_names_e0112() {
+fn error_names_the_circular_motion_codes() {
     assert_eq!(
-        fs020n_as::error::error_message(-30112),
-        Some("Circular motion not defined")
+        fs020n_as::error::error_message(-31097),
+        Some("C1MOVE or C2MOVE instruction missing")
+    );
+    assert_eq!(
+        fs020n_as::error::error_message(-31098),
+        Some("C2MOVE needs a C1MOVE before it")
+    );
+    assert_eq!(
+        fs020n_as::error::error_message(-31099),
+        Some("Cannot create the arc: check the positions of the three points")
     );
 }

@@ -45,7 +45,7 @@ fn a_jump_to_a_missing_label_loads_with_a_warning_and_stops_with_e0101() {
 }
 
 #[test]
-fn an_instruction_the_emulator_does_not_run_loads_and_stops_with_e0111_when_reached() {
+fn an_instruction_the_emulator_does_not_run_loads_and_stops_with_e0199_when_reached() {
     for line in [
         "STABLE 0.2",
         "RETURNE",
@@ -61,7 +61,7 @@ fn an_instruction_the_emulator_does_not_run_loads_and_stops_with_e0111_when_reac
         );
         let (i, s) = run_pc(&format!("  a = 1\n  {line}\n  a = 2"), 0.05);
         assert_eq!(i.real("a"), Some(1.0), "{line}");
-        assert_eq!(s.raised, vec![ErrorCode(-30111)], "{line}");
+        assert_eq!(s.raised, vec![ErrorCode(-30199)], "{line}");
     }
 }
 

@@ -37,7 +37,7 @@ fn time_and_date_follow_the_controller_clock_on_virtual_time() {
 fn an_unknown_date_form_stops_the_task_with_an_illegal_value() {
     let (mut i, mut s) = start_with(&pc("  $d = $DATE(7)"), config());
     i.run_until(&mut s, ms(10));
-    assert_eq!(s.raised, vec![fs020n_proto::ErrorCode(-30105)]);
+    assert_eq!(s.raised, vec![fs020n_proto::ErrorCode(-30106)]);
 }
 
 #[test]

@@ -309,17 +309,17 @@ fn align_turns_the_tool_z_onto_the_nearest_world_axis_by_a_joint_motion() {
 }
 
 #[test]
-fn align_in_a_pc_program_is_e0108() {
+fn align_in_a_pc_program_is_e1095() {
     let (mut i, mut s) = start(&pc("  ALIGN"));
     i.run_until(&mut s, ms(10));
-    assert_eq!(s.raised, vec![ErrorCode(-30108)]);
+    assert_eq!(s.raised, vec![ErrorCode(-31095)]);
 }
 
 #[test]
-fn appro_in_a_pc_program_is_e0108() {
+fn appro_in_a_pc_program_is_e1095() {
     let (mut i, mut s) = start(&pc("  APPRO TRANS(900, 0, 600, 0, 180, 0), 10"));
     i.run_until(&mut s, ms(10));
-    assert_eq!(s.raised, vec![ErrorCode(-30108)]);
+    assert_eq!(s.raised, vec![ErrorCode(-31095)]);
 }
 
 #[test]

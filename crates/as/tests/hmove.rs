@@ -33,10 +33,10 @@ fn hmove_issues_a_hybrid_motion_to_the_flange_of_the_tool_target() {
 }
 
 #[test]
-fn hmove_in_a_pc_program_is_e0108() {
+fn hmove_in_a_pc_program_is_e1095() {
     let (mut i, mut s) = start(&pc("  HMOVE #PPOINT(0, 0, -90, 0, -90, 0)"));
     i.run_until(&mut s, ms(10));
-    assert_eq!(s.raised, vec![ErrorCode(-30108)]);
+    assert_eq!(s.raised, vec![ErrorCode(-31095)]);
 }
 
 #[test]

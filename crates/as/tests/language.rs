@@ -19,7 +19,7 @@ fn reals_are_32_bit() {
     assert_eq!(i.real("a"), Some(16_777_216.0));
     assert_eq!(i.real("b"), Some(0.1f32 + 0.2f32));
     assert_eq!(i.real("c"), Some(1.0f32 / 3.0));
-    // 1E39 overflows a 32-bit real: E0106, the task stops before d is assigned.
+    // 1E39 overflows a 32-bit real: E0109, the task stops before d is assigned.
     assert_eq!(i.real("d"), None);
 }
 
@@ -137,7 +137,7 @@ fn strings_and_decode() {
     assert_eq!(st("set"), "B,c");
     assert_eq!(st("all"), "abc");
     assert_eq!(i.real("n"), Some(0.0));
-    assert_eq!(st("err"), "Variable not defined");
+    assert_eq!(st("err"), "Variable is not defined");
 }
 
 #[test]
@@ -296,13 +296,13 @@ fn calls_parameters_and_locals() {
         Some(20.0),
         "by-reference parameter written back"
     );
-    // Runaway recursion stops with E0109 at the CALL depth limit (32 frames).
+    // Runaway recursion stops with E0118 at the CALL depth limit (32 frames).
     assert_eq!(i.real("depth"), Some(30.0));
-    assert_eq!(s.raised, vec![ErrorCode(-30109)]);
+    assert_eq!(s.raised, vec![ErrorCode(-30118)]);
     assert!(
         s.lines_of(TaskId::Pc(1))
             .iter()
-            .any(|l| l.starts_with("(E0109)")),
+            .any(|l| l.starts_with("(E0118)")),
         "{:?}",
         s.terminal
     );
@@ -314,67 +314,67 @@ fn runtime_errors_stop_the_task_with_their_code() {
         (
             "  a = b + 1",
             -30102,
-            "(E0102) variable not defined: b (autostart.pc line 2)",
+            "(E0102) variable not defined: b (assign it before reading it) (autostart.pc line 2)",
         ),
         (
             "  x[1] = 1\n  a = x[2]",
             -30102,
-            "(E0102) variable not defined: x[2] (autostart.pc line 3)",
+            "(E0102) variable not defined: x[2] (assign it before reading it) (autostart.pc line 3)",
         ),
         (
             "  .l = .m",
             -30102,
-            "(E0102) variable not defined: .m (autostart.pc line 2)",
+            "(E0102) variable not defined: .m (assign it before reading it) (autostart.pc line 2)",
         ),
         (
             "  $s = $t",
-            -30102,
-            "(E0102) variable not defined: $t (autostart.pc line 2)",
+            -30104,
+            "(E0104) string variable not defined: $t (assign it before reading it) (autostart.pc line 2)",
         ),
         (
             "  a = 1 / 0",
-            -30103,
-            "(E0103) division by zero (autostart.pc line 2)",
+            -30108,
+            "(E0108) division by zero (check the divisor before dividing) (autostart.pc line 2)",
         ),
         (
             "  a = 1 MOD 0",
-            -30103,
-            "(E0103) division by zero (autostart.pc line 2)",
+            -30108,
+            "(E0108) division by zero (check the divisor before dividing) (autostart.pc line 2)",
         ),
         (
             "  a[-1] = 0",
-            -30104,
-            "(E0104) array index out of range: -1 in a (autostart.pc line 2)",
+            -30115,
+            "(E0115) array index out of range: -1 in a (indices go from 0 to 9999) (autostart.pc line 2)",
         ),
         (
             "  a[10000] = 0",
-            -30104,
-            "(E0104) array index out of range: 10000 in a (autostart.pc line 2)",
+            -30115,
+            "(E0115) array index out of range: 10000 in a (indices go from 0 to 9999) (autostart.pc line 2)",
         ),
         (
             "  a = SQRT(-1)",
-            -30105,
-            "(E0105) illegal value: SQRT(-1) (autostart.pc line 2)",
+            -30114,
+            "(E0114) SQRT of a negative number: SQRT(-1) (autostart.pc line 2)",
         ),
         (
             "  a = 1E30 * 1E30",
-            -30106,
-            "(E0106) value out of range: * (autostart.pc line 2)",
+            -30109,
+            "(E0109) floating point overflow: * (autostart.pc line 2)",
         ),
         (
             "  JMOVE #PPOINT()",
-            -30108,
-            "(E0108) JMOVE/LMOVE is allowed only in robot programs (autostart.pc line 2)",
+            -31095,
+            "(E1095) JMOVE/LMOVE is allowed only in robot programs (move it to the robot program) (autostart.pc line 2)",
         ),
         (
             "  $s = $CHR(65)\n  FOR .i = 1 TO 8\n    $s = $s + $s\n  END",
-            -30107,
-            "(E0107) string too long (256 characters, at most 255) (autostart.pc line 4)",
+            -30110,
+            "(E0110) string too long (256 characters, at most 255) (autostart.pc line 4)",
         ),
         (
             "  TCP_LISTEN .r, 80",
-            -30105,
-            "(E0105) illegal value: port 80 (8192 to 65535) (autostart.pc line 2)",
+            -30106,
+            "(E0106) value out of range: port 80 (8192 to 65535) (autostart.pc line 2)",
         ),
     ];
     for (body, code, message) in cases {
@@ -426,8 +426,8 @@ fn computed_array_indices_truncate_toward_zero() {
     assert_eq!(i.real_at("a", &[9999]), Some(2.0));
     assert_eq!(i.real_at("a", &[2]), Some(3.0));
     assert_eq!(i.real("b"), Some(4.0));
-    // 10000.999 truncates to 10000: out of range (E0104), the task stops there.
-    assert_eq!(s.error, ErrorCode(-30104), "{:?}", s.terminal);
+    // 10000.999 truncates to 10000: out of range (E0115), the task stops there.
+    assert_eq!(s.error, ErrorCode(-30115), "{:?}", s.terminal);
 }
 
 #[test]
@@ -520,7 +520,8 @@ fn an_error_inside_a_run_of_computation_names_its_line_steps_and_time() {
                 .s = .s + x[.i]\n  END";
     let (i, s) = run_pc(&format!("{body}\n  done = 1"), 0.1);
     assert_eq!(s.raised, vec![ErrorCode(-30102)]);
-    let message = "(E0102) variable not defined: x[50] (autostart.pc line 7)";
+    let message =
+        "(E0102) variable not defined: x[50] (assign it before reading it) (autostart.pc line 7)";
     let info = i.tasks(&s);
     assert_eq!(info[1].last_error.as_deref(), Some(message));
     assert_eq!(info[1].steps, 200, "the failed step counts");

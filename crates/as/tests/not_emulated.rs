@@ -1,5 +1,5 @@
 //! Instructions the emulator does not model load, are listed as warnings, stop a task that
-//! reaches them with E0111 naming the instruction, program and line — and do nothing when the
+//! reaches them with E0199 naming the instruction, program and line — and do nothing when the
 //! user stubs them.
 #![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
@@ -132,22 +132,22 @@ fn the_modelled_instructions_of_the_list_load_as_statements() {
 }
 
 #[test]
-fn a_task_that_reaches_one_stops_with_e0111_naming_instruction_program_and_line() {
+fn a_task_that_reaches_one_stops_with_e0199_naming_instruction_program_and_line() {
     let src = ".PROGRAM autostart.pc()\n  PRINT 1\n  INTFCHK 1001\n  PRINT 2\n.END\n";
     let (i, s) = run(src, &LoadOptions::new());
     assert_eq!(printed(&s)[0], " 1");
-    let message = "(E0111) INTFCHK is not emulated (fs020n as check lists these; --stub makes one a no-op) (autostart.pc line 3)";
+    let message = "(E0199) INTFCHK is not emulated (fs020n as check lists these; --stub makes one a no-op) (autostart.pc line 3)";
     assert!(
         printed(&s).contains(&message.to_owned()),
         "{:?}",
         printed(&s)
     );
-    assert_eq!(s.raised, vec![ErrorCode(-30111)]);
+    assert_eq!(s.raised, vec![ErrorCode(-30199)]);
     let info = i.tasks(&s);
     assert_eq!(info[1].last_error.as_deref(), Some(message));
     assert_eq!(info[1].state, TaskState::Idle);
     assert_eq!(
-        fs020n_as::error::error_message(-30111),
+        fs020n_as::error::error_message(-30199),
         Some("Instruction not emulated")
     );
 }
@@ -160,7 +160,7 @@ fn a_function_the_emulator_does_not_compute_stops_the_task_at_its_line() {
     );
     assert_eq!(
         i.tasks(&s)[1].last_error.as_deref(),
-        Some("(E0111) the function STRTOPOS is not emulated (fs020n as check lists these; --stub makes one a no-op) (autostart.pc line 3)")
+        Some("(E0199) the function STRTOPOS is not emulated (fs020n as check lists these; --stub makes one a no-op) (autostart.pc line 3)")
     );
 }
 
@@ -186,7 +186,7 @@ fn a_stubbed_instruction_does_nothing_and_the_task_goes_on() {
 fn an_application_instruction_loads_as_not_emulated_and_can_be_stubbed() {
     let src = ".PROGRAM autostart.pc()\n  GUNON 1, 2\n  PRINT 2\n.END\n";
     let (_, s) = run(src, &LoadOptions::new());
-    assert_eq!(s.raised, vec![ErrorCode(-30111)], "GUNON is not emulated");
+    assert_eq!(s.raised, vec![ErrorCode(-30199)], "GUNON is not emulated");
     assert!(
         !printed(&s).iter().any(|l| l == " 2"),
         "the task stopped at GUNON"
@@ -213,7 +213,7 @@ fn repeated_uses_give_one_warning_with_the_count() {
     assert_eq!(m.warnings.len(), 1);
     assert_eq!(
         m.warnings[0].to_string(),
-        "t.as:2:3: INTFCHK loads but is not emulated (3 lines, the first here): a task that reaches it stops with E0111 (--stub INTFCHK makes it a no-op)"
+        "t.as:2:3: INTFCHK loads but is not emulated (3 lines, the first here): a task that reaches it stops with E0199 (--stub INTFCHK makes it a no-op)"
     );
 }
 
@@ -328,7 +328,7 @@ fn system_switch_lines_of_an_autostart_program_load() {
     );
     assert!(
         i.tasks(&s)[1].last_error.as_deref().is_some_and(
-            |e| e.starts_with("(E0111) NO.SUCH.SWITCH (a system switch) is not emulated")
+            |e| e.starts_with("(E0199) NO.SUCH.SWITCH (a system switch) is not emulated")
         )
     );
 }

@@ -142,7 +142,12 @@ fn an_argument_never_assigned_stops_ros_move_with_e0102() {
         + 1;
     assert_eq!(
         info.last_error.as_deref(),
-        Some(format!("(E0102) variable not defined: .arg[4] (ros_move line {line})").as_str())
+        Some(
+            format!(
+                "(E0102) variable not defined: .arg[4] (assign it before reading it) (ros_move line {line})"
+            )
+            .as_str()
+        )
     );
     // In error, command 1 does nothing; the communication task keeps serving.
     assert!(!r.status("1040 1 0").task_running);

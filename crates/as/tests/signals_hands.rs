@@ -44,10 +44,10 @@ fn swait_goes_on_within_one_poll_period_of_the_input() {
 }
 
 #[test]
-fn swait_on_an_illegal_signal_number_stops_with_e0105() {
+fn swait_on_an_illegal_signal_number_stops_with_e0106() {
     let (mut i, mut s) = start(&pc("  SWAIT 5000"));
     i.run_until(&mut s, ms(10));
-    assert_eq!(s.raised, vec![ErrorCode(-30105)]);
+    assert_eq!(s.raised, vec![ErrorCode(-30106)]);
 }
 
 #[test]
@@ -116,10 +116,10 @@ fn dlysig_changes_the_signal_after_its_delay_while_the_program_goes_on() {
 }
 
 #[test]
-fn dlysig_with_a_negative_time_stops_with_e0105() {
+fn dlysig_with_a_negative_time_stops_with_e0106() {
     let (mut i, mut s) = start(&pc("  DLYSIG 8, -1"));
     i.run_until(&mut s, ms(10));
-    assert_eq!(s.raised, vec![ErrorCode(-30105)]);
+    assert_eq!(s.raised, vec![ErrorCode(-30106)]);
 }
 
 #[test]
@@ -147,7 +147,7 @@ fn bits_signal_order_is_least_significant_first() {
 }
 
 #[test]
-fn bits_with_a_value_that_does_not_fit_stops_with_e0105() {
+fn bits_with_a_value_that_does_not_fit_stops_with_e0106() {
     for body in [
         "  BITS 1, 4 = 16",
         "  BITS 1, 17 = 1",
@@ -156,7 +156,7 @@ fn bits_with_a_value_that_does_not_fit_stops_with_e0105() {
     ] {
         let (mut i, mut s) = start(&pc(body));
         i.run_until(&mut s, ms(10));
-        assert_eq!(s.raised, vec![ErrorCode(-30105)], "{body}");
+        assert_eq!(s.raised, vec![ErrorCode(-30106)], "{body}");
     }
 }
 
@@ -191,7 +191,7 @@ fn openi_waits_for_the_motion_to_end_then_drives_the_hand_signals() {
 }
 
 #[test]
-fn the_hand_signals_are_configurable_and_an_unknown_hand_is_e0105() {
+fn the_hand_signals_are_configurable_and_an_unknown_hand_is_e0106() {
     let cfg = Config {
         hands: vec![HandSignals {
             open: 0,
@@ -212,14 +212,14 @@ fn the_hand_signals_are_configurable_and_an_unknown_hand_is_e0105() {
         !i.signal(1) && !i.signal(2),
         "the default outputs are untouched"
     );
-    assert_eq!(s.raised, vec![ErrorCode(-30105)], "hand 2 does not exist");
+    assert_eq!(s.raised, vec![ErrorCode(-30106)], "hand 2 does not exist");
 }
 
 #[test]
 fn hands_are_for_robot_programs() {
     let (mut i, mut s) = start(&pc("  OPENI"));
     i.run_until(&mut s, ms(10));
-    assert_eq!(s.raised, vec![ErrorCode(-30108)]);
+    assert_eq!(s.raised, vec![ErrorCode(-31095)]);
     assert!(
         printed(&s).iter().any(|l| l.contains("OPEN/CLOSE/RELAX")),
         "{:?}",
@@ -249,7 +249,7 @@ fn runmask_outputs_go_off_when_an_error_stops_the_robot_program() {
     i.run_until(&mut s, ms(50));
     assert!(i.signal(20));
     i.run_until(&mut s, ms(200));
-    assert_eq!(s.raised, vec![ErrorCode(-30103)]);
+    assert_eq!(s.raised, vec![ErrorCode(-30108)]);
     assert!(!i.signal(20));
 }
 
@@ -279,6 +279,6 @@ fn bits32_sets_and_reads_up_to_32_signals() {
     assert_eq!(i.real("c"), Some((10_000_000 / 65_536) as f32));
     let (mut i, mut s) = start(&pc("  a = BITS(2001, 17)"));
     i.run_until(&mut s, ms(10));
-    assert_eq!(s.raised, vec![ErrorCode(-30105)], "BITS takes at most 16");
+    assert_eq!(s.raised, vec![ErrorCode(-30106)], "BITS takes at most 16");
     assert_eq!(i.real("a"), None);
 }

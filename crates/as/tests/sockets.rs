@@ -120,14 +120,14 @@ fn listen_errors() {
     assert!(s.raised.is_empty());
     // Parameter errors stop the program.
     let (_, s) = run_pc("  TCP_ACCEPT a, 9002, 61", 0.1);
-    assert_eq!(s.raised, vec![ErrorCode(-30105)]);
+    assert_eq!(s.raised, vec![ErrorCode(-30106)]);
     let (_, s) = run_pc("  TCP_RECV a, 1, $b[0], n, 1, 256", 0.1);
-    assert_eq!(s.raised, vec![ErrorCode(-30105)]);
+    assert_eq!(s.raised, vec![ErrorCode(-30106)]);
     let (_, s) = run_pc("  TCP_SEND a, 1, $b[0], 1, 1", 0.1);
     assert_eq!(
         s.raised,
-        vec![ErrorCode(-30102)],
-        "sending an element never assigned"
+        vec![ErrorCode(-30104)],
+        "sending a string element never assigned"
     );
 }
 

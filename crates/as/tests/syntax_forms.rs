@@ -107,7 +107,7 @@ fn a_whole_array_argument_loads_and_stops_the_task_when_reached() {
     let info = i.tasks(&s);
     assert_eq!(
         info[1].last_error.as_deref(),
-        Some("(E0111) CALL (a whole array as an argument) is not emulated (fs020n as check lists these; --stub makes one a no-op) (autostart.pc line 3)")
+        Some("(E0199) CALL (a whole array as an argument) is not emulated (fs020n as check lists these; --stub makes one a no-op) (autostart.pc line 3)")
     );
 }
 

@@ -226,7 +226,7 @@ fn on_call_branches_at_a_step_boundary_and_returns() {
 #[test]
 fn oni_in_a_pc_program_is_an_error() {
     let (_, s) = run_pc("  ONI 2001 GOTO x\nx:", 0.1);
-    assert_eq!(s.raised, vec![ErrorCode(-30108)]);
+    assert_eq!(s.raised, vec![ErrorCode(-31095)]);
 }
 
 #[test]

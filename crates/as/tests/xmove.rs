@@ -86,10 +86,10 @@ fn xmove_with_the_signal_already_on_does_not_move() {
 }
 
 #[test]
-fn xmove_till_an_illegal_signal_number_is_e0105_before_anything_moves() {
+fn xmove_till_an_illegal_signal_number_is_e0106_before_anything_moves() {
     let (mut i, mut s) = robot("  XMOVE SHIFT(HERE BY 0, 200, 0) TILL 5000");
     i.run_until(&mut s, ms(100));
-    assert_eq!(s.raised, vec![ErrorCode(-30105)]);
+    assert_eq!(s.raised, vec![ErrorCode(-30106)]);
     assert!(s.motions.is_empty());
 }
 

@@ -227,7 +227,7 @@ fn sim_takes_stub_too() {
     assert!(
         first
             .as_deref()
-            .is_some_and(|l| l.ends_with("GUNON loads but is not emulated: a task that reaches it stops with E0111 (--stub GUNON makes it a no-op)")),
+            .is_some_and(|l| l.ends_with("GUNON loads but is not emulated: a task that reaches it stops with E0199 (--stub GUNON makes it a no-op)")),
         "{first:?}"
     );
     let mut child = Command::new(bin())

@@ -98,8 +98,8 @@ SERVER_AS = __import__("pathlib").Path(__file__).resolve().parents[2] / "as" / "
 
 def test_an_as_program_file_runs_as_the_controller_and_a_robot_drives_it(tmp_path):
     # The project's server text plus one instruction of an application the emulator does not
-    # model. It loads as not emulated: autostart.pc stops there with E0111 (-30111). Declared
-    # a no-op, the program runs and serves protocol 1040.
+    # model. It loads as not emulated: autostart.pc stops there with E0199 (-30199, the
+    # emulator's own code). Declared a no-op, the program runs and serves protocol 1040.
     text = SERVER_AS.read_bytes().replace(
         b".PROGRAM autostart.pc()", b".PROGRAM autostart.pc()\r\n  GUNON 1", 1
     )
@@ -108,9 +108,9 @@ def test_an_as_program_file_runs_as_the_controller_and_a_robot_drives_it(tmp_pat
     path.write_bytes(text)
     with fs020n.Emulator(as_program=path) as emu:
         deadline = time.monotonic() + 10
-        while emu.error != -30111 and time.monotonic() < deadline:
+        while emu.error != -30199 and time.monotonic() < deadline:
             time.sleep(0.01)
-        assert emu.error == -30111
+        assert emu.error == -30199
     with fs020n.Emulator(as_program=path, stubs=["GUNON"]) as emu:
         assert "autostart.pc" in emu.programs
         with fs020n.Robot(emu.address, connect_timeout=10) as robot:

@@ -1,6 +1,6 @@
 //! The emulator's planner for the motions an AS program asks beyond JMOVE and LMOVE, on
 //! virtual time: the circle of `C1MOVE`/`C2MOVE` (through the via point, on the circle,
-//! at the program's speed), its E0112, the orientation of `DRAW`/`TDRAW` with rotations, and
+//! at the program's speed), its E1099, the orientation of `DRAW`/`TDRAW` with rotations, and
 //! `XMOVE … TILL` cut short by a scripted input.
 #![allow(clippy::expect_used, clippy::unwrap_used)] // test code: a failure is a failed test
 
@@ -103,12 +103,12 @@ fn the_arm_follows_the_circle_through_the_via_point_at_the_program_speed() {
 }
 
 #[test]
-fn collinear_circle_points_raise_e0112_and_the_arm_stays() {
+fn collinear_circle_points_raise_e1099_and_the_arm_stays() {
     let mut c = controller(
         "  SPEED 100 MM/S ALWAYS\n  LMOVE TRANS(900, 0, 600, 0, 180, 0)\n  BREAK\n  C1MOVE TRANS(1000, 0, 600, 0, 180, 0)\n  C2MOVE TRANS(1100, 0, 600, 0, 180, 0)",
     );
     c.advance_by(ms(20_000));
-    assert_eq!(c.error(), ErrorCode(-30112));
+    assert_eq!(c.error(), ErrorCode::NO_ARC_THROUGH_POINTS);
     let p = position_mm(&flange(&c));
     assert!(distance_mm(p, [900.0, 0.0, 600.0]) < 0.01, "{p:?}");
 }

@@ -442,6 +442,7 @@ fn type_prints_variables_timers_and_literals() {
     let timer: f32 = t.cmd("TYPE TIMER(2)", false).parse().unwrap();
     assert!((1.3..1.6).contains(&timer), "{timer}");
     assert!(t.cmd("TYPE nothing", false).starts_with("(E0102)"));
+    assert!(t.cmd("TYPE $nothing", false).starts_with("(E0104)"));
 }
 
 #[test]

@@ -2,7 +2,8 @@
 //! issues one motion on the circle through where the previous motion ends, the via point and
 //! the end (the system plans the arc). A `C2MOVE` without its `C1MOVE`, a `C1MOVE` followed by
 //! another motion instruction or by the end of the program, and three points that define no
-//! circle stop the program with E0112 (fail closed: nothing moves).
+//! circle stop the program (E1098, E1097 and E1099, the manual's codes; fail closed: nothing
+//! moves).
 
 use fs020n_kin::CircularArc;
 
@@ -15,8 +16,8 @@ use super::arith::R;
 use super::task::{Flow, TaskSlot};
 use super::Interpreter;
 
-fn circular(what: impl Into<String>) -> Box<RuntimeError> {
-    Box::new(RuntimeError::Circular(what.into()))
+fn unfinished(what: &str) -> Box<RuntimeError> {
+    Box::new(RuntimeError::C2MoveMissing(what.into()))
 }
 
 impl Interpreter {
@@ -39,7 +40,7 @@ impl Interpreter {
         let point = self.flange_of_world(&world);
         if !end {
             if self.circle_via.is_some() {
-                return Err(circular(
+                return Err(unfinished(
                     "a C1MOVE follows a C1MOVE: each C1MOVE needs its C2MOVE next",
                 ));
             }
@@ -47,7 +48,9 @@ impl Interpreter {
             return Ok(Flow::Next);
         }
         let via = self.circle_via.take().ok_or_else(|| {
-            circular("C2MOVE without a C1MOVE before it: write C1MOVE via-point, then C2MOVE")
+            Box::new(RuntimeError::C1MoveRequired(
+                "C2MOVE without a C1MOVE before it: write C1MOVE via-point, then C2MOVE".into(),
+            ))
         })?;
         let start = self.motion_end_flange(sys)?;
         if let Err(e) = CircularArc::through(
@@ -55,26 +58,26 @@ impl Interpreter {
             &flange::pose_of(&via),
             &flange::pose_of(&point),
         ) {
-            return Err(circular(e.to_string()));
+            return Err(Box::new(RuntimeError::NoArc(e.to_string())));
         }
         self.motion_via(i, MotionKind::Circular, Target::Pose(point), Some(via), sys)
     }
 
     /// A motion instruction other than `C2MOVE` while a `C1MOVE` waits for its end point:
-    /// E0112.
+    /// E1097.
     pub(super) fn circle_interrupted(&self, kind: MotionKind) -> R<()> {
         if kind != MotionKind::Circular && self.circle_via.is_some() {
-            return Err(circular(
+            return Err(unfinished(
                 "a C1MOVE is followed by another motion: a C2MOVE must come next",
             ));
         }
         Ok(())
     }
 
-    /// The end of the robot program while a `C1MOVE` waits for its end point: E0112.
+    /// The end of the robot program while a `C1MOVE` waits for its end point: E1097.
     pub(super) fn circle_left_open(&self, i: TaskSlot) -> R<()> {
         if i.is_robot() && self.circle_via.is_some() {
-            return Err(circular(
+            return Err(unfinished(
                 "the program ends after a C1MOVE: a C2MOVE must follow it",
             ));
         }

@@ -45,7 +45,7 @@ pub struct Config {
     /// How long a signal must stay in its new state before `ON`/`ONI` fires (50 ms on the
     /// controller).
     pub signal_debounce: Duration,
-    /// Deepest `CALL` nesting before E0109.
+    /// Deepest `CALL` nesting before E0118.
     pub max_call_depth: usize,
     /// Terminal lines kept for [`Interpreter::terminal`](crate::Interpreter::terminal).
     pub terminal_lines: usize,

@@ -164,7 +164,7 @@ impl Interpreter {
             RFunc::Abs => x.abs(),
             RFunc::Sqrt => {
                 if x < 0.0 {
-                    return Err(Box::new(RuntimeError::IllegalValue(format!("SQRT({x})"))));
+                    return Err(Box::new(RuntimeError::SqrtNegative(format!("SQRT({x})"))));
                 }
                 x.sqrt()
             }

@@ -1,7 +1,6 @@
 //! Control statements: `CASE`, `CALL`/`RETURN` with their arguments, `TWAIT`, `WAIT`.
 
 use crate::compile::{CArg, CExpr, RExpr, SExpr, Ty};
-use crate::error::RuntimeError;
 use crate::system::System;
 use crate::value::Bytes;
 
@@ -155,9 +154,7 @@ impl Interpreter {
             };
             // A variable may be given before it is defined: it receives the result.
             let v = match v {
-                Err(e) if a.var.is_some() && matches!(*e, RuntimeError::Undefined(_)) => {
-                    ArgVal::Undefined
-                }
+                Err(e) if a.var.is_some() && e.is_undefined() => ArgVal::Undefined,
                 v => v?,
             };
             let target = match &a.var {

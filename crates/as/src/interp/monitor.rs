@@ -23,7 +23,7 @@ impl Interpreter {
         robot: bool,
     ) -> R<Flow> {
         if robot {
-            return Err(Box::new(RuntimeError::WrongTask(
+            return Err(Box::new(RuntimeError::PcOnly(
                 "EXECUTE/MC is allowed only in PC programs".into(),
             )));
         }

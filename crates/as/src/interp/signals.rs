@@ -48,7 +48,7 @@ impl Interpreter {
         Ok(Flow::Shared)
     }
 
-    /// An output or internal signal number from a statement (E0105 otherwise).
+    /// An output or internal signal number from a statement (E0106 otherwise).
     fn output_number(
         &mut self,
         i: TaskSlot,
@@ -65,7 +65,7 @@ impl Interpreter {
         Ok(s)
     }
 
-    /// A time in seconds from a statement: finite and not negative (E0105 otherwise).
+    /// A time in seconds from a statement: finite and not negative (E0106 otherwise).
     fn seconds(&mut self, i: TaskSlot, e: &RExpr, sys: &mut dyn System, what: &str) -> R<Ns> {
         let t = self.eval_r(i, e, sys)?;
         if !(t.is_finite() && t >= 0.0) {
@@ -276,7 +276,7 @@ impl Interpreter {
         robot: bool,
     ) -> R<Flow> {
         if *immediate && !robot {
-            return Err(Box::new(RuntimeError::WrongTask(
+            return Err(Box::new(RuntimeError::RobotOnly(
                 "ONI is allowed only in robot programs".into(),
             )));
         }

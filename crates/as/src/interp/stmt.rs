@@ -322,7 +322,7 @@ impl Interpreter {
             } => self.pc_execute_stmt(i, task, program, args, cycles, sys, code)?,
             Op::PcAbort(task) => self.pc_abort(i, task, sys)?,
             Op::McAbort | Op::McHold | Op::McContinue | Op::McSpeed(_) | Op::McEreset if robot => {
-                return Err(Box::new(RuntimeError::WrongTask(
+                return Err(Box::new(RuntimeError::PcOnly(
                     "MC is allowed only in PC programs".into(),
                 )));
             }
@@ -421,7 +421,7 @@ impl Interpreter {
         if robot {
             Ok(())
         } else {
-            Err(Box::new(RuntimeError::WrongTask(format!(
+            Err(Box::new(RuntimeError::RobotOnly(format!(
                 "{what} is allowed only in robot programs"
             ))))
         }

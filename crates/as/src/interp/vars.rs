@@ -178,7 +178,11 @@ impl Interpreter {
             let v: Vec<String> = idx.iter().map(|x| x.to_string()).collect();
             s.push_str(&format!("[{}]", v.join(",")));
         }
-        Box::new(RuntimeError::Undefined(s))
+        Box::new(match ty {
+            Ty::Real => RuntimeError::Undefined(s),
+            Ty::Str => RuntimeError::StringUndefined(s),
+            Ty::Joint | Ty::Trans => RuntimeError::LocationUndefined(s),
+        })
     }
 
     pub(super) fn count_element(&mut self, created: bool) -> R<()> {

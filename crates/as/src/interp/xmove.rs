@@ -59,7 +59,7 @@ impl Interpreter {
         Ok(Some(Wait::Till))
     }
 
-    /// Whether the `TILL` signal is in the state asked (E0105 for an illegal number).
+    /// Whether the `TILL` signal is in the state asked (E0106 for an illegal number).
     fn till_met(&mut self, i: TaskSlot, till: &RExpr, sys: &mut dyn System) -> R<bool> {
         let s = signal_number(self.eval_r(i, till, sys)?);
         if s == 0 || !Self::signal_number_ok(s, false) {

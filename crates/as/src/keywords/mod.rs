@@ -17,7 +17,7 @@
 //!
 //! **Load policy.** A program line whose instruction is in this table but not run by the
 //! emulator, or whose first word is in no table at all, loads as *not emulated*: its syntax is
-//! checked, it is listed as a warning, and a task that reaches it stops with E0111 (or goes on,
+//! checked, it is listed as a warning, and a task that reaches it stops with E0199 (or goes on,
 //! when the user stubs it). docs/AS.md explains the policy.
 
 mod table;

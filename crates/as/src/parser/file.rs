@@ -80,7 +80,7 @@ impl<'a> FileParser<'a> {
                 } else {
                     format!(" (--stub {word} makes it a no-op)")
                 };
-                format!("{instr} loads but is not emulated{times}: a task that reaches it stops with E0111{stub}")
+                format!("{instr} loads but is not emulated{times}: a task that reaches it stops with {}{stub}", crate::error::NOT_EMULATED)
             };
             self.warnings.push(ParseError::new(self.file, span, msg));
         }
@@ -365,7 +365,7 @@ impl<'a> FileParser<'a> {
                     StmtKind::Case { selector, arms }
                 }
                 // A stray END with no block open: kept, as controllers save it, and not
-                // emulated (a task that reaches it stops with E0111).
+                // emulated (a task that reaches it stops with E0199).
                 LineKind::End if opener.is_empty() => {
                     self.note_not_emulated("END without an open block", span, false);
                     StmtKind::NotEmulated {

@@ -10,7 +10,6 @@
 
 use std::time::Duration;
 
-use fs020n_as::error::CIRCLE_NOT_DEFINED;
 use fs020n_as::flange;
 use fs020n_as::sockets::{SocketTable, TcpCode};
 use fs020n_as::{
@@ -181,14 +180,14 @@ impl Host<'_> {
             }
             MotionKind::Circular => {
                 let Some(via) = req.via else {
-                    return Err(CIRCLE_NOT_DEFINED);
+                    return Err(ErrorCode::C1MOVE_REQUIRED_BEFORE_C2MOVE);
                 };
                 let duration_of = |length_mm| self.tool_path_duration(req, length_mm);
                 match CircularPath::plan(model, from, &flange::pose_of(&via), target, duration_of) {
                     Ok(p) => Shape::Circular(p),
                     Err(CircularPlanError::NoCircle(e)) => {
-                        tracing::warn!(%e, "E0112: circular motion not defined");
-                        return Err(CIRCLE_NOT_DEFINED);
+                        tracing::warn!(%e, "E1099: the three points of the arc define no circle");
+                        return Err(ErrorCode::NO_ARC_THROUGH_POINTS);
                     }
                     Err(CircularPlanError::Unreachable) => {
                         tracing::warn!(%target, "E1088: no circular path to the destination");

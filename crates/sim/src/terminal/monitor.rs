@@ -333,7 +333,7 @@ impl ControllerMonitor<'_> {
         if let Some(name) = expr.strip_prefix('$') {
             return match interp.string(name) {
                 Some(b) => lines([String::from_utf8_lossy(&b).into_owned()]),
-                None => undefined(),
+                None => lines([format!("(E0104) String variable not defined: {expr}")]),
             };
         }
         let (name, idx) = match expr.split_once('[') {
