@@ -1168,7 +1168,10 @@ fn abort_lets_the_arm_finish_its_motion_and_the_one_planned_then_the_program_sto
     assert_eq!(t.cmd("EXECUTE three", false), "");
     t.advance(Duration::from_millis(300));
     let moving = t.c.joints().0;
-    assert!(moving[0] > 0.5 && moving[0] < 19.5, "on the way to #a: {moving:?}");
+    assert!(
+        moving[0] > 0.5 && moving[0] < 19.5,
+        "on the way to #a: {moving:?}"
+    );
     assert_eq!(t.cmd("ABORT", false), "");
     // The step in progress (JMOVE #b, waiting to be planned) completes: still running.
     assert_eq!(t.cmd("TYPE TASK (1)", false), "1");
@@ -1177,6 +1180,9 @@ fn abort_lets_the_arm_finish_its_motion_and_the_one_planned_then_the_program_sto
     let end = t.c.joints().0;
     let b = [20.0, 20.0, 0.0, 0.0, -30.0, 0.0];
     for k in 0..6 {
-        assert!((end[k] - b[k]).abs() < 0.01, "stopped at #b, not braked nor at #c: {end:?}");
+        assert!(
+            (end[k] - b[k]).abs() < 0.01,
+            "stopped at #b, not braked nor at #c: {end:?}"
+        );
     }
 }
