@@ -20,7 +20,7 @@
 //! included — moves it between ≈ 0.09° and ≈ 0.16° on the circle. Off by default; kept as an
 //! option for a controller whose pipeline does round the path steadily.
 
-use fs020n_proto::JOINT_COUNT;
+use fs020n_proto::{JointsDeg, JOINT_COUNT};
 use serde::Serialize;
 
 use crate::trajectory::{Trajectory, TrajectorySample};
@@ -104,17 +104,26 @@ impl CurvatureCompensation {
     }
 }
 
+/// Fastest change of a joint's correction, degrees per second: a path whose acceleration
+/// jumps (a bang-bang profile) asks for a correction that jumps by `2 · g · Δp̈`; limited to
+/// this rate, the correction adds at most `rate × period` to the step between two samples.
+pub(crate) const CORRECTION_RATE_DEG_S: f64 = 5.0;
+
 /// `sample` (the trajectory's at `t`) corrected by the gain `gain_s2`: position
 /// `p − g · D²p`, velocity `v − g · D²v`, acceleration unchanged (its own second difference
 /// is the spline's noise), with `D²` the central second difference over [`DIFF_STEP_S`]. Each
-/// joint's position correction is bounded by `max_deg`; its velocity correction is scaled
-/// down with it.
+/// joint's position correction is bounded by `max_deg`, and moves from `previous` (the
+/// correction of the sample sent before, `sent − plain`) by at most `max_change_deg`; the
+/// velocity correction is scaled down with it. A gain of 0 brings the correction back to 0
+/// at that rate.
 pub(crate) fn corrected(
     trajectory: &Trajectory,
     t: f64,
     sample: &TrajectorySample,
     gain_s2: f64,
     max_deg: f64,
+    previous: &JointsDeg,
+    max_change_deg: f64,
 ) -> TrajectorySample {
     let gain = if gain_s2.is_finite() {
         gain_s2.clamp(0.0, CurvatureCompensation::LIMIT_S2)
@@ -126,9 +135,11 @@ pub(crate) fn corrected(
     } else {
         0.0
     };
-    if gain == 0.0 || max_deg == 0.0 {
-        return *sample;
-    }
+    let max_change = if max_change_deg.is_finite() {
+        max_change_deg.max(0.0)
+    } else {
+        0.0
+    };
     let h = DIFF_STEP_S;
     let (before, after) = (trajectory.sample(t - h), trajectory.sample(t + h));
     let here = trajectory.sample(t);
@@ -136,15 +147,25 @@ pub(crate) fn corrected(
     for j in 0..JOINT_COUNT {
         let dp = gain * (before.position[j] - 2.0 * here.position[j] + after.position[j]) / (h * h);
         let dv = gain * (before.velocity[j] - 2.0 * here.velocity[j] + after.velocity[j]) / (h * h);
-        if !dp.is_finite() || !dv.is_finite() {
-            return *sample;
-        }
-        let scale = if dp.abs() > max_deg {
-            max_deg / dp.abs()
+        let (dp, dv) = if dp.is_finite() && dv.is_finite() {
+            (dp, dv)
         } else {
-            1.0
+            (0.0, 0.0)
         };
-        out.position[j] -= dp * scale;
+        // the correction asked for (subtracted from the position), bounded
+        let want = (-dp).clamp(-max_deg, max_deg);
+        let prev = if previous[j].is_finite() {
+            previous[j].clamp(-max_deg, max_deg)
+        } else {
+            0.0
+        };
+        let c = want.clamp(prev - max_change, prev + max_change);
+        let scale = if dp != 0.0 {
+            (c / -dp).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        out.position[j] += c;
         out.velocity[j] -= dv * scale;
     }
     out
@@ -154,7 +175,6 @@ pub(crate) fn corrected(
 mod tests {
     use super::*;
     use crate::trajectory::TrajectoryPoint;
-    use fs020n_proto::JointsDeg;
 
     /// JT1 on a sine of `amp_deg` and `omega` rad/s for 6 s, 10 ms apart.
     fn sine(amp_deg: f64, omega: f64) -> Trajectory {
@@ -186,7 +206,7 @@ mod tests {
         // at the crest: p = amp, p̈ = −amp·ω²; corrected p = amp·(1 + g·ω²)
         let t = std::f64::consts::FRAC_PI_2 / omega + 2.0 * std::f64::consts::PI / omega;
         let s = traj.sample(t);
-        let c = corrected(&traj, t, &s, gain, 1.0);
+        let c = corrected(&traj, t, &s, gain, 1.0, &JointsDeg::ZERO, 10.0);
         let want = amp * (1.0 + gain * omega * omega);
         assert!(
             (c.position[0] - want).abs() < 2e-3,
@@ -195,7 +215,15 @@ mod tests {
         );
         // the velocity is boosted consistently where the sine crosses zero
         let t0 = 2.0 * std::f64::consts::PI / omega;
-        let c0 = corrected(&traj, t0, &traj.sample(t0), gain, 1.0);
+        let c0 = corrected(
+            &traj,
+            t0,
+            &traj.sample(t0),
+            gain,
+            1.0,
+            &JointsDeg::ZERO,
+            10.0,
+        );
         let want_v = amp * omega * (1.0 + gain * omega * omega);
         assert!(
             (c0.velocity[0] - want_v).abs() < 0.02,
@@ -215,23 +243,57 @@ mod tests {
         let s = traj.sample(t);
         // an absurd gain is clamped to LIMIT_S2, then the correction to max_deg
         for gain in [1.0, f64::INFINITY, 0.02] {
-            let c = corrected(&traj, t, &s, gain, 0.25);
+            let c = corrected(&traj, t, &s, gain, 0.25, &JointsDeg::ZERO, 10.0);
             let d = c.position.max_abs_diff(&s.position);
             assert!(d <= 0.25 + 1e-12, "gain {gain}: corrected by {d}°");
         }
-        assert_eq!(corrected(&traj, t, &s, f64::NAN, 1.0), s);
         assert_eq!(
-            corrected(&traj, t, &s, -0.01, 1.0),
+            corrected(&traj, t, &s, f64::NAN, 1.0, &JointsDeg::ZERO, 10.0),
+            s
+        );
+        assert_eq!(
+            corrected(&traj, t, &s, -0.01, 1.0, &JointsDeg::ZERO, 10.0),
             s,
             "a negative gain is zero"
         );
-        assert_eq!(corrected(&traj, t, &s, 0.01, f64::NAN), s);
+        assert_eq!(
+            corrected(&traj, t, &s, 0.01, f64::NAN, &JointsDeg::ZERO, 10.0),
+            s
+        );
         // an absurd bound is clamped to MAX_CORRECTION_DEG
-        let c = corrected(&traj, t, &s, 0.02, 100.0);
+        let c = corrected(&traj, t, &s, 0.02, 100.0, &JointsDeg::ZERO, 10.0);
         assert!(
             c.position.max_abs_diff(&s.position)
                 <= CurvatureCompensation::MAX_CORRECTION_DEG + 1e-12
         );
+    }
+
+    #[test]
+    fn the_correction_moves_from_the_previous_one_at_most_by_the_change_allowed() {
+        let traj = sine(10.0, 6.0);
+        let t = std::f64::consts::FRAC_PI_2 / 6.0 + 1.0 + std::f64::consts::TAU / 6.0;
+        let s = traj.sample(t);
+        // at the crest the full correction is +0.02 · 360 → bounded to 1°; from 0 it moves
+        // 0.1° only
+        let c = corrected(&traj, t, &s, 0.02, 1.0, &JointsDeg::ZERO, 0.1);
+        assert!(
+            (c.position[0] - s.position[0] - 0.1).abs() < 1e-9,
+            "{}",
+            c.position[0]
+        );
+        // with no gain it returns toward 0 from where it was, at the same rate
+        let mut prev = JointsDeg::ZERO;
+        prev[0] = 0.8;
+        let back = corrected(&traj, t, &s, 0.0, 1.0, &prev, 0.1);
+        assert!((back.position[0] - s.position[0] - 0.7).abs() < 1e-9);
+        assert_eq!(
+            back.velocity, s.velocity,
+            "no velocity correction without a gain"
+        );
+        // a previous correction beyond the bound is taken at the bound
+        prev[0] = 50.0;
+        let c = corrected(&traj, t, &s, 0.0, 1.0, &prev, 0.1);
+        assert!((c.position[0] - s.position[0] - 0.9).abs() < 1e-9);
     }
 
     #[test]

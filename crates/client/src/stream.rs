@@ -14,7 +14,7 @@ use tokio::time::Instant;
 
 use crate::check::check_target;
 use crate::clock::ClockFit;
-use crate::curvature::{corrected, CurvatureCompensation};
+use crate::curvature::{corrected, CurvatureCompensation, CORRECTION_RATE_DEG_S};
 use crate::error::{Activity, ClientError, LinkError};
 use crate::lag::{LagCompensation, LagEstimator};
 use crate::motion::{only_held, LONGEST_WAIT};
@@ -570,7 +570,19 @@ impl Streamer {
         s: &TrajectorySample,
         t0_s: Option<f64>,
     ) -> Result<Command, ClientError> {
-        check_target(&self.model, &s.position)?;
+        self.command_within(&self.model, tau, s, t0_s)
+    }
+
+    /// [`command_for`](Self::command_for) against `model` (the robot's, or its ranges shrunk
+    /// for a curvature-corrected sample).
+    fn command_within(
+        &self,
+        model: &RobotModel,
+        tau: f64,
+        s: &TrajectorySample,
+        t0_s: Option<f64>,
+    ) -> Result<Command, ClientError> {
+        check_target(model, &s.position)?;
         Ok(match self.options.mode {
             StreamMode::Extrapolated { lookahead_passes } => {
                 let t0_s = t0_s.ok_or(ClientError::NoServerClock)?;
@@ -581,7 +593,7 @@ impl Streamer {
                     velocity: s.velocity,
                     acceleration: s.acceleration,
                 };
-                check_stream_sample(&self.model, &sample).map_err(|error| {
+                check_stream_sample(model, &sample).map_err(|error| {
                     ClientError::Trajectory(TrajectoryError::Sample { time_s: tau, error })
                 })?;
                 Command::StreamedMove(sample)
@@ -649,6 +661,21 @@ impl Streamer {
         let mut local_start = Instant::now();
         let mut last_sent: Option<Instant> = None;
         let mut prev_pos = self.trajectory.first();
+        // The curvature correction of the sample sent last (sent − plain), degrees.
+        let mut correction = JointsDeg::ZERO;
+        // A corrected sample must stay the correction's bound inside the ranges (over the
+        // whole extrapolation window): it never brings a target closer to a limit than the
+        // plain samples could be, where rounding would decide.
+        let boost_model = {
+            let margin = self.options.curvature_compensation.max_deg();
+            let mut m = self.model.clone();
+            for joint in &mut m.joints {
+                let mid = 0.5 * (joint.min_deg + joint.max_deg);
+                joint.min_deg = (joint.min_deg + margin).min(mid);
+                joint.max_deg = (joint.max_deg - margin).max(mid);
+            }
+            m
+        };
         let mut rtt_est = self.link.latest().rtt;
         let mut next_due: Option<Instant> = None;
         // The timers of the next sample and of the one after it, used in turn (see below).
@@ -714,23 +741,44 @@ impl Streamer {
             // point): the corrected sample is sent only if it passes every check the plain one
             // must pass (ranges, the extrapolation window, the step); otherwise the plain one.
             let gain = self.options.curvature_compensation.gain_s2();
+            let plain = sample;
             let boosted = match self.options.mode {
-                StreamMode::Extrapolated { .. } if !last && gain > 0.0 => {
+                StreamMode::Extrapolated { .. }
+                    if !last && (gain > 0.0 || correction != JointsDeg::ZERO) =>
+                {
                     let max_deg = self.options.curvature_compensation.max_deg();
-                    let c = corrected(&self.trajectory, tau, &sample, gain, max_deg);
-                    (c.position.max_abs_diff(&prev_pos) <= allowed_step)
-                        .then(|| self.command_for(tau, &c, t0_s).ok().map(|cmd| (c, cmd)))
-                        .flatten()
+                    let max_change = CORRECTION_RATE_DEG_S * period_s;
+                    // the boost asked for; else back toward the plain sample at the same rate
+                    [gain, 0.0].into_iter().find_map(|g| {
+                        let c = corrected(
+                            &self.trajectory,
+                            tau,
+                            &plain,
+                            g,
+                            max_deg,
+                            &correction,
+                            max_change,
+                        );
+                        if c.position.max_abs_diff(&prev_pos) > allowed_step {
+                            return None;
+                        }
+                        self.command_within(&boost_model, tau, &c, t0_s)
+                            .ok()
+                            .map(|cmd| (c, cmd))
+                    })
                 }
                 _ => None,
             };
             let (sample, command) = match boosted {
                 Some((c, cmd)) => (c, Ok(cmd)),
                 None => {
-                    let command = self.command_for(tau, &sample, t0_s);
-                    (sample, command)
+                    let command = self.command_for(tau, &plain, t0_s);
+                    (plain, command)
                 }
             };
+            for j in 0..JOINT_COUNT {
+                correction[j] = sample.position[j] - plain.position[j];
+            }
             let step = sample.position.max_abs_diff(&prev_pos);
             if step > allowed_step + 1e-9 {
                 let joint = (0..JOINT_COUNT)
