@@ -34,9 +34,10 @@ const DIFF_STEP_S: f64 = 0.02;
 /// pipeline: samples sent at `p − g · p̈` (position) and `v − g · v̈` (velocity), each joint's
 /// correction bounded. Default `Off`: on the emulated controller it made tracking worse
 /// (docs/PERFORMANCE.md, "Where command 7's error comes from").
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
 pub enum CurvatureCompensation {
-    /// No correction: the samples are the trajectory's (only the lead, if any, applies).
+    /// No correction (default): the samples are the trajectory's (only the lead, if any, applies).
+    #[default]
     Off,
     /// A fixed gain `g`, seconds², with each joint's correction bounded by `max_deg`.
     Fixed {
@@ -46,12 +47,6 @@ pub enum CurvatureCompensation {
         /// [`MAX_CORRECTION_DEG`](CurvatureCompensation::MAX_CORRECTION_DEG)).
         max_deg: f64,
     },
-}
-
-impl Default for CurvatureCompensation {
-    fn default() -> Self {
-        CurvatureCompensation::Off
-    }
 }
 
 impl CurvatureCompensation {
