@@ -6,18 +6,20 @@
 //! low-pass filter: a curved path is rounded inward, by about `g · p̈` for a trajectory `p` with
 //! acceleration `p̈` and a constant `g` of the pipeline (seconds²). A pure time shift changes
 //! the phase, never the magnitude; commanding `p − g · p̈` instead of `p` (with the velocity
-//! and acceleration of the sample changed consistently) cancels that rounding to first order.
+//! of the sample changed consistently) cancels that rounding to first order.
 //!
-//! The gain `g` is fixed by the caller. The correction is bounded twice — the gain by
-//! [`CurvatureCompensation::LIMIT_S2`], each joint's correction in degrees — and a corrected
-//! sample is still checked like every other (joint ranges, the step between samples,
-//! [`check_stream_sample`](crate::check_stream_sample) over the whole window the controller can
-//! extrapolate it to); one that would fail is sent uncorrected instead.
+//! The gain `g` is fixed by the caller. The correction is bounded — the gain by
+//! [`CurvatureCompensation::LIMIT_S2`], each joint's correction in degrees, its change by
+//! [`CORRECTION_RATE_DEG_S`] — and a corrected sample is checked like every other (the step
+//! between samples, the joint ranges and [`check_stream_sample`](crate::check_stream_sample)
+//! over the whole window the controller can extrapolate it to), with the ranges shrunk by the
+//! correction's bound; one that fails is replaced by the correction returning toward zero at
+//! that rate, and if that fails too, by the plain sample.
 //!
 //! Measured on the emulated controller (docs/PERFORMANCE.md), it does not help: the error left
-//! after the online lead is not a steady rounding but depends on the phase of the ~0.1 s
-//! motion passes against the samples, and any change to the samples — this correction
-//! included — moves it between ≈ 0.09° and ≈ 0.16° on the circle. Off by default; kept as an
+//! after the online lead is not a steady rounding but lies where the fast arm makes the motion
+//! program wait for ACCURACY, and any change to the samples — this correction included — moves
+//! it between ≈ 0.09° and ≈ 0.16° on the circle with the phase of the passes. Off by default; kept as an
 //! option for a controller whose pipeline does round the path steadily.
 
 use fs020n_proto::{JointsDeg, JOINT_COUNT};
@@ -25,8 +27,8 @@ use serde::Serialize;
 
 use crate::trajectory::{Trajectory, TrajectorySample};
 
-/// Half-width of the central differences that give the trajectory's acceleration, jerk and
-/// snap for the correction, seconds (one sample period at 50 Hz: smooths the spline's
+/// Half-width of the central second differences of the trajectory's positions and velocities
+/// for the correction, seconds (one sample period at 50 Hz: smooths the spline's
 /// piecewise-linear acceleration without blurring the path's own curvature).
 const DIFF_STEP_S: f64 = 0.02;
 
@@ -51,7 +53,7 @@ pub enum CurvatureCompensation {
 
 impl CurvatureCompensation {
     /// Largest gain accepted, seconds²: a second-order low-pass of 0.1 s has `g` = 0.01 s²;
-    /// a gain this size already corrects 1° at 100°/s².
+    /// a gain this size corrects 2° at 100°/s².
     pub const LIMIT_S2: f64 = 0.02;
     /// Largest per-joint correction accepted, degrees.
     pub const MAX_CORRECTION_DEG: f64 = 2.0;

@@ -739,7 +739,9 @@ impl Streamer {
             let t0_s = self.server_time(stamp_at);
             // Curvature compensation (command 7, not the last sample, which holds the end
             // point): the corrected sample is sent only if it passes every check the plain one
-            // must pass (ranges, the extrapolation window, the step); otherwise the plain one.
+            // must pass (the step; the ranges, over the extrapolation window, shrunk by the
+            // correction's bound); otherwise the correction returning toward zero, otherwise
+            // the plain sample.
             let gain = self.options.curvature_compensation.gain_s2();
             let plain = sample;
             let boosted = match self.options.mode {
