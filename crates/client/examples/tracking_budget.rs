@@ -11,6 +11,10 @@
 //! pipeline would give); a sweep of fixed leads; at 250 Hz; the waypoints (command 6) it is compared with; and the
 //! floors computed from the trajectory: the 0.001° resolution of the reply's joints and the
 //! 1 ms resolution of its TIMER(1), by which the report finds the trajectory's time of each reply.
+//! Last, the default and the boost over four start phases against the controller's 4 ms pass
+//! loop: a single run's figure depends on that phase (the circle at 50 Hz: 0.091–0.157°).
+//! Rows with a fixed curvature boost (`CurvatureCompensation::Fixed`, off by default) show what
+//! a feed-forward on the path's acceleration does on both paths.
 //! Then the same comparison on a second, faster path (a figure eight), so that a change is
 //! judged on more than the circle.
 
@@ -18,8 +22,8 @@ use std::time::Duration;
 
 use fs020n_client::emulated::{ControllerConfig, Emulator, EmulatorConnector};
 use fs020n_client::{
-    ClientConfig, ClientError, JointsDeg, LagCompensation, Robot, StreamMode, StreamOptions,
-    StreamReport, Trajectory, TrajectoryPoint,
+    ClientConfig, ClientError, CurvatureCompensation, JointsDeg, LagCompensation, Robot,
+    StreamMode, StreamOptions, StreamReport, Trajectory, TrajectoryPoint,
 };
 
 fn circle() -> Result<Trajectory, Box<dyn std::error::Error>> {
@@ -68,14 +72,28 @@ async fn run(
     lag: LagCompensation,
     period: Duration,
 ) -> Result<StreamReport, Box<dyn std::error::Error>> {
-    Ok(run_path(circle()?, mode, lag, period).await?)
+    Ok(run_path(circle()?, mode, lag, CurvatureCompensation::Off, period).await?)
 }
 
 async fn run_path(
     path: Trajectory,
     mode: StreamMode,
     lag: LagCompensation,
+    curvature: CurvatureCompensation,
     period: Duration,
+) -> Result<StreamReport, ClientError> {
+    run_phase(path, mode, lag, curvature, period, Duration::ZERO).await
+}
+
+/// One run, the stream started `phase` later than the others: the controller's motion
+/// program passes every 4 ms, so a start 1, 2 or 3 ms later meets its passes at another phase.
+async fn run_phase(
+    path: Trajectory,
+    mode: StreamMode,
+    lag: LagCompensation,
+    curvature: CurvatureCompensation,
+    period: Duration,
+    phase: Duration,
 ) -> Result<StreamReport, ClientError> {
     let emulator = Emulator::new(ControllerConfig::default());
     let robot =
@@ -85,22 +103,53 @@ async fn run_path(
     let options = StreamOptions {
         mode,
         lag_compensation: lag,
+        curvature_compensation: curvature,
         period,
         ..StreamOptions::default()
     };
+    tokio::time::sleep(phase).await;
     let report = robot.stream(path, options).await?.wait().await?;
     robot.close().await?;
     Ok(report)
 }
 
+/// rms error over the four start phases against the 4 ms pass loop (1 ms apart, the
+/// resolution of TIMER(1)): mean, least, largest. A single run is one draw of these.
+async fn over_phases(
+    path: fn() -> Result<Trajectory, Box<dyn std::error::Error>>,
+    mode: StreamMode,
+    lag: LagCompensation,
+    curvature: CurvatureCompensation,
+    period: Duration,
+) -> Result<(f64, f64, f64), Box<dyn std::error::Error>> {
+    let mut rms = Vec::new();
+    for ms in 0..4u64 {
+        let r = run_phase(
+            path()?,
+            mode,
+            lag,
+            curvature,
+            period,
+            Duration::from_millis(ms),
+        )
+        .await?;
+        rms.push(r.tracking_error_rms_deg);
+    }
+    let mean = rms.iter().sum::<f64>() / rms.len() as f64;
+    let min = rms.iter().copied().fold(f64::INFINITY, f64::min);
+    let max = rms.iter().copied().fold(0.0, f64::max);
+    Ok((mean, min, max))
+}
+
 fn row(name: &str, r: &StreamReport) {
     println!(
-        "{name:<58} rms {:.4}°  max {:.4}°  lag {:>7}  lead {:.1} ms",
+        "{name:<62} rms {:.4}°  max {:.4}°  lag {:>7}  lead {:.1} ms  gain {:.4} s²",
         r.tracking_error_rms_deg,
         r.tracking_error_max_deg,
         r.lag_s
             .map_or("-".to_string(), |l| format!("{:.1} ms", l * 1e3)),
-        r.lead_s * 1e3
+        r.lead_s * 1e3,
+        r.curvature_gain_s2
     );
 }
 
@@ -112,19 +161,23 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
     let p50 = Duration::from_millis(20);
     let p250 = Duration::from_millis(4);
     let online = LagCompensation::default();
+    // The curvature boost that fared best on the circle in the sweep below.
+    let curved = CurvatureCompensation::Fixed {
+        gain_s2: 0.002,
+        max_deg: 1.0,
+    };
+    let flat = CurvatureCompensation::Off;
 
     let base = run(look, online, p50).await?;
-    row(
-        "command 7, 50 Hz, lead estimated online (the default)",
-        &base,
-    );
+    row("command 7, 50 Hz, lead online (the default)", &base);
+    let lead_only = base.clone();
     let off = run(look, LagCompensation::Off, p50).await?;
-    row("command 7, 50 Hz, no lead", &off);
+    row("command 7, 50 Hz, no lead, curvature off", &off);
     let lag = Duration::from_secs_f64(off.lag_s.unwrap_or(0.0).clamp(0.0, 0.5));
     let oracle = run(look, LagCompensation::Fixed(lag), p50).await?;
     row("command 7, 50 Hz, lead fixed at the measured lag", &oracle);
     // The error against a fixed lead: where its minimum lies, and how flat it is.
-    for lead_ms in [30u64, 36, 42, 48, 54] {
+    for lead_ms in [30u64, 42, 54] {
         let r = run(
             look,
             LagCompensation::Fixed(Duration::from_millis(lead_ms)),
@@ -133,13 +186,29 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
         .await?;
         row(&format!("command 7, 50 Hz, lead fixed at {lead_ms} ms"), &r);
     }
-    let fast = run(look, online, p250).await?;
-    row("command 7, 250 Hz, lead estimated online", &fast);
-    let fast_oracle = run(look, LagCompensation::Fixed(lag), p250).await?;
+    // The error against a fixed curvature gain, with the lead online.
+    for gain_s2 in [0.001, 0.002, 0.004, 0.006] {
+        let fixed = CurvatureCompensation::Fixed {
+            gain_s2,
+            max_deg: 1.0,
+        };
+        let r = run_path(circle()?, look, online, fixed, p50).await?;
+        row(
+            &format!("command 7, 50 Hz, lead online, gain fixed at {gain_s2} s²"),
+            &r,
+        );
+    }
+    let fast_lead_only = run(look, online, p250).await?;
     row(
-        "command 7, 250 Hz, lead fixed at the measured lag",
-        &fast_oracle,
+        "command 7, 250 Hz, lead online (the default)",
+        &fast_lead_only,
     );
+    let fast = run_path(circle()?, look, online, curved, p250).await?;
+    row(
+        "command 7, 250 Hz, lead online, gain fixed at 0.002 s²",
+        &fast,
+    );
+    let boosted = run_path(circle()?, look, online, curved, p50).await?;
     let waypoints = run(StreamMode::Waypoints, LagCompensation::Off, p50).await?;
     row("command 6 waypoints, 50 Hz", &waypoints);
 
@@ -163,37 +232,76 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let timer_floor = (sq / f64::from(n.max(1))).sqrt();
     println!(
-        "{:<58} rms {:.4}°",
+        "{:<62} rms {:.4}°",
         "floor: reply joints rounded to 0.001°",
         0.001 / 12f64.sqrt()
     );
     println!(
-        "{:<58} rms {:.4}°",
+        "{:<62} rms {:.4}°",
         "floor: TIMER(1) in whole milliseconds (±0.5 ms)", timer_floor
     );
     // The same comparison on another path, so that a choice is not tuned to the circle.
-    let eight_stream = run_path(figure_eight()?, look, online, p50).await?;
-    row("figure eight: command 7, 50 Hz, lead online", &eight_stream);
-    let eight_fast = run_path(figure_eight()?, look, online, p250).await?;
-    row("figure eight: command 7, 250 Hz, lead online", &eight_fast);
+    let e50_flat = run_path(figure_eight()?, look, online, flat, p50).await?;
+    row(
+        "figure eight: command 7, 50 Hz, lead online (default)",
+        &e50_flat,
+    );
+    let e250_flat = run_path(figure_eight()?, look, online, flat, p250).await?;
+    row(
+        "figure eight: command 7, 250 Hz, lead online (default)",
+        &e250_flat,
+    );
+    let e50 = run_path(figure_eight()?, look, online, curved, p50).await?;
+    row(
+        "figure eight: command 7, 50 Hz, gain fixed at 0.002 s²",
+        &e50,
+    );
+    let e250 = run_path(figure_eight()?, look, online, curved, p250).await?;
+    row(
+        "figure eight: command 7, 250 Hz, gain fixed at 0.002 s²",
+        &e250,
+    );
     let eight_waypoints = run_path(
         figure_eight()?,
         StreamMode::Waypoints,
         LagCompensation::Off,
+        flat,
         p50,
     )
     .await?;
     row("figure eight: command 6 waypoints, 50 Hz", &eight_waypoints);
+    let ratio =
+        |r: &StreamReport, w: &StreamReport| r.tracking_error_rms_deg / w.tracking_error_rms_deg;
     println!(
-        "figure eight, ratio command 7 ÷ command 6: 50 Hz {:.3}, 250 Hz {:.3}",
-        eight_stream.tracking_error_rms_deg / eight_waypoints.tracking_error_rms_deg,
-        eight_fast.tracking_error_rms_deg / eight_waypoints.tracking_error_rms_deg
+        "circle, ratio command 7 ÷ command 6: default 50 Hz {:.3}, 250 Hz {:.3}; gain 0.002 s² 50 Hz {:.3}, 250 Hz {:.3}",
+        ratio(&lead_only, &waypoints),
+        ratio(&fast_lead_only, &waypoints),
+        ratio(&boosted, &waypoints),
+        ratio(&fast, &waypoints),
     );
     println!(
-        "ratio command 7 ÷ command 6: default {:.3}, lead fixed {:.3}, 250 Hz {:.3}",
-        base.tracking_error_rms_deg / waypoints.tracking_error_rms_deg,
-        oracle.tracking_error_rms_deg / waypoints.tracking_error_rms_deg,
-        fast.tracking_error_rms_deg / waypoints.tracking_error_rms_deg
+        "figure eight, ratio command 7 ÷ command 6: default 50 Hz {:.3}, 250 Hz {:.3}; gain 0.002 s² 50 Hz {:.3}, 250 Hz {:.3}",
+        ratio(&e50_flat, &eight_waypoints),
+        ratio(&e250_flat, &eight_waypoints),
+        ratio(&e50, &eight_waypoints),
+        ratio(&e250, &eight_waypoints),
     );
+    // The same, over the four start phases against the controller's pass loop: every figure
+    // above is one of four draws.
+    println!("over 4 start phases (0–3 ms later), rms mean (least–largest), ratio of the mean to command 6's:");
+    for (name, path, w) in [
+        ("circle", circle as fn() -> _, &waypoints),
+        ("figure eight", figure_eight as fn() -> _, &eight_waypoints),
+    ] {
+        for (rate, period) in [("50 Hz", p50), ("250 Hz", p250)] {
+            for (what, c) in [("default", flat), ("gain 0.002 s²", curved)] {
+                let (mean, min, max) = over_phases(path, look, online, c, period).await?;
+                println!(
+                    "  {name:<12} {rate:<6} {what:<14} {mean:.4}° ({min:.4}–{max:.4}°)  ratio {:.3}",
+                    mean / w.tracking_error_rms_deg
+                );
+            }
+        }
+    }
     Ok(())
 }

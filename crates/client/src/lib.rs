@@ -48,6 +48,7 @@ pub mod blocking;
 mod check;
 pub mod clock;
 mod config;
+mod curvature;
 mod display;
 #[cfg(feature = "sim")]
 pub mod emulated;
@@ -67,6 +68,7 @@ mod transport;
 
 pub use clock::{ClockFit, ServerClock};
 pub use config::{ClientConfig, RecordFormat, Recording};
+pub use curvature::CurvatureCompensation;
 pub use error::{Activity, Cancellation, ClientError, ErrorKind, LinkError, RawRefusal};
 pub use lag::LagCompensation;
 pub use motion::{Completion, MoveHandle, MoveProgress, MoveReport};

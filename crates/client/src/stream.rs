@@ -14,6 +14,7 @@ use tokio::time::Instant;
 
 use crate::check::check_target;
 use crate::clock::ClockFit;
+use crate::curvature::{corrected, CurvatureCompensation, CORRECTION_RATE_DEG_S};
 use crate::error::{Activity, ClientError, LinkError};
 use crate::lag::{LagCompensation, LagEstimator};
 use crate::motion::{only_held, LONGEST_WAIT};
@@ -71,6 +72,10 @@ pub struct StreamOptions {
     /// How command 7 compensates the controller's tracking lag (ignored for waypoints).
     /// Default: estimated online from the replies, a lead of at most 0.3 s ([`LagCompensation`]).
     pub lag_compensation: LagCompensation,
+    /// Whether command 7 boosts curved paths against the rounding of the controller's pipeline
+    /// (ignored for waypoints). Default `Off`: on the emulated controller a fixed gain made the
+    /// tracking worse, see [`CurvatureCompensation`] and docs/PERFORMANCE.md.
+    pub curvature_compensation: CurvatureCompensation,
 }
 
 impl Default for StreamOptions {
@@ -87,6 +92,7 @@ impl Default for StreamOptions {
             end_timeout: Duration::from_secs(3),
             hold_timeout: None,
             lag_compensation: LagCompensation::default(),
+            curvature_compensation: CurvatureCompensation::default(),
         }
     }
 }
@@ -162,6 +168,13 @@ impl StreamOptions {
                 lead,
                 max: LagCompensation::LIMIT,
             });
+        }
+        if self.curvature_compensation.validate().is_err() {
+            let (gain_s2, max_deg) = match self.curvature_compensation {
+                CurvatureCompensation::Off => (0.0, 0.0),
+                CurvatureCompensation::Fixed { gain_s2, max_deg } => (gain_s2, max_deg),
+            };
+            return Err(OptionError::Curvature { gain_s2, max_deg });
         }
         for (option, timeout) in [
             ("end_timeout", Some(self.end_timeout)),
@@ -254,6 +267,9 @@ pub struct StreamReport {
     pub lag_s: Option<f64>,
     /// The lead command 7 was stamped with at the end, seconds (see [`LagCompensation`]).
     pub lead_s: f64,
+    /// The curvature gain command 7 was corrected with, seconds² (see
+    /// [`CurvatureCompensation`]; 0 when off or for waypoints).
+    pub curvature_gain_s2: f64,
     /// The server-clock estimate at the end (command 7 only).
     #[serde(skip)]
     pub clock: Option<ClockFit>,
@@ -537,6 +553,10 @@ impl Streamer {
             rtt_max: tally.rtt_max,
             lag_s: tally.lag.as_ref().and_then(LagEstimator::apparent_lag_s),
             lead_s: tally.lag.as_ref().map_or(0.0, LagEstimator::lead_s),
+            curvature_gain_s2: match self.options.mode {
+                StreamMode::Extrapolated { .. } => self.options.curvature_compensation.gain_s2(),
+                StreamMode::Waypoints => 0.0,
+            },
             clock: lock(&self.link.shared.clock).fit(),
         })
     }
@@ -550,7 +570,19 @@ impl Streamer {
         s: &TrajectorySample,
         t0_s: Option<f64>,
     ) -> Result<Command, ClientError> {
-        check_target(&self.model, &s.position)?;
+        self.command_within(&self.model, tau, s, t0_s)
+    }
+
+    /// [`command_for`](Self::command_for) against `model` (the robot's, or its ranges shrunk
+    /// for a curvature-corrected sample).
+    fn command_within(
+        &self,
+        model: &RobotModel,
+        tau: f64,
+        s: &TrajectorySample,
+        t0_s: Option<f64>,
+    ) -> Result<Command, ClientError> {
+        check_target(model, &s.position)?;
         Ok(match self.options.mode {
             StreamMode::Extrapolated { lookahead_passes } => {
                 let t0_s = t0_s.ok_or(ClientError::NoServerClock)?;
@@ -561,7 +593,7 @@ impl Streamer {
                     velocity: s.velocity,
                     acceleration: s.acceleration,
                 };
-                check_stream_sample(&self.model, &sample).map_err(|error| {
+                check_stream_sample(model, &sample).map_err(|error| {
                     ClientError::Trajectory(TrajectoryError::Sample { time_s: tau, error })
                 })?;
                 Command::StreamedMove(sample)
@@ -629,6 +661,21 @@ impl Streamer {
         let mut local_start = Instant::now();
         let mut last_sent: Option<Instant> = None;
         let mut prev_pos = self.trajectory.first();
+        // The curvature correction of the sample sent last (sent − plain), degrees.
+        let mut correction = JointsDeg::ZERO;
+        // A corrected sample must stay the correction's bound inside the ranges (over the
+        // whole extrapolation window): it never brings a target closer to a limit than the
+        // plain samples could be, where rounding would decide.
+        let boost_model = {
+            let margin = self.options.curvature_compensation.max_deg();
+            let mut m = self.model.clone();
+            for joint in &mut m.joints {
+                let mid = 0.5 * (joint.min_deg + joint.max_deg);
+                joint.min_deg = (joint.min_deg + margin).min(mid);
+                joint.max_deg = (joint.max_deg - margin).max(mid);
+            }
+            m
+        };
         let mut rtt_est = self.link.latest().rtt;
         let mut next_due: Option<Instant> = None;
         // The timers of the next sample and of the one after it, used in turn (see below).
@@ -683,6 +730,57 @@ impl Streamer {
             } else {
                 self.trajectory.sample_for_streaming(tau, &self.model)
             };
+            let at = local_start + Duration::from_secs_f64((tau - t_begin).max(0.0));
+            // Lag compensation: stamped as if it held `lead` earlier, the sample is extrapolated
+            // that much further by the controller.
+            let lead =
+                Duration::from_secs_f64(tally.lag.as_ref().map_or(0.0, LagEstimator::lead_s));
+            let stamp_at = at.checked_sub(lead).unwrap_or(at);
+            let t0_s = self.server_time(stamp_at);
+            // Curvature compensation (command 7, not the last sample, which holds the end
+            // point): the corrected sample is sent only if it passes every check the plain one
+            // must pass (the step; the ranges, over the extrapolation window, shrunk by the
+            // correction's bound); otherwise the correction returning toward zero, otherwise
+            // the plain sample.
+            let gain = self.options.curvature_compensation.gain_s2();
+            let plain = sample;
+            let boosted = match self.options.mode {
+                StreamMode::Extrapolated { .. }
+                    if !last && (gain > 0.0 || correction != JointsDeg::ZERO) =>
+                {
+                    let max_deg = self.options.curvature_compensation.max_deg();
+                    let max_change = CORRECTION_RATE_DEG_S * period_s;
+                    // the boost asked for; else back toward the plain sample at the same rate
+                    [gain, 0.0].into_iter().find_map(|g| {
+                        let c = corrected(
+                            &self.trajectory,
+                            tau,
+                            &plain,
+                            g,
+                            max_deg,
+                            &correction,
+                            max_change,
+                        );
+                        if c.position.max_abs_diff(&prev_pos) > allowed_step {
+                            return None;
+                        }
+                        self.command_within(&boost_model, tau, &c, t0_s)
+                            .ok()
+                            .map(|cmd| (c, cmd))
+                    })
+                }
+                _ => None,
+            };
+            let (sample, command) = match boosted {
+                Some((c, cmd)) => (c, Ok(cmd)),
+                None => {
+                    let command = self.command_for(tau, &plain, t0_s);
+                    (plain, command)
+                }
+            };
+            for j in 0..JOINT_COUNT {
+                correction[j] = sample.position[j] - plain.position[j];
+            }
             let step = sample.position.max_abs_diff(&prev_pos);
             if step > allowed_step + 1e-9 {
                 let joint = (0..JOINT_COUNT)
@@ -700,13 +798,7 @@ impl Streamer {
                 }
                 .into());
             }
-            let at = local_start + Duration::from_secs_f64((tau - t_begin).max(0.0));
-            // Lag compensation: stamped as if it held `lead` earlier, the sample is extrapolated
-            // that much further by the controller.
-            let lead =
-                Duration::from_secs_f64(tally.lag.as_ref().map_or(0.0, LagEstimator::lead_s));
-            let stamp_at = at.checked_sub(lead).unwrap_or(at);
-            let command = self.command_for(tau, &sample, self.server_time(stamp_at))?;
+            let command = command?;
             let text = Request::new(command).encode()?;
             // The timers are in the runtime's timer wheel before the runtime sleeps for this
             // reply: the next sample's, and the one after it. A timer armed earlier than every

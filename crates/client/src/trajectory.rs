@@ -53,6 +53,15 @@ pub enum OptionError {
         /// The largest lead.
         max: Duration,
     },
+    /// A curvature compensation (`curvature_compensation`) with a gain or a correction bound
+    /// out of range.
+    #[error("curvature_compensation: gain {gain_s2} s² must be from 0 to {} s² and the correction bound {max_deg}° from 0 to {}°", crate::CurvatureCompensation::LIMIT_S2, crate::CurvatureCompensation::MAX_CORRECTION_DEG)]
+    Curvature {
+        /// The gain (or the largest gain) given, seconds².
+        gain_s2: f64,
+        /// The correction bound given, degrees.
+        max_deg: f64,
+    },
     /// A timeout (`end_timeout`, `hold_timeout`) longer than one day.
     #[error("{option} {} must be at most one day", Rounded(*.timeout))]
     Timeout {
