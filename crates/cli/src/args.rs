@@ -491,6 +491,23 @@ pub(crate) struct SimArgs {
     /// (repeatable); e.g. `--signal 1001=1` for a part-present sensor the program waits for.
     #[arg(long = "signal", value_name = "N=0|1", requires = "as_program")]
     pub signals: Vec<String>,
+    /// With --as-program: start a PC program once the ports are served, as the monitor's
+    /// `PCEXECUTE [task:] program[, cycles]` (repeatable), e.g. `--pcexecute "2: comm,-1"`.
+    /// Without it only the file's autostart programs (autostart.pc …) run.
+    #[arg(
+        long = "pcexecute",
+        value_name = "[N:]PROG[,CYCLES]",
+        requires = "as_program"
+    )]
+    pub pc_execute: Vec<String>,
+    /// With --as-program: start the robot program, as the monitor's `EXECUTE program[, cycles]`
+    /// (with its checks: motor power, REPEAT, teach lock, no error).
+    #[arg(
+        long = "execute",
+        value_name = "PROG[,CYCLES]",
+        requires = "as_program"
+    )]
+    pub execute: Option<String>,
     /// The controller's own IP address, as its AS programs see it (a `TCP_CONNECT` or
     /// `UDP_SENDTO` to it reaches its own ports).
     #[arg(long, default_value = "192.168.0.2", value_name = "IPV4")]

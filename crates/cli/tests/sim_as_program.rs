@@ -187,3 +187,122 @@ fn a_signal_that_is_no_input_is_refused() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("input signal 1001–1999"));
 }
+
+/// A cell's server that is no autostart program: `srv` greets whoever connects.
+const GREETER: &str = "\
+.PROGRAM srv() ; greets every client on port 9200
+  TCP_LISTEN .ret, 9200
+  WHILE TRUE DO
+    TCP_ACCEPT .sock, 9200, 60
+    IF .sock >= 0 THEN
+      .$out[1] = \"HELLO\" + $CHR(13) + $CHR(10)
+      IF SIG(1001) THEN
+        .$out[1] = \"HELLO, 1001 IS ON\" + $CHR(13) + $CHR(10)
+      END
+      TCP_SEND .ret, .sock, .$out[1], 1, 5
+      TCP_CLOSE .ret, .sock
+    END
+  END
+.END
+";
+
+/// Starts `fs020n sim` with `args` and returns it with its first stdout lines, up to the
+/// line that says what runs.
+fn sim_until_running(args: &[&str]) -> (std::process::Child, Vec<String>) {
+    let mut child = Command::new(bin())
+        .args(["sim", "--listen", "127.0.0.1:0", "--port-map", "9200=0"])
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let out = BufReader::new(child.stdout.take().unwrap());
+    let mut lines = Vec::new();
+    for line in out.lines().map_while(Result::ok) {
+        let last = line.contains("Ctrl-C");
+        lines.push(line);
+        if last {
+            break;
+        }
+    }
+    (child, lines)
+}
+
+fn stop(mut child: std::process::Child) {
+    let _ = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status();
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        assert!(start.elapsed() < Duration::from_secs(20), "did not stop");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn a_file_without_an_autostart_program_says_that_nothing_runs_and_how_to_start_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("greeter.as");
+    std::fs::write(&file, GREETER).unwrap();
+    let (child, lines) = sim_until_running(&["--as-program", file.to_str().unwrap()]);
+    stop(child);
+    let last = lines.last().cloned().unwrap_or_default();
+    assert!(last.contains("nothing runs"), "{lines:?}");
+    assert!(last.contains("--pcexecute PROG"), "{last}");
+}
+
+#[test]
+fn pcexecute_on_the_command_line_starts_the_server_before_the_addresses_are_printed() {
+    use std::io::Read as _;
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("greeter.as");
+    std::fs::write(&file, GREETER).unwrap();
+    let (child, lines) = sim_until_running(&[
+        "--signal",
+        "1001=1",
+        "--pcexecute",
+        "3: srv, -1",
+        "--as-program",
+        file.to_str().unwrap(),
+    ]);
+    let addr = (lines.iter())
+        .find_map(|l| {
+            l.strip_prefix("robot 1: protocol 1040 on ")
+                .map(|a| a.split(',').next().unwrap_or_default().to_owned())
+        })
+        .expect("the address");
+    assert!(
+        lines
+            .iter()
+            .any(|l| l.contains("running the AS program") && l.contains("srv in PC task 3")),
+        "{lines:?}"
+    );
+    // Its port listens when the addresses are printed: one connection, no retry. The signal
+    // given on the command line was set before its first step.
+    let mut stream = std::net::TcpStream::connect(&addr).expect("the server listens");
+    stream
+        .set_read_timeout(Some(Duration::from_secs(30)))
+        .unwrap();
+    let mut got = String::new();
+    stream.read_to_string(&mut got).expect("a greeting");
+    stop(child);
+    assert_eq!(got, "HELLO, 1001 IS ON\r\n");
+}
+
+#[test]
+fn a_start_the_controller_refuses_stops_the_emulator_with_the_monitor_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("greeter.as");
+    std::fs::write(&file, GREETER).unwrap();
+    let out = Command::new(bin())
+        .args(["sim", "--listen", "127.0.0.1:0", "--pcexecute", "servr"])
+        .arg("--as-program")
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert_ne!(out.status.code(), Some(0));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("cannot PCEXECUTE 1: servr"), "{err}");
+    assert!(err.contains("(P1038)"), "{err}");
+    assert!(err.contains("the file's programs: srv"), "{err}");
+}

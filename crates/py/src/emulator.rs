@@ -7,7 +7,9 @@ use std::sync::Mutex;
 use std::time::Duration;
 
 use fs020n_proto::{ErrorCode, JointsDeg};
-use fs020n_sim::{run_robot, Network, Panel, PanelChange, PortMap, RunningRobot, SimOptions};
+use fs020n_sim::{
+    run_robot, Network, Panel, PanelChange, PortMap, ProgramStart, RunningRobot, SimOptions,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
@@ -121,8 +123,14 @@ impl Emulator {
     /// real ones (a `TCP_CONNECT`/`UDP_SENDTO` to an address not mapped gets E4023); every port
     /// the program listens on is served on 127.0.0.1 at the same number, or where
     /// `port_map={9111: 19111}` says (0: a free port; see `program_ports`, `wait_port`).
+    ///
+    /// What runs: the file's autostart programs (`autostart.pc` …); `pcexecute=["2: comm"]`
+    /// and `execute="main"` start others as the monitor's `PCEXECUTE`/`EXECUTE` do (a
+    /// refusal such as P1038 raises); each has run to its first wait, its ports served,
+    /// when the constructor returns. `signals={1001: True}` sets input signals before any
+    /// program step runs.
     #[new]
-    #[pyo3(signature = (*, port=0, joints=None, monitor_speed=None, power=true, run=true, repeat=true, teach_lock=false, error=None, pendant=false, terminal=false, bare=false, as_program=None, stubs=Vec::new(), address=None, hosts=None, port_map=None))]
+    #[pyo3(signature = (*, port=0, joints=None, monitor_speed=None, power=true, run=true, repeat=true, teach_lock=false, error=None, pendant=false, terminal=false, bare=false, as_program=None, stubs=Vec::new(), address=None, hosts=None, port_map=None, pcexecute=Vec::new(), execute=None, signals=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -142,6 +150,9 @@ impl Emulator {
         address: Option<String>,
         hosts: Option<HashMap<String, String>>,
         port_map: Option<HashMap<u16, u16>>,
+        pcexecute: Vec<String>,
+        execute: Option<String>,
+        signals: Option<HashMap<i32, bool>>,
     ) -> PyResult<Emulator> {
         let loopback = |port| SocketAddr::from(([127, 0, 0, 1], port));
         let mut opts = SimOptions::default().listen(loopback(port)).panel(Panel {
@@ -181,6 +192,28 @@ impl Emulator {
         opts = opts
             .network(network(address, hosts)?)
             .ports(ports(port_map)?);
+        for spec in &pcexecute {
+            let start = ProgramStart::pc(spec).map_err(|e| PyValueError::new_err(e.to_string()))?;
+            opts.start.push(start);
+        }
+        if let Some(spec) = &execute {
+            let start =
+                ProgramStart::robot(spec).map_err(|e| PyValueError::new_err(e.to_string()))?;
+            opts.start.push(start);
+        }
+        for (n, on) in signals.unwrap_or_default() {
+            if !(1001..=1999).contains(&n) {
+                return Err(PyValueError::new_err(format!(
+                    "signals: {n} is no input signal (1001–1999)"
+                )));
+            }
+            opts.inputs.push((n, on));
+        }
+        if opts.program.is_none() && !opts.inputs.is_empty() {
+            return Err(PyValueError::new_err(
+                "signals are read by AS programs: give them with as_program=…",
+            ));
+        }
         let running = block(py, run_robot(opts), OnInterrupt::Nothing)?
             .map_err(|e| base_error(py, &format!("cannot start the emulator: {e}")))?;
         Ok(Emulator {

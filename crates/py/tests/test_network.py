@@ -95,3 +95,42 @@ def test_a_port_the_program_never_listens_on_times_out():
                          port_map={9111: 0, 9112: 0}) as emu:
         with pytest.raises(TimeoutError, match="port 9999"):
             emu.wait_port(9999, timeout=0.2)
+
+
+GREETER = """\
+.PROGRAM srv() ; greets every client on port 9200
+  TCP_LISTEN .ret, 9200
+  WHILE TRUE DO
+    TCP_ACCEPT .sock, 9200, 60
+    IF .sock >= 0 THEN
+      .$out[1] = "OFF" + $CHR(13) + $CHR(10)
+      IF SIG(1001) THEN
+        .$out[1] = "ON" + $CHR(13) + $CHR(10)
+      END
+      TCP_SEND .ret, .sock, .$out[1], 1, 5
+      TCP_CLOSE .ret, .sock
+    END
+  END
+.END
+"""
+
+
+def test_a_program_that_is_no_autostart_program_is_started_with_pcexecute(tmp_path):
+    program = tmp_path / "greeter.as"
+    program.write_text(GREETER)
+    with fs020n.Emulator(as_program=str(program), port_map={9200: 0},
+                         pcexecute=["2: srv, -1"], signals={1001: True}) as emu:
+        # Served when the constructor returns: no wait_port, one connection.
+        port = emu.program_ports[9200]
+        with socket.create_connection(("127.0.0.1", port), timeout=10) as s:
+            got = s.makefile("rb").readline()
+    assert got == b"ON\r\n"
+
+
+def test_a_start_the_controller_refuses_raises_with_its_error(tmp_path):
+    program = tmp_path / "greeter.as"
+    program.write_text(GREETER)
+    with pytest.raises(Exception, match=r"PCEXECUTE 1: sv: \(P1038\)"):
+        fs020n.Emulator(as_program=str(program), pcexecute=["sv"])
+    with pytest.raises(ValueError, match="PC task"):
+        fs020n.Emulator(as_program=str(program), pcexecute=["7: srv"])

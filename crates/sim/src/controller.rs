@@ -11,12 +11,14 @@ mod memory;
 mod native_view;
 mod program_view;
 mod sessions;
+mod start;
 mod tasks;
 
 pub use memory::{Abort, MemoryLoad, MemoryMut, MemoryView, PoseValue, PowerCycle};
 use memory::{Idle, MonitorState};
 pub use native_view::NativeView;
 pub use program_view::{ProgramMut, ProgramView};
+pub use start::{ProgramStart, StartSpecError};
 
 use crate::fault::Fault;
 use crate::machine::{

@@ -52,7 +52,7 @@ mod terminal;
 
 pub use controller::{
     Abort, Controller, MemoryLoad, MemoryMut, MemoryView, NativeView, PoseValue, PowerCycle,
-    ProgramMut, ProgramView,
+    ProgramMut, ProgramStart, ProgramView, StartSpecError,
 };
 pub use fault::{Fault, ReplyFault, MAX_FAULT_BYTES, MAX_FAULT_COUNT, MAX_FAULT_MS};
 /// The terminal protocol the emulator's terminal speaks (its [`fs020n_term::SessionConfig`]

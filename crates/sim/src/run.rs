@@ -9,13 +9,13 @@ use fs020n_kin::RobotModel;
 use fs020n_proto::DEFAULT_PORT;
 use fs020n_proto::{ErrorCode, JointsDeg};
 
-use crate::controller::Controller;
+use crate::controller::{Controller, ProgramStart};
 use crate::machine::ControllerConfig;
 use crate::network::{Network, PortMap};
 use crate::panel::Panel;
 #[cfg(feature = "pendant")]
 use crate::pendant::{serve_pendant, PendantServer};
-use crate::server::{Emulator, ProgramPorts, TcpServer};
+use crate::server::{Emulator, ProgramPorts, TcpServer, LISTENERS_WAIT};
 
 /// Everything needed to start one emulated robot. `SimOptions::default()` is a ready-to-run
 /// FS020N on `127.0.0.1:10050`, monitor speed from the model (10 %), at the model's home pose,
@@ -63,6 +63,12 @@ pub struct SimOptions {
     /// [`SimOptions::listen`] (`--port-map`; default: the same port numbers). The first port
     /// is also served at [`SimOptions::listen`].
     pub ports: PortMap,
+    /// Input signals (1001–1999) set before any program step runs (`--signal N=1`).
+    pub inputs: Vec<(i32, bool)>,
+    /// Programs started once the ports are served, in order, as `PCEXECUTE`/`EXECUTE` start
+    /// them (`--pcexecute`, `--execute`): each has run to its first wait, and the ports it
+    /// listens on are served, when [`run_robot`] returns. Needs [`SimOptions::program`].
+    pub start: Vec<ProgramStart>,
 }
 
 impl Default for SimOptions {
@@ -85,6 +91,8 @@ impl Default for SimOptions {
             terminal_session: fs020n_term::SessionConfig::default(),
             network: Network::default(),
             ports: PortMap::default(),
+            inputs: Vec::new(),
+            start: Vec::new(),
         }
     }
 }
@@ -298,6 +306,13 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
              program: choose one",
         ));
     }
+    if !opts.start.is_empty() && opts.program.is_none() {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            "starting programs (--pcexecute, --execute) needs the AS file that holds them \
+             (--as-program FILE); on a bare controller, load and start them at the terminal",
+        ));
+    }
     let (emulator, robot) = match &opts.program {
         None if opts.bare => {
             let load = opts.program_load.clone();
@@ -321,6 +336,11 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
                     io::Error::new(kind, e.to_string())
                 })?;
             let emulator = Emulator::with_program(config, program);
+            emulator.with(|c| {
+                for &(n, on) in &opts.inputs {
+                    c.program_mut().set_input(n, on);
+                }
+            });
             let robot = emulator.serve_program_tcp(opts.listen).await;
             (emulator, robot)
         }
@@ -376,6 +396,37 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
             Some(robot.local_addr()),
         )
     });
+    for start in &opts.start {
+        let started = emulator.with(|c| c.program_mut().start(start));
+        if let Err(e) = started {
+            let programs = emulator.with(|c| c.memory().programs()).join(", ");
+            robot.stop();
+            if let Some(t) = terminal {
+                t.stop();
+            }
+            #[cfg(feature = "pendant")]
+            if let Some(p) = pendant {
+                p.stop();
+            }
+            if let Some(p) = ports {
+                p.stop();
+            }
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                format!(
+                    "cannot {start}: {} (the file's programs: {programs})",
+                    e.line()
+                ),
+            ));
+        }
+        tracing::info!(%start, "program started");
+    }
+    if !opts.start.is_empty() && !emulator.wait_program_listeners(LISTENERS_WAIT).await {
+        tracing::warn!(
+            "a started program listens on a port whose host socket is not listening after \
+             {LISTENERS_WAIT:?}"
+        );
+    }
     if !robot.local_addr().ip().is_loopback() {
         tracing::warn!(
             robot = %robot.local_addr(),

@@ -30,6 +30,7 @@ mod program;
 
 pub use fleet::{FleetServer, FleetStop};
 pub use program::ProgramPorts;
+pub(crate) use program::LISTENERS_WAIT;
 
 /// Size of the in-memory pipe of [`Emulator::connect`] in each direction, bytes (small, like a
 /// socket buffer that fills when the peer stops reading).

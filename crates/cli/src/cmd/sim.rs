@@ -2,9 +2,10 @@
 
 use std::net::{SocketAddr, ToSocketAddrs};
 
+use fs020n_as::TaskId;
 use fs020n_kin::RobotModel;
 use fs020n_proto::{ErrorCode, JointsDeg};
-use fs020n_sim::{Panel, SimOptions};
+use fs020n_sim::{Panel, ProgramStart, SimOptions};
 use fs020n_web::run_robot;
 use serde_json::json;
 
@@ -86,6 +87,15 @@ pub(crate) fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOp
     };
     let network = network(args)?;
     let ports = port_map(args)?;
+    let inputs = (args.signals.iter())
+        .map(|s| input_signal(s))
+        .collect::<CliResult<Vec<_>>>()?;
+    let mut start = (args.pc_execute.iter())
+        .map(|s| ProgramStart::pc(s).map_err(|e| CliError::input(format!("--pcexecute {e}"))))
+        .collect::<CliResult<Vec<_>>>()?;
+    if let Some(s) = &args.execute {
+        start.push(ProgramStart::robot(s).map_err(|e| CliError::input(format!("--execute {e}")))?);
+    }
     let mut out = Vec::new();
     let robots = crate::fleet::expand(&listen, &pendant, args.robots)?;
     if terminal.is_some() && robots.len() > 1 {
@@ -113,6 +123,8 @@ pub(crate) fn options(args: &SimArgs, model: &RobotModel) -> CliResult<Vec<SimOp
             terminal_session: terminal_session.clone(),
             network: network.clone(),
             ports: ports.clone(),
+            inputs: inputs.clone(),
+            start: start.clone(),
         });
     }
     Ok(out)
@@ -219,6 +231,21 @@ async fn print_trace(emulators: Vec<fs020n_sim::Emulator>, as_json: bool) {
     }
 }
 
+/// The programs running, each with its task (`autostart.pc in PC task 1`).
+fn running_programs(c: &fs020n_sim::Controller) -> Vec<String> {
+    let tasks = std::iter::once(TaskId::Robot).chain((1..=5).map(TaskId::Pc));
+    tasks
+        .filter(|&t| c.program().task_running(t))
+        .filter_map(|t| {
+            let name = c.program().task_program(t)?;
+            Some(match t {
+                TaskId::Robot => format!("{name} in the robot task"),
+                TaskId::Pc(n) => format!("{name} in PC task {n}"),
+            })
+        })
+        .collect()
+}
+
 /// `--signal N=1`: an input signal (1001–1999) and its state.
 fn input_signal(text: &str) -> CliResult<(i32, bool)> {
     let bad = || {
@@ -242,16 +269,13 @@ fn input_signal(text: &str) -> CliResult<(i32, bool)> {
 /// `sim`.
 pub(crate) fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResult {
     let all = options(args, model)?;
-    let inputs = (args.signals.iter())
-        .map(|s| input_signal(s))
-        .collect::<CliResult<Vec<_>>>()?;
     let program = check_program(args)?;
     // Native robots with nothing beside their protocol port, on one thread: one readiness loop
     // serves them all (`fs020n_sim::FleetServer`), without a task per robot.
     let plain = all
         .iter()
         .all(|o| o.pendant.is_none() && o.terminal.is_none() && o.program.is_none() && !o.bare);
-    if args.threads == 1 && plain && inputs.is_empty() && !args.trace {
+    if args.threads == 1 && plain && !args.trace {
         return sim_fleet(all, model, as_json);
     }
     let rt = crate::fleet::runtime(args.threads)?;
@@ -265,11 +289,6 @@ pub(crate) fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResul
                 .await
                 .map_err(|e| CliError::input(format!("cannot start the emulator: {e}")))?;
             robots.push(r);
-        }
-        for r in &robots {
-            for &(n, on) in &inputs {
-                r.emulator().with(|c| c.program_mut().set_input(n, on));
-            }
         }
         let addrs: Vec<RobotAddrs> = (robots.iter())
             .map(|r| RobotAddrs {
@@ -288,11 +307,22 @@ pub(crate) fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResul
                     model.name()
                 );
             } else {
+                let running = (robots.first())
+                    .map(|r| r.emulator().with(|c| running_programs(c)))
+                    .unwrap_or_default();
                 match &program {
-                    Some(p) => println!(
-                        "{} emulated {} running the AS program {p}; Ctrl-C to stop",
+                    Some(p) if running.is_empty() => println!(
+                        "{} emulated {} with the AS program {p} loaded; nothing runs: the file \
+                         has no autostart program (autostart.pc …); start one with --pcexecute \
+                         PROG or --execute PROG, or at the terminal (--terminal); Ctrl-C to stop",
                         robots.len(),
                         model.name()
+                    ),
+                    Some(p) => println!(
+                        "{} emulated {} running the AS program {p}: {}; Ctrl-C to stop",
+                        robots.len(),
+                        model.name(),
+                        running.join(", ")
                     ),
                     None => println!(
                         "{} emulated {} running; Ctrl-C to stop",

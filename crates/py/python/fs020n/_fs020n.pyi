@@ -248,6 +248,9 @@ class Emulator:
         address: Optional[str] = None,
         hosts: Optional[Dict[str, str]] = None,
         port_map: Optional[Dict[int, int]] = None,
+        pcexecute: Sequence[str] = (),
+        execute: Optional[str] = None,
+        signals: Optional[Dict[int, bool]] = None,
     ) -> None: ...
     @property
     def address(self) -> str: ...

@@ -17,6 +17,12 @@ use crate::machine::ControllerConfig;
 use crate::network::PortMap;
 use crate::program::{ClientId, ProgramDial, ServerProgram};
 
+/// How long the prompt waits at most after a command made a program listen (`PCEXECUTE`)
+/// for the host sockets of its ports to listen: each binds in a task of its own, and a client
+/// that connects as soon as the prompt is back must not be refused. They are bound within
+/// microseconds; the bound only keeps a stuck host from holding the terminal.
+pub(crate) const LISTENERS_WAIT: Duration = Duration::from_secs(2);
+
 /// The program's ports served on the host ([`Emulator::serve_program_ports`]). Dropping it
 /// does not stop them; call [`ProgramPorts::stop`].
 #[derive(Debug)]

@@ -10,13 +10,7 @@ use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use tokio::net::TcpListener;
 
 use super::TerminalLink;
-use crate::server::{Emulator, TcpServer};
-
-/// How long the prompt waits at most after a command made a program listen (`PCEXECUTE`)
-/// for the host sockets of its ports to listen: each binds in a task of its own, and a client
-/// that connects as soon as the prompt is back must not be refused. They are bound within
-/// microseconds; the bound only keeps a stuck host from holding the terminal.
-const LISTENERS_WAIT: Duration = Duration::from_secs(2);
+use crate::server::{Emulator, TcpServer, LISTENERS_WAIT};
 
 /// How often a session looks for program output (not at every change of the controller: a
 /// client streaming at the protocol port changes it hundreds of times a second).
