@@ -311,10 +311,13 @@ pub enum StmtKind {
         /// A joint point or a transformation.
         source: Expr,
     },
-    /// `HERE location_variable`.
+    /// `HERE location_variable`, or `HERE a+b`: the rightmost variable is defined so that
+    /// the compound value is the current pose (AS-E p.6-108), the others must exist.
     Here {
         /// The variable (`#p` for joints, `p` for the transformation).
         target: LValue,
+        /// `a` of `HERE a+b` (transformation variables, in order; empty for a plain HERE).
+        relative_to: Vec<LValue>,
     },
     /// `POINT location_variable = location`.
     Point {

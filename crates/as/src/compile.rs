@@ -1143,7 +1143,37 @@ impl Compiler {
                 let src = self.loc(source)?;
                 self.emit(Op::Decompose(t, src), line);
             }
-            StmtKind::Here { target } => {
+            StmtKind::Here {
+                target,
+                relative_to,
+            } if !relative_to.is_empty() => {
+                // `HERE a+b`: b = -a + HERE (a must be defined: E0103 otherwise).
+                let mut base: Option<TExpr> = None;
+                for lv in relative_to.iter().chain(std::iter::once(target)) {
+                    if lv.name.sigil != Sigil::None {
+                        return Err(self.err(
+                            lv.span,
+                            "a compound HERE (a+b) is made of transformation variables",
+                        ));
+                    }
+                }
+                for lv in relative_to {
+                    let v = TExpr::Var(self.lref(lv, Ty::Trans)?);
+                    base = Some(match base {
+                        None => v,
+                        Some(b) => TExpr::Compose(Box::new(b), Box::new(v)),
+                    });
+                }
+                let t = self.lref(target, Ty::Trans)?;
+                let value = match base {
+                    Some(b) => {
+                        TExpr::Compose(Box::new(TExpr::Inverse(Box::new(b))), Box::new(TExpr::Here))
+                    }
+                    None => TExpr::Here,
+                };
+                self.emit(Op::AssignT(t, value), line);
+            }
+            StmtKind::Here { target, .. } => {
                 let op = match target.name.sigil {
                     Sigil::Hash => Op::HereJ(self.lref(target, Ty::Joint)?),
                     Sigil::None => Op::HereT(self.lref(target, Ty::Trans)?),

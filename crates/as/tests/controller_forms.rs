@@ -177,14 +177,6 @@ fn point_with_a_component_qualifier_loads_as_not_emulated() {
 }
 
 #[test]
-fn here_with_a_compound_pose_loads_as_not_emulated() {
-    let w = warnings(&pc("  HERE frame1+pick1"));
-    assert!(w
-        .iter()
-        .any(|w| w.contains("HERE with a compound pose loads but is not emulated")));
-}
-
-#[test]
 fn block_teaching_function_steps_load() {
     let w = warnings(&pc("  FN99[ \"a note\" ]\n  FN20[ 17 ]"));
     assert!(w

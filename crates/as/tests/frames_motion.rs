@@ -68,6 +68,33 @@ fn point_converts_between_joint_points_and_transformations() {
 }
 
 #[test]
+fn a_compound_here_defines_the_rightmost_variable_so_that_the_sum_is_the_current_pose() {
+    // AS-E p.6-108: `HERE a+b` defines b; a must exist. Touch-up of a pick relative to a
+    // camera frame, as cells do.
+    let (i, s) = robot(
+        "  POINT c_cam = TRANS(200, -100, 50, 0, 0, 90)\n  POINT c_tool = TRANS(0, 0, 10)\n  HERE c_cam+pick\n  HERE c_cam+c_tool+pick2\n  DECOMPOSE p[0] = pick\n  DECOMPOSE q[0] = pick2\n  DECOMPOSE w[0] = c_cam+pick\n  DECOMPOSE w2[0] = c_cam+c_tool+pick2",
+        1,
+    );
+    let here = s.pose().expect("kinematics").map(|v| v as f32);
+    close(&arr(&i, "w"), &here, 0.01, "c_cam+pick is HERE");
+    close(&arr(&i, "w2"), &here, 0.01, "c_cam+c_tool+pick2 is HERE");
+    let (p, q) = (arr(&i, "p"), arr(&i, "q"));
+    assert!((p[2] - q[2] - 10.0).abs() < 0.01, "{p:?} {q:?}");
+    assert!((p[2] - (here[2] - 50.0)).abs() < 0.01, "{p:?} vs {here:?}");
+}
+
+#[test]
+fn a_compound_here_on_an_undefined_frame_stops_with_e0103() {
+    let src = format!(
+        "{}.PROGRAM rob()\n  HERE nowhere+pick\n.END\n",
+        pc("  MC EXECUTE rob")
+    );
+    let (mut i, mut s) = start(&src);
+    i.run_until(&mut s, ms(100));
+    assert_eq!(s.raised, vec![ErrorCode(-30103)]);
+}
+
+#[test]
 fn point_to_a_joint_point_out_of_reach_stops_with_e1088() {
     let src = format!(
         "{}.PROGRAM rob()\n  POINT #j = TRANS(5000, 0, 0, 0, 0, 0)\n.END\n",

@@ -1151,11 +1151,39 @@ fn here_of_a_transformation_is_the_tool_in_the_world_as_a_programs_here_gives_it
 }
 
 #[test]
-fn here_refuses_a_name_that_is_not_a_variable_and_says_a_compound_pose_is_not_played() {
+fn here_refuses_a_name_that_is_not_a_variable() {
     let mut t = Term::new(bare());
     assert!(t.cmd("HERE 1abc", false).starts_with("(P0117)"));
     assert!(t.cmd("HERE", false).starts_with("(P0117)"));
-    assert!(t.cmd("HERE a+b", false).contains("not played"));
+    assert!(t.cmd("HERE #a+b", false).starts_with("(P0117)"));
+}
+
+#[test]
+fn here_of_a_compound_pose_defines_the_rightmost_so_that_the_sum_is_the_current_pose() {
+    // AS-E p.6-108: `HERE a+b` defines b; a must exist. A touch-up relative to a camera frame.
+    let mut t = Term::new(bare());
+    let program =
+        ".PROGRAM seen()\n  DECOMPOSE w[1] = c_cam+pick\n  HERE h\n  DECOMPOSE h[1] = h\n.END\n\
+.TRANS\nc_cam 200 -100 50 0 0 90\n.END\n";
+    loaded_ok(&t.load("cam.as", program));
+    assert_eq!(
+        t.cmd("HERE nowhere+pick", false),
+        "(E0103) Location data is not defined: nowhere"
+    );
+    let out = t.cmd("HERE c_cam+pick", false);
+    assert!(out.contains("X[mm]"), "{out}");
+    assert!(out.ends_with(text::CHANGE_QUESTION), "{out:?}");
+    assert!(typed(&mut t, "\r\n").ends_with('>'));
+    t.cmd("PCEXECUTE 2: seen", false);
+    t.advance(Duration::from_millis(50));
+    for k in 1..=6 {
+        let sum = typed_real(&mut t, &format!("w[{k}]"));
+        let here = typed_real(&mut t, &format!("h[{k}]"));
+        assert!(
+            (sum - here).abs() < 0.01,
+            "value {k}: c_cam+pick {sum}, HERE {here}"
+        );
+    }
 }
 
 #[test]

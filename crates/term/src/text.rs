@@ -533,11 +533,6 @@ pub fn cycle_lines(completed: u32, remaining: i64) -> [String; 2] {
 pub const EMULATOR_CYCLES_NOT_A_NUMBER: &str =
     "(emulator) give the cycle count as a whole number (-1: until PCABORT)";
 
-/// The emulator's answer to `HERE a+b` (emulator only: a compound pose is not taught from
-/// the terminal).
-pub const EMULATOR_HERE_COMPOUND_NOT_PLAYED: &str =
-    "(emulator) HERE of a compound pose is not played: HERE one variable, or teach it in the program";
-
 /// The emulator's answer to `ERESET` while the emergency stop is pressed (emulator only).
 pub const EMULATOR_ESTOP_PRESSED: &str =
     "(emulator) the emergency stop is pressed: release it, then ERESET";

@@ -14,11 +14,11 @@ use super::expr::xyzoat;
 use super::task::{Flow, TaskSlot, Wait};
 use super::Interpreter;
 
-fn pose_of(t: &[f32; 6]) -> Pose {
+pub(super) fn pose_of(t: &[f32; 6]) -> Pose {
     Pose::from_xyzoat(xyzoat(t))
 }
 
-fn trans_of(p: &Pose) -> [f32; 6] {
+pub(super) fn trans_of(p: &Pose) -> [f32; 6] {
     let r = p.to_xyzoat();
     [r.x_mm, r.y_mm, r.z_mm, r.o_deg, r.a_deg, r.t_deg].map(|v| v as f32)
 }

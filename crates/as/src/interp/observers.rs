@@ -123,6 +123,36 @@ impl Interpreter {
         self.world_of_flange(flange)
     }
 
+    /// What `HERE a+b` stores in `b` for the flange pose `flange` (AS-E p.6-108): the value
+    /// that makes `a+b` the tool in the world, `-a + HERE`. `frames` are the variables on the
+    /// left (`a`, or `a` and `b` of `HERE a+b+c`), global transformations that must be
+    /// defined: `Err(name)` names the first that is not.
+    pub fn here_relative(
+        &self,
+        frames: &[&str],
+        flange: &crate::system::Trans,
+    ) -> Result<[f32; 6], String> {
+        let world = self.world_of_flange(flange);
+        let mut base = None;
+        for &f in frames {
+            let t = self.trans(f).ok_or_else(|| f.to_owned())?;
+            base = Some(match base {
+                None => super::frames::pose_of(&t),
+                Some(b) => b * super::frames::pose_of(&t),
+            });
+        }
+        Ok(match base {
+            Some(b) => super::frames::trans_of(&(b.inverse() * super::frames::pose_of(&world))),
+            None => world,
+        })
+    }
+
+    /// A global transformation variable.
+    pub fn trans(&self, name: &str) -> Option<[f32; 6]> {
+        let s = self.global_slot(Ty::Trans, name)?;
+        self.globals.trans[s].get(&[]).copied()
+    }
+
     /// A global joint point (`name` without `#`).
     pub fn joints(&self, name: &str) -> Option<[f32; 6]> {
         let s = self.global_slot(Ty::Joint, name)?;

@@ -462,12 +462,17 @@ impl Cur<'_> {
                 LineKind::Stmt(StmtKind::Decompose { target, source })
             }
             "here" => {
-                let target = self.lvalue()?;
-                // `HERE a + b`: b is defined relative to a. Not emulated.
-                if self.peek() == Some(&Tok::Plus) {
-                    return Ok(self.not_emulated_rest("HERE with a compound pose"));
+                // `HERE a+b+c`: c is defined relative to a+b.
+                let mut target = self.lvalue()?;
+                let mut relative_to = Vec::new();
+                while self.peek() == Some(&Tok::Plus) {
+                    self.pos += 1;
+                    relative_to.push(std::mem::replace(&mut target, self.lvalue()?));
                 }
-                LineKind::Stmt(StmtKind::Here { target })
+                LineKind::Stmt(StmtKind::Here {
+                    target,
+                    relative_to,
+                })
             }
             "point" => {
                 // `POINT/X`, `POINT/OAT`, `POINT/7`: only some components. Not emulated.

@@ -92,6 +92,15 @@ fn format_real(v: f32) -> String {
     }
 }
 
+/// `(E0103) Location data is not defined: name` (the manual's text, the name after it as
+/// `TYPE` names an undefined variable).
+fn location_undefined(name: &str) -> Reply {
+    let text = fs020n_proto::ErrorCode::LOCATION_NOT_DEFINED
+        .message()
+        .unwrap_or_default();
+    lines([format!("(E0103) {text}: {name}")])
+}
+
 /// `NAME(n)` or `NAME (n)` → n.
 fn call_arg(expr: &str, name: &str) -> Option<i32> {
     let upper = expr.to_ascii_uppercase();
@@ -217,18 +226,23 @@ impl ControllerMonitor<'_> {
     /// `Change?`. A transformation is the tool in the world, with the BASE and TOOL the
     /// programs set (a bare controller: the flange in the robot's base frame).
     fn here(&mut self, rest: &str) -> Reply {
-        let name = rest.trim();
-        if name.contains('+') {
-            return lines([text::EMULATOR_HERE_COMPOUND_NOT_PLAYED]);
-        }
+        // `HERE a+b`: b is defined so that a+b is the current pose; a must exist (p.6-108).
+        let mut parts: Vec<&str> = rest.split('+').map(str::trim).collect();
+        let name = parts.pop().unwrap_or_default();
         let joints = self.c.joints().0;
-        let value = if name.starts_with('#') {
+        let value = if name.starts_with('#') && parts.is_empty() {
             PoseValue::Joints(joints.map(|v| v as f32))
+        } else if name.starts_with('#') || parts.iter().any(|p| p.starts_with('#')) {
+            return Reply::Error(text::P0117_INVALID_NAME);
         } else {
             let flange = fs020n_as::flange::forward(self.c.model(), &joints);
             PoseValue::Trans(match self.c.interpreter() {
-                Some(i) => i.tool_in_world(&flange),
-                None => flange.map(|v| v as f32),
+                Some(i) => match i.here_relative(&parts, &flange) {
+                    Ok(t) => t,
+                    Err(undefined) => return location_undefined(&undefined),
+                },
+                None if parts.is_empty() => flange.map(|v| v as f32),
+                None => return location_undefined(parts[0]),
             })
         };
         self.define(name.to_owned(), value)
