@@ -304,6 +304,14 @@ pub enum StmtKind {
         /// Seconds it shows now.
         value: Expr,
     },
+    /// `UTIMER @timer = value` (AS-E p.6-118): a user timer, named by an integer variable,
+    /// shows `value` seconds now and counts on.
+    UTimer {
+        /// The timer's variable (`@t`, `.@t`).
+        timer: LValue,
+        /// Seconds it shows now.
+        value: Expr,
+    },
     /// `DECOMPOSE array[i] = location`.
     Decompose {
         /// First element to fill.

@@ -71,8 +71,10 @@ pub(crate) enum RExpr {
     Loc(LocFn, Box<[TExpr]>),
     /// `EXISTREAL("name")` …: whether the named thing exists.
     Exist(Exist, Box<SExpr>),
-    /// `SYSDATA(keyword)`: a value of the controller's state.
-    SysData(SysData),
+    /// `SYSDATA(keyword[, robot])`: a value of the controller's state; the robot number when
+    /// it is not the constant 1 (an expression such as `.rno`, evaluated when read: robot 1
+    /// is this robot, another has no value, −1).
+    SysData(SysData, Option<Box<RExpr>>),
 }
 
 /// The `SYSDATA` keywords the emulator answers (AS-E p.9-24…9-26).
@@ -90,6 +92,9 @@ pub(crate) enum SysData {
     Language,
     /// `MEM.FREE`: free memory, percent (the emulator's is never short: 100).
     FreeMemory,
+    /// `P.SPEED`: the program speed of the robot task's next motion, percent (−1 when it is
+    /// given in mm/s or seconds).
+    ProgramSpeed,
 }
 
 /// Real functions of transformations.
@@ -128,6 +133,8 @@ pub(crate) enum RFunc {
     Bits32,
     Task,
     Timer,
+    /// `UTIMER(@t)`: the seconds since the user timer read 0 (its variable holds that time).
+    UTimer,
     Round,
 }
 
@@ -328,6 +335,8 @@ pub(crate) enum Op {
     McEreset,
     SetSwitch(usize, bool),
     Timer(RExpr, RExpr),
+    /// `UTIMER @t = value`: the variable holds the clock's seconds when the timer read 0.
+    UTimer(LRef, RExpr),
     Decompose(LRef, Loc),
     HereJ(LRef),
     HereT(LRef),
@@ -1138,6 +1147,11 @@ impl Compiler {
                 let v = self.real(value)?;
                 self.emit(Op::Timer(t, v), line);
             }
+            StmtKind::UTimer { timer, value } => {
+                let t = self.lref(timer, Ty::Real)?;
+                let v = self.real(value)?;
+                self.emit(Op::UTimer(t, v), line);
+            }
             StmtKind::Decompose { target, source } => {
                 let t = self.lref(target, Ty::Real)?;
                 let src = self.loc(source)?;
@@ -1830,7 +1844,7 @@ impl Compiler {
         match (name.sigil, name.text.as_str()) {
             (
                 Sigil::None,
-                f @ ("abs" | "sqrt" | "sin" | "cos" | "tan" | "int" | "task" | "timer"),
+                f @ ("abs" | "sqrt" | "sin" | "cos" | "tan" | "int" | "task" | "timer" | "utimer"),
             ) => {
                 self.arity(name, args, 1, 1, span)?;
                 let a = self.arg_real(&args[0])?;
@@ -1842,6 +1856,7 @@ impl Compiler {
                     "tan" => RFunc::Tan,
                     "int" => RFunc::Int,
                     "task" => RFunc::Task,
+                    "utimer" => RFunc::UTimer,
                     _ => RFunc::Timer,
                 };
                 Ok(CExpr::R(RExpr::Func(func, vec![a].into())))
@@ -1859,14 +1874,29 @@ impl Compiler {
                     Some(Arg::Keyword(k, _)) => k.clone(),
                     _ => String::new(),
                 };
-                // A robot number (and an axis) after the keyword: robot 1 only.
-                let robot_one = args.get(1).is_none_or(
-                    |a| matches!(a, Arg::Expr(Expr { kind: ExprKind::Num(n), .. }) if *n == 1.0),
-                );
-                let known = match (name.sigil, key.as_str(), robot_one, args.len() <= 2) {
-                    (Sigil::Dollar, "zrob.name", true, true) => Some(CExpr::S(SExpr::RobotName)),
-                    (Sigil::None, k, true, true) => match k {
+                // A robot number after the keyword: the constant 1, or an expression read
+                // when the function is (`SYSDATA(ZROB.NOWAXIS, .rno)`). Another constant
+                // robot, or an axis after it, is not emulated.
+                let robot = match args.get(1) {
+                    None => Some(None),
+                    Some(Arg::Expr(Expr {
+                        kind: ExprKind::Num(n),
+                        ..
+                    })) if *n == 1.0 => Some(None),
+                    Some(Arg::Expr(Expr {
+                        kind: ExprKind::Num(_),
+                        ..
+                    })) => None,
+                    Some(Arg::Expr(e)) => Some(Some(Box::new(self.real(e)?))),
+                    Some(_) => None,
+                };
+                let known = match (name.sigil, key.as_str(), robot, args.len() <= 2) {
+                    (Sigil::Dollar, "zrob.name", Some(None), true) => {
+                        Some(CExpr::S(SExpr::RobotName))
+                    }
+                    (Sigil::None, k, Some(robot), true) => match k {
                         "m.speed" => Some(SysData::MonitorSpeed),
+                        "p.speed" => Some(SysData::ProgramSpeed),
                         "step" | "mstep" => Some(SysData::Step),
                         "numrobot" => Some(SysData::Robots),
                         "zrob.nowaxis" => Some(SysData::Axes),
@@ -1874,7 +1904,7 @@ impl Compiler {
                         "mem.free" => Some(SysData::FreeMemory),
                         _ => None,
                     }
-                    .map(|d| CExpr::R(RExpr::SysData(d))),
+                    .map(|d| CExpr::R(RExpr::SysData(d, robot))),
                     _ => None,
                 };
                 match known {
@@ -1941,6 +1971,37 @@ impl Compiler {
                     "existjoint" => Exist::Joint,
                     "existtrans" => Exist::Trans,
                     _ => Exist::Program,
+                };
+                let s = self.arg_str(&args[0])?;
+                Ok(CExpr::R(RExpr::Exist(kind, Box::new(s))))
+            }
+            (Sigil::None, "existdata") => {
+                // `EXISTDATA(name, T)` (later controllers; not in the E manual): whether the
+                // variable of that kind exists, the kind by its data section's initial — R
+                // real, T transformation, J joint, S string. Another letter is not emulated.
+                self.arity(name, args, 2, 2, span)?;
+                let kind = match &args[1] {
+                    Arg::Expr(Expr {
+                        kind: ExprKind::Var(lv),
+                        ..
+                    }) if lv.indices.is_empty()
+                        && !lv.name.local
+                        && lv.name.sigil == Sigil::None =>
+                    {
+                        match lv.name.text.as_str() {
+                            "r" => Some(Exist::Real),
+                            "t" => Some(Exist::Trans),
+                            "j" => Some(Exist::Joint),
+                            "s" => Some(Exist::Char),
+                            _ => None,
+                        }
+                    }
+                    _ => None,
+                };
+                let Some(kind) = kind else {
+                    let what = "EXISTDATA of a kind other than R, T, J or S".to_owned();
+                    self.not_emulated_fn = Some(what.clone());
+                    return Err(self.err(span, format!("{what} is not emulated")));
                 };
                 let s = self.arg_str(&args[0])?;
                 Ok(CExpr::R(RExpr::Exist(kind, Box::new(s))))
@@ -2204,7 +2265,7 @@ fn r_touches(e: &RExpr) -> bool {
             a.as_deref().is_some_and(r_touches) || s_touches(b) || s_touches(c)
         }
         RExpr::Dext(l, n) => loc_touches(l) || r_touches(n),
-        RExpr::Switch(_) | RExpr::Error | RExpr::Exist(..) | RExpr::SysData(_) => true,
+        RExpr::Switch(_) | RExpr::Error | RExpr::Exist(..) | RExpr::SysData(..) => true,
         RExpr::Loc(_, t) => t.iter().any(t_touches),
     }
 }
@@ -2301,6 +2362,7 @@ fn op_touches(op: &Op) -> bool {
         Op::Bits(_, a, b, c) => r_touches(a) || r_touches(b) || r_touches(c),
         Op::On { signal, .. } => r_touches(signal),
         Op::Timer(a, b) => r_touches(a) || r_touches(b),
+        Op::UTimer(l, e) => l_touches(l) || r_touches(e),
         Op::Speed(e, _, _) | Op::Accuracy(e, _, _) | Op::AccelDecel(_, e, _) => r_touches(e),
         Op::Decompose(l, loc) => l_touches(l) || loc_touches(loc),
         // The end of a program, motion, the panel, the error, sockets, other tasks.

@@ -54,6 +54,48 @@ fn sysdata_answers_the_keywords_of_the_emulated_controller() {
 }
 
 #[test]
+fn sysdata_reads_a_robot_number_given_as_a_variable_when_it_is_read() {
+    // Cells loop over their robots: `SYSDATA(ZROB.NOWAXIS, .rno)`. Robot 1 is this robot;
+    // another has no value (−1, the manual's "no value").
+    // P.SPEED is the robot program's speed, read from a PC program.
+    let src = format!(
+        "{}.PROGRAM rob()\n  SPEED 40 ALWAYS\n  TWAIT 1\n  SPEED 100 MM/S ALWAYS\n  TWAIT 1\n.END\n",
+        pc("  .rno = 1\n  a = SYSDATA(ZROB.NOWAXIS, .rno)\n  .rno = 2\n  b = SYSDATA(ZROB.NOWAXIS, .rno)\n  MC EXECUTE rob\n  TWAIT 0.5\n  c = SYSDATA(P.SPEED, 1)\n  TWAIT 1\n  d = SYSDATA(P.SPEED)")
+    );
+    let (mut i, mut s) = start_with(&src, config());
+    i.run_until(&mut s, ms(2000));
+    assert!(s.raised.is_empty(), "{:?}", s.raised);
+    assert_eq!(i.real("a"), Some(6.0));
+    assert_eq!(i.real("b"), Some(-1.0));
+    assert_eq!(i.real("c"), Some(40.0), "the program speed, percent");
+    assert_eq!(i.real("d"), Some(-1.0), "a speed in mm/s is no percentage");
+}
+
+#[test]
+fn a_user_timer_counts_seconds_from_its_preset_on_virtual_time() {
+    // AS-E p.6-118, p.9-22: `UTIMER @t = value`, `UTIMER(@t)`; local timers too.
+    let src = pc("  UTIMER .@now = 0\n  UTIMER @lamp = 10\n  TWAIT 1.5\n  a = UTIMER(.@now)\n  b = UTIMER(@lamp)\n  UTIMER @lamp = 0\n  c = UTIMER(@lamp)\n  TWAIT 0.25\n  d = UTIMER(.@now)");
+    let (mut i, mut s) = start_with(&src, config());
+    i.run_until(&mut s, ms(3000));
+    assert!(s.raised.is_empty(), "{:?}", s.raised);
+    let near = |n: &str, v: f32| {
+        let got = i.real(n).unwrap_or(f32::NAN);
+        assert!((got - v).abs() <= 0.002, "{n}: {got}, expected {v}");
+    };
+    near("a", 1.5);
+    near("b", 11.5);
+    near("c", 0.0);
+    near("d", 1.75);
+}
+
+#[test]
+fn a_user_timer_preset_out_of_its_range_stops_with_an_illegal_value() {
+    let (mut i, mut s) = start_with(&pc("  UTIMER @t = -1"), config());
+    i.run_until(&mut s, ms(10));
+    assert_eq!(s.raised, vec![fs020n_proto::ErrorCode(-30106)]);
+}
+
+#[test]
 fn sysdata_of_another_robot_or_an_unknown_keyword_loads_as_not_emulated() {
     let w: Vec<String> = fs020n_as::Interpreter::from_source(
         "t.as",

@@ -125,3 +125,26 @@ fn exist_functions_say_whether_a_global_or_a_program_exists() {
     assert_eq!([v("j1"), v("j2"), v("t1"), v("t2")], [-1.0, 0.0, -1.0, 0.0]);
     assert_eq!([v("p1"), v("p2")], [-1.0, 0.0]);
 }
+
+#[test]
+fn existdata_names_the_kind_by_its_data_section_letter() {
+    let (i, _) = run_pc(
+        "  a = 1\n\
+  POINT t = TRANS(0, 0, 0)\n\
+  .$n = \"t\"\n\
+  e1 = EXISTDATA(.$n, T)\n\
+  e2 = EXISTDATA(\"a\", T)\n\
+  e3 = EXISTDATA(\"a\", R)\n\
+  e4 = EXISTDATA(\"nothing\", R)\n\
+  IF EXISTDATA(\"pick\", T) == OFF THEN\n\
+    POINT pick = t\n\
+  END\n\
+  e5 = EXISTDATA(\"pick\", T)",
+        0.1,
+    );
+    let v = |n: &str| i.real(n).expect(n);
+    assert_eq!(
+        [v("e1"), v("e2"), v("e3"), v("e4"), v("e5")],
+        [-1.0, 0.0, -1.0, 0.0, -1.0]
+    );
+}

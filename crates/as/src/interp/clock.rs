@@ -7,9 +7,19 @@ use crate::compile::SysData;
 use crate::error::RuntimeError;
 use crate::system::System;
 
-use super::arith::R;
-use super::task::TaskSlot;
+use crate::compile::{LRef, RExpr};
+
+use super::arith::{Ns, R};
+use super::task::{Flow, TaskSlot};
 use super::Interpreter;
+
+/// `UTIMER(@t)` at `now`: the seconds since the timer read 0, which its variable holds (in
+/// the interpreter's seconds; a 32-bit real, so the millisecond holds for the first hours of
+/// a run), truncated to the millisecond as `TIMER`.
+pub(super) fn utimer_value(now: Ns, zero_s: f32) -> f32 {
+    let ms = ((now as f64 / 1e6) - f64::from(zero_s) * 1e3).floor();
+    (ms / 1e3) as f32
+}
 
 /// The host's local time now: (Unix seconds, offset from UTC in seconds).
 pub(super) fn host_now() -> (i64, i32) {
@@ -18,6 +28,27 @@ pub(super) fn host_now() -> (i64, i32) {
 }
 
 impl Interpreter {
+    /// `UTIMER @t = value` (AS-E p.6-118): the timer shows `value` seconds now and counts on;
+    /// its variable holds the interpreter's time at which it read 0.
+    pub(super) fn set_utimer(
+        &mut self,
+        i: TaskSlot,
+        l: &LRef,
+        v: &RExpr,
+        sys: &mut dyn System,
+        now: Ns,
+    ) -> R<Flow> {
+        let v = self.eval_r(i, v, sys)?;
+        if !(0.0..=2_147_483_647.0).contains(&v) {
+            return Err(Box::new(RuntimeError::IllegalValue(format!(
+                "UTIMER value {v} (0 to 2147483647 s)"
+            ))));
+        }
+        let zero_s = now as f64 / 1e9 - f64::from(v);
+        self.write_r(i, l, zero_s as f32, sys)?;
+        Ok(Flow::Next)
+    }
+
     /// The controller clock at the interpreter's time.
     fn clock(&self) -> DateTime<FixedOffset> {
         let (start_s, offset_s) = self.cfg.clock_at_start.unwrap_or((0, 0));
@@ -70,6 +101,13 @@ impl Interpreter {
             SysData::Axes => 6.0,
             SysData::Language => 2.0,
             SysData::FreeMemory => 100.0,
+            SysData::ProgramSpeed => {
+                let m = &self.tasks[TaskSlot::ROBOT].motion;
+                match m.speed_once.unwrap_or(m.speed) {
+                    crate::system::Speed::Percent(p) => p as f32,
+                    _ => -1.0,
+                }
+            }
         }
     }
 }

@@ -138,7 +138,14 @@ impl Interpreter {
                 })
             }
             RExpr::Error => sys.error().raw() as f32,
-            RExpr::SysData(d) => self.sysdata(i, *d, sys),
+            RExpr::SysData(d, None) => self.sysdata(i, *d, sys),
+            RExpr::SysData(d, Some(robot)) => {
+                if self.eval_r(i, robot, sys)?.trunc() == 1.0 {
+                    self.sysdata(i, *d, sys)
+                } else {
+                    -1.0
+                }
+            }
             RExpr::Loc(f, t) => self.eval_loc_fn(i, *f, t, sys)?,
             RExpr::Exist(kind, name) => {
                 let name = self.eval_s(i, name, sys)?;
@@ -214,6 +221,7 @@ impl Interpreter {
             }
             // Half away from zero (our choice; the manuals say "nearest integer").
             RFunc::Round => x.round(),
+            RFunc::UTimer => super::clock::utimer_value(self.now, x),
             RFunc::Timer => {
                 let n = x.trunc();
                 if !(0.0..=10.0).contains(&n) {

@@ -347,6 +347,7 @@ impl Interpreter {
                 Flow::Next
             }
             Op::Timer(n, v) => self.set_timer(i, n, v, sys, now)?,
+            Op::UTimer(l, v) => self.set_utimer(i, l, v, sys, now)?,
             Op::Decompose(target, l) => self.decompose(i, target, l, sys)?,
             Op::HereJ(l) => {
                 let v = sys.joints().map(|x| x as f32);

@@ -665,7 +665,7 @@ pub(super) const TABLE: &[Keyword] = &[
     k("usb_rename").monitor("new_file_name = existing_file_name").generations(E_F),
     k("usb_save").abbr("usb_sa").monitor("[/ SEL] file_name [= program_name, …] ` etc").generations(E_F),
     k("use_iso8859_5").switch().generations(E_F),
-    k("utimer").instruction("@ timer_variable = timer_value").function("(@ timer_variable)").generations(E_F),
+    k("utimer").instruction("@ timer_variable = timer_value").function("(@ timer_variable)").generations(E_F).runs(INSTRUCTION.or(FUNCTION)),
     k("uwrist").abbr("uw").instruction("").generations(E_F).runs(INSTRUCTION),
     k("val").function("(string, [code])").generations(E_F).runs(FUNCTION),
     k("value").instruction(UNKNOWN).generations(E_F).runs(INSTRUCTION),

@@ -455,6 +455,15 @@ impl Cur<'_> {
                 let value = self.expr()?;
                 LineKind::Stmt(StmtKind::Timer { timer, value })
             }
+            "utimer" => {
+                let timer = self.lvalue()?;
+                self.expect(
+                    &Tok::Assign,
+                    "\"=\" after the timer variable (UTIMER @timer = seconds)",
+                )?;
+                let value = self.expr()?;
+                LineKind::Stmt(StmtKind::UTimer { timer, value })
+            }
             "decompose" => {
                 let target = self.lvalue()?;
                 self.expect(&Tok::Assign, "\"=\" after the DECOMPOSE array")?;
