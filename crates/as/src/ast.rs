@@ -112,6 +112,17 @@ pub struct Param {
     pub span: Span,
 }
 
+/// An argument of `CALL` (and `EXECUTE`, `PCEXECUTE`): a value, or a whole array
+/// (`CALL tcp.send(.$data[], 1)`, `name[]`, `name[,]`), which the subroutine's parameter
+/// receives element by element and gives back on `RETURN`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CallArg {
+    /// The value; for a whole array, the array variable without indices.
+    pub value: Expr,
+    /// `name[]`: the whole array.
+    pub whole_array: bool,
+}
+
 /// A label (`exit:` or `10`) with where it stands.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Label {
@@ -212,7 +223,7 @@ pub enum StmtKind {
         /// The program.
         program: String,
         /// The arguments.
-        args: Vec<Expr>,
+        args: Vec<CallArg>,
     },
     /// `RETURN`.
     Return,
@@ -520,7 +531,7 @@ pub enum MonitorCommand {
         /// The program.
         program: String,
         /// Its arguments.
-        args: Vec<Expr>,
+        args: Vec<CallArg>,
         /// How many times it runs (default 1; negative: forever).
         cycles: Option<Expr>,
     },
@@ -531,7 +542,7 @@ pub enum MonitorCommand {
         /// The program.
         program: String,
         /// Its arguments.
-        args: Vec<Expr>,
+        args: Vec<CallArg>,
         /// How many times it runs.
         cycles: Option<Expr>,
     },

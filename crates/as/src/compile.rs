@@ -245,10 +245,12 @@ impl CExpr {
     }
 }
 
-/// An argument of CALL/EXECUTE: a value, and for by-reference parameters the variable.
+/// An argument of CALL/EXECUTE: a value, and for a variable the variable (it receives the
+/// parameter's final value).
 #[derive(Debug, Clone)]
 pub(crate) struct CArg {
-    pub(crate) value: CExpr,
+    /// `None`: a whole array (`.$data[]`), the variable `var` names.
+    pub(crate) value: Option<CExpr>,
     pub(crate) var: Option<(Ty, LRef)>,
 }
 
@@ -1493,13 +1495,38 @@ impl Compiler {
     /// The arguments of a CALL, EXECUTE or PCEXECUTE of `program`. A plain name given for a
     /// transformation parameter (`.&p`) is the transformation of that name (`CALL add(&a)`,
     /// the `&` being optional).
-    fn args(&mut self, program: &str, args: &[Expr]) -> CResult<Box<[CArg]>> {
+    fn args(&mut self, program: &str, args: &[CallArg]) -> CResult<Box<[CArg]>> {
         let mut out = Vec::new();
         let trans_params = self.trans_params.get(program).cloned().unwrap_or_default();
-        for (k, a) in args.iter().enumerate() {
+        for (
+            k,
+            CallArg {
+                value: a,
+                whole_array,
+            },
+        ) in args.iter().enumerate()
+        {
+            let trans_param = trans_params.get(k) == Some(&true);
+            if *whole_array {
+                let ExprKind::Var(lv) = &a.kind else {
+                    return Err(self.err(a.span, "a whole array argument is a variable (name[])"));
+                };
+                let ty = match lv.name.sigil {
+                    Sigil::None if trans_param => Ty::Trans,
+                    Sigil::None => Ty::Real,
+                    Sigil::Dollar => Ty::Str,
+                    Sigil::Hash => Ty::Joint,
+                };
+                let l = self.lref(lv, ty)?;
+                out.push(CArg {
+                    value: None,
+                    var: Some((ty, l)),
+                });
+                continue;
+            }
             let value = match &a.kind {
                 ExprKind::Var(lv)
-                    if trans_params.get(k) == Some(&true)
+                    if trans_param
                         && lv.name.sigil == Sigil::None
                         && !is_name_function(&lv.name) =>
                 {
@@ -1514,7 +1541,10 @@ impl Compiler {
                 }
                 _ => None,
             };
-            out.push(CArg { value, var });
+            out.push(CArg {
+                value: Some(value),
+                var,
+            });
         }
         Ok(out.into())
     }
@@ -2351,9 +2381,10 @@ fn op_touches(op: &Op) -> bool {
         Op::CaseSelS(e, _) => s_touches(e),
         Op::CaseTestR(v, _, _) => any_r(v),
         Op::CaseTestS(v, _, _) => v.iter().any(s_touches),
-        Op::Call(_, args) => args
-            .iter()
-            .any(|a| c_touches(&a.value) || a.var.as_ref().is_some_and(|(_, l)| l_touches(l))),
+        Op::Call(_, args) => args.iter().any(|a| {
+            a.value.as_ref().is_some_and(c_touches)
+                || a.var.as_ref().is_some_and(|(_, l)| l_touches(l))
+        }),
         Op::Print(items) => items_touch(items),
         Op::Signal(v) => any_r(v),
         Op::Pulse(a, b) => r_touches(a) || opt(b),

@@ -98,28 +98,42 @@ fn hex_and_binary_literals_not_equal_and_bar_as_or() {
 }
 
 #[test]
-fn a_whole_array_argument_loads_and_stops_the_task_when_reached() {
-    let src = ".PROGRAM autostart.pc()\n  .$data[1] = \"x\"\n  CALL tcp.send.pc (.$data[], 1)\n.END\n.PROGRAM tcp.send.pc(.$buf[], .n)\n  PRINT .n\n.END\n";
+fn a_whole_array_argument_gives_the_subroutine_every_element_and_takes_them_back() {
+    // Saved programs pass buffers whole: `CALL tcp.send.pc(.$data[], 1)` to
+    // `.PROGRAM tcp.send.pc(.$buf[], .n)`. The parameter holds every element; what the
+    // subroutine leaves in it is the caller's on RETURN (as for a variable argument, AS-E
+    // p.4-12), new elements too.
+    let src = ".PROGRAM autostart.pc()\n  .$data[1] = \"AB\"\n  .$data[2] = \"CD\"\n  CALL tcp.send.pc (.$data[], 2)\n  PRINT .$data[1], .$data[2], .$data[3]\n  CALL sum(v[])\n  PRINT v[0]\n.END\n\
+.PROGRAM tcp.send.pc(.$buf[], .n)\n  PRINT .$buf[1] + .$buf[.n]\n  .$buf[1] = \"ab\"\n  .$buf[3] = \"new\"\n.END\n\
+.PROGRAM sum(.a[])\n  .a[0] = 0\n  FOR .k = 1 TO 3\n    .a[.k] = .k\n    .a[0] = .a[0] + .k\n  END\n.END\n";
     let m = loads(src);
     assert!(m.programs[1].params[0].array);
     let (mut i, mut s) = start(src);
     i.run_until(&mut s, ms(100));
-    let info = i.tasks(&s);
-    assert_eq!(
-        info[1].last_error.as_deref(),
-        Some("(E0199) CALL (a whole array as an argument) is not emulated (fs020n as check lists these; --stub makes one a no-op) (autostart.pc line 3)")
+    assert!(
+        i.tasks(&s)[1].last_error.is_none(),
+        "{:?}",
+        i.tasks(&s)[1].last_error
     );
+    assert_eq!(printed(&s), vec!["ABCD", "abCDnew", " 6"]);
+    assert_eq!(i.real_at("v", &[2]), Some(2.0));
 }
 
 #[test]
-fn a_whole_two_dimensional_array_by_reference_loads_as_not_emulated() {
-    let m = loads(
-        ".PROGRAM a()\n  CALL trace.part(.&p.rel[,])\n.END\n.PROGRAM trace.part(.&p[,])\n.END\n",
-    );
-    assert!(
-        matches!(&m.programs[0].body[0].kind, StmtKind::NotEmulated { instruction, .. } if instruction.starts_with("CALL"))
-    );
+fn a_whole_two_dimensional_array_by_reference_is_passed_whole() {
+    let src = ".PROGRAM autostart.pc()\n  POINT p.rel[1,2] = TRANS(10, 20, 30)\n  CALL trace.part(&p.rel[,])\n  DECOMPOSE d[0] = p.rel[1,2]\n  DECOMPOSE e[0] = p.rel[2,1]\n.END\n\
+.PROGRAM trace.part(.&p[,])\n  POINT .p[2,1] = .p[1,2] + TRANS(1)\n.END\n";
+    let m = loads(src);
     assert!(m.programs[1].params[0].array && m.programs[1].params[0].by_ref);
+    let (mut i, mut s) = start(src);
+    i.run_until(&mut s, ms(100));
+    assert!(
+        i.tasks(&s)[1].last_error.is_none(),
+        "{:?}",
+        i.tasks(&s)[1].last_error
+    );
+    assert_eq!(i.real_at("d", &[2]), Some(30.0));
+    assert_eq!(i.real_at("e", &[0]), Some(11.0));
 }
 
 #[test]

@@ -5,7 +5,7 @@ use crate::system::System;
 use crate::value::Bytes;
 
 use super::arith::{ns, secs, truthy, Ns, R};
-use super::task::{ArgVal, ByRefTarget, Flow, TaskSlot, Wait};
+use super::task::{ArgVal, ArrayVal, ByRefTarget, Flow, TaskSlot, Wait};
 use super::Interpreter;
 
 impl Interpreter {
@@ -146,11 +146,26 @@ impl Interpreter {
     ) -> R<Vec<(ArgVal, Option<ByRefTarget>)>> {
         let mut out = Vec::with_capacity(args.len());
         for a in args {
+            // A whole array: its every element goes in, and back on RETURN.
+            if let (None, Some((ty, l))) = (&a.value, &a.var) {
+                let frame = self.tasks[i].frames.len().saturating_sub(1);
+                let v = ArrayVal::of(self.store(i, l.var.global), *ty, l.var.slot as usize)
+                    .map_or(ArgVal::Undefined, ArgVal::Array);
+                let target = ByRefTarget {
+                    var: l.var,
+                    idx: Vec::new(),
+                    frame,
+                    whole: true,
+                };
+                out.push((v, Some(target)));
+                continue;
+            }
             let v = match &a.value {
-                CExpr::R(e) => self.eval_r(i, e, sys).map(ArgVal::R),
-                CExpr::S(e) => self.eval_s(i, e, sys).map(ArgVal::S),
-                CExpr::J(e) => self.eval_j(i, e, sys).map(ArgVal::J),
-                CExpr::T(e) => self.eval_t(i, e, sys).map(ArgVal::T),
+                Some(CExpr::R(e)) => self.eval_r(i, e, sys).map(ArgVal::R),
+                Some(CExpr::S(e)) => self.eval_s(i, e, sys).map(ArgVal::S),
+                Some(CExpr::J(e)) => self.eval_j(i, e, sys).map(ArgVal::J),
+                Some(CExpr::T(e)) => self.eval_t(i, e, sys).map(ArgVal::T),
+                None => Ok(ArgVal::Undefined),
             };
             // A variable may be given before it is defined: it receives the result.
             let v = match v {
@@ -166,6 +181,7 @@ impl Interpreter {
                         var: l.var,
                         idx: idx[..n].to_vec(),
                         frame,
+                        whole: false,
                     })
                 }
                 None => None,
@@ -188,6 +204,27 @@ impl Interpreter {
         for b in &frame.byref {
             let s = b.param as usize;
             let callee = &frame.locals;
+            if b.whole {
+                let Some(val) = ArrayVal::of(callee, b.ty, s) else {
+                    continue;
+                };
+                let store = if b.var.global {
+                    &mut self.globals
+                } else {
+                    match self.tasks[i].frames.get_mut(b.frame) {
+                        Some(f) => &mut f.locals,
+                        None => continue,
+                    }
+                };
+                let more = val.put(store, b.ty, b.var.slot as usize).unwrap_or(0);
+                self.elements = self.elements.saturating_add_signed(more);
+                if self.elements > crate::value::MAX_ELEMENTS {
+                    result = Err(Box::new(crate::error::RuntimeError::MemoryFull(
+                        crate::value::MAX_ELEMENTS,
+                    )));
+                }
+                continue;
+            }
             let val = match b.ty {
                 Ty::Real => callee.reals[s].get(&[]).copied().map(ArgVal::R),
                 Ty::Str => callee.strs[s].get(&[]).cloned().map(ArgVal::S),
@@ -209,7 +246,7 @@ impl Interpreter {
                 ArgVal::S(v) => store.strs.get_mut(slot).is_some_and(|x| x.set(&b.idx, v)),
                 ArgVal::J(v) => store.joints.get_mut(slot).is_some_and(|x| x.set(&b.idx, v)),
                 ArgVal::T(v) => store.trans.get_mut(slot).is_some_and(|x| x.set(&b.idx, v)),
-                ArgVal::Undefined => false,
+                ArgVal::Undefined | ArgVal::Array(_) => false,
             };
             if let Err(e) = self.count_element(created) {
                 result = Err(e);

@@ -166,6 +166,17 @@ impl Interpreter {
                 // A variable not yet defined: the parameter starts undefined, and the
                 // variable receives its final value.
                 (_, ArgVal::Undefined) => {}
+                // A whole array: the parameter holds its every element (counted in the
+                // variable memory, as the frame's locals are).
+                (ty, ArgVal::Array(a)) if a.fits(ty) => {
+                    let more = a.clone().put(store, ty, s).unwrap_or(0);
+                    self.elements = self.elements.saturating_add_signed(more);
+                    if self.elements > crate::value::MAX_ELEMENTS {
+                        return Err(Box::new(RuntimeError::MemoryFull(
+                            crate::value::MAX_ELEMENTS,
+                        )));
+                    }
+                }
                 _ => {
                     return Err(Box::new(RuntimeError::IllegalValue(format!(
                         "argument {} of {} has the wrong type for parameter {}",
@@ -184,6 +195,7 @@ impl Interpreter {
                     var: t.var,
                     idx: t.idx.clone(),
                     frame: t.frame,
+                    whole: t.whole,
                 });
             }
         }

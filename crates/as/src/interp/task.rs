@@ -2,7 +2,7 @@
 
 use crate::compile::{Ty, VarRef};
 use crate::system::{Speed, TaskId};
-use crate::value::{Bytes, Store};
+use crate::value::{Bytes, Store, Var};
 
 use super::arith::Ns;
 
@@ -14,6 +14,8 @@ pub(super) struct ByRef {
     pub(super) idx: Vec<i32>,
     /// The caller's frame (index in the task's stack) for a local variable.
     pub(super) frame: usize,
+    /// The whole array goes back (`CALL p(.$data[])`), not one value.
+    pub(super) whole: bool,
 }
 
 #[derive(Debug, Clone)]
@@ -257,6 +259,57 @@ pub(super) enum ArgVal {
     T([f32; 6]),
     /// A variable given as an argument that holds no value yet.
     Undefined,
+    /// A whole array (`.$data[]`): every element and the scalar.
+    Array(ArrayVal),
+}
+
+/// A whole variable, scalar and elements, of one type.
+#[derive(Debug, Clone)]
+pub(super) enum ArrayVal {
+    R(Var<f32>),
+    S(Var<Bytes>),
+    J(Var<[f32; 6]>),
+    T(Var<[f32; 6]>),
+}
+
+impl ArrayVal {
+    /// A copy of the variable `slot` of type `ty` in `store`.
+    pub(super) fn of(store: &Store, ty: Ty, slot: usize) -> Option<ArrayVal> {
+        Some(match ty {
+            Ty::Real => ArrayVal::R(store.reals.get(slot)?.clone()),
+            Ty::Str => ArrayVal::S(store.strs.get(slot)?.clone()),
+            Ty::Joint => ArrayVal::J(store.joints.get(slot)?.clone()),
+            Ty::Trans => ArrayVal::T(store.trans.get(slot)?.clone()),
+        })
+    }
+
+    /// Whether it is a variable of type `ty`.
+    pub(super) fn fits(&self, ty: Ty) -> bool {
+        matches!(
+            (ty, self),
+            (Ty::Real, ArrayVal::R(_))
+                | (Ty::Str, ArrayVal::S(_))
+                | (Ty::Joint, ArrayVal::J(_))
+                | (Ty::Trans, ArrayVal::T(_))
+        )
+    }
+
+    /// Puts it in the variable `slot` of `store` (when the types agree): how many elements
+    /// the store holds more than before (negative: fewer).
+    pub(super) fn put(self, store: &mut Store, ty: Ty, slot: usize) -> Option<isize> {
+        fn swap<T>(v: &mut Var<T>, new: Var<T>) -> isize {
+            let before = v.element_count() as isize;
+            *v = new;
+            v.element_count() as isize - before
+        }
+        Some(match (ty, self) {
+            (Ty::Real, ArrayVal::R(v)) => swap(store.reals.get_mut(slot)?, v),
+            (Ty::Str, ArrayVal::S(v)) => swap(store.strs.get_mut(slot)?, v),
+            (Ty::Joint, ArrayVal::J(v)) => swap(store.joints.get_mut(slot)?, v),
+            (Ty::Trans, ArrayVal::T(v)) => swap(store.trans.get_mut(slot)?, v),
+            _ => return None,
+        })
+    }
 }
 
 /// Where a by-reference argument goes back.
@@ -265,6 +318,8 @@ pub(super) struct ByRefTarget {
     pub(super) var: VarRef,
     pub(super) idx: Vec<i32>,
     pub(super) frame: usize,
+    /// A whole array (`.$data[]`).
+    pub(super) whole: bool,
 }
 
 /// A task's place in the interpreter's task table: 0 for the robot task, 1–5 for PC tasks

@@ -4,7 +4,7 @@
 use crate::ast::*;
 use crate::error::ParseError;
 use crate::keywords;
-use crate::lexer::{Sigil, Tok, Token};
+use crate::lexer::{Sigil, Tok};
 use crate::span::Span;
 
 use super::cursor::{describe, Cur, PResult, RobotNumber};
@@ -60,18 +60,6 @@ const OWN_COLON: &[&str] = &[
     "svalue",
     "any",
 ];
-
-/// `true` when the tokens hold a whole array: `[` then `]`, or `[` then only commas then `]`
-/// (`.$data[]`, `.&p.rel[,]`).
-fn whole_array_at(toks: &[Token]) -> bool {
-    toks.iter().enumerate().any(|(k, t)| {
-        t.tok == Tok::LBracket && {
-            let rest = &toks[k + 1..];
-            let commas = rest.iter().take_while(|t| t.tok == Tok::Comma).count();
-            rest.get(commas).is_some_and(|t| t.tok == Tok::RBracket)
-        }
-    })
-}
 
 impl Cur<'_> {
     /// The statement after an optional label.
@@ -252,13 +240,6 @@ impl Cur<'_> {
                 }
             }
             "call" => {
-                // `CALL p(.$data[], 1)`: a whole array as an argument.
-                if whole_array_at(&self.toks[self.pos..]) {
-                    return Ok(LineKind::Stmt(StmtKind::NotEmulated {
-                        instruction: "CALL (a whole array as an argument)".into(),
-                        stubbed: false,
-                    }));
-                }
                 // A CALL without a program name: kept as controllers save it, not emulated.
                 if self.at_end() {
                     return Ok(self.not_emulated_rest("CALL without a program"));
@@ -784,7 +765,7 @@ impl Cur<'_> {
         Ok(None)
     }
 
-    pub(super) fn call_args(&mut self) -> PResult<Vec<Expr>> {
+    pub(super) fn call_args(&mut self) -> PResult<Vec<CallArg>> {
         let mut args = Vec::new();
         if self.eat(&Tok::LParen) {
             if self.eat(&Tok::RParen) {
@@ -794,7 +775,16 @@ impl Cur<'_> {
                 // `&a`, `.&a`: a transformation argument (the manual marks pose parameters
                 // with `&`); the value is the same.
                 self.eat(&Tok::Amp);
-                args.push(self.expr()?);
+                args.push(match self.whole_array()? {
+                    Some(value) => CallArg {
+                        value,
+                        whole_array: true,
+                    },
+                    None => CallArg {
+                        value: self.expr()?,
+                        whole_array: false,
+                    },
+                });
                 if self.eat(&Tok::RParen) {
                     break;
                 }
@@ -802,6 +792,35 @@ impl Cur<'_> {
             }
         }
         Ok(args)
+    }
+
+    /// `name[]` or `name[,]` (a whole array, as saved programs pass one to a subroutine),
+    /// up to the `,` or `)` after it: the variable without indices.
+    fn whole_array(&mut self) -> PResult<Option<Expr>> {
+        let (Some(Tok::Name(_)), Some(Tok::LBracket)) = (self.peek(), self.peek_at(1)) else {
+            return Ok(None);
+        };
+        let commas = (2..)
+            .take_while(|&k| self.peek_at(k) == Some(&Tok::Comma))
+            .count();
+        if self.peek_at(commas + 2) != Some(&Tok::RBracket)
+            || !matches!(self.peek_at(commas + 3), Some(Tok::Comma | Tok::RParen))
+        {
+            return Ok(None);
+        }
+        let span = self.span();
+        let Some(Tok::Name(name)) = self.peek().cloned() else {
+            return Ok(None);
+        };
+        self.pos += commas + 3;
+        Ok(Some(Expr {
+            kind: ExprKind::Var(LValue {
+                name,
+                indices: Vec::new(),
+                span,
+            }),
+            span,
+        }))
     }
 
     pub(super) fn tcp(&mut self, kw: &str) -> PResult<TcpStmt> {
