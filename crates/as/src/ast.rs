@@ -561,6 +561,9 @@ pub enum MonitorCommand {
     Speed(Expr),
     /// `ERESET`: reset the error.
     Ereset,
+    /// `ZPOWER ON|OFF`: motor power (later controllers' monitor command, which real PC
+    /// programs run through `MC ZPOWER ON`).
+    Zpower(bool),
 }
 
 /// A print format code.

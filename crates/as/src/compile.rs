@@ -335,6 +335,7 @@ pub(crate) enum Op {
     McContinue,
     McSpeed(RExpr),
     McEreset,
+    McZpower(bool),
     SetSwitch(usize, bool),
     Timer(RExpr, RExpr),
     /// `UTIMER @t = value`: the variable holds the clock's seconds when the timer read 0.
@@ -1129,6 +1130,7 @@ impl Compiler {
                     MonitorCommand::Continue => Op::McContinue,
                     MonitorCommand::Speed(e) => Op::McSpeed(self.real(e)?),
                     MonitorCommand::Ereset => Op::McEreset,
+                    MonitorCommand::Zpower(on) => Op::McZpower(*on),
                 };
                 self.emit(op, line);
             }

@@ -254,6 +254,10 @@ pub trait System {
     /// emergency stop is pressed).
     fn reset_error(&mut self) -> Result<(), String>;
 
+    /// `MC ZPOWER ON|OFF`: motor power; `Err` with a reason when the system refuses (the
+    /// emergency stop is pressed).
+    fn set_motor_power(&mut self, on: bool) -> Result<(), String>;
+
     /// Monitor speed, percent.
     fn monitor_speed(&self) -> f64;
 

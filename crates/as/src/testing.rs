@@ -453,6 +453,14 @@ impl System for VirtualSystem {
         Ok(())
     }
 
+    fn set_motor_power(&mut self, on: bool) -> Result<(), String> {
+        self.panel.power = on;
+        if !on {
+            self.brake();
+        }
+        Ok(())
+    }
+
     fn monitor_speed(&self) -> f64 {
         self.monitor_speed
     }

@@ -71,9 +71,22 @@ fn a_monitor_command_after_mc_that_the_emulator_does_not_run_loads() {
     assert!(w
         .iter()
         .any(|w| w.contains("MC PRIME loads but is not emulated")));
-    assert!(w
-        .iter()
-        .any(|w| w.contains("MC ZPOWER loads but is not emulated")));
+    assert!(
+        !w.iter().any(|w| w.contains("ZPOWER")),
+        "MC ZPOWER runs: {w:?}"
+    );
+}
+
+#[test]
+fn mc_zpower_switches_the_motor_power_as_the_monitor_command() {
+    // Later controllers' monitor command; real autostart programs turn the motors on with it.
+    let src = pc("  MC ZPOWER OFF\n  a = SWITCH(POWER)\n  MC ZPOW ON\n  b = SWITCH(POWER)");
+    let (mut i, mut s) = start(&src);
+    i.run_until(&mut s, ms(50));
+    assert!(s.raised.is_empty(), "{:?}", s.raised);
+    assert_eq!(i.real("a"), Some(0.0));
+    assert_eq!(i.real("b"), Some(-1.0));
+    assert!(s.panel.power);
 }
 
 #[test]

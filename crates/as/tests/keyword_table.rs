@@ -403,7 +403,7 @@ fn the_table_covers_every_keyword_of_the_manuals_index() {
 }
 
 #[test]
-fn the_commands_mc_runs_are_the_manuals_six_and_the_pc_program_commands() {
+fn the_commands_mc_runs_are_the_manuals_six_the_pc_program_commands_and_zpower() {
     let mut mc: Vec<&str> = keywords::table()
         .iter()
         .filter(|k| k.runs.contains(Role::AFTER_MC))
@@ -420,7 +420,8 @@ fn the_commands_mc_runs_are_the_manuals_six_and_the_pc_program_commands() {
             "hold",
             "pcabort",
             "pcexecute",
-            "speed"
+            "speed",
+            "zpower"
         ]
     );
 }

@@ -139,6 +139,17 @@ impl Interpreter {
         Ok(Flow::Shared)
     }
 
+    /// `MC ZPOWER ON|OFF`: motor power, as the monitor command; a refusal (the emergency
+    /// stop) is a message, as for `MC ERESET`.
+    pub(super) fn mc_zpower(&mut self, i: TaskSlot, on: bool, sys: &mut dyn System) -> R<Flow> {
+        if let Err(why) = sys.set_motor_power(on) {
+            let id = self.tasks[i].id;
+            let word = if on { "ON" } else { "OFF" };
+            self.message(sys, id, format!("MC ZPOWER {word}: {why}"));
+        }
+        Ok(Flow::Shared)
+    }
+
     /// `TIMER n = t`.
     #[inline(always)]
     pub(super) fn set_timer(

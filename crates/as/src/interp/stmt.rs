@@ -340,6 +340,7 @@ impl Interpreter {
             Op::McContinue => self.mc_continue(sys, now)?,
             Op::McSpeed(e) => self.mc_speed(i, e, sys)?,
             Op::McEreset => self.mc_ereset(i, sys)?,
+            Op::McZpower(on) => self.mc_zpower(i, *on, sys)?,
             Op::SetSwitch(k, on) => {
                 if let Some(s) = self.switches.get_mut(*k) {
                     *s = *on;

@@ -699,7 +699,7 @@ pub(super) const TABLE: &[Keyword] = &[
     k("zintfxlinkrad").instruction(UNKNOWN).generations(F_ONLY),
     k("zl3link2box").instruction(UNKNOWN).generations(F_ONLY),
     k("zpow").instruction("ER ON").generations(F_ONLY),
-    k("zpower").abbr("zpow").instruction("ON|OFF").after_mc().generations(F_ONLY),
+    k("zpower").abbr("zpow").instruction("ON|OFF").after_mc().generations(F_ONLY).runs(AFTER_MC),
     k("zrmtset").instruction(UNKNOWN).generations(F_ONLY),
     k("zrmtset2").instruction(UNKNOWN).generations(F_ONLY),
     k("zrob.mgfno").sysdata().generations(E_F),

@@ -748,6 +748,7 @@ impl Cur<'_> {
                 MonitorCommand::Speed(self.expr()?)
             }
             "ereset" => MonitorCommand::Ereset,
+            "zpower" => MonitorCommand::Zpower(self.on_off("ZPOWER")?),
             other => return Err(self.err(format!("MC {} is not supported", other.to_uppercase()))),
         }))
     }

@@ -336,6 +336,10 @@ impl System for Host<'_> {
         self.m.reset_error().map_err(|e| e.to_string())
     }
 
+    fn set_motor_power(&mut self, on: bool) -> Result<(), String> {
+        self.m.set_power(on).map_err(|e| e.to_string())
+    }
+
     fn monitor_speed(&self) -> f64 {
         self.m.monitor_speed()
     }
