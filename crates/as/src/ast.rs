@@ -227,6 +227,8 @@ pub enum StmtKind {
     },
     /// `RETURN`.
     Return,
+    /// `RETURNE`: from an error program (`ONE`), back to the step after the one that failed.
+    ReturnAfterError,
     /// `PRINT` / `TYPE` items.
     Print {
         /// The items (values, strings, format codes).

@@ -294,6 +294,8 @@ pub(crate) enum Op {
     CaseTestS(Box<[SExpr]>, u32, usize),
     Call(usize, Box<[CArg]>),
     Return,
+    /// `RETURNE`: a RETURN that resumes an error program's task after the failed step.
+    ReturnAfterError,
     Print(Box<[Item]>),
     Twait(RExpr),
     Wait(RExpr),
@@ -992,6 +994,9 @@ impl Compiler {
             }
             StmtKind::Return => {
                 self.emit(Op::Return, line);
+            }
+            StmtKind::ReturnAfterError => {
+                self.emit(Op::ReturnAfterError, line);
             }
             StmtKind::Print { items } => {
                 let items = self.items(items)?;

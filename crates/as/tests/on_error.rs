@@ -1,6 +1,7 @@
 //! `ONE program`: a task whose statement fails runs its error program (with `ERROR` giving the
-//! code), then stops — the failed step is not resumed; without `ONE`, or after `ONE OFF`, the
-//! task stops at once; an error inside the error program stops the task.
+//! code); `RETURN` runs the failed step again, `RETURNE` goes on after it, an error program
+//! that ends without either stops the task (AS-E p.6-45); without `ONE`, or after `ONE OFF`,
+//! the task stops at once; an error inside the error program stops the task.
 #![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
 mod common;
@@ -39,7 +40,7 @@ fn a_failed_statement_runs_the_error_program_with_error_giving_its_code() {
         "{lines}"
     );
     assert!(
-        lines.contains("program stopped after its error program"),
+        lines.contains("program stopped at the end of its error program"),
         "{lines}"
     );
 }
@@ -109,4 +110,45 @@ fn one_naming_a_program_not_loaded_loads_with_a_warning_and_the_task_stops_as_wi
     i.run_until(&mut s, ms(50));
     assert_eq!(i.real("after"), None);
     assert_eq!(s.raised.len(), 1);
+}
+
+#[test]
+fn returne_resumes_the_task_at_the_step_after_the_one_that_failed() {
+    // AS-E p.6-45: RETURNE returns to the step after the error.
+    let src = ".PROGRAM autostart.pc()\n  handled = 0\n  ONE skip.pc\n  x = SQRT(-1)\n  after = 1\n.END\n\
+.PROGRAM skip.pc()\n  handled = handled + 1\n  RETURNE\n.END\n";
+    let (mut i, mut s) = start(src);
+    i.run_until(&mut s, ms(50));
+    assert_eq!(i.real("handled"), Some(1.0));
+    assert_eq!(i.real("x"), None, "the failed step did not complete");
+    assert_eq!(i.real("after"), Some(1.0), "the task went on after it");
+    assert_eq!(
+        s.raised.len(),
+        1,
+        "the error was raised once: {:?}",
+        s.raised
+    );
+}
+
+#[test]
+fn return_runs_the_step_that_failed_again() {
+    // AS-E p.6-45: RETURN returns to the step where the error occurred. The error program
+    // repairs the divisor; the division runs again and succeeds.
+    let src =
+        ".PROGRAM autostart.pc()\n  d = 0\n  ONE repair.pc\n  x = 10 / d\n  after = x\n.END\n\
+.PROGRAM repair.pc()\n  d = 2\n  RETURN\n.END\n";
+    let (mut i, mut s) = start(src);
+    i.run_until(&mut s, ms(50));
+    assert_eq!(i.real("x"), Some(5.0));
+    assert_eq!(i.real("after"), Some(5.0));
+    assert_eq!(s.raised, vec![ErrorCode(-30108)]);
+}
+
+#[test]
+fn an_error_program_ending_without_return_stops_the_task_and_says_so() {
+    let (mut i, mut s) = start(&program("  ONE recover.pc\n  x = SQRT(-1)\n  after = 1"));
+    i.run_until(&mut s, ms(50));
+    assert_eq!(i.real("after"), None);
+    let lines = s.lines_of(TaskId::Pc(1)).join("\n");
+    assert!(lines.contains("no RETURN or RETURNE resumed it"), "{lines}");
 }

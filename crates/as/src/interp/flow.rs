@@ -5,6 +5,7 @@ use crate::system::System;
 use crate::value::Bytes;
 
 use super::arith::{ns, secs, truthy, Ns, R};
+use super::on_error::Resume;
 use super::task::{ArgVal, ArrayVal, ByRefTarget, Flow, TaskSlot, Wait};
 use super::Interpreter;
 
@@ -191,8 +192,9 @@ impl Interpreter {
         Ok(out)
     }
 
-    /// RETURN (or `.END`): back to the caller, writing by-reference parameters back.
-    pub(super) fn ret(&mut self, i: TaskSlot, sys: &mut dyn System) -> R<()> {
+    /// RETURN, RETURNE or `.END`: back to the caller, writing by-reference parameters back;
+    /// `resume` says how a task goes on when this leaves its error program (`ONE`).
+    pub(super) fn ret(&mut self, i: TaskSlot, resume: Resume, sys: &mut dyn System) -> R<()> {
         if self.tasks[i].frames.len() <= 1 {
             self.end_program(i, sys, true);
             return Ok(());
@@ -255,7 +257,7 @@ impl Interpreter {
         // A CALL's caller resumes after its CALL (its pc moved when it executed it); an
         // `ON … CALL` returns to where the interrupt found the task.
         self.release(i, frame);
-        self.after_return(i, self.tasks[i].frames.len(), sys);
+        self.after_return(i, self.tasks[i].frames.len(), resume, sys);
         result
     }
 }

@@ -8,6 +8,17 @@ use crate::system::System;
 use super::task::TaskSlot;
 use super::Interpreter;
 
+/// How a task goes on when a return leaves its error program.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Resume {
+    /// `RETURN`: the step where the error occurred runs again.
+    FailedStep,
+    /// `RETURNE`: the step after it.
+    NextStep,
+    /// The error program's `.END`: the task stops.
+    Stop,
+}
+
 impl Interpreter {
     /// A statement of task `i` failed (`text` says how, with where): when the task has an
     /// error program (`ONE`) and is not already in it, the error is raised as usual (the
@@ -57,20 +68,36 @@ impl Interpreter {
         true
     }
 
-    /// After a RETURN of task `i` (its frames now `depth` deep): when that left the error
-    /// program, the task stops — the failed step is not resumed (our choice: the manuals'
-    /// rule for resuming is not in the research notes).
-    pub(super) fn after_return(&mut self, i: TaskSlot, depth: usize, sys: &mut dyn System) {
+    /// After a return of task `i` (its frames now `depth` deep): when that left the error
+    /// program, the task goes on as AS-E p.6-45 says — `RETURN` runs the step where the error
+    /// occurred again, `RETURNE` the step after it, and an error program that ends without
+    /// either stops the task.
+    pub(super) fn after_return(
+        &mut self,
+        i: TaskSlot,
+        depth: usize,
+        resume: Resume,
+        sys: &mut dyn System,
+    ) {
         if self.tasks[i].error_depth != Some(depth + 1) {
             return;
         }
+        self.tasks[i].error_depth = None;
         let id = self.tasks[i].id;
-        self.abort(id);
-        self.message(
-            sys,
-            id,
-            "program stopped after its error program (ONE): the failed step is not resumed".into(),
-        );
+        match resume {
+            Resume::Stop => {
+                self.abort(id);
+                self.message(
+                    sys,
+                    id,
+                    "program stopped at the end of its error program (ONE): no RETURN or \
+                     RETURNE resumed it"
+                        .into(),
+                );
+            }
+            Resume::FailedStep => {}
+            Resume::NextStep => self.advance_pc(i),
+        }
     }
 
     /// `true` while task `i` runs its error program.

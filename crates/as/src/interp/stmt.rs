@@ -8,6 +8,7 @@ use crate::keywords::SYSTEM_SWITCHES;
 use crate::system::{System, TaskId};
 
 use super::arith::{check, truthy, Ns, NOT_PURE, R};
+use super::on_error::Resume;
 use super::report::TraceLine;
 use super::task::{Flow, Run, TaskSlot, Wait};
 use super::Interpreter;
@@ -274,11 +275,16 @@ impl Interpreter {
             Op::CaseTestR(values, slot, next) => self.case_test_r(i, values, slot, next, sys)?,
             Op::CaseTestS(values, slot, next) => self.case_test_s(i, values, slot, next, sys)?,
             Op::Call(prog, args) => self.call(i, prog, args, sys)?,
-            Op::Return | Op::End => {
+            Op::Return | Op::ReturnAfterError | Op::End => {
                 if self.tasks[i].frames.len() <= 1 {
                     self.circle_left_open(i)?;
                 }
-                self.ret(i, sys)?;
+                let resume = match op {
+                    Op::Return => Resume::FailedStep,
+                    Op::ReturnAfterError => Resume::NextStep,
+                    _ => Resume::Stop,
+                };
+                self.ret(i, resume, sys)?;
                 Flow::Next
             }
             Op::Print(items) => {

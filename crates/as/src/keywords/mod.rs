@@ -548,7 +548,7 @@ mod tests {
         ));
         assert!(not_emulated("extcall"));
         assert!(not_emulated("stable"));
-        assert!(not_emulated("returne"));
+        assert!(!not_emulated("returne"));
         assert!(!not_emulated("drive"));
         assert!(!not_emulated("jmove"));
         assert!(!not_emulated("tcp_send"));

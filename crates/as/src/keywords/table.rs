@@ -500,7 +500,7 @@ pub(super) const TABLE: &[Keyword] = &[
     k("reset").abbr("res").instruction("").monitor("").generations(E_F),
     k("restrace").monitor("").generations(E_F),
     k("return").abbr("ret").instruction("").generations(E_F).runs(INSTRUCTION),
-    k("returne").instruction("").generations(E_F),
+    k("returne").instruction("").generations(E_F).runs(INSTRUCTION),
     k("rgso").switch().generations(E_F),
     k("$right").function("(string, number_of_characters)").generations(E_F).runs(FUNCTION),
     k("righty").abbr("ri").instruction("").generations(E_F).runs(INSTRUCTION),

@@ -249,6 +249,7 @@ impl Cur<'_> {
                 LineKind::Stmt(StmtKind::Call { program, args })
             }
             "return" => LineKind::Stmt(StmtKind::Return),
+            "returne" => LineKind::Stmt(StmtKind::ReturnAfterError),
             "print" | "type" => {
                 // An optional device: `PRINT 2: …`, `PRINT tyterm: …` (the terminal, here).
                 if matches!(
