@@ -215,6 +215,9 @@ pub(crate) enum TExpr {
 pub(crate) enum Loc {
     J(JExpr),
     T(TExpr),
+    /// `STRTOPOS($s)`: the pose variable the string names (`"#pos"` a joint point, `"pos"` a
+    /// transformation), its kind known when it is read.
+    Named(SExpr),
 }
 
 /// An item of PRINT/TYPE/$ENCODE.
@@ -1216,6 +1219,7 @@ impl Compiler {
                         match self.loc(value)? {
                             Loc::J(j) => Op::AssignJ(t, j),
                             Loc::T(x) => Op::AssignJ(t, JExpr::Inverse(Box::new(x))),
+                            Loc::Named(_) => return Err(self.named_not_emulated(value.span)),
                         }
                     }
                     Sigil::None => {
@@ -1223,6 +1227,7 @@ impl Compiler {
                         match self.loc(value)? {
                             Loc::T(x) => Op::AssignT(t, x),
                             Loc::J(j) => Op::AssignT(t, TExpr::Forward(Box::new(j))),
+                            Loc::Named(_) => return Err(self.named_not_emulated(value.span)),
                         }
                     }
                     Sigil::Dollar => {
@@ -1592,6 +1597,7 @@ impl Compiler {
             Ty::Str => Op::AssignS(l, self.string(value)?),
             _ => match self.loc(value)? {
                 Loc::J(j) => Op::AssignJ(l, j),
+                Loc::Named(_) => return Err(self.named_not_emulated(value.span)),
                 Loc::T(_) => {
                     return Err(self.err(
                         value.span,
@@ -1665,6 +1671,10 @@ impl Compiler {
             ExprKind::Call { name, args } if name.sigil == Sigil::None && name.text == "trans" => {
                 Ok(Loc::T(TExpr::Trans(self.reals_up_to(args, 6, "TRANS", e.span)?)))
             }
+            ExprKind::Call { name, args } if name.sigil == Sigil::None && name.text == "strtopos" => {
+                self.arity(name, args, 1, 1, e.span)?;
+                Ok(Loc::Named(self.arg_str(&args[0])?))
+            }
             ExprKind::Binary(op @ (BinOp::Add | BinOp::Sub), a, b) => {
                 match (self.loc(a)?, self.loc(b)?) {
                     (Loc::T(x), Loc::T(y)) => {
@@ -1684,6 +1694,7 @@ impl Compiler {
             ExprKind::Unary(UnOp::Neg, a) => match self.loc(a)? {
                 Loc::T(t) => Ok(Loc::T(TExpr::Inverse(Box::new(t)))),
                 Loc::J(_) => Err(self.err(e.span, "a joint point has no inverse")),
+                Loc::Named(_) => Err(self.named_not_emulated(e.span)),
             },
             _ => match self.expr(e)? {
                 CExpr::J(j) => Ok(Loc::J(j)),
@@ -1698,7 +1709,16 @@ impl Compiler {
         Ok(match self.loc(e)? {
             Loc::T(t) => t,
             Loc::J(j) => TExpr::Forward(Box::new(j)),
+            Loc::Named(_) => return Err(self.named_not_emulated(e.span)),
         })
+    }
+
+    /// `STRTOPOS` where the kind of location must be known when the program loads (`POINT`,
+    /// an assignment, a compound): not emulated (a motion target and `DECOMPOSE` take it).
+    fn named_not_emulated(&mut self, span: Span) -> ParseError {
+        let what = "the function STRTOPOS here (it runs as a motion target or in DECOMPOSE)";
+        self.not_emulated_fn = Some(what.to_owned());
+        self.err(span, format!("{what} is not emulated"))
     }
 
     fn reals_up_to(
@@ -2333,6 +2353,7 @@ fn loc_touches(l: &Loc) -> bool {
     match l {
         Loc::J(j) => j_touches(j),
         Loc::T(t) => t_touches(t),
+        Loc::Named(s) => s_touches(s),
     }
 }
 

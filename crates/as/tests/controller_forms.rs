@@ -46,12 +46,7 @@ fn a_jump_to_a_missing_label_loads_with_a_warning_and_stops_with_e0101() {
 
 #[test]
 fn an_instruction_the_emulator_does_not_run_loads_and_stops_with_e0199_when_reached() {
-    for line in [
-        "STABLE 0.2",
-        "COLRON",
-        "GETULIMIT #lim",
-        "LSQ STR,&V0000",
-    ] {
+    for line in ["STABLE 0.2", "COLRON", "GETULIMIT #lim", "LSQ STR,&V0000"] {
         let src = pc(&format!("  a = 1\n  {line}\n  a = 2"));
         let w = warnings(&src);
         assert!(

@@ -4,7 +4,8 @@
 
 mod common;
 
-use common::run_pc;
+use common::{pc, run_pc};
+use fs020n_proto::ErrorCode;
 
 fn close(a: f32, b: f32) -> bool {
     (a - b).abs() < 1.0e-3
@@ -147,4 +148,53 @@ fn existdata_names_the_kind_by_its_data_section_letter() {
         [v("e1"), v("e2"), v("e3"), v("e4"), v("e5")],
         [-1.0, 0.0, -1.0, 0.0, -1.0]
     );
+}
+
+#[test]
+fn strtopos_reads_the_pose_variable_a_string_names_of_either_kind() {
+    // AS-E p.9-36: `$A = "#pos"`, `STRTOPOS($A)`: the value of the variable the string names.
+    let (i, s) = run_pc(
+        "  POINT #pos = #PPOINT(10, 20, -80, 0, -60, 15)\n\
+  POINT grip[2] = TRANS(100, 200, 300, 0, 180, 0)\n\
+  $a = \"#pos\"\n\
+  DECOMPOSE j[0] = STRTOPOS($a)\n\
+  DECOMPOSE t[0] = STRTOPOS(\"GRIP[2]\")\n\
+  $none = \"nowhere\"\n\
+  DECOMPOSE n[0] = STRTOPOS($none)",
+        0.1,
+    );
+    let v = |n: &str, k: i32| i.real_at(n, &[k]).expect(n);
+    assert_eq!([v("j", 0), v("j", 2), v("j", 5)], [10.0, -80.0, 15.0]);
+    assert_eq!([v("t", 0), v("t", 2), v("t", 4)], [100.0, 300.0, 180.0]);
+    assert_eq!(i.real_at("n", &[0]), None);
+    assert_eq!(
+        s.raised,
+        vec![ErrorCode(-30103)],
+        "an undefined name is E0103"
+    );
+}
+
+#[test]
+fn strtopos_is_a_motion_target_and_not_emulated_where_its_kind_must_be_known_at_load() {
+    let src = format!(
+        "{}.PROGRAM rob()\n  $a = \"#pos\"\n  JMOVE STRTOPOS($a)\n  BREAK\n  DECOMPOSE at[0] = #HERE\n.END\n",
+        pc("  POINT #pos = #PPOINT(10, 20, -80, 0, -60, 15)\n  MC EXECUTE rob")
+    );
+    let (mut i, mut s) = common::start(&src);
+    i.run_until(&mut s, common::ms(10_000));
+    assert!(s.raised.is_empty(), "{:?}", s.raised);
+    assert!((i.real_at("at", &[1]).expect("at") - 20.0).abs() < 1e-3);
+    let w = fs020n_as::Interpreter::from_source(
+        "t.as",
+        &pc("  POINT p = STRTOPOS($a)"),
+        fs020n_as::Config::default(),
+    )
+    .map(|i| {
+        i.warnings()
+            .iter()
+            .map(|w| w.to_string())
+            .collect::<Vec<_>>()
+    })
+    .unwrap_or_default();
+    assert!(w.iter().any(|w| w.contains("STRTOPOS here")), "{w:?}");
 }

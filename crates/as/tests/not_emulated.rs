@@ -265,7 +265,6 @@ fn forms_from_pc_programs_load_as_not_emulated() {
             "5: IFPWPRINT",
             "6: IFPWOVERWRITE",
             "7: INTFCHK",
-            "14: the function STRTOPOS",
         ]
     );
 }

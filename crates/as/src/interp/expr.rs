@@ -349,6 +349,10 @@ impl Interpreter {
         Ok(match l {
             Loc::J(j) => LocVal::J(self.eval_j(i, j, sys)?),
             Loc::T(t) => LocVal::T(self.eval_t(i, t, sys)?),
+            Loc::Named(s) => {
+                let name = self.eval_s(i, s, sys)?;
+                self.named_pose(&name)?
+            }
         })
     }
 

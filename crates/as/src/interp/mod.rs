@@ -24,9 +24,10 @@
 //! | `posture.rs` | `LEFTY`, `RIGHTY`, `ABOVE`, `BELOW`, `UWRIST`, `DWRIST`: the IK branch |
 //! | `hands.rs` | `OPEN`/`CLOSE`/`RELAX` and their `I` forms on the hands' signals |
 //! | `locations.rs`, `exist.rs` | `DISTANCE`, `DX`/`DY`/`DZ`, `FRAME`; `EXISTREAL` … `EXISTPROGRAM` |
+//! | `named.rs` | `STRTOPOS`: the pose variable a string names |
 //! | `expr.rs` | expressions (reals, strings, locations, functions, `PRINT` encoding) |
 //! | `tcp.rs`, `udp.rs` | the `TCP_…` and `UDP_…` statements on the system's socket table |
-//! | `on_error.rs` | `ONE`: a task's error program, and its stop after it |
+//! | `on_error.rs` | `ONE`: a task's error program, and how the task goes on after it |
 //! | `stmt.rs` | one step: the hot path of pure computation, then every other op |
 //! | `arith.rs`, `strings.rs` | free helpers: numbers and overflow, string functions |
 //!
@@ -45,6 +46,7 @@ mod hands;
 mod locations;
 mod monitor;
 mod motion;
+mod named;
 mod observers;
 mod on_error;
 mod posture;

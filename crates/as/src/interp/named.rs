@@ -1,0 +1,43 @@
+//! `STRTOPOS($s)` (AS-E p.9-36): the pose variable a string names, read when the function is.
+
+use crate::compile::Ty;
+use crate::error::RuntimeError;
+
+use super::arith::R;
+use super::task::LocVal;
+use super::Interpreter;
+
+impl Interpreter {
+    /// The global pose variable `name` names: `#pos` (or `#pos[1,2]`) a joint point, `pos` a
+    /// transformation; E0103 when it holds no value (the manual: "an error occurs").
+    pub(super) fn named_pose(&self, name: &[u8]) -> R<LocVal> {
+        let text = String::from_utf8_lossy(name).trim().to_ascii_lowercase();
+        let undefined = || Box::new(RuntimeError::LocationUndefined(text.clone()));
+        let (joint, rest) = match text.strip_prefix('#') {
+            Some(rest) => (true, rest),
+            None => (false, text.as_str()),
+        };
+        let (base, idx) = match rest.split_once('[') {
+            Some((base, tail)) => {
+                let inner = tail.strip_suffix(']').ok_or_else(undefined)?;
+                let idx = (inner.split(','))
+                    .map(|x| x.trim().parse::<i32>().ok())
+                    .collect::<Option<Vec<i32>>>()
+                    .filter(|v| v.len() <= 3)
+                    .ok_or_else(undefined)?;
+                (base.trim(), idx)
+            }
+            None => (rest.trim(), Vec::new()),
+        };
+        let ty = if joint { Ty::Joint } else { Ty::Trans };
+        let slot = self.global_slot(ty, base).ok_or_else(undefined)?;
+        let g = &self.globals;
+        let v = if joint {
+            g.joints.get(slot).and_then(|v| v.get(&idx)).copied()
+        } else {
+            g.trans.get(slot).and_then(|v| v.get(&idx)).copied()
+        };
+        let v = v.ok_or_else(undefined)?;
+        Ok(if joint { LocVal::J(v) } else { LocVal::T(v) })
+    }
+}
