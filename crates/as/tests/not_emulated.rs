@@ -259,14 +259,7 @@ fn forms_from_pc_programs_load_as_not_emulated() {
             )
         })
         .collect();
-    assert_eq!(
-        w,
-        [
-            "5: IFPWPRINT",
-            "6: IFPWOVERWRITE",
-            "7: INTFCHK",
-        ]
-    );
+    assert_eq!(w, ["5: IFPWPRINT", "6: IFPWOVERWRITE", "7: INTFCHK",]);
 }
 
 #[test]

@@ -95,14 +95,7 @@ fn a_modified_server_runs_and_traces() {
     // The trace shows the added command executing.
     let traced = wait_for(&|l| l.contains("autostart.pc:") && l.contains("SIGNAL 1, -2"));
     assert!(traced.contains("pc1"), "{traced}");
-    let _ = Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status();
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        assert!(start.elapsed() < Duration::from_secs(20), "did not stop");
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    stop(child);
 }
 
 #[test]
@@ -156,14 +149,7 @@ fn the_pick_and_place_example_runs_on_a_signal_given_on_the_command_line() {
         got.extend_from_slice(&buf[..n]);
     }
     assert_eq!(String::from_utf8_lossy(&got), "PLACED 1\r\n");
-    let _ = Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status();
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        assert!(start.elapsed() < Duration::from_secs(20), "did not stop");
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    stop(child);
 }
 
 #[test]
@@ -228,6 +214,7 @@ fn sim_until_running(args: &[&str]) -> (std::process::Child, Vec<String>) {
     (child, lines)
 }
 
+/// Stops `fs020n sim` with SIGTERM and waits for it to exit.
 fn stop(mut child: std::process::Child) {
     let _ = Command::new("kill")
         .args(["-TERM", &child.id().to_string()])

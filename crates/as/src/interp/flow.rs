@@ -206,32 +206,15 @@ impl Interpreter {
         for b in &frame.byref {
             let s = b.param as usize;
             let callee = &frame.locals;
-            if b.whole {
-                let Some(val) = ArrayVal::of(callee, b.ty, s) else {
-                    continue;
-                };
-                let store = if b.var.global {
-                    &mut self.globals
-                } else {
-                    match self.tasks[i].frames.get_mut(b.frame) {
-                        Some(f) => &mut f.locals,
-                        None => continue,
-                    }
-                };
-                let more = val.put(store, b.ty, b.var.slot as usize).unwrap_or(0);
-                self.elements = self.elements.saturating_add_signed(more);
-                if self.elements > crate::value::MAX_ELEMENTS {
-                    result = Err(Box::new(crate::error::RuntimeError::MemoryFull(
-                        crate::value::MAX_ELEMENTS,
-                    )));
+            let val = if b.whole {
+                ArrayVal::of(callee, b.ty, s).map(ArgVal::Array)
+            } else {
+                match b.ty {
+                    Ty::Real => callee.reals[s].get(&[]).copied().map(ArgVal::R),
+                    Ty::Str => callee.strs[s].get(&[]).cloned().map(ArgVal::S),
+                    Ty::Joint => callee.joints[s].get(&[]).copied().map(ArgVal::J),
+                    Ty::Trans => callee.trans[s].get(&[]).copied().map(ArgVal::T),
                 }
-                continue;
-            }
-            let val = match b.ty {
-                Ty::Real => callee.reals[s].get(&[]).copied().map(ArgVal::R),
-                Ty::Str => callee.strs[s].get(&[]).cloned().map(ArgVal::S),
-                Ty::Joint => callee.joints[s].get(&[]).copied().map(ArgVal::J),
-                Ty::Trans => callee.trans[s].get(&[]).copied().map(ArgVal::T),
             };
             let Some(val) = val else { continue };
             let store = if b.var.global {
@@ -244,11 +227,22 @@ impl Interpreter {
             };
             let slot = b.var.slot as usize;
             let created = match val {
+                // A whole array: the caller's variable becomes the parameter's.
+                ArgVal::Array(a) => {
+                    let more = a.put(store, b.ty, slot).unwrap_or(0);
+                    self.elements = self.elements.saturating_add_signed(more);
+                    if self.elements > crate::value::MAX_ELEMENTS {
+                        result = Err(Box::new(crate::error::RuntimeError::MemoryFull(
+                            crate::value::MAX_ELEMENTS,
+                        )));
+                    }
+                    false
+                }
                 ArgVal::R(v) => store.reals.get_mut(slot).is_some_and(|x| x.set(&b.idx, v)),
                 ArgVal::S(v) => store.strs.get_mut(slot).is_some_and(|x| x.set(&b.idx, v)),
                 ArgVal::J(v) => store.joints.get_mut(slot).is_some_and(|x| x.set(&b.idx, v)),
                 ArgVal::T(v) => store.trans.get_mut(slot).is_some_and(|x| x.set(&b.idx, v)),
-                ArgVal::Undefined | ArgVal::Array(_) => false,
+                ArgVal::Undefined => false,
             };
             if let Err(e) = self.count_element(created) {
                 result = Err(e);
