@@ -71,6 +71,8 @@ pub(crate) enum RExpr {
     Loc(LocFn, Box<[TExpr]>),
     /// `EXISTREAL("name")` …: whether the named thing exists.
     Exist(Exist, Box<SExpr>),
+    /// `WHICHTASK($name)`: the task running the named program.
+    WhichTask(Box<SExpr>),
     /// `SYSDATA(keyword[, robot])`: a value of the controller's state; the robot number when
     /// it is not the constant 1 (an expression such as `.rno`, evaluated when read: robot 1
     /// is this robot, another has no value, −1).
@@ -2032,6 +2034,11 @@ impl Compiler {
                 let s = self.arg_str(&args[0])?;
                 Ok(CExpr::R(RExpr::Exist(kind, Box::new(s))))
             }
+            (Sigil::None, "whichtask") => {
+                self.arity(name, args, 1, 1, span)?;
+                let s = self.arg_str(&args[0])?;
+                Ok(CExpr::R(RExpr::WhichTask(Box::new(s))))
+            }
             (Sigil::None, "existdata") => {
                 // `EXISTDATA(name, T)` (later controllers; not in the E manual): whether the
                 // variable of that kind exists, the kind by its data section's initial — R
@@ -2322,7 +2329,11 @@ fn r_touches(e: &RExpr) -> bool {
             a.as_deref().is_some_and(r_touches) || s_touches(b) || s_touches(c)
         }
         RExpr::Dext(l, n) => loc_touches(l) || r_touches(n),
-        RExpr::Switch(_) | RExpr::Error | RExpr::Exist(..) | RExpr::SysData(..) => true,
+        RExpr::Switch(_)
+        | RExpr::Error
+        | RExpr::Exist(..)
+        | RExpr::WhichTask(_)
+        | RExpr::SysData(..) => true,
         RExpr::Loc(_, t) => t.iter().any(t_touches),
     }
 }

@@ -407,3 +407,18 @@ fn next_event_tells_the_driver_when_to_come_back() {
     i.run_until(&mut s, ms(600));
     assert_eq!(i.next_event(), None, "everything idle");
 }
+
+#[test]
+fn whichtask_names_the_task_running_a_program_or_its_subroutine() {
+    // AS-E p.9-19: 1 the robot program, 1001–1005 the PC programs, -1 none.
+    let src = ".PROGRAM autostart.pc()\n  MC EXECUTE rob\n  TWAIT 0.1\n  r = WHICHTASK(\"rob\")\n  s = WHICHTASK(\"sub\")\n  p = WHICHTASK(\"AUTOSTART.PC\")\n  n = WHICHTASK(\"idle\")\n  u = WHICHTASK(\"nowhere\")\n.END\n\
+.PROGRAM rob()\n  CALL sub\n.END\n.PROGRAM sub()\n  TWAIT 5\n.END\n.PROGRAM idle()\n.END\n";
+    let (mut i, mut s) = start(src);
+    i.run_until(&mut s, ms(500));
+    assert!(s.raised.is_empty(), "{:?}", s.raised);
+    let v = |n: &str| secs(&i, n);
+    assert_eq!(
+        [v("r"), v("s"), v("p"), v("n"), v("u")],
+        [1.0, 1.0, 1001.0, -1.0, -1.0]
+    );
+}

@@ -151,6 +151,10 @@ impl Interpreter {
                 let name = self.eval_s(i, name, sys)?;
                 self.exists(*kind, &name)
             }
+            RExpr::WhichTask(name) => {
+                let name = self.eval_s(i, name, sys)?;
+                self.which_task(&name)
+            }
         })
     }
 

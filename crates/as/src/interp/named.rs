@@ -1,10 +1,12 @@
-//! `STRTOPOS($s)` (AS-E p.9-36): the pose variable a string names, read when the function is.
+//! Things a string names, looked up when the function is read: `STRTOPOS($s)` (AS-E p.9-36),
+//! the pose variable; `WHICHTASK($s)` (p.9-19), the task running the program.
 
 use crate::compile::Ty;
 use crate::error::RuntimeError;
+use crate::system::TaskId;
 
 use super::arith::R;
-use super::task::LocVal;
+use super::task::{LocVal, TaskSlot};
 use super::Interpreter;
 
 impl Interpreter {
@@ -39,5 +41,21 @@ impl Interpreter {
         };
         let v = v.ok_or_else(undefined)?;
         Ok(if joint { LocVal::J(v) } else { LocVal::T(v) })
+    }
+
+    /// The task whose stack holds the program `name` (a running program or one of its
+    /// subroutines): 1 the robot task, 1001–1005 the PC tasks; −1 when none does.
+    pub(super) fn which_task(&self, name: &[u8]) -> f32 {
+        let name = String::from_utf8_lossy(name).trim().to_ascii_lowercase();
+        let Some(prog) = self.code.defined(&name) else {
+            return -1.0;
+        };
+        (0..self.tasks.len())
+            .map(TaskSlot::at)
+            .find(|&t| self.tasks[t].frames.iter().any(|f| f.prog == prog))
+            .map_or(-1.0, |t| match self.tasks[t].id {
+                TaskId::Robot => 1.0,
+                TaskId::Pc(n) => 1000.0 + f32::from(n),
+            })
     }
 }
