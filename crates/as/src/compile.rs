@@ -73,6 +73,10 @@ pub(crate) enum RExpr {
     Exist(Exist, Box<SExpr>),
     /// `WHICHTASK($name)`: the task running the named program.
     WhichTask(Box<SExpr>),
+    /// `STRTOVAL($name)`: the real variable the string names.
+    NamedReal(Box<SExpr>),
+    /// `MAXINDEX($name[, dim])` (`true`) / `MININDEX`: the largest / smallest index used.
+    ArrayIndex(bool, Box<SExpr>, Option<Box<RExpr>>),
     /// `SYSDATA(keyword[, robot])`: a value of the controller's state; the robot number when
     /// it is not the constant 1 (an expression such as `.rno`, evaluated when read: robot 1
     /// is this robot, another has no value, −1).
@@ -112,6 +116,8 @@ pub(crate) enum LocFn {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Exist {
     Real,
+    /// An integer variable (`@name`; integers are reals here).
+    Integer,
     Char,
     Joint,
     Trans,
@@ -176,6 +182,8 @@ pub(crate) enum SExpr {
     Date(Box<RExpr>),
     /// `$SYSDATA(ZROB.NAME)`: the robot's model name.
     RobotName,
+    /// `$SPACE(n)`: n blanks.
+    Space(Box<RExpr>),
 }
 
 /// Joint-point expressions.
@@ -2021,11 +2029,13 @@ impl Compiler {
             }
             (
                 Sigil::None,
-                f @ ("existreal" | "existchar" | "existjoint" | "existtrans" | "existprogram"),
+                f @ ("existreal" | "existinteger" | "existchar" | "existjoint" | "existtrans"
+                | "existprogram"),
             ) => {
                 self.arity(name, args, 1, 1, span)?;
                 let kind = match f {
                     "existreal" => Exist::Real,
+                    "existinteger" => Exist::Integer,
                     "existchar" => Exist::Char,
                     "existjoint" => Exist::Joint,
                     "existtrans" => Exist::Trans,
@@ -2033,6 +2043,25 @@ impl Compiler {
                 };
                 let s = self.arg_str(&args[0])?;
                 Ok(CExpr::R(RExpr::Exist(kind, Box::new(s))))
+            }
+            (Sigil::None, "strtoval") => {
+                self.arity(name, args, 1, 1, span)?;
+                let s = self.arg_str(&args[0])?;
+                Ok(CExpr::R(RExpr::NamedReal(Box::new(s))))
+            }
+            (Sigil::None, f @ ("maxindex" | "minindex")) => {
+                self.arity(name, args, 1, 2, span)?;
+                let s = self.arg_str(&args[0])?;
+                let dim = args.get(1).map(|a| self.arg_real(a)).transpose()?;
+                Ok(CExpr::R(RExpr::ArrayIndex(
+                    f == "maxindex",
+                    Box::new(s),
+                    dim.map(Box::new),
+                )))
+            }
+            (Sigil::Dollar, "space") => {
+                self.arity(name, args, 1, 1, span)?;
+                Ok(CExpr::S(SExpr::Space(Box::new(self.arg_real(&args[0])?))))
             }
             (Sigil::None, "whichtask") => {
                 self.arity(name, args, 1, 1, span)?;
@@ -2333,6 +2362,8 @@ fn r_touches(e: &RExpr) -> bool {
         | RExpr::Error
         | RExpr::Exist(..)
         | RExpr::WhichTask(_)
+        | RExpr::NamedReal(_)
+        | RExpr::ArrayIndex(..)
         | RExpr::SysData(..) => true,
         RExpr::Loc(_, t) => t.iter().any(t_touches),
     }
@@ -2345,7 +2376,7 @@ fn s_touches(e: &SExpr) -> bool {
         SExpr::Concat(a, b) => s_touches(a) || s_touches(b),
         SExpr::Mid(a, b, c) => s_touches(a) || r_touches(b) || c.as_deref().is_some_and(r_touches),
         SExpr::Left(a, b) | SExpr::Right(a, b) => s_touches(a) || r_touches(b),
-        SExpr::Chr(a) | SExpr::ErrorMsg(a) | SExpr::Date(a) => r_touches(a),
+        SExpr::Chr(a) | SExpr::ErrorMsg(a) | SExpr::Date(a) | SExpr::Space(a) => r_touches(a),
         SExpr::Time | SExpr::RobotName => false,
         SExpr::Encode(items) => items_touch(items),
         SExpr::Decode(l, d, m) => l_touches(l) || s_touches(d) || r_touches(m),

@@ -198,3 +198,38 @@ fn strtopos_is_a_motion_target_and_not_emulated_where_its_kind_must_be_known_at_
     .unwrap_or_default();
     assert!(w.iter().any(|w| w.contains("STRTOPOS here")), "{w:?}");
 }
+
+#[test]
+fn strtoval_reads_the_real_a_string_names() {
+    // AS-E p.9-37: VAR = 5, $VA = "VAR", STRTOVAL($VA) + 6 is 11.
+    let (i, s) = run_pc(
+        "  var = 5\n  count[3] = 7\n  $va = \"VAR\"\n  total = STRTOVAL($va) + 6\n  third = STRTOVAL(\"count[3]\")\n  never = STRTOVAL(\"nothing\")",
+        0.1,
+    );
+    assert_eq!(i.real("total"), Some(11.0));
+    assert_eq!(i.real("third"), Some(7.0));
+    assert_eq!(i.real("never"), None);
+    assert_eq!(s.raised, vec![ErrorCode(-30102)]);
+}
+
+#[test]
+fn maxindex_and_minindex_give_the_indices_an_array_uses() {
+    // AS-E p.9-16: −1 for a variable that is no array, −2 for one not defined.
+    let (i, s) = run_pc(
+        "  POINT #pos[0] = #PPOINT(0)\n  POINT #pos[100] = #PPOINT(0)\n\
+  POINT #place[1,1] = #PPOINT(0)\n  POINT #place[1,5] = #PPOINT(0)\n\
+  $s[2] = \"a\"\n  $s[7] = \"b\"\n  plain = 1\n\
+  a = MAXINDEX(\"#pos\")\n  b = MAXINDEX(\"#place\", 2)\n  c = MININDEX(\"#place\", 2)\n\
+  d = MININDEX(\"$s\")\n  e = MAXINDEX(\"plain\")\n  f = MAXINDEX(\"nothing\")\n\
+  g = EXISTINTEGER(\"@n\")\n  @n = 3\n  h = EXISTINTEGER(\"@n\")\n  $pad = \"a\" + $SPACE(2) + \"b\"",
+        0.1,
+    );
+    assert!(s.raised.is_empty(), "{:?}", s.raised);
+    let v = |n: &str| i.real(n).expect(n);
+    assert_eq!(
+        [v("a"), v("b"), v("c"), v("d"), v("e"), v("f")],
+        [100.0, 5.0, 1.0, 2.0, -1.0, -2.0]
+    );
+    assert_eq!([v("g"), v("h")], [0.0, -1.0]);
+    assert_eq!(i.string("pad"), Some(b"a  b".to_vec()));
+}

@@ -155,6 +155,23 @@ impl Interpreter {
                 let name = self.eval_s(i, name, sys)?;
                 self.which_task(&name)
             }
+            RExpr::NamedReal(name) => {
+                let name = self.eval_s(i, name, sys)?;
+                self.named_real(&name)?
+            }
+            RExpr::ArrayIndex(max, name, dim) => {
+                let name = self.eval_s(i, name, sys)?;
+                let dim = match dim {
+                    Some(d) => self.eval_r(i, d, sys)?.trunc(),
+                    None => 1.0,
+                };
+                if !(1.0..=3.0).contains(&dim) {
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
+                        "dimension {dim} (1 to 3)"
+                    ))));
+                }
+                self.array_index(*max, &name, dim as usize)
+            }
         })
     }
 
@@ -297,6 +314,15 @@ impl Interpreter {
                 } else {
                     s.slice(s.len() - n, s.len())
                 }
+            }
+            SExpr::Space(n) => {
+                let n = self.eval_r(i, n, sys)?.trunc();
+                if !(0.0..=MAX_STRING as f32).contains(&n) {
+                    return Err(Box::new(RuntimeError::IllegalValue(format!(
+                        "$SPACE({n}) (0 to {MAX_STRING})"
+                    ))));
+                }
+                Bytes::from(vec![b' '; n as usize].as_slice())
             }
             SExpr::Chr(n) => {
                 let n = self.eval_r(i, n, sys)?.trunc();

@@ -1,5 +1,6 @@
 //! Things a string names, looked up when the function is read: `STRTOPOS($s)` (AS-E p.9-36),
-//! the pose variable; `WHICHTASK($s)` (p.9-19), the task running the program.
+//! the pose variable; `STRTOVAL($s)` (p.9-37), the real variable; `WHICHTASK($s)` (p.9-19),
+//! the task running the program.
 
 use crate::compile::Ty;
 use crate::error::RuntimeError;
@@ -9,27 +10,35 @@ use super::arith::R;
 use super::task::{LocVal, TaskSlot};
 use super::Interpreter;
 
+/// `name` or `name[1,2]` as a string holds it: the name in lower case (its `#`, `$` or `@`
+/// kept) and the indices; `None` when the brackets are not 1–3 whole numbers.
+fn variable_name(text: &[u8]) -> Option<(String, Vec<i32>)> {
+    let text = String::from_utf8_lossy(text).trim().to_ascii_lowercase();
+    match text.split_once('[') {
+        Some((base, tail)) => {
+            let idx = (tail.strip_suffix(']')?.split(','))
+                .map(|x| x.trim().parse::<i32>().ok())
+                .collect::<Option<Vec<i32>>>()
+                .filter(|v| (1..=3).contains(&v.len()))?;
+            Some((base.trim().to_owned(), idx))
+        }
+        None => Some((text, Vec::new())),
+    }
+}
+
 impl Interpreter {
     /// The global pose variable `name` names: `#pos` (or `#pos[1,2]`) a joint point, `pos` a
     /// transformation; E0103 when it holds no value (the manual: "an error occurs").
     pub(super) fn named_pose(&self, name: &[u8]) -> R<LocVal> {
-        let text = String::from_utf8_lossy(name).trim().to_ascii_lowercase();
-        let undefined = || Box::new(RuntimeError::LocationUndefined(text.clone()));
-        let (joint, rest) = match text.strip_prefix('#') {
+        let undefined = || {
+            Box::new(RuntimeError::LocationUndefined(
+                String::from_utf8_lossy(name).trim().to_owned(),
+            ))
+        };
+        let (text, idx) = variable_name(name).ok_or_else(undefined)?;
+        let (joint, base) = match text.strip_prefix('#') {
             Some(rest) => (true, rest),
             None => (false, text.as_str()),
-        };
-        let (base, idx) = match rest.split_once('[') {
-            Some((base, tail)) => {
-                let inner = tail.strip_suffix(']').ok_or_else(undefined)?;
-                let idx = (inner.split(','))
-                    .map(|x| x.trim().parse::<i32>().ok())
-                    .collect::<Option<Vec<i32>>>()
-                    .filter(|v| v.len() <= 3)
-                    .ok_or_else(undefined)?;
-                (base.trim(), idx)
-            }
-            None => (rest.trim(), Vec::new()),
         };
         let ty = if joint { Ty::Joint } else { Ty::Trans };
         let slot = self.global_slot(ty, base).ok_or_else(undefined)?;
@@ -41,6 +50,22 @@ impl Interpreter {
         };
         let v = v.ok_or_else(undefined)?;
         Ok(if joint { LocVal::J(v) } else { LocVal::T(v) })
+    }
+
+    /// The global real `name` names (`"var"`, `"var[3]"`, `"@count"`); E0102 when it holds
+    /// no value (the manual: "an error occurs").
+    pub(super) fn named_real(&self, name: &[u8]) -> R<f32> {
+        let undefined = || {
+            Box::new(RuntimeError::Undefined(
+                String::from_utf8_lossy(name).trim().to_owned(),
+            ))
+        };
+        let (text, idx) = variable_name(name).ok_or_else(undefined)?;
+        let slot = self.global_slot(Ty::Real, &text).ok_or_else(undefined)?;
+        (self.globals.reals.get(slot))
+            .and_then(|v| v.get(&idx))
+            .copied()
+            .ok_or_else(undefined)
     }
 
     /// The task whose stack holds the program `name` (a running program or one of its
