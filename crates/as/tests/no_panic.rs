@@ -106,6 +106,12 @@ impl Gen {
                         "SWITCH(RUN)",
                         "LEN($s)",
                         "VAL($s)",
+                        "UTIMER(@t)",
+                        "STRTOVAL($s)",
+                        "MAXINDEX($s, 2)",
+                        "WHICHTASK($s)",
+                        "SYSDATA(ZROB.NOWAXIS, .c)",
+                        "EXISTDATA($s, T)",
                     ])
                     .into(),
                 _ => self.num(),
@@ -151,7 +157,7 @@ impl Gen {
                 ])
                 .into();
         }
-        match self.next() % 6 {
+        match self.next() % 7 {
             0 => format!("{} + {}", self.string(depth - 1), self.string(depth - 1)),
             1 => format!(
                 "$MID({}, {}, {})",
@@ -168,13 +174,14 @@ impl Gen {
             ),
             3 => format!("$DECODE($s, \" \", {})", self.real(depth - 1)),
             4 => format!("$CHR({})", self.real(depth - 1)),
+            5 => format!("$SPACE({})", self.real(depth - 1)),
             _ => self.string(0),
         }
     }
 
     fn stmt(&mut self, depth: u32) -> String {
         let r = self.real(2);
-        match self.next() % 26 {
+        match self.next() % 31 {
             0 => format!("a = {r}"),
             1 => format!("x[{}] = {}", self.real(1), self.real(2)),
             2 => format!("$s = {}", self.string(2)),
@@ -197,9 +204,14 @@ impl Gen {
             19 => format!("ONI {} GOTO top", self.real(0)),
             20 => format!("TCP_LISTEN r, {}", self.pick(&["9000", "9001", "80"])),
             21 => "TCP_ACCEPT sock, 9000, 0.05\nTCP_RECV r, sock, $arr[1], n, 0.05\nTCP_SEND r, sock, $arr[1], n, 0.05".into(),
-            22 => format!("MC {}", self.pick(&["EXECUTE main", "HOLD", "CONTINUE", "ABORT", "ERESET", "SPEED 50", "PCEXECUTE 3: sub"])),
+            22 => format!("MC {}", self.pick(&["EXECUTE main", "HOLD", "CONTINUE", "ABORT", "ERESET", "SPEED 50", "PCEXECUTE 3: sub", "ZPOWER OFF"])),
             23 => format!("CALL sub({r})"),
             24 => format!("DECOMPOSE x[{}] = #HERE", self.real(0)),
+            25 => format!("UTIMER @t = {}", self.real(1)),
+            26 => "HERE f+g".into(),
+            27 => "CALL sub(x[])".into(),
+            28 => format!("ONE sub\nx[1] = 1 / {r}\nRETURNE"),
+            29 => format!("DECOMPOSE x[0] = STRTOPOS({})", self.string(1)),
             _ => format!("WAIT {r}"),
         }
     }
