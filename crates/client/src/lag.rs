@@ -103,7 +103,7 @@ impl LagEstimator {
         let n = ((GRID_MAX_S - GRID_MIN_S) / GRID_STEP_S).round() as usize + 1;
         let lead_s = match mode {
             LagCompensation::Fixed(d) => d.as_secs_f64().min(LagCompensation::LIMIT.as_secs_f64()),
-            _ => 0.0,
+            _ => std::env::var("FS_PRIOR_MS").ok().and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0) / 1e3,
         };
         LagEstimator {
             mode,
@@ -155,7 +155,7 @@ impl LagEstimator {
         };
         let forget = self
             .last_tau
-            .map_or(1.0, |last| (-(tau - last).abs() / MEMORY_S).exp());
+            .map_or(1.0, |last| (-(tau - last).abs() / std::env::var("FS_MEM").ok().and_then(|v| v.parse::<f64>().ok()).unwrap_or(MEMORY_S)).exp());
         self.last_tau = Some(tau);
         for (k, (p, a)) in self
             .pipeline

@@ -684,6 +684,7 @@ impl Streamer {
             Box::pin(tokio::time::sleep(Duration::ZERO)),
         ];
         let mut next_timer = 0;
+        let mut hold_state: Option<(f64, JointsDeg, f64)> = None;
         loop {
             if self.cancelled() {
                 return Ok(End::Cancelled);
@@ -730,6 +731,37 @@ impl Streamer {
             } else {
                 self.trajectory.sample_for_streaming(tau, &self.model)
             };
+            let sample = if let (StreamMode::Extrapolated { .. }, Some(h_fixed)) = (self.options.mode, std::env::var("FS_HOLD_MS").ok().and_then(|v| v.parse::<f64>().ok()).map(|v| v / 1e3)) {
+                allowed_step *= (0.08 / period_s).max(1.0);
+                let lead_p = std::env::var("FS_HOLD_LEAD_MS").ok().and_then(|v| v.parse::<f64>().ok()).map(|v| v / 1e3)
+                    .unwrap_or_else(|| tally.lag.as_ref().map_or(0.0, LagEstimator::lead_s));
+                let change = match hold_state {
+                    None => true,
+                    Some((tc, _, h)) => last || tau - tc >= h - period_s / 2.0,
+                };
+                if change {
+                    let h = if h_fixed > 0.0 { h_fixed } else {
+                        // fastest flange speed over the next segment
+                        let mut v: f64 = 0.0;
+                        let mut s = tau;
+                        while s <= tau + 0.18 {
+                            let a = self.model.flange_position_m(&self.trajectory.sample((s + lead_p).min(t_end)).position.to_rad());
+                            let b = self.model.flange_position_m(&self.trajectory.sample((s + lead_p + 0.001).min(t_end)).position.to_rad());
+                            v = v.max((b - a).norm() / 0.001);
+                            s += 0.01;
+                        }
+                        let margin: f64 = std::env::var("FS_MARGIN").ok().and_then(|v| v.parse().ok()).unwrap_or(0.8);
+                        let hmin: f64 = std::env::var("FS_HMIN").ok().and_then(|v| v.parse::<f64>().ok()).unwrap_or(20.0) / 1e3;
+                        let mut n = (hmin / period_s).round().max(1.0);
+                        while n * period_s < 0.08 - 1e-9 && v * (0.05 - n * period_s / 2.0) > 0.010 * margin { n += 1.0; }
+                        n * period_s
+                    };
+                    let target = self.trajectory.sample((tau + h / 2.0 + lead_p).min(t_end)).position;
+                    hold_state = Some((tau, target, h));
+                }
+                let target = hold_state.map(|(_, t, _)| t).unwrap_or(sample.position);
+                TrajectorySample { position: target, velocity: JointsDeg::ZERO, acceleration: JointsDeg::ZERO }
+            } else { sample };
             let at = local_start + Duration::from_secs_f64((tau - t_begin).max(0.0));
             // Lag compensation: stamped as if it held `lead` earlier, the sample is extrapolated
             // that much further by the controller.
@@ -926,6 +958,7 @@ impl Streamer {
             .sample(tau)
             .position
             .max_abs_diff(&ex.frame.status.joints);
+        if std::env::var("FS_TRACE").is_ok() { eprintln!("TR {tau:.4} {e:.4}"); }
         tally.track_max = tally.track_max.max(e);
         tally.track_sq += e * e;
         tally.track_n += 1;
