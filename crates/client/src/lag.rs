@@ -103,7 +103,7 @@ impl LagEstimator {
         let n = ((GRID_MAX_S - GRID_MIN_S) / GRID_STEP_S).round() as usize + 1;
         let lead_s = match mode {
             LagCompensation::Fixed(d) => d.as_secs_f64().min(LagCompensation::LIMIT.as_secs_f64()),
-            _ => std::env::var("FS_PRIOR_MS").ok().and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0) / 1e3,
+            _ => 0.0,
         };
         LagEstimator {
             mode,
@@ -113,6 +113,17 @@ impl LagEstimator {
             last_tau: None,
             lead_s,
         }
+    }
+
+    /// Like [`new`](Self::new), but an online lead starts at `prior_s` (bounded like the
+    /// estimate) instead of none, until the estimate takes over after the warm-up.
+    pub(crate) fn starting_at(mode: LagCompensation, prior_s: f64) -> LagEstimator {
+        let mut est = LagEstimator::new(mode);
+        if let LagCompensation::Online { max } = mode {
+            let max_s = max.as_secs_f64().min(LagCompensation::LIMIT.as_secs_f64());
+            est.lead_s = prior_s.clamp(0.0, max_s);
+        }
+        est
     }
 
     /// The lead to stamp samples with now, seconds.
@@ -155,7 +166,7 @@ impl LagEstimator {
         };
         let forget = self
             .last_tau
-            .map_or(1.0, |last| (-(tau - last).abs() / std::env::var("FS_MEM").ok().and_then(|v| v.parse::<f64>().ok()).unwrap_or(MEMORY_S)).exp());
+            .map_or(1.0, |last| (-(tau - last).abs() / MEMORY_S).exp());
         self.last_tau = Some(tau);
         for (k, (p, a)) in self
             .pipeline

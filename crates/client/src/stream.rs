@@ -18,6 +18,7 @@ use crate::curvature::{corrected, CurvatureCompensation, CORRECTION_RATE_DEG_S};
 use crate::error::{Activity, ClientError, LinkError};
 use crate::lag::{LagCompensation, LagEstimator};
 use crate::motion::{only_held, LONGEST_WAIT};
+use crate::pacing::{next_target, HeldTarget, TargetPacing, LMOVE_TIME_S};
 use crate::safety::{blockers, check_stream_sample, MAX_LOOKAHEAD_PASSES};
 use crate::session::{lock, Exchange, Link, SessionShared};
 use crate::trajectory::{OptionError, Trajectory, TrajectoryError, TrajectorySample};
@@ -74,8 +75,13 @@ pub struct StreamOptions {
     pub lag_compensation: LagCompensation,
     /// Whether command 7 boosts curved paths against the rounding of the controller's pipeline
     /// (ignored for waypoints). Default `Off`: on the emulated controller a fixed gain made the
-    /// tracking worse, see [`CurvatureCompensation`] and docs/PERFORMANCE.md.
+    /// tracking worse, see [`CurvatureCompensation`] and docs/PERFORMANCE.md. Needs
+    /// [`TargetPacing::Extrapolated`].
     pub curvature_compensation: CurvatureCompensation,
+    /// How often command 7 gives the controller a new target (ignored for waypoints). Default
+    /// [`TargetPacing::Held`]: a point of the trajectory ahead, held for 20–80 ms, so that the
+    /// controller's passes do not wait for ACCURACY when the tool is fast.
+    pub target_pacing: TargetPacing,
 }
 
 impl Default for StreamOptions {
@@ -93,6 +99,7 @@ impl Default for StreamOptions {
             hold_timeout: None,
             lag_compensation: LagCompensation::default(),
             curvature_compensation: CurvatureCompensation::default(),
+            target_pacing: TargetPacing::default(),
         }
     }
 }
@@ -175,6 +182,12 @@ impl StreamOptions {
                 CurvatureCompensation::Fixed { gain_s2, max_deg } => (gain_s2, max_deg),
             };
             return Err(OptionError::Curvature { gain_s2, max_deg });
+        }
+        if self.target_pacing == TargetPacing::Held
+            && self.curvature_compensation != CurvatureCompensation::Off
+            && self.mode != StreamMode::Waypoints
+        {
+            return Err(OptionError::CurvatureNeedsExtrapolatedPacing);
         }
         for (option, timeout) in [
             ("end_timeout", Some(self.end_timeout)),
@@ -469,6 +482,12 @@ impl Streamer {
         self.link.shared.current_epoch() != self.epoch
     }
 
+    /// Command 7 with held targets ([`TargetPacing::Held`]).
+    fn held(&self) -> bool {
+        matches!(self.options.mode, StreamMode::Extrapolated { .. })
+            && self.options.target_pacing == TargetPacing::Held
+    }
+
     fn server_time(&self, at: Instant) -> Option<f64> {
         lock(&self.link.shared.clock).server_time(at)
     }
@@ -484,10 +503,15 @@ impl Streamer {
     async fn run(self) -> Result<StreamReport, ClientError> {
         let mut tally = Tally {
             // Waypoints are not stamped: their lag is only measured.
-            lag: Some(LagEstimator::new(match self.options.mode {
-                StreamMode::Extrapolated { .. } => self.options.lag_compensation,
-                StreamMode::Waypoints => LagCompensation::Off,
-            })),
+            lag: Some(match self.options.mode {
+                // Held targets: the moves' own delay is half a move; the online lead starts
+                // there instead of at none.
+                StreamMode::Extrapolated { .. } if self.held() => {
+                    LagEstimator::starting_at(self.options.lag_compensation, 0.5 * LMOVE_TIME_S)
+                }
+                StreamMode::Extrapolated { .. } => LagEstimator::new(self.options.lag_compensation),
+                StreamMode::Waypoints => LagEstimator::new(LagCompensation::Off),
+            }),
             ..Tally::default()
         };
         let started = Instant::now();
@@ -684,7 +708,8 @@ impl Streamer {
             Box::pin(tokio::time::sleep(Duration::ZERO)),
         ];
         let mut next_timer = 0;
-        let mut hold_state: Option<(f64, JointsDeg, f64)> = None;
+        // The target the controller holds (held pacing).
+        let mut held: Option<HeldTarget> = None;
         loop {
             if self.cancelled() {
                 return Ok(End::Cancelled);
@@ -731,42 +756,38 @@ impl Streamer {
             } else {
                 self.trajectory.sample_for_streaming(tau, &self.model)
             };
-            let sample = if let (StreamMode::Extrapolated { .. }, Some(h_fixed)) = (self.options.mode, std::env::var("FS_HOLD_MS").ok().and_then(|v| v.parse::<f64>().ok()).map(|v| v / 1e3)) {
-                allowed_step *= (0.08 / period_s).max(1.0);
-                let lead_p = std::env::var("FS_HOLD_LEAD_MS").ok().and_then(|v| v.parse::<f64>().ok()).map(|v| v / 1e3)
-                    .unwrap_or_else(|| tally.lag.as_ref().map_or(0.0, LagEstimator::lead_s));
-                let change = match hold_state {
-                    None => true,
-                    Some((tc, _, h)) => last || tau - tc >= h - period_s / 2.0,
-                };
-                if change {
-                    let h = if h_fixed > 0.0 { h_fixed } else {
-                        // fastest flange speed over the next segment
-                        let mut v: f64 = 0.0;
-                        let mut s = tau;
-                        while s <= tau + 0.18 {
-                            let a = self.model.flange_position_m(&self.trajectory.sample((s + lead_p).min(t_end)).position.to_rad());
-                            let b = self.model.flange_position_m(&self.trajectory.sample((s + lead_p + 0.001).min(t_end)).position.to_rad());
-                            v = v.max((b - a).norm() / 0.001);
-                            s += 0.01;
-                        }
-                        let margin: f64 = std::env::var("FS_MARGIN").ok().and_then(|v| v.parse().ok()).unwrap_or(0.8);
-                        let hmin: f64 = std::env::var("FS_HMIN").ok().and_then(|v| v.parse::<f64>().ok()).unwrap_or(20.0) / 1e3;
-                        let mut n = (hmin / period_s).round().max(1.0);
-                        while n * period_s < 0.08 - 1e-9 && v * (0.05 - n * period_s / 2.0) > 0.010 * margin { n += 1.0; }
-                        n * period_s
-                    };
-                    let target = self.trajectory.sample((tau + h / 2.0 + lead_p).min(t_end)).position;
-                    hold_state = Some((tau, target, h));
-                }
-                let target = hold_state.map(|(_, t, _)| t).unwrap_or(sample.position);
-                TrajectorySample { position: target, velocity: JointsDeg::ZERO, acceleration: JointsDeg::ZERO }
-            } else { sample };
             let at = local_start + Duration::from_secs_f64((tau - t_begin).max(0.0));
             // Lag compensation: stamped as if it held `lead` earlier, the sample is extrapolated
             // that much further by the controller.
-            let lead =
-                Duration::from_secs_f64(tally.lag.as_ref().map_or(0.0, LagEstimator::lead_s));
+            let lead_s = tally.lag.as_ref().map_or(0.0, LagEstimator::lead_s);
+            let lead = Duration::from_secs_f64(lead_s);
+            // Held pacing: the held target, with zero velocity and acceleration (the controller
+            // then starts one move per target); a new one may step by `max_step_deg` per period
+            // of trajectory time since the one before.
+            let sample = if self.held() {
+                let from_s = held.map_or(t_begin, |h| h.time_s);
+                if let Some(next) = next_target(
+                    &self.model,
+                    &self.trajectory,
+                    held.as_ref(),
+                    tau,
+                    lead_s,
+                    period_s,
+                    last,
+                ) {
+                    allowed_step = allowed_step.max(
+                        self.options.max_step_deg * ((next.time_s - from_s) / period_s).max(1.0),
+                    );
+                    held = Some(next);
+                }
+                TrajectorySample {
+                    position: held.map_or(sample.position, |h| h.position),
+                    velocity: JointsDeg::ZERO,
+                    acceleration: JointsDeg::ZERO,
+                }
+            } else {
+                sample
+            };
             let stamp_at = at.checked_sub(lead).unwrap_or(at);
             let t0_s = self.server_time(stamp_at);
             // Curvature compensation (command 7, not the last sample, which holds the end
@@ -958,7 +979,6 @@ impl Streamer {
             .sample(tau)
             .position
             .max_abs_diff(&ex.frame.status.joints);
-        if std::env::var("FS_TRACE").is_ok() { eprintln!("TR {tau:.4} {e:.4}"); }
         tally.track_max = tally.track_max.max(e);
         tally.track_sq += e * e;
         tally.track_n += 1;
