@@ -172,7 +172,7 @@ mod tests {
         // whole periods, at 250 Hz too
         let fast_250 = hold_for(&model, &ramp(30.0), 0.5, 0.004);
         assert!(((fast_250 / 0.004) - (fast_250 / 0.004).round()).abs() < 1e-9);
-        assert!(fast_250 >= MIN_HOLD_S - 1e-9 && fast_250 <= MAX_HOLD_S + 1e-9);
+        assert!((MIN_HOLD_S - 1e-9..=MAX_HOLD_S + 1e-9).contains(&fast_250));
         // a period longer than the longest hold: every sample is a new target
         assert!((hold_for(&model, &ramp(30.0), 0.5, 0.1) - 0.1).abs() < 1e-9);
     }
