@@ -18,7 +18,7 @@ use crate::curvature::{corrected, CurvatureCompensation, CORRECTION_RATE_DEG_S};
 use crate::error::{Activity, ClientError, LinkError};
 use crate::lag::{LagCompensation, LagEstimator};
 use crate::motion::{only_held, LONGEST_WAIT};
-use crate::pacing::{next_target, HeldTarget, TargetPacing, LMOVE_TIME_S};
+use crate::pacing::{move_time_s, next_target, HeldTarget, Pace, TargetPacing};
 use crate::safety::{blockers, check_stream_sample, MAX_LOOKAHEAD_PASSES};
 use crate::session::{lock, Exchange, Link, SessionShared};
 use crate::trajectory::{OptionError, Trajectory, TrajectoryError, TrajectorySample};
@@ -482,6 +482,11 @@ impl Streamer {
         self.link.shared.current_epoch() != self.epoch
     }
 
+    /// The controller's move time at the monitor speed this session set, seconds.
+    fn move_s(&self) -> f64 {
+        move_time_s(self.link.shared.speed_percent())
+    }
+
     /// Command 7 with held targets ([`TargetPacing::Held`]).
     fn held(&self) -> bool {
         matches!(self.options.mode, StreamMode::Extrapolated { .. })
@@ -507,7 +512,7 @@ impl Streamer {
                 // Held targets: the moves' own delay is half a move; the online lead starts
                 // there instead of at none.
                 StreamMode::Extrapolated { .. } if self.held() => {
-                    LagEstimator::starting_at(self.options.lag_compensation, 0.5 * LMOVE_TIME_S)
+                    LagEstimator::starting_at(self.options.lag_compensation, 0.5 * self.move_s())
                 }
                 StreamMode::Extrapolated { .. } => LagEstimator::new(self.options.lag_compensation),
                 StreamMode::Waypoints => LagEstimator::new(LagCompensation::Off),
@@ -710,6 +715,10 @@ impl Streamer {
         let mut next_timer = 0;
         // The target the controller holds (held pacing).
         let mut held: Option<HeldTarget> = None;
+        let pace = Pace {
+            period_s,
+            move_s: self.move_s(),
+        };
         loop {
             if self.cancelled() {
                 return Ok(End::Cancelled);
@@ -772,7 +781,7 @@ impl Streamer {
                     held.as_ref(),
                     tau,
                     lead_s,
-                    period_s,
+                    pace,
                     last,
                 ) {
                     allowed_step = allowed_step.max(

@@ -7,8 +7,8 @@ use std::time::Duration;
 
 use common::*;
 use fs020n_client::{
-    ClientError, Completion, OptionError, SampleError, StreamOptions, StreamOutcome, TargetPacing,
-    Trajectory, TrajectoryError, TrajectoryPoint,
+    ClientError, Completion, LagCompensation, OptionError, SampleError, StreamOptions,
+    StreamOutcome, TargetPacing, Trajectory, TrajectoryError, TrajectoryPoint,
 };
 use fs020n_kin::RobotModel;
 use fs020n_proto::{Command, JointsDeg};
@@ -244,13 +244,19 @@ async fn streamed_spline_accelerations_are_limited_to_the_model() {
 
 // ------------------------------------------------------------------ 2. cancel after the last sample
 
-/// Streams at 10 % monitor speed (the arm lags far behind), until every sample is sent.
+/// Streams at 10 % monitor speed (the arm lags far behind: samples extrapolated on every
+/// pass, no lead), until every sample is sent.
 async fn stream_until_done(
     emu: &fs020n_sim::Emulator,
 ) -> (fs020n_client::Robot, fs020n_client::StreamHandle) {
     let robot = ready(emu, 10.0).await;
+    let options = StreamOptions {
+        target_pacing: TargetPacing::Extrapolated,
+        lag_compensation: LagCompensation::Off,
+        ..StreamOptions::default()
+    };
     let handle = robot
-        .stream(jt1_ramp(0.0, 12.0, 1.0), StreamOptions::default())
+        .stream(jt1_ramp(0.0, 12.0, 1.0), options)
         .await
         .unwrap();
     while !handle.progress().done {
