@@ -726,10 +726,12 @@ impl Streamer {
             if self.waits_in(&blockers(&self.link.latest().status, true)) {
                 match self.hold().await? {
                     None => return Ok(End::Cancelled),
-                    Some(held) => {
-                        local_start += held;
+                    Some(paused) => {
+                        local_start += paused;
                         last_sent = None;
                         next_due = None;
+                        // The brake ended the held target's move: place a new one.
+                        held = None;
                         continue;
                     }
                 }
