@@ -249,6 +249,47 @@ mod tests {
     }
 
     #[test]
+    fn an_online_lead_starts_at_its_prior_and_the_estimate_takes_over_after_the_warm_up() {
+        let traj = ramp();
+        let mut est = LagEstimator::starting_at(LagCompensation::default(), 0.05);
+        assert_eq!(est.lead_s(), 0.05);
+        let pipeline = 0.07;
+        for k in 0..(WARMUP - 1) {
+            let tau = 0.5 + f64::from(k) * 0.02;
+            let lead = est.lead_s();
+            est.observe(
+                &traj,
+                tau,
+                &traj.sample(tau + lead - pipeline).position,
+                lead,
+            );
+        }
+        assert_eq!(est.lead_s(), 0.05, "unchanged during the warm-up");
+        for k in (WARMUP - 1)..150 {
+            let tau = 0.5 + f64::from(k) * 0.02;
+            let lead = est.lead_s();
+            est.observe(
+                &traj,
+                tau,
+                &traj.sample(tau + lead - pipeline).position,
+                lead,
+            );
+        }
+        assert!((est.lead_s() - pipeline).abs() < 0.004, "{}", est.lead_s());
+        // bounded by the online maximum; a fixed lead or none ignores the prior
+        let capped = LagCompensation::Online {
+            max: Duration::from_millis(30),
+        };
+        assert_eq!(LagEstimator::starting_at(capped, 0.05).lead_s(), 0.03);
+        let fixed = LagCompensation::Fixed(Duration::from_millis(20));
+        assert_eq!(LagEstimator::starting_at(fixed, 0.05).lead_s(), 0.02);
+        assert_eq!(
+            LagEstimator::starting_at(LagCompensation::Off, 0.05).lead_s(),
+            0.0
+        );
+    }
+
+    #[test]
     fn replies_closer_than_the_observation_interval_are_skipped() {
         let traj = ramp();
         let mut fast = LagEstimator::new(LagCompensation::default());
