@@ -1,5 +1,5 @@
-//! Streaming a trajectory: command 7 samples stamped with the estimated server clock (default),
-//! or command 6 waypoints at a fixed rate.
+//! Streaming a trajectory: command 7 samples stamped with the estimated server clock (default;
+//! held targets by default, see [`TargetPacing`]), or command 6 waypoints at a fixed rate.
 
 use std::future::Future;
 use std::sync::atomic::Ordering;
@@ -28,7 +28,9 @@ use crate::trajectory::{OptionError, Trajectory, TrajectoryError, TrajectorySamp
 pub enum StreamMode {
     /// Command 7: position, velocity and acceleration stamped with the server time at which
     /// they hold; the controller extrapolates to its own "now" plus `lookahead_passes` passes
-    /// of its motion loop (at most 0.5 s of stamp error is absorbed).
+    /// of its motion loop (at most 0.5 s of stamp error is absorbed). With held targets
+    /// ([`StreamOptions::target_pacing`], the default) the sample is a point of the trajectory
+    /// ahead with zero velocity and acceleration, the same for a few samples.
     Extrapolated {
         /// ARG2 of command 7, in passes of the motion program. Default 2.
         lookahead_passes: f64,
