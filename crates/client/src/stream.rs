@@ -715,8 +715,10 @@ impl Streamer {
             Box::pin(tokio::time::sleep(Duration::ZERO)),
         ];
         let mut next_timer = 0;
-        // The target the controller holds (held pacing).
+        // The target the controller holds (held pacing), and the trajectory time of the last
+        // one sent (kept across a HOLD, which drops the held target).
         let mut held: Option<HeldTarget> = None;
+        let mut last_target_s = t_begin;
         let pace = Pace {
             period_s,
             move_s: self.move_s(),
@@ -778,7 +780,6 @@ impl Streamer {
             // then starts one move per target); a new one may step by `max_step_deg` per period
             // of trajectory time since the one before.
             let sample = if self.held() {
-                let from_s = held.map_or(t_begin, |h| h.time_s);
                 if let Some(next) = next_target(
                     &self.model,
                     &self.trajectory,
@@ -789,8 +790,10 @@ impl Streamer {
                     last,
                 ) {
                     allowed_step = allowed_step.max(
-                        self.options.max_step_deg * ((next.time_s - from_s) / period_s).max(1.0),
+                        self.options.max_step_deg
+                            * ((next.time_s - last_target_s) / period_s).max(1.0),
                     );
+                    last_target_s = next.time_s;
                     held = Some(next);
                 }
                 TrajectorySample {
