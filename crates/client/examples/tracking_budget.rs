@@ -23,7 +23,7 @@ use std::time::Duration;
 use fs020n_client::emulated::{ControllerConfig, Emulator, EmulatorConnector};
 use fs020n_client::{
     ClientConfig, ClientError, CurvatureCompensation, JointsDeg, LagCompensation, Robot,
-    StreamMode, StreamOptions, StreamReport, Trajectory, TrajectoryPoint,
+    StreamMode, StreamOptions, StreamReport, TargetPacing, Trajectory, TrajectoryPoint,
 };
 
 fn circle() -> Result<Trajectory, Box<dyn std::error::Error>> {
@@ -75,6 +75,7 @@ async fn run(
     Ok(run_path(circle()?, mode, lag, CurvatureCompensation::Off, period).await?)
 }
 
+/// One run with every sample extrapolated by the controller (the pacing before held targets).
 async fn run_path(
     path: Trajectory,
     mode: StreamMode,
@@ -82,8 +83,24 @@ async fn run_path(
     curvature: CurvatureCompensation,
     period: Duration,
 ) -> Result<StreamReport, ClientError> {
-    run_phase(path, mode, lag, curvature, period, Duration::ZERO).await
+    let pacing = TargetPacing::Extrapolated;
+    run_phase(path, mode, lag, curvature, pacing, period, Duration::ZERO).await
 }
+
+/// One run with held targets (the default).
+async fn run_held(
+    path: Trajectory,
+    lag: LagCompensation,
+    period: Duration,
+) -> Result<StreamReport, ClientError> {
+    let (flat, held) = (CurvatureCompensation::Off, TargetPacing::Held);
+    run_phase(path, LOOK, lag, flat, held, period, Duration::ZERO).await
+}
+
+/// Command 7 with the default look-ahead of two passes.
+const LOOK: StreamMode = StreamMode::Extrapolated {
+    lookahead_passes: 2.0,
+};
 
 /// One run, the stream started `phase` later than the others: the controller's motion
 /// program passes every 4 ms, so a start 1, 2 or 3 ms later meets its passes at another phase.
@@ -92,6 +109,7 @@ async fn run_phase(
     mode: StreamMode,
     lag: LagCompensation,
     curvature: CurvatureCompensation,
+    pacing: TargetPacing,
     period: Duration,
     phase: Duration,
 ) -> Result<StreamReport, ClientError> {
@@ -104,6 +122,7 @@ async fn run_phase(
         mode,
         lag_compensation: lag,
         curvature_compensation: curvature,
+        target_pacing: pacing,
         period,
         ..StreamOptions::default()
     };
@@ -120,6 +139,7 @@ async fn over_phases(
     mode: StreamMode,
     lag: LagCompensation,
     curvature: CurvatureCompensation,
+    pacing: TargetPacing,
     period: Duration,
 ) -> Result<(f64, f64, f64), Box<dyn std::error::Error>> {
     let mut rms = Vec::new();
@@ -129,6 +149,7 @@ async fn over_phases(
             mode,
             lag,
             curvature,
+            pacing,
             period,
             Duration::from_millis(ms),
         )
@@ -155,9 +176,7 @@ fn row(name: &str, r: &StreamReport) {
 
 #[tokio::main(flavor = "current_thread", start_paused = true)]
 async fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let look = StreamMode::Extrapolated {
-        lookahead_passes: 2.0,
-    };
+    let look = LOOK;
     let p50 = Duration::from_millis(20);
     let p250 = Duration::from_millis(4);
     let online = LagCompensation::default();
@@ -168,8 +187,18 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let flat = CurvatureCompensation::Off;
 
+    // Held targets (the default pacing), then every sample extrapolated (the pacing before).
+    let held = run_held(circle()?, online, p50).await?;
+    row(
+        "command 7, 50 Hz, held targets, lead online (the default)",
+        &held,
+    );
+    let held_fast = run_held(circle()?, online, p250).await?;
+    row("command 7, 250 Hz, held targets, lead online", &held_fast);
+    let held_off = run_held(circle()?, LagCompensation::Off, p50).await?;
+    row("command 7, 50 Hz, held targets, no lead", &held_off);
     let base = run(look, online, p50).await?;
-    row("command 7, 50 Hz, lead online (the default)", &base);
+    row("command 7, 50 Hz, extrapolated, lead online", &base);
     let lead_only = base.clone();
     let off = run(look, LagCompensation::Off, p50).await?;
     row("command 7, 50 Hz, no lead, curvature off", &off);
@@ -200,7 +229,7 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let fast_lead_only = run(look, online, p250).await?;
     row(
-        "command 7, 250 Hz, lead online (the default)",
+        "command 7, 250 Hz, extrapolated, lead online",
         &fast_lead_only,
     );
     let fast = run_path(circle()?, look, online, curved, p250).await?;
@@ -241,14 +270,21 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
         "floor: TIMER(1) in whole milliseconds (±0.5 ms)", timer_floor
     );
     // The same comparison on another path, so that a choice is not tuned to the circle.
+    let e50_held = run_held(figure_eight()?, online, p50).await?;
+    row(
+        "figure eight: command 7, 50 Hz, held targets (default)",
+        &e50_held,
+    );
+    let e250_held = run_held(figure_eight()?, online, p250).await?;
+    row("figure eight: command 7, 250 Hz, held targets", &e250_held);
     let e50_flat = run_path(figure_eight()?, look, online, flat, p50).await?;
     row(
-        "figure eight: command 7, 50 Hz, lead online (default)",
+        "figure eight: command 7, 50 Hz, extrapolated, lead online",
         &e50_flat,
     );
     let e250_flat = run_path(figure_eight()?, look, online, flat, p250).await?;
     row(
-        "figure eight: command 7, 250 Hz, lead online (default)",
+        "figure eight: command 7, 250 Hz, extrapolated, lead online",
         &e250_flat,
     );
     let e50 = run_path(figure_eight()?, look, online, curved, p50).await?;
@@ -273,14 +309,21 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
     let ratio =
         |r: &StreamReport, w: &StreamReport| r.tracking_error_rms_deg / w.tracking_error_rms_deg;
     println!(
-        "circle, ratio command 7 ÷ command 6: default 50 Hz {:.3}, 250 Hz {:.3}; gain 0.002 s² 50 Hz {:.3}, 250 Hz {:.3}",
+        "ratio command 7 held ÷ command 6: circle 50 Hz {:.3}, 250 Hz {:.3}; figure eight 50 Hz {:.3}, 250 Hz {:.3}",
+        ratio(&held, &waypoints),
+        ratio(&held_fast, &waypoints),
+        ratio(&e50_held, &eight_waypoints),
+        ratio(&e250_held, &eight_waypoints),
+    );
+    println!(
+        "circle, ratio command 7 extrapolated ÷ command 6: lead online 50 Hz {:.3}, 250 Hz {:.3}; gain 0.002 s² 50 Hz {:.3}, 250 Hz {:.3}",
         ratio(&lead_only, &waypoints),
         ratio(&fast_lead_only, &waypoints),
         ratio(&boosted, &waypoints),
         ratio(&fast, &waypoints),
     );
     println!(
-        "figure eight, ratio command 7 ÷ command 6: default 50 Hz {:.3}, 250 Hz {:.3}; gain 0.002 s² 50 Hz {:.3}, 250 Hz {:.3}",
+        "figure eight, ratio command 7 extrapolated ÷ command 6: lead online 50 Hz {:.3}, 250 Hz {:.3}; gain 0.002 s² 50 Hz {:.3}, 250 Hz {:.3}",
         ratio(&e50_flat, &eight_waypoints),
         ratio(&e250_flat, &eight_waypoints),
         ratio(&e50, &eight_waypoints),
@@ -294,10 +337,14 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
         ("figure eight", figure_eight as fn() -> _, &eight_waypoints),
     ] {
         for (rate, period) in [("50 Hz", p50), ("250 Hz", p250)] {
-            for (what, c) in [("default", flat), ("gain 0.002 s²", curved)] {
-                let (mean, min, max) = over_phases(path, look, online, c, period).await?;
+            for (what, c, pacing) in [
+                ("held (default)", flat, TargetPacing::Held),
+                ("extrapolated", flat, TargetPacing::Extrapolated),
+                ("extr. + gain 0.002 s²", curved, TargetPacing::Extrapolated),
+            ] {
+                let (mean, min, max) = over_phases(path, look, online, c, pacing, period).await?;
                 println!(
-                    "  {name:<12} {rate:<6} {what:<14} {mean:.4}° ({min:.4}–{max:.4}°)  ratio {:.3}",
+                    "  {name:<12} {rate:<6} {what:<22} {mean:.4}° ({min:.4}–{max:.4}°)  ratio {:.3}",
                     mean / w.tracking_error_rms_deg
                 );
             }

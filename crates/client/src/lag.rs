@@ -115,6 +115,17 @@ impl LagEstimator {
         }
     }
 
+    /// Like [`new`](Self::new), but an online lead starts at `prior_s` (bounded like the
+    /// estimate) instead of none, until the estimate takes over after the warm-up.
+    pub(crate) fn starting_at(mode: LagCompensation, prior_s: f64) -> LagEstimator {
+        let mut est = LagEstimator::new(mode);
+        if let LagCompensation::Online { max } = mode {
+            let max_s = max.as_secs_f64().min(LagCompensation::LIMIT.as_secs_f64());
+            est.lead_s = prior_s.clamp(0.0, max_s);
+        }
+        est
+    }
+
     /// The lead to stamp samples with now, seconds.
     pub(crate) fn lead_s(&self) -> f64 {
         self.lead_s
@@ -235,6 +246,47 @@ mod tests {
             est.observe(&traj, tau, &actual, lead);
         }
         assert!((est.lead_s() - pipeline).abs() < 0.004, "{}", est.lead_s());
+    }
+
+    #[test]
+    fn an_online_lead_starts_at_its_prior_and_the_estimate_takes_over_after_the_warm_up() {
+        let traj = ramp();
+        let mut est = LagEstimator::starting_at(LagCompensation::default(), 0.05);
+        assert_eq!(est.lead_s(), 0.05);
+        let pipeline = 0.07;
+        for k in 0..(WARMUP - 1) {
+            let tau = 0.5 + f64::from(k) * 0.02;
+            let lead = est.lead_s();
+            est.observe(
+                &traj,
+                tau,
+                &traj.sample(tau + lead - pipeline).position,
+                lead,
+            );
+        }
+        assert_eq!(est.lead_s(), 0.05, "unchanged during the warm-up");
+        for k in (WARMUP - 1)..150 {
+            let tau = 0.5 + f64::from(k) * 0.02;
+            let lead = est.lead_s();
+            est.observe(
+                &traj,
+                tau,
+                &traj.sample(tau + lead - pipeline).position,
+                lead,
+            );
+        }
+        assert!((est.lead_s() - pipeline).abs() < 0.004, "{}", est.lead_s());
+        // bounded by the online maximum; a fixed lead or none ignores the prior
+        let capped = LagCompensation::Online {
+            max: Duration::from_millis(30),
+        };
+        assert_eq!(LagEstimator::starting_at(capped, 0.05).lead_s(), 0.03);
+        let fixed = LagCompensation::Fixed(Duration::from_millis(20));
+        assert_eq!(LagEstimator::starting_at(fixed, 0.05).lead_s(), 0.02);
+        assert_eq!(
+            LagEstimator::starting_at(LagCompensation::Off, 0.05).lead_s(),
+            0.0
+        );
     }
 
     #[test]

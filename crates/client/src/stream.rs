@@ -1,5 +1,5 @@
-//! Streaming a trajectory: command 7 samples stamped with the estimated server clock (default),
-//! or command 6 waypoints at a fixed rate.
+//! Streaming a trajectory: command 7 samples stamped with the estimated server clock (default;
+//! held targets by default, see [`TargetPacing`]), or command 6 waypoints at a fixed rate.
 
 use std::future::Future;
 use std::sync::atomic::Ordering;
@@ -18,6 +18,7 @@ use crate::curvature::{corrected, CurvatureCompensation, CORRECTION_RATE_DEG_S};
 use crate::error::{Activity, ClientError, LinkError};
 use crate::lag::{LagCompensation, LagEstimator};
 use crate::motion::{only_held, LONGEST_WAIT};
+use crate::pacing::{move_time_s, next_target, HeldTarget, Pace, TargetPacing};
 use crate::safety::{blockers, check_stream_sample, MAX_LOOKAHEAD_PASSES};
 use crate::session::{lock, Exchange, Link, SessionShared};
 use crate::trajectory::{OptionError, Trajectory, TrajectoryError, TrajectorySample};
@@ -27,7 +28,9 @@ use crate::trajectory::{OptionError, Trajectory, TrajectoryError, TrajectorySamp
 pub enum StreamMode {
     /// Command 7: position, velocity and acceleration stamped with the server time at which
     /// they hold; the controller extrapolates to its own "now" plus `lookahead_passes` passes
-    /// of its motion loop (at most 0.5 s of stamp error is absorbed).
+    /// of its motion loop (at most 0.5 s of stamp error is absorbed). With held targets
+    /// ([`StreamOptions::target_pacing`], the default) the sample is a point of the trajectory
+    /// ahead with zero velocity and acceleration, the same for a few samples.
     Extrapolated {
         /// ARG2 of command 7, in passes of the motion program. Default 2.
         lookahead_passes: f64,
@@ -74,8 +77,13 @@ pub struct StreamOptions {
     pub lag_compensation: LagCompensation,
     /// Whether command 7 boosts curved paths against the rounding of the controller's pipeline
     /// (ignored for waypoints). Default `Off`: on the emulated controller a fixed gain made the
-    /// tracking worse, see [`CurvatureCompensation`] and docs/PERFORMANCE.md.
+    /// tracking worse, see [`CurvatureCompensation`] and docs/PERFORMANCE.md. Needs
+    /// [`TargetPacing::Extrapolated`].
     pub curvature_compensation: CurvatureCompensation,
+    /// How often command 7 gives the controller a new target (ignored for waypoints). Default
+    /// [`TargetPacing::Held`]: a point of the trajectory ahead, held for 20–80 ms, so that the
+    /// controller's passes do not wait for ACCURACY when the tool is fast.
+    pub target_pacing: TargetPacing,
 }
 
 impl Default for StreamOptions {
@@ -93,6 +101,7 @@ impl Default for StreamOptions {
             hold_timeout: None,
             lag_compensation: LagCompensation::default(),
             curvature_compensation: CurvatureCompensation::default(),
+            target_pacing: TargetPacing::default(),
         }
     }
 }
@@ -175,6 +184,12 @@ impl StreamOptions {
                 CurvatureCompensation::Fixed { gain_s2, max_deg } => (gain_s2, max_deg),
             };
             return Err(OptionError::Curvature { gain_s2, max_deg });
+        }
+        if self.target_pacing == TargetPacing::Held
+            && self.curvature_compensation != CurvatureCompensation::Off
+            && self.mode != StreamMode::Waypoints
+        {
+            return Err(OptionError::CurvatureNeedsExtrapolatedPacing);
         }
         for (option, timeout) in [
             ("end_timeout", Some(self.end_timeout)),
@@ -469,6 +484,17 @@ impl Streamer {
         self.link.shared.current_epoch() != self.epoch
     }
 
+    /// The controller's move time at the monitor speed this session set, seconds.
+    fn move_s(&self) -> f64 {
+        move_time_s(self.link.shared.speed_percent())
+    }
+
+    /// Command 7 with held targets ([`TargetPacing::Held`]).
+    fn held(&self) -> bool {
+        matches!(self.options.mode, StreamMode::Extrapolated { .. })
+            && self.options.target_pacing == TargetPacing::Held
+    }
+
     fn server_time(&self, at: Instant) -> Option<f64> {
         lock(&self.link.shared.clock).server_time(at)
     }
@@ -484,10 +510,15 @@ impl Streamer {
     async fn run(self) -> Result<StreamReport, ClientError> {
         let mut tally = Tally {
             // Waypoints are not stamped: their lag is only measured.
-            lag: Some(LagEstimator::new(match self.options.mode {
-                StreamMode::Extrapolated { .. } => self.options.lag_compensation,
-                StreamMode::Waypoints => LagCompensation::Off,
-            })),
+            lag: Some(match self.options.mode {
+                // Held targets: the moves' own delay is half a move; the online lead starts
+                // there instead of at none.
+                StreamMode::Extrapolated { .. } if self.held() => {
+                    LagEstimator::starting_at(self.options.lag_compensation, 0.5 * self.move_s())
+                }
+                StreamMode::Extrapolated { .. } => LagEstimator::new(self.options.lag_compensation),
+                StreamMode::Waypoints => LagEstimator::new(LagCompensation::Off),
+            }),
             ..Tally::default()
         };
         let started = Instant::now();
@@ -684,6 +715,14 @@ impl Streamer {
             Box::pin(tokio::time::sleep(Duration::ZERO)),
         ];
         let mut next_timer = 0;
+        // The target the controller holds (held pacing), and the trajectory time of the last
+        // one sent (kept across a HOLD, which drops the held target).
+        let mut held: Option<HeldTarget> = None;
+        let mut last_target_s = t_begin;
+        let pace = Pace {
+            period_s,
+            move_s: self.move_s(),
+        };
         loop {
             if self.cancelled() {
                 return Ok(End::Cancelled);
@@ -691,10 +730,12 @@ impl Streamer {
             if self.waits_in(&blockers(&self.link.latest().status, true)) {
                 match self.hold().await? {
                     None => return Ok(End::Cancelled),
-                    Some(held) => {
-                        local_start += held;
+                    Some(paused) => {
+                        local_start += paused;
                         last_sent = None;
                         next_due = None;
+                        // The brake ended the held target's move: place a new one.
+                        held = None;
                         continue;
                     }
                 }
@@ -733,8 +774,36 @@ impl Streamer {
             let at = local_start + Duration::from_secs_f64((tau - t_begin).max(0.0));
             // Lag compensation: stamped as if it held `lead` earlier, the sample is extrapolated
             // that much further by the controller.
-            let lead =
-                Duration::from_secs_f64(tally.lag.as_ref().map_or(0.0, LagEstimator::lead_s));
+            let lead_s = tally.lag.as_ref().map_or(0.0, LagEstimator::lead_s);
+            let lead = Duration::from_secs_f64(lead_s);
+            // Held pacing: the held target, with zero velocity and acceleration (the controller
+            // then starts one move per target); a new one may step by `max_step_deg` per period
+            // of trajectory time since the one before.
+            let sample = if self.held() {
+                if let Some(next) = next_target(
+                    &self.model,
+                    &self.trajectory,
+                    held.as_ref(),
+                    tau,
+                    lead_s,
+                    pace,
+                    last,
+                ) {
+                    allowed_step = allowed_step.max(
+                        self.options.max_step_deg
+                            * ((next.time_s - last_target_s) / period_s).max(1.0),
+                    );
+                    last_target_s = next.time_s;
+                    held = Some(next);
+                }
+                TrajectorySample {
+                    position: held.map_or(sample.position, |h| h.position),
+                    velocity: JointsDeg::ZERO,
+                    acceleration: JointsDeg::ZERO,
+                }
+            } else {
+                sample
+            };
             let stamp_at = at.checked_sub(lead).unwrap_or(at);
             let t0_s = self.server_time(stamp_at);
             // Curvature compensation (command 7, not the last sample, which holds the end

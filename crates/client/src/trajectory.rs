@@ -62,6 +62,10 @@ pub enum OptionError {
         /// The correction bound given, degrees.
         max_deg: f64,
     },
+    /// A curvature compensation with held targets (`target_pacing`): the correction is
+    /// defined on extrapolated samples only.
+    #[error("curvature_compensation needs target_pacing Extrapolated (held targets carry no velocity to correct)")]
+    CurvatureNeedsExtrapolatedPacing,
     /// A timeout (`end_timeout`, `hold_timeout`) longer than one day.
     #[error("{option} {} must be at most one day", Rounded(*.timeout))]
     Timeout {

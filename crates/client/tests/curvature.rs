@@ -6,7 +6,9 @@
 mod common;
 
 use common::*;
-use fs020n_client::{CurvatureCompensation, StreamOptions, Trajectory, TrajectoryPoint};
+use fs020n_client::{
+    CurvatureCompensation, StreamOptions, TargetPacing, Trajectory, TrajectoryPoint,
+};
 use fs020n_kin::RobotModel;
 use fs020n_proto::JointsDeg;
 
@@ -44,6 +46,7 @@ async fn a_boost_that_would_leave_a_joint_range_is_sent_unboosted_and_the_stream
     };
     let options = StreamOptions {
         curvature_compensation: boost,
+        target_pacing: TargetPacing::Extrapolated,
         ..StreamOptions::default()
     };
     // The plain samples pass every check; boosted by 0.02 s² × 40°/s² = 0.8° near the crest,
@@ -69,7 +72,8 @@ async fn a_boost_that_would_leave_a_joint_range_is_sent_unboosted_and_the_stream
 }
 
 #[tokio::test(start_paused = true)]
-async fn a_curvature_gain_or_bound_out_of_range_is_refused_before_sending() {
+async fn a_curvature_gain_or_bound_out_of_range_or_a_boost_of_held_targets_is_refused_before_sending(
+) {
     let emu = emulator();
     let robot = ready(&emu, 100.0).await;
     for curvature in [
@@ -88,12 +92,26 @@ async fn a_curvature_gain_or_bound_out_of_range_is_refused_before_sending() {
     ] {
         let options = StreamOptions {
             curvature_compensation: curvature,
+            target_pacing: TargetPacing::Extrapolated,
             ..StreamOptions::default()
         };
         let before = emu.with(|c| c.counters().effective_requests);
         let err = robot.stream(brake_to(100.0), options).await.unwrap_err();
-        assert!(err.to_string().contains("curvature_compensation"), "{err}");
+        assert!(err.to_string().contains("must be from 0"), "{err}");
         assert_eq!(emu.with(|c| c.counters().effective_requests), before);
     }
+    // A valid boost with held targets (the default pacing), which carry no velocity to
+    // correct, is refused too.
+    let options = StreamOptions {
+        curvature_compensation: CurvatureCompensation::Fixed {
+            gain_s2: 0.002,
+            max_deg: 1.0,
+        },
+        ..StreamOptions::default()
+    };
+    let before = emu.with(|c| c.counters().effective_requests);
+    let err = robot.stream(brake_to(100.0), options).await.unwrap_err();
+    assert!(err.to_string().contains("target_pacing"), "{err}");
+    assert_eq!(emu.with(|c| c.counters().effective_requests), before);
     robot.close().await.unwrap();
 }

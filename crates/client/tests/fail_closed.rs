@@ -7,8 +7,8 @@ use std::time::Duration;
 
 use common::*;
 use fs020n_client::{
-    ClientError, Completion, OptionError, SampleError, StreamOptions, StreamOutcome, Trajectory,
-    TrajectoryError, TrajectoryPoint,
+    ClientError, Completion, LagCompensation, OptionError, SampleError, StreamOptions,
+    StreamOutcome, TargetPacing, Trajectory, TrajectoryError, TrajectoryPoint,
 };
 use fs020n_kin::RobotModel;
 use fs020n_proto::{Command, JointsDeg};
@@ -197,7 +197,12 @@ async fn streamed_spline_accelerations_are_limited_to_the_model() {
     let model = RobotModel::fs020n();
     assert!(traj.sample(0.001).acceleration[0] > 900.0);
     assert!(traj.sample_for_streaming(0.001, &model).acceleration[0] <= 235.0);
-    let handle = robot.stream(traj, StreamOptions::default()).await.unwrap();
+    // Samples the controller extrapolates carry the limited acceleration...
+    let options = StreamOptions {
+        target_pacing: TargetPacing::Extrapolated,
+        ..StreamOptions::default()
+    };
+    let handle = robot.stream(traj.clone(), options).await.unwrap();
     let mut max_a: f64 = 0.0;
     while !handle.is_finished() {
         if let Some(Command::StreamedMove(s)) = newest(&emu) {
@@ -208,17 +213,50 @@ async fn streamed_spline_accelerations_are_limited_to_the_model() {
     let report = handle.wait().await.unwrap();
     assert_eq!(report.outcome, StreamOutcome::Completed);
     assert!(max_a > 0.0 && max_a <= 235.0, "{max_a}");
+    // ...held targets (the default) none: each is a point of the trajectory, to stay at.
+    robot
+        .move_joints_and_wait(home(), Completion::default())
+        .await
+        .unwrap();
+    let handle = robot
+        .stream(traj.clone(), StreamOptions::default())
+        .await
+        .unwrap();
+    let mut sent = 0;
+    while !handle.is_finished() {
+        if let Some(Command::StreamedMove(s)) = newest(&emu) {
+            assert_eq!(
+                (s.velocity, s.acceleration),
+                (JointsDeg::ZERO, JointsDeg::ZERO)
+            );
+            let jt1 = s.position[0];
+            assert!((0.0..=5.0).contains(&jt1), "{jt1}");
+            sent += 1;
+        }
+        sleep_ms(5).await;
+    }
+    assert_eq!(
+        handle.wait().await.unwrap().outcome,
+        StreamOutcome::Completed
+    );
+    assert!(sent > 0);
 }
 
 // ------------------------------------------------------------------ 2. cancel after the last sample
 
-/// Streams at 10 % monitor speed (the arm lags far behind), until every sample is sent.
+/// Streams at 10 % monitor speed (the arm lags far behind: samples extrapolated on every
+/// pass, no lead), until every sample is sent.
 async fn stream_until_done(
     emu: &fs020n_sim::Emulator,
 ) -> (fs020n_client::Robot, fs020n_client::StreamHandle) {
     let robot = ready(emu, 10.0).await;
+    let options = StreamOptions {
+        target_pacing: TargetPacing::Extrapolated,
+        lag_compensation: LagCompensation::Off,
+        ..StreamOptions::default()
+    };
     let handle = robot
-        .stream(jt1_ramp(0.0, 12.0, 1.0), StreamOptions::default())
+        .stream(jt1_ramp(0.0, 12.0, 1.0), options)
         .await
         .unwrap();
     while !handle.progress().done {
