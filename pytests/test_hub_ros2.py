@@ -9,10 +9,11 @@ anything moves.
 
 import json
 import math
-import random
 import time
 
 import pytest
+
+from ros_domains import fresh_domain
 
 from test_ros2 import (  # the DDS participant and the ROS 2 types
     RELIABLE,
@@ -41,7 +42,7 @@ max_deg = [ 45,  80,  -10,  180,  -10,  360]
 
 @pytest.fixture(scope="module")
 def rig(tmp_path_factory):
-    domain = random.randint(100, 230)
+    domain = fresh_domain()
     sim = start_sim()
     fence = tmp_path_factory.mktemp("hub-ros2") / "fence.toml"
     fence.write_text(FENCE)

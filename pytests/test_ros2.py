@@ -25,6 +25,8 @@ from dataclasses import dataclass, field
 
 import pytest
 
+from ros_domains import fresh_domain
+
 LOOPBACK_CONFIG = """<CycloneDDS><Domain Id="any">
   <General><Interfaces><NetworkInterface address="127.0.0.1"/></Interfaces>
     <AllowMulticast>false</AllowMulticast></General>
@@ -467,7 +469,7 @@ def with_jt1(rad):
 
 @pytest.fixture(scope="module")
 def system():
-    domain = random.randint(100, 230)
+    domain = fresh_domain()
     node = Node(domain)
     peer = Peer(domain)
     try:
@@ -610,7 +612,7 @@ def test_cancel_brakes_the_arm_short_of_the_goal(system):
 
 
 def test_an_emergency_stop_aborts_the_goal_with_an_error_code():
-    domain = random.randint(100, 230)
+    domain = fresh_domain()
     node = Node(domain)
     try:
         peer = Peer(domain)
@@ -837,7 +839,7 @@ def test_two_clients_at_once_each_get_their_own_replies_cyclone_mapping():
     and result requests at the same moment to a node on the Cyclone mapping: every reply carries
     the identity of its request, and says what that request asked (one goal rejected, one
     accepted)."""
-    domain = random.randint(100, 230)
+    domain = fresh_domain()
     node = Node(domain, extra=("--service-mapping", "cyclone"))
     try:
         a = "fs020n_controller/follow_joint_trajectory/_action"
@@ -897,7 +899,7 @@ def test_every_cyclone_mapping_client_is_answered_whatever_its_id():
     last byte (what a reader's entity kind has): each gets the reply to its own request, and
     takes none of the others' as its own. The node holds a reply for a reader up to 600 s here
     (`reply_reader_wait_s`): a reply held by mistake would not come within the test at all."""
-    domain = random.randint(100, 230)
+    domain = fresh_domain()
     node = Node(domain, extra=("--service-mapping", "cyclone", "--ros-args", "-p", "reply_reader_wait_s:=600.0"))
     try:
         a = "fs020n_controller/follow_joint_trajectory/_action"
@@ -979,7 +981,9 @@ def test_joint_states_carry_velocities_from_successive_replies(system):
         or len(moving) >= 5)
     # Below the model's speed (190 deg/s), about the trajectory's (0.25 rad/s on average).
     assert all(0.0 < m.velocity[0] < math.radians(190) for m in moving)
-    assert all(abs(m.velocity[1]) < 1e-6 for m in moving)
+    # JT2 is not commanded: the controller's straight-line moves between the stream's held
+    # targets leave it within a reply's resolution (0.001 deg), a few hundredths of a deg/s.
+    assert all(abs(m.velocity[1]) < math.radians(0.5) for m in moving), [m.velocity for m in moving]
     assert peer.call(peer.get_result, GetResultRequest(goal_id=request.goal_id)).status == STATUS_SUCCEEDED
 
 
@@ -1007,7 +1011,7 @@ def test_tf_carries_the_links_and_tf_static_the_flange(system):
 
 
 def test_a_namespace_moves_the_joint_states_description_and_services():
-    domain = random.randint(100, 230)
+    domain = fresh_domain()
     node = Node(domain, extra=("--namespace", "/arm"))
     try:
         dp = DomainParticipant(domain)
@@ -1028,7 +1032,7 @@ def test_ros_args_as_launch_ros_passes_them_rename_remap_and_set_parameters(tmp_
     -p …:=… -r from:=to`: the node takes its name, namespace, parameters and remaps from them."""
     params = tmp_path / "params.yaml"
     params.write_text("/cell/robot:\n  ros__parameters:\n    joint_state_rate_hz: 50.0\n")
-    domain = random.randint(100, 230)
+    domain = fresh_domain()
     node = Node(domain, extra=("--ros-args", "-r", "__node:=robot", "-r", "__ns:=/cell",
                                "--params-file", str(params), "-p", "feedback_rate_hz:=10.0",
                                "-r", "joint_states:=/robot/joint_states"))
@@ -1141,7 +1145,7 @@ def test_forward_commands_servo_the_arm_refuse_bad_ones_and_the_watchdog_stops_i
 def test_after_a_fault_commands_are_refused_until_start():
     """A fault while servoing (the E-stop) ends the servo; commands are refused, also once the
     cause is cleared, until ~/start re-arms."""
-    domain = random.randint(100, 230)
+    domain = fresh_domain()
     node = Node(domain)
     try:
         peer = Peer(domain)

@@ -16,7 +16,6 @@ restricted to 127.0.0.1 with 127.0.0.1 as its initial peer; each test has its ow
 
 import json
 import os
-import random
 import shutil
 import subprocess
 import threading
@@ -25,6 +24,8 @@ import uuid
 from pathlib import Path
 
 import pytest
+
+from ros_domains import fresh_domain
 
 from test_ros2 import HOME_RAD, TIMEOUT, Node, wait_until
 
@@ -176,7 +177,7 @@ def new_id():
 
 @pytest.fixture
 def domain():
-    return random.randint(100, 230)
+    return fresh_domain()
 
 
 @pytest.fixture
