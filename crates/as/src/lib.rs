@@ -65,7 +65,7 @@ mod value;
 
 pub use error::{LoadError, ParseError, RuntimeError};
 pub use interp::{
-    Config, CostModel, HandSignals, Interpreter, Refusal, ReloadError, TaskInfo, TaskState,
+    BlockSettings, Config, CostModel, HandSignals, Interpreter, Refusal, ReloadError, TaskInfo, TaskState,
     TerminalLine, TraceLine, MAX_STRING, MAX_TRANSFER,
 };
 pub use load::{check, check_memory, CheckReport, Loaded};

@@ -408,6 +408,7 @@ impl Interpreter {
             Op::TcpStatus(ret, arrays) => self.tcp_status(i, ret, arrays, sys)?,
             Op::UdpSendTo(op) => self.udp_sendto(i, op, sys)?,
             Op::UdpRecvFrom(op) => self.udp_recvfrom(i, op, sys, pc, now)?,
+            Op::Block(part, step) => self.block_step(i, *part, step, sys, pc, now)?,
             Op::OnError(program) => {
                 self.tasks[i].error_program = *program;
                 Flow::Next

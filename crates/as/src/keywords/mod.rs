@@ -468,6 +468,7 @@ pub const BLOCK_TEACHING: &[&str] = &[
 /// motion here; the others are remembered and reported.
 pub const SYSTEM_SWITCHES: &[(&str, bool)] = &[
     ("abs.speed", false),
+    ("after.wait.tmr", false),
     ("autostart.pc", false),
     ("autostart2.pc", false),
     ("autostart3.pc", false),
@@ -482,6 +483,7 @@ pub const SYSTEM_SWITCHES: &[(&str, bool)] = &[
     ("errstart.pc", false),
     ("hold.step", false),
     ("message", true),
+    ("ox.preout", true),
     ("prefetch.sigins", false),
     ("prog.date", false),
     ("qtool", false),

@@ -708,6 +708,15 @@ impl<'a> FileParser<'a> {
                 next.len() >= 5 && next[..5].eq_ignore_ascii_case(b"speed")
                     || after.windows(2).any(|w| w == b"#[")
             };
+        if block_step && !fn_step && !prefixed && !self.opts.is_stubbed(&word) {
+            if let Some(step) = super::block::block_step(&word, after) {
+                return Some(Ok(LineItem {
+                    label,
+                    kind: LineKind::Stmt(StmtKind::BlockStep(Box::new(step))),
+                    span,
+                }));
+            }
+        }
         let upper = word.to_ascii_uppercase();
         let kind = if block_step {
             NotEmulatedKind::BlockStep
