@@ -80,7 +80,11 @@ impl Interpreter {
             }
             BlockSpeed::MmPerS(v) => Speed::MmPerS(v),
         };
-        let accuracy_mm = match settings.accuracy_mm.get(usize::from(step.accuracy)).copied() {
+        let accuracy_mm = match settings
+            .accuracy_mm
+            .get(usize::from(step.accuracy))
+            .copied()
+        {
             Some(a) if a.is_finite() && a >= 0.0 => a,
             a => {
                 return Err(Box::new(RuntimeError::IllegalValue(format!(
@@ -156,10 +160,7 @@ impl Interpreter {
 
     /// The `WX` wait (polled as `SWAIT`), then the timer when `AFTER.WAIT.TMR` is ON.
     fn block_inputs(&mut self, i: TaskSlot, step: &BlockStep, pc: usize, now: Ns) -> R<Flow> {
-        let all = step
-            .inputs
-            .iter()
-            .all(|&s| self.signal(s.abs()) == (s > 0));
+        let all = step.inputs.iter().all(|&s| self.signal(s.abs()) == (s > 0));
         if !all {
             self.set_pc(i, pc);
             return Ok(Flow::Wait(Box::new(Wait::Cond)));

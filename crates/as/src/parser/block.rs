@@ -71,7 +71,13 @@ pub(super) fn block_step(word: &str, after: &[u8]) -> Option<BlockStep> {
         } else if let Some(list) = strip_upper_prefix(w, "WX=") {
             step.inputs = signals(list)?
                 .into_iter()
-                .map(|n| if n.abs() < 1000 { n.signum() * (1000 + n.abs()) } else { n })
+                .map(|n| {
+                    if n.abs() < 1000 {
+                        n.signum() * (1000 + n.abs())
+                    } else {
+                        n
+                    }
+                })
                 .collect();
             in_clamp = false;
         } else if in_clamp || w.contains('=') {
@@ -165,23 +171,38 @@ mod tests {
         assert_eq!((s.accuracy, s.timer, s.tool), (2, 3, 2));
         assert_eq!(s.outputs, vec![4, -5]);
         assert_eq!(s.inputs, vec![1006]);
-        assert_eq!(s.target, BlockTarget::Joints([1.0, 2.0, 3.0, 4.0, 5.0, 6.0]));
+        assert_eq!(
+            s.target,
+            BlockTarget::Joints([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+        );
     }
 
     #[test]
     fn a_linear_step_may_give_its_speed_in_mm_per_s_and_a_transformation() {
-        let s = block_step("linear", b"75.5 ACCU1 TIMER0 TOOL1 WORK0 CLAMP OX= WX= [10,20,30,0,90,0]")
-            .unwrap();
+        let s = block_step(
+            "linear",
+            b"75.5 ACCU1 TIMER0 TOOL1 WORK0 CLAMP OX= WX= [10,20,30,0,90,0]",
+        )
+        .unwrap();
         assert_eq!(s.speed, BlockSpeed::MmPerS(75.5));
         assert!(s.outputs.is_empty() && s.inputs.is_empty());
-        assert_eq!(s.target, BlockTarget::Pose([10.0, 20.0, 30.0, 0.0, 90.0, 0.0]));
+        assert_eq!(
+            s.target,
+            BlockTarget::Pose([10.0, 20.0, 30.0, 0.0, 90.0, 0.0])
+        );
     }
 
     #[test]
     fn forms_the_emulator_does_not_model_are_refused() {
         for (w, t) in [
-            ("joint", &b"SPEED9 ACCU1 TIMER0 TOOL1 WORK2 OX= WX= #[0,0,0,0,0,0]"[..]),
-            ("joint", b"SPEED9 ACCU1 TIMER0 TOOL1 WORK0 OX= WX= #[0,0,0,0,0]"),
+            (
+                "joint",
+                &b"SPEED9 ACCU1 TIMER0 TOOL1 WORK2 OX= WX= #[0,0,0,0,0,0]"[..],
+            ),
+            (
+                "joint",
+                b"SPEED9 ACCU1 TIMER0 TOOL1 WORK0 OX= WX= #[0,0,0,0,0]",
+            ),
             ("joint", b"SPEED10 ACCU1 OX= WX= #[0,0,0,0,0,0]"),
             ("joint", b"50 ACCU1 OX= WX= #[0,0,0,0,0,0]"),
             ("joint", b"SPEED9 WELD_COND1 OX= WX= #[0,0,0,0,0,0]"),
