@@ -447,8 +447,9 @@ fn one_edit(a: &str, b: &str) -> bool {
     }
 }
 
-/// First words of a block-teaching step (`JOINT SPEED9 ACCU1 … #[…]`): loaded as not
-/// emulated when the line is a step (its second word starts with `SPEED`, or it holds `#[`).
+/// First words of a block-teaching step (`JOINT SPEED9 ACCU1 … #[…]`), when the line is a step
+/// (its second word starts with `SPEED`, or it holds `#[`): `JOINT` and `LINEAR` steps run
+/// (docs/AS.md, "Block-teaching steps"), the others load as not emulated.
 pub const BLOCK_TEACHING: &[&str] = &[
     "joint",
     "linear",

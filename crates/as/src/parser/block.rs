@@ -6,8 +6,9 @@
 //! model are dropped here: `GROUPn`, `MATH…`, the `CLAMP…` data (spot-welding and gripper
 //! clamps), `YO=`, `CL1=` and any other `NAME=…`, and target values beyond the sixth (external
 //! axes, which do not move this arm). A step this reader does not take (another
-//! interpolation, `JUMP` (a jump to an externally selected program), `WORKn` other than 0, a word it does not know, a target of fewer than six
-//! values) gives `None`: it loads as not emulated, as before.
+//! interpolation, `JUMP` (a jump to an externally selected program), `WORKn` other than 0, a
+//! word it does not know, a target of fewer than six values) gives `None`: it loads as not
+//! emulated.
 
 use crate::ast::{BlockSpeed, BlockStep, BlockTarget};
 
