@@ -295,3 +295,17 @@ fn the_timer_runs_during_the_wx_wait_unless_after_wait_tmr_is_on() {
     let on = next_after_input("ON");
     assert!(on >= ms(300) && on <= ms(320), "{on:?}");
 }
+
+#[test]
+fn an_illegal_signal_number_stops_the_step_before_it_moves() {
+    for signals in ["OX=1500 WX=", "OX= WX=3000"] {
+        let (_, s) = robot(
+            &format!(
+                "  JOINT SPEED9 ACCU1 TIMER0 TOOL1 WORK0 CLAMP {signals} #[10,20,-80,5,-60,15] ;"
+            ),
+            500,
+        );
+        assert_eq!(s.raised, vec![ErrorCode::VALUE_OUT_OF_RANGE], "{signals}");
+        assert!(s.motions.is_empty(), "{signals}");
+    }
+}
