@@ -309,3 +309,21 @@ fn an_illegal_signal_number_stops_the_step_before_it_moves() {
         assert!(s.motions.is_empty(), "{signals}");
     }
 }
+
+#[test]
+fn a_joint_or_linear_line_the_emulator_does_not_read_loads_as_not_emulated() {
+    let src = robot_src(concat!(
+        "  JOINT\n",
+        "  LINEAR SPEED9 ACCU1 TIMER0 TOOL1 WORK0 JUMP CLAMP OX= WX= #[10,20,-80,5,-60,15] ;\n",
+        "  LINEAR 80.0 ACCU1 TIMER0 TOOL1 WORK0 CLAMP OX= WX= [900,100,600,0,180,0] ;",
+    ));
+    let m = fs020n_as::parse("t.as", &src).expect("loads");
+    let body = &m.programs[1].body;
+    assert!(
+        matches!(&body[0].kind, fs020n_as::ast::StmtKind::NotEmulated { instruction, .. } if instruction == "JOINT (block-teaching step)")
+    );
+    assert!(
+        matches!(&body[1].kind, fs020n_as::ast::StmtKind::NotEmulated { instruction, .. } if instruction == "LINEAR (block-teaching step)")
+    );
+    assert!(matches!(&body[2].kind, fs020n_as::ast::StmtKind::BlockStep(s) if s.linear));
+}
