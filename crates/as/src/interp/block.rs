@@ -70,7 +70,7 @@ impl Interpreter {
             BlockSpeed::Number(n) => {
                 let p = settings.speed_percent.get(usize::from(n)).copied();
                 match p {
-                    Some(p) if p.is_finite() && p > 0.0 => Speed::Percent(p.min(100.0)),
+                    Some(p) if p.is_finite() && p > 0.0 => Speed::Percent(p.clamp(0.01, 100.0)),
                     _ => {
                         return Err(Box::new(RuntimeError::IllegalValue(format!(
                             "SPEED{n}: the block speed table gives {p:?} %"
