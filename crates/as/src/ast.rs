@@ -475,6 +475,52 @@ pub enum StmtKind {
         /// Declared a no-op by the user ([`crate::LoadOptions::stub`]).
         stubbed: bool,
     },
+    /// A block-teaching step (`JOINT SPEED9 ACCU1 TIMER0 TOOL1 WORK0 … OX= WX= #[…]`): one
+    /// motion with its settings and signals (docs/AS.md, "Block-teaching steps").
+    BlockStep(Box<BlockStep>),
+}
+
+/// A block-teaching step as the emulator runs it: every field is a constant of the line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BlockStep {
+    /// `LINEAR` (straight line) rather than `JOINT` (joint interpolation).
+    pub linear: bool,
+    /// The step's speed.
+    pub speed: BlockSpeed,
+    /// `ACCUn`: the accuracy number (0–4).
+    pub accuracy: u8,
+    /// `TIMERn`: the timer number (0–9), a delay after the robot reached the step.
+    pub timer: u8,
+    /// `TOOLn`: the tool number (0–15; 0 for the null tool).
+    pub tool: u8,
+    /// `OX=`: outputs set at the step (positive ON, negative OFF), in order.
+    pub outputs: Vec<i32>,
+    /// `WX=`: inputs the step waits for after reaching its pose (positive ON, negative OFF),
+    /// as signal numbers (`WX=5` is input 1005).
+    pub inputs: Vec<i32>,
+    /// The pose the step moves to: the six joint angles (degrees) of `#[…]` or the
+    /// transformation (mm, degrees) of `[x, y, z, o, a, t]`.
+    pub target: BlockTarget,
+    /// `END`: the program's last step (the program returns after it).
+    pub end: bool,
+}
+
+/// The speed of a block-teaching step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum BlockSpeed {
+    /// `SPEEDn`: the speed number (0–9), a percentage of the controller's table.
+    Number(u8),
+    /// A number in place of `SPEEDn` after `LINEAR` (`LINEAR 50.0 …`): mm/s.
+    MmPerS(f64),
+}
+
+/// The pose a block-teaching step moves to.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum BlockTarget {
+    /// `#[j1, …, j6]`: joint angles, degrees (values for axes beyond the sixth are dropped).
+    Joints([f64; 6]),
+    /// `[x, y, z, o, a, t]`: the tool in the world, mm and degrees.
+    Pose([f64; 6]),
 }
 
 /// A posture command: which inverse-kinematics branch the next joint motion takes.

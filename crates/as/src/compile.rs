@@ -428,8 +428,23 @@ pub(crate) enum Op {
     OnError(Option<usize>),
     /// An instruction that loads but is not emulated: the task stops with E0199 naming it.
     NotEmulated(Box<str>),
+    /// One part of a block-teaching step (its line compiles to the parts in order).
+    Block(BlockPart, Arc<BlockStep>),
     /// The end of the program (`.END`).
     End,
+}
+
+/// The parts of a block-teaching step, each an op (a part that waits runs again when its wait
+/// ends, so each part has one wait).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum BlockPart {
+    /// The tool, the speed, the accuracy, the motion, and `OX` when `OX.PREOUT` is ON.
+    Move,
+    /// At the pose: `OX` when `OX.PREOUT` is OFF, the timer (unless `AFTER.WAIT.TMR` puts it
+    /// after the `WX` wait).
+    Arrive,
+    /// The `WX` wait, then the timer when `AFTER.WAIT.TMR` is ON.
+    Inputs,
 }
 
 /// `UDP_SENDTO ret, ip[i], port, $buf[i], n[, timeout]`, compiled.
@@ -851,6 +866,17 @@ impl Compiler {
                     Op::NotEmulated(instruction.as_str().into())
                 };
                 self.emit(op, line);
+            }
+            StmtKind::BlockStep(step) => {
+                let step: Arc<BlockStep> = Arc::new((**step).clone());
+                self.emit(Op::Block(BlockPart::Move, step.clone()), line);
+                self.emit(Op::Block(BlockPart::Arrive, step.clone()), line);
+                if !step.inputs.is_empty() {
+                    self.emit(Op::Block(BlockPart::Inputs, step.clone()), line);
+                }
+                if step.end {
+                    self.emit(Op::Return, line);
+                }
             }
             StmtKind::Empty => {
                 if s.label.is_some() {

@@ -7,7 +7,7 @@
 mod common;
 
 use common::{ms, printed, start};
-use fs020n_as::ast::StmtKind;
+use fs020n_as::ast::{BlockSpeed, BlockTarget, StmtKind};
 use fs020n_as::{parse, parse_bytes, LoadOptions};
 
 fn loads(text: &str) -> fs020n_as::ast::Module {
@@ -57,21 +57,33 @@ fn numbered_steps_are_labels_a_goto_can_reach() {
 }
 
 #[test]
-fn a_block_teaching_step_loads_as_not_emulated() {
+fn block_teaching_steps_load_as_steps_and_a_form_the_emulator_does_not_model_as_not_emulated() {
     let m = loads(concat!(
         ".PROGRAM weld1() #0\n",
         "JOINT SPEED9 ACCU1 TIMER0 TOOL1 WORK0 CLAMP1 (OFF,0,0,O) 2 (0,0,0) 0 #[0,-50,-60,0,-80,0,40] ;home\n",
         "  5 LINEAR SPEED3 ACCU0 TIMER1 TOOL1 WORK0 CLAMP1 (ON,0,0,O) 2 (0,0,0) 0 #[10,-40,-60,0,-80,0,40]\n",
         "\tLINEAR 30.0 ACCU1 TIMER0 TOOL1 WORK0 CLAMP OX= WX= #[-1.5,9.6,-122.9,38.1,56.5,-11.7] ;\n",
+        "JOINT SPEED9 ACCU1 TIMER0 TOOL1 WORK3 CLAMP OX= WX= #[0,-50,-60,0,-80,0] ;\n",
         ".END\n"
     ));
-    assert_eq!(m.programs[0].body.len(), 3);
     let body = &m.programs[0].body;
+    assert_eq!(body.len(), 4);
     assert!(matches!(
         &body[0].kind,
-        StmtKind::NotEmulated { instruction, stubbed: false } if instruction == "JOINT (block-teaching step)"
+        StmtKind::BlockStep(s) if !s.linear && s.speed == BlockSpeed::Number(9)
+            && s.target == BlockTarget::Joints([0.0, -50.0, -60.0, 0.0, -80.0, 0.0])
     ));
     assert_eq!(body[1].label.as_ref().map(|l| l.name.as_str()), Some("5"));
+    assert!(matches!(
+        &body[2].kind,
+        StmtKind::BlockStep(s) if s.linear && s.speed == BlockSpeed::MmPerS(30.0)
+    ));
+    // Work compensation is not modelled: that step loads as not emulated.
+    assert!(matches!(
+        &body[3].kind,
+        StmtKind::NotEmulated { instruction, stubbed: false } if instruction == "JOINT (block-teaching step)"
+    ));
+    assert_eq!(m.warnings.len(), 1, "{:?}", m.warnings);
     assert!(m.warnings[0]
         .message
         .starts_with("JOINT (block-teaching step) loads but is not emulated"));

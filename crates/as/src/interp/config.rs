@@ -61,6 +61,39 @@ pub struct Config {
     /// in seconds and the offset of local time from UTC in seconds. `None` (default): the
     /// host's local time when the interpreter is created. Tests set it for repeatable output.
     pub clock_at_start: Option<(i64, i32)>,
+    /// The controller's tables that block-teaching steps name by number (`SPEEDn`, `ACCUn`,
+    /// `TIMERn`, `TOOLn`).
+    pub block: BlockSettings,
+}
+
+/// The settings tables of block-teaching steps (the controller's auxiliary data: speed, accuracy,
+/// timer and tool numbers). The defaults are the values of the tables in controller saves
+/// (their `.AUXDATA` section); a cell's own values come from its controller (docs/AS.md,
+/// "Block-teaching steps").
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BlockSettings {
+    /// `SPEED0` … `SPEED9`: percent of the maximum speed (default 10, 20, … 100). The motion
+    /// speed is this times the monitor speed, at most 100 %.
+    pub speed_percent: [f64; 10],
+    /// `ACCU0` … `ACCU4`: the accuracy, mm (default 1, 1, 10, 50, 100).
+    pub accuracy_mm: [f64; 5],
+    /// `TIMER0` … `TIMER9`: the wait after the step reached its pose, seconds (default 0,
+    /// 0.1, … 0.9).
+    pub timer_s: [f64; 10],
+    /// `TOOL1` … `TOOL15` (index 0 is `TOOL0`): the tool transformation (x, y, z mm, o, a, t
+    /// degrees) a step sets; `None` (default): the null tool.
+    pub tools: [Option<[f64; 6]>; 16],
+}
+
+impl Default for BlockSettings {
+    fn default() -> Self {
+        BlockSettings {
+            speed_percent: [10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0, 100.0],
+            accuracy_mm: [1.0, 1.0, 10.0, 50.0, 100.0],
+            timer_s: [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9],
+            tools: [None; 16],
+        }
+    }
 }
 
 /// The output signals of one hand (a double-solenoid valve: one signal opens, one closes).
@@ -87,6 +120,7 @@ impl Default for Config {
                 HandSignals { open: 3, close: 4 },
             ],
             clock_at_start: None,
+            block: BlockSettings::default(),
         }
     }
 }

@@ -35,6 +35,7 @@
 //! helpers (`arith`, `strings`); they call one another only through `Interpreter`'s methods.
 
 mod arith;
+mod block;
 mod circular;
 mod clock;
 mod config;
@@ -78,7 +79,7 @@ use crate::value::{Bytes, Store};
 use arith::{ns, Ns};
 use task::{SignalState, Task, TaskSlot};
 
-pub use config::{Config, CostModel, HandSignals};
+pub use config::{BlockSettings, Config, CostModel, HandSignals};
 pub use report::{Refusal, ReloadError, TaskInfo, TaskState, TerminalLine, TraceLine};
 
 /// The AS interpreter: programs, variables and up to six tasks (robot task 1, PC tasks 1–5),

@@ -2,7 +2,7 @@
 
 use std::time::Duration;
 
-use crate::compile::{CProgram, Code, Op, RExpr, SExpr, Ty};
+use crate::compile::{BlockPart, CProgram, Code, Op, RExpr, SExpr, Ty};
 use crate::error::RuntimeError;
 use crate::keywords::SYSTEM_SWITCHES;
 use crate::system::{System, TaskId};
@@ -45,7 +45,13 @@ impl Interpreter {
             return Ok(Flow::Next);
         };
         let now = self.now;
-        if self.trace.is_some() && !matches!(op, Op::Jump(_)) {
+        if self.trace.is_some()
+            && !matches!(
+                op,
+                // A block step's line is traced once, at its motion.
+                Op::Jump(_) | Op::Block(BlockPart::Arrive | BlockPart::Inputs, _)
+            )
+        {
             self.trace_step(i, code, p, pc, now);
         }
         // By default the next step is the following op.
@@ -415,6 +421,7 @@ impl Interpreter {
             Op::TcpStatus(ret, arrays) => self.tcp_status(i, ret, arrays, sys)?,
             Op::UdpSendTo(op) => self.udp_sendto(i, op, sys)?,
             Op::UdpRecvFrom(op) => self.udp_recvfrom(i, op, sys, pc, now)?,
+            Op::Block(part, step) => self.block_step(i, *part, step, sys, pc, now)?,
             Op::OnError(program) => {
                 self.tasks[i].error_program = *program;
                 Flow::Next

@@ -447,8 +447,9 @@ fn one_edit(a: &str, b: &str) -> bool {
     }
 }
 
-/// First words of a block-teaching step (`JOINT SPEED9 ACCU1 … #[…]`): loaded as not
-/// emulated when the line is a step (its second word starts with `SPEED`, or it holds `#[`).
+/// First words of a block-teaching step (`JOINT SPEED9 ACCU1 … #[…]`), when the line is a step
+/// (its second word starts with `SPEED`, or it holds `#[`): `JOINT` and `LINEAR` steps run
+/// (docs/AS.md, "Block-teaching steps"), the others load as not emulated.
 pub const BLOCK_TEACHING: &[&str] = &[
     "joint",
     "linear",
@@ -468,6 +469,7 @@ pub const BLOCK_TEACHING: &[&str] = &[
 /// motion here; the others are remembered and reported.
 pub const SYSTEM_SWITCHES: &[(&str, bool)] = &[
     ("abs.speed", false),
+    ("after.wait.tmr", false),
     ("autostart.pc", false),
     ("autostart2.pc", false),
     ("autostart3.pc", false),
@@ -482,6 +484,7 @@ pub const SYSTEM_SWITCHES: &[(&str, bool)] = &[
     ("errstart.pc", false),
     ("hold.step", false),
     ("message", true),
+    ("ox.preout", true),
     ("prefetch.sigins", false),
     ("prog.date", false),
     ("qtool", false),

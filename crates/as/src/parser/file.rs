@@ -708,6 +708,19 @@ impl<'a> FileParser<'a> {
                 next.len() >= 5 && next[..5].eq_ignore_ascii_case(b"speed")
                     || after.windows(2).any(|w| w == b"#[")
             };
+        // `JOINT`/`LINEAR` lines are block steps only: the emulator runs those it reads, the
+        // others load as not emulated.
+        let block_word = matches!(word.as_str(), "joint" | "linear");
+        let block_step = block_step || block_word;
+        if block_step && !fn_step && !prefixed && !self.opts.is_stubbed(&word) {
+            if let Some(step) = super::block::block_step(&word, after) {
+                return Some(Ok(LineItem {
+                    label,
+                    kind: LineKind::Stmt(StmtKind::BlockStep(Box::new(step))),
+                    span,
+                }));
+            }
+        }
         let upper = word.to_ascii_uppercase();
         let kind = if block_step {
             NotEmulatedKind::BlockStep

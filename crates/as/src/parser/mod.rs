@@ -15,6 +15,7 @@
 //! Every error names the file, line and column and what was expected; parsing goes on after an
 //! error so that one load reports up to [`MAX_REPORTED`] of them.
 
+mod block;
 mod bytes;
 mod cursor;
 mod data;
