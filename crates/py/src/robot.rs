@@ -7,11 +7,12 @@ use std::time::{Duration, Instant};
 
 use fs020n_client::{
     self as client, ClientConfig, ClientError, Completion, LagCompensation, RecordFormat,
-    Recording, ServoOptions, ServoSample, StreamMode, StreamOptions, StreamOutcome, Trajectory,
-    TrajectoryPoint, WatchdogAction,
+    Recording, ServoOptions, ServoSample, StreamMode, StreamOptions, StreamOutcome, TargetPacing,
+    Trajectory, TrajectoryPoint, WatchdogAction,
 };
 use fs020n_kin::Xyzoat;
 use fs020n_proto::JointsDeg;
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use pyo3::IntoPyObjectExt;
@@ -572,9 +573,12 @@ impl Robot {
     /// cycle, every target the controller can extrapolate to, the start within
     /// `start_tolerance_deg` of the robot). `lag_compensation` (command 7): `"online"` (the
     /// lead follows the lag estimated from the replies, up to 0.3 s), `"off"`, or a fixed lead
-    /// in seconds (0–0.5). With `wait=True` returns a `StreamReport`; with `wait=False` a
-    /// `Stream` (keep it: dropping it cancels the stream).
-    #[pyo3(signature = (times, positions, velocities=None, accelerations=None, *, mode="cmd7", rate=50.0, lookahead=2.0, max_step_deg=2.0, start_tolerance_deg=1.0, end_tolerance_deg=0.5, end_timeout=3.0, lag_compensation=None, wait=true))]
+    /// in seconds (0–0.5). `pacing` (command 7): `"held"` (default: points of the trajectory
+    /// held 20–80 ms, so the controller's moves do not wait for ACCURACY; docs/CLIENT.md) or
+    /// `"extrapolated"` (every sample carries the trajectory's velocity). With `wait=True`
+    /// returns a `StreamReport`; with `wait=False` a `Stream` (keep it: dropping it cancels
+    /// the stream).
+    #[pyo3(signature = (times, positions, velocities=None, accelerations=None, *, mode="cmd7", rate=50.0, lookahead=2.0, max_step_deg=2.0, start_tolerance_deg=1.0, end_tolerance_deg=0.5, end_timeout=3.0, lag_compensation=None, pacing="held", wait=true))]
     #[allow(clippy::too_many_arguments)]
     fn stream(
         slf: &Bound<'_, Self>,
@@ -591,9 +595,19 @@ impl Robot {
         end_tolerance_deg: f64,
         end_timeout: f64,
         lag_compensation: Option<&Bound<'_, PyAny>>,
+        pacing: &str,
         wait: bool,
     ) -> PyResult<Py<PyAny>> {
         let lag_compensation = lag_compensation_arg(py, lag_compensation)?;
+        let target_pacing = match pacing {
+            "held" => TargetPacing::Held,
+            "extrapolated" => TargetPacing::Extrapolated,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "pacing {other:?}: \"held\" or \"extrapolated\""
+                )))
+            }
+        };
         let t = numbers(times, "times")?;
         let q = rows(positions, "positions")?;
         let v = velocities.map(|v| rows(v, "velocities")).transpose()?;
@@ -655,6 +669,7 @@ impl Robot {
                 .max(StreamOptions::default().max_gap)
                 .min(Duration::from_millis(500)),
             lag_compensation,
+            target_pacing,
             ..StreamOptions::default()
         };
         let handle = slf.get().call(py, |r| {

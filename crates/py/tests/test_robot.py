@@ -261,3 +261,29 @@ def test_recording(emu, tmp_path, suffix, fmt):
     assert dirs == {"tx", "rx", "event"}
     with pytest.raises(fs020n.LimitError, match="record_format"):
         fs020n.Robot(emu.address, record=path, record_format="xml")
+
+
+def test_stream_pacing_held_sends_targets_without_velocity(emu, tmp_path):
+    """`pacing="held"` (default) sends points of the trajectory with zero velocity, each kept
+    for a span; `"extrapolated"` sends the trajectory's velocity with every sample."""
+    times, positions = ramp()
+    velocities = {}
+    for pacing, path in [("held", tmp_path / "held.jsonl"),
+                         ("extrapolated", tmp_path / "extrapolated.jsonl")]:
+        with fs020n.Robot(emu.address, record=path) as robot:
+            robot.set_speed(100)
+            robot.start()
+            if pacing == "extrapolated":
+                positions = positions[::-1]
+            report = robot.stream(times, positions, pacing=pacing)
+            assert report.outcome == "completed"
+        samples = [r["text"].split() for r in map(json.loads, path.read_text().splitlines())
+                   if r["dir"] == "tx" and r["text"].startswith("1040 7 ")]
+        # 1040 7 n t step q1..q6 v1..v6 a1..a6: the velocities are fields 11-16.
+        velocities[pacing] = [float(v) for s in samples for v in s[11:17]]
+        assert samples, pacing
+    assert all(v == 0.0 for v in velocities["held"])
+    assert any(v != 0.0 for v in velocities["extrapolated"])
+    with fs020n.Robot(emu.address) as robot:
+        with pytest.raises(ValueError, match="held"):
+            robot.stream(times, positions, pacing="sometimes")

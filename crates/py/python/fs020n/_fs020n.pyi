@@ -202,6 +202,7 @@ class Robot:
         end_tolerance_deg: float = 0.5,
         end_timeout: float = 3.0,
         lag_compensation: Union[Literal["online", "off"], float, None] = None,
+        pacing: Literal["held", "extrapolated"] = "held",
         wait: bool = True,
     ) -> Any:
         """StreamReport with wait=True, Stream with wait=False."""
