@@ -259,6 +259,60 @@ fn kill_of_the_running_robot_program_is_refused_and_abort_then_kill_works() {
 }
 
 #[test]
+fn prime_prepares_the_robot_program_and_continue_starts_it() {
+    // AS-E p.5-39: PRIME prepares, it does not execute; CONTINUE executes.
+    let mut t = Term::new(bare());
+    t.c.set_power(true).unwrap();
+    let count = ".PROGRAM count()\n  n = n + 1\n  TWAIT 0.2\n.END\n.REALS\nn = 0\n.END\n";
+    loaded_ok(&t.load("count.as", count));
+    assert!(t.cmd("PRIME nothing", false).starts_with("(P1038)"));
+    assert_eq!(t.cmd("PRIME count, 2", false), "");
+    t.advance(Duration::from_millis(300));
+    assert_eq!(t.cmd("TYPE TASK (1)", false), "0", "primed, not running");
+    assert_eq!(typed_real(&mut t, "n"), 0.0);
+    assert!(t.cmd("STATUS", false).contains("count"), "on the stack");
+    assert_eq!(t.cmd("CONTINUE", false), "");
+    t.advance(Duration::from_millis(100));
+    assert_eq!(t.cmd("TYPE TASK (1)", false), "1");
+    assert!(t.cmd("PRIME count", false).starts_with("(P1009)"));
+    t.advance(Duration::from_secs(2));
+    assert_eq!(
+        typed_real(&mut t, "n"),
+        2.0,
+        "the two cycles PRIME asked for"
+    );
+    // CONTINUE again: nothing primed any more, the program does not run a third time.
+    assert_eq!(t.cmd("CONTINUE", false), "");
+    t.advance(Duration::from_secs(1));
+    assert_eq!(typed_real(&mut t, "n"), 2.0);
+}
+
+#[test]
+fn list_with_a_switch_shows_the_variables_the_programs_hold_now() {
+    // AS-E p.5-18: LIST/R, /L, /S, /INT; telnet tools type the switch after a blank.
+    let mut t = Term::new(bare());
+    let setx = ".PROGRAM setx()\n  x = 5\n  arr[2] = 0.5\n  @n = 3\n  $s = \"hi\"\n  POINT p = TRANS(100, 0, 600, 0, 180, 0)\n  POINT #j = #PPOINT(0, -30, -90, 0, -60, 0)\n.END\n.REALS\nx = 1\n.END\n";
+    loaded_ok(&t.load("setx.as", setx));
+    assert_eq!(
+        t.cmd("LIST/R x", false),
+        "x = 1",
+        "the loaded value before the program runs"
+    );
+    t.cmd("PCEXECUTE 2: setx", false);
+    t.advance(Duration::from_millis(50));
+    assert_eq!(t.cmd("list /r x", false), "x = 5");
+    assert_eq!(t.cmd("LIST/R", false), "arr[2] = 0.5\nx = 5");
+    assert_eq!(t.cmd("LIST/INT", false), "@n = 3");
+    assert_eq!(t.cmd("LIST/S", false), "$s \"hi\"");
+    assert_eq!(
+        t.cmd("LIST/L", false),
+        "p 100 0 600 0 180 0\n#j 0 -30 -90 0 -60 0"
+    );
+    assert_eq!(t.cmd("LIST/L #j", false), "#j 0 -30 -90 0 -60 0");
+    assert!(t.cmd("LIST/P setx", false).starts_with(".PROGRAM setx()"));
+}
+
+#[test]
 fn execute_of_the_robot_program_is_refused_in_error_until_ereset() {
     let mut t = Term::new(bare());
     loaded_ok(&t.load("spin.as", ".PROGRAM spin()\n  TWAIT 10\n.END\n"));

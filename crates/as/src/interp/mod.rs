@@ -24,7 +24,8 @@
 //! | `posture.rs` | `LEFTY`, `RIGHTY`, `ABOVE`, `BELOW`, `UWRIST`, `DWRIST`: the IK branch |
 //! | `hands.rs` | `OPEN`/`CLOSE`/`RELAX` and their `I` forms on the hands' signals |
 //! | `locations.rs`, `exist.rs` | `DISTANCE`, `DX`/`DY`/`DZ`, `FRAME`; `EXISTREAL` … `EXISTPROGRAM` |
-//! | `named.rs` | `STRTOPOS`: the pose variable a string names |
+//! | `named.rs` | `STRTOPOS`, `STRTOVAL`, `WHICHTASK`: what a string names |
+//! | `listing.rs` | `LIST/R`, `/INT`, `/L`, `/S`: the globals as data-section lines |
 //! | `expr.rs` | expressions (reals, strings, locations, functions, `PRINT` encoding) |
 //! | `tcp.rs`, `udp.rs` | the `TCP_…` and `UDP_…` statements on the system's socket table |
 //! | `on_error.rs` | `ONE`: a task's error program, and how the task goes on after it |
@@ -44,6 +45,7 @@ mod expr;
 mod flow;
 mod frames;
 mod hands;
+mod listing;
 mod locations;
 mod monitor;
 mod motion;
@@ -80,6 +82,7 @@ use arith::{ns, Ns};
 use task::{SignalState, Task, TaskSlot};
 
 pub use config::{BlockSettings, Config, CostModel, HandSignals};
+pub use listing::ListKind;
 pub use report::{Refusal, ReloadError, TaskInfo, TaskState, TerminalLine, TraceLine};
 
 /// The AS interpreter: programs, variables and up to six tasks (robot task 1, PC tasks 1–5),

@@ -72,6 +72,8 @@ pub(crate) struct MonitorState {
     pub(crate) stacks: [Option<String>; 6],
     /// The task was aborted (its program stays on the stack until killed).
     pub(super) kept: [bool; 6],
+    /// `PRIME program, cycles`: the robot program `CONTINUE` starts.
+    pub(super) primed: Option<(String, i64)>,
     /// An abort waits for the task's current step: `PC program aborted.No = n` is printed
     /// when it stops.
     pub(super) aborting: [bool; 6],

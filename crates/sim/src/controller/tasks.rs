@@ -89,6 +89,9 @@ impl ProgramMut<'_> {
         }
         c.monitor.stacks[i] = None;
         c.monitor.kept[i] = false;
+        if i == 0 {
+            c.monitor.primed = None;
+        }
         c.bump();
         let _ = c.sync_runtime();
         Ok(())
@@ -114,7 +117,44 @@ impl ProgramMut<'_> {
             .map_err(|r| refusal_error(&r))?;
         c.monitor.stacks[0] = Some(name);
         c.monitor.kept[0] = false;
+        c.monitor.primed = None;
         c.bump();
+        Ok(())
+    }
+
+    /// `PRIME program, cycles` (AS-E p.5-39): the robot program is put on robot task 1's
+    /// stack, ready, and does not run; `CONTINUE` ([`ProgramMut::resume`]) starts it. Without
+    /// a name, the program last executed or primed. P1009 while the task runs, P1038 without
+    /// the program. The stack is started anew: a held program's place is lost.
+    pub fn prime(&mut self, program: Option<&str>, cycles: i64) -> Result<(), MonitorError> {
+        let c = &mut *self.c;
+        if c.task_facts(0).0 {
+            return Err(text::P1009_ALREADY_RUNNING);
+        }
+        let name = match program {
+            Some(p) => p.to_ascii_lowercase(),
+            None => (c.monitor.primed.as_ref().map(|(n, _)| n.clone()))
+                .or_else(|| c.monitor.stacks[0].clone())
+                .ok_or(text::P1038_NO_PROGRAM)?,
+        };
+        if c.memory.program(&name).is_none() {
+            return Err(text::P1038_NO_PROGRAM);
+        }
+        c.monitor.stacks[0] = Some(name.clone());
+        c.monitor.kept[0] = true;
+        c.monitor.primed = Some((name, cycles));
+        c.bump();
+        Ok(())
+    }
+
+    /// `CONTINUE`: starts the program `PRIME` prepared (with `EXECUTE`'s checks), or resumes
+    /// a held one (the panel's RUN).
+    pub fn resume(&mut self) -> Result<(), MonitorError> {
+        let primed = self.c.monitor.primed.clone();
+        if let (Some((name, cycles)), false) = (primed, self.c.task_facts(0).0) {
+            self.execute(&name, cycles)?;
+        }
+        self.hold(false);
         Ok(())
     }
 
@@ -165,6 +205,7 @@ impl Controller {
         let _ = self.machine.reset_error();
         self.monitor.stacks = Default::default();
         self.monitor.kept = [false; 6];
+        self.monitor.primed = None;
         self.monitor.aborting = [false; 6];
         self.monitor.transfer_open = false;
         match &self.server {

@@ -3,7 +3,7 @@
 //! abbreviated as the AS keyword table says (the manual's abbreviations).
 
 use fs020n_as::keywords::{self, Lookup, Role};
-use fs020n_as::TaskId;
+use fs020n_as::{ListKind, TaskId};
 use fs020n_term::server::split_word;
 use fs020n_term::text::{self, MonitorError};
 use fs020n_term::{LoadAnswer, Monitor, Reply, SyntaxError};
@@ -113,7 +113,13 @@ impl ControllerMonitor<'_> {
     fn command(&mut self, keyword: &str, options: &str, rest: &str) -> Reply {
         match keyword {
             "DIRECTORY" => self.directory(),
-            "LIST" => self.list(rest),
+            "LIST" => match options {
+                "/R" => self.list_variables(ListKind::Reals, rest),
+                "/INT" => self.list_variables(ListKind::Integers, rest),
+                "/L" => self.list_variables(ListKind::Poses, rest),
+                "/S" => self.list_variables(ListKind::Strings, rest),
+                _ => self.list(rest),
+            },
             "TYPE" => self.type_expr(rest),
             "KILL" => self.ask(Pending::Kill(TaskId::Robot)),
             "PCKILL" => match task_and_rest(rest) {
@@ -149,9 +155,17 @@ impl ControllerMonitor<'_> {
                 self.c.program_mut().hold(true);
                 Reply::Lines(Vec::new())
             }
-            "CONTINUE" => {
-                self.c.program_mut().hold(false);
-                Reply::Lines(Vec::new())
+            "CONTINUE" => done(self.c.program_mut().resume()),
+            "PRIME" => {
+                let (name, cycles) = if rest.trim().is_empty() {
+                    (None, 1)
+                } else {
+                    match program_and_cycles(rest) {
+                        Ok((name, cycles)) => (Some(name), cycles),
+                        Err(reply) => return reply,
+                    }
+                };
+                done(self.c.program_mut().prime(name, cycles))
             }
             "MESSAGES" => match rest.to_ascii_uppercase().as_str() {
                 "ON" => {
@@ -292,6 +306,21 @@ impl ControllerMonitor<'_> {
             })
             .collect();
         lines([text::DIRECTORY_HEADER.to_owned(), names.join(" ")])
+    }
+
+    /// `LIST/R`, `/INT`, `/L`, `/S [name, …]` (AS-E p.5-18): the variables and the values
+    /// the programs hold now, as data-section lines (the manual does not print the form:
+    /// the emulator's choice, the saves' form).
+    fn list_variables(&self, kind: ListKind, rest: &str) -> Reply {
+        let names: Vec<&str> = rest
+            .split(',')
+            .map(str::trim)
+            .filter(|n| !n.is_empty())
+            .collect();
+        match self.c.interpreter() {
+            Some(i) => Reply::Lines(i.list_lines(kind, &names)),
+            None => Reply::Lines(Vec::new()),
+        }
     }
 
     fn list(&self, rest: &str) -> Reply {
@@ -600,6 +629,14 @@ impl Monitor for ControllerMonitor<'_> {
         let (word, options) = match word.find('/') {
             Some(i) => (&word[..i], word[i..].to_ascii_uppercase()),
             None => (word, String::new()),
+        };
+        // `list /r x`: the switch after a blank, as telnet tools type it.
+        let (options, rest) = match rest.trim_start().strip_prefix('/') {
+            Some(tail) if options.is_empty() => {
+                let (switch, rest) = split_word(tail);
+                (format!("/{}", switch.to_ascii_uppercase()), rest)
+            }
+            _ => (options, rest),
         };
         // The word against the AS keyword table, with the manual's abbreviations (`PCEX`,
         // `DI`, `STA`); a word short for two commands is P0110.
