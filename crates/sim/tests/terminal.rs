@@ -313,6 +313,28 @@ fn list_with_a_switch_shows_the_variables_the_programs_hold_now() {
 }
 
 #[test]
+fn a_program_that_ends_before_the_prompt_is_announced_completed() {
+    // A PC program with no wait runs to its end within PCEXECUTE's first steps; telnet
+    // tools wait for `Program completed.No = n` all the same.
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("quick.as", ".PROGRAM quick()\n  x = 1\n.END\n"));
+    t.cmd("PCEXECUTE 3: quick", false);
+    t.advance(Duration::from_millis(200));
+    let out = drain_output(&mut t);
+    assert!(out.contains(&text::pc_completed(3)), "{out:?}");
+}
+
+#[test]
+fn a_bracket_ends_the_command_word_as_in_signal_of_a_number() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("hi.as", ".PROGRAM hi()\n.END\n"));
+    assert_eq!(t.cmd("signal(2010)", false), "");
+    assert_eq!(t.cmd("TYPE SIG(2010)", false), "-1");
+    assert_eq!(t.cmd("SIGNAL (-2010)", false), "");
+    assert_eq!(t.cmd("TYPE SIG(2010)", false), "0");
+}
+
+#[test]
 fn execute_of_the_robot_program_is_refused_in_error_until_ereset() {
     let mut t = Term::new(bare());
     loaded_ok(&t.load("spin.as", ".PROGRAM spin()\n  TWAIT 10\n.END\n"));

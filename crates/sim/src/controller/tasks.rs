@@ -43,6 +43,9 @@ impl ProgramMut<'_> {
         let i = usize::from(task);
         c.monitor.stacks[i] = Some(name);
         c.monitor.kept[i] = false;
+        // Seen running: a program that ends within its first steps (before the prompt) is
+        // announced `Program completed.No = n` all the same.
+        c.monitor.ran[i] = true;
         c.bump();
         Ok(())
     }
@@ -118,6 +121,7 @@ impl ProgramMut<'_> {
         c.monitor.stacks[0] = Some(name);
         c.monitor.kept[0] = false;
         c.monitor.primed = None;
+        c.monitor.ran[0] = true;
         c.bump();
         Ok(())
     }

@@ -202,6 +202,8 @@ impl ControllerMonitor<'_> {
     fn signal(&mut self, rest: &str) -> Reply {
         let mut numbers = Vec::new();
         for part in rest.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+            // `SIGNAL (-2010)`, `signal(5)`: a number in brackets.
+            let part = part.trim_start_matches('(').trim_end_matches(')').trim();
             match part.parse::<i32>() {
                 Ok(n) if n != 0 && !(1001..=1999).contains(&n.abs()) => numbers.push(n),
                 _ => return Reply::Error(text::P0117_INVALID_NAME),
@@ -626,6 +628,11 @@ impl Monitor for ControllerMonitor<'_> {
     fn run(&mut self, line: &str) -> Reply {
         *self.pending = None;
         let (word, rest) = split_word(line);
+        // `signal(-2010)`: a bracket ends the command word; the argument starts with it.
+        let (word, rest) = match word.find('(') {
+            Some(i) if i > 0 => (&word[..i], line.trim()[i..].trim()),
+            _ => (word, rest),
+        };
         let (word, options) = match word.find('/') {
             Some(i) => (&word[..i], word[i..].to_ascii_uppercase()),
             None => (word, String::new()),
