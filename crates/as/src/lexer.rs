@@ -258,7 +258,7 @@ pub fn tokenize_bytes(
                 if j >= chars.len() {
                     return Err(err(start, "expected a closing \" to end the string".into()));
                 }
-                let s = chars[i + 1..j].to_vec();
+                let s = unescape(&chars[i + 1..j]);
                 if s.len() > MAX_STRING {
                     return Err(err(
                         start,
@@ -513,6 +513,55 @@ pub fn tokenize_bytes(
 
 /// A decimal number at the start of `chars` (digits, optional fraction, optional exponent
 /// with at least one digit): its value and length in bytes.
+/// The bytes of a string constant, its backslash escapes read: `\n` LF, `\r` CR, `\t` TAB,
+/// `\\` a backslash, `\ooo` (three octal digits) that byte — the form controllers save
+/// non-printing bytes in (`"\005"`, observed in public saves; the E manual says control
+/// characters cannot be written, later controllers' programs send `"ALIVE\n"` as a line).
+/// Any other backslash stays as it is.
+pub(crate) fn unescape(text: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(text.len());
+    let mut k = 0;
+    while k < text.len() {
+        let c = text[k];
+        if c != b'\\' || k + 1 >= text.len() {
+            out.push(c);
+            k += 1;
+            continue;
+        }
+        let octal = text
+            .get(k + 1..k + 4)
+            .filter(|d| d.iter().all(|b| (b'0'..=b'7').contains(b)));
+        match (text[k + 1], octal) {
+            (_, Some(d)) => {
+                let v = d.iter().fold(0u32, |v, b| v * 8 + u32::from(b - b'0'));
+                out.push(u8::try_from(v).unwrap_or(u8::MAX));
+                k += 4;
+            }
+            (b'n', None) => {
+                out.push(b'\n');
+                k += 2;
+            }
+            (b'r', None) => {
+                out.push(b'\r');
+                k += 2;
+            }
+            (b't', None) => {
+                out.push(b'\t');
+                k += 2;
+            }
+            (b'\\', None) => {
+                out.push(b'\\');
+                k += 2;
+            }
+            _ => {
+                out.push(c);
+                k += 1;
+            }
+        }
+    }
+    out
+}
+
 fn lex_number(chars: &[u8]) -> (f64, usize) {
     let mut j = 0;
     while j < chars.len() && chars[j].is_ascii_digit() {

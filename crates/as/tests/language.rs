@@ -542,3 +542,20 @@ fn an_error_inside_a_run_of_computation_names_its_line_steps_and_time() {
     // FOR, 60 × (assignment, NEXT), `.s = 0`, FOR, 60 × 2, `s = .s`, the END.
     assert_eq!(i.tasks(&s)[1].steps, 1 + 120 + 1 + 1 + 120 + 1 + 1);
 }
+
+#[test]
+fn backslash_escapes_in_string_constants_are_the_bytes_they_name() {
+    // `"\005"` is how saves hold a non-printing byte; programs end their TCP lines with
+    // `"\n"`; another backslash stays as written.
+    let (i, _) = run_pc(
+        "  $a = \"OK\\n\"\n  a = LEN($a)\n  b = ASC($a, 3)\n  $c = \"\\r\\t\\\\\\005\"\n  c = LEN($c)\n  d = ASC($c, 4)\n  $e = \"C:\\data\"\n  e = LEN($e)\n  IF $a == \"OK\" + $CHR(10) THEN\n    f = 1\n  END",
+        0.1,
+    );
+    assert_eq!(i.real("a"), Some(3.0));
+    assert_eq!(i.real("b"), Some(10.0));
+    assert_eq!(i.real("c"), Some(4.0));
+    assert_eq!(i.real("d"), Some(5.0));
+    assert_eq!(i.real("e"), Some(7.0), "\\d is no escape");
+    assert_eq!(i.real("f"), Some(1.0));
+    assert_eq!(i.string("e"), Some(b"C:\\data".to_vec()));
+}
