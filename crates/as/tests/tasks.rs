@@ -422,3 +422,13 @@ fn whichtask_names_the_task_running_a_program_or_its_subroutine() {
         [1.0, 1.0, 1001.0, -1.0, -1.0]
     );
 }
+
+#[test]
+fn a_task_in_a_subroutine_reports_the_subroutine_and_the_program_it_was_started_with() {
+    let src = ".PROGRAM autostart.pc()\n  CALL sub\n.END\n.PROGRAM sub()\n  TWAIT 5\n.END\n";
+    let (mut i, mut s) = start(src);
+    i.run_until(&mut s, ms(100));
+    let pc1 = &i.tasks(&s)[1];
+    assert_eq!(pc1.program.as_deref(), Some("sub"));
+    assert_eq!(pc1.main.as_deref(), Some("autostart.pc"));
+}

@@ -58,6 +58,9 @@ impl Interpreter {
                     task: t.id.to_string(),
                     state: self.task_state_at(t.id, panel, moving),
                     program: prog.map(|p| p.name.clone()),
+                    main: (t.frames.first())
+                        .and_then(|f| self.code.programs.get(f.prog))
+                        .map(|p| p.name.clone()),
                     line,
                     text: match (frame, line) {
                         (Some(f), Some(l)) => {

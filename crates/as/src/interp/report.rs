@@ -42,6 +42,8 @@ pub struct TaskInfo {
     pub state: TaskState,
     /// The program (the innermost one when a CALL is in progress).
     pub program: Option<String>,
+    /// The program the task was started with (the outermost of its calls).
+    pub main: Option<String>,
     /// The source line about to execute (or waiting).
     pub line: Option<u32>,
     /// Its text.

@@ -2,7 +2,6 @@
 
 use std::net::{SocketAddr, ToSocketAddrs};
 
-use fs020n_as::TaskId;
 use fs020n_kin::RobotModel;
 use fs020n_proto::{ErrorCode, JointsDeg};
 use fs020n_sim::{Panel, ProgramStart, SimOptions};
@@ -231,16 +230,17 @@ async fn print_trace(emulators: Vec<fs020n_sim::Emulator>, as_json: bool) {
     }
 }
 
-/// The programs running, each with its task (`autostart.pc in PC task 1`).
+/// The programs running, each with its task (`autostart.pc in PC task 1`): the program each
+/// task was started with, not the subroutine it is in.
 fn running_programs(c: &fs020n_sim::Controller) -> Vec<String> {
-    let tasks = std::iter::once(TaskId::Robot).chain((1..=5).map(TaskId::Pc));
-    tasks
-        .filter(|&t| c.program().task_running(t))
-        .filter_map(|t| {
-            let name = c.program().task_program(t)?;
-            Some(match t {
-                TaskId::Robot => format!("{name} in the robot task"),
-                TaskId::Pc(n) => format!("{name} in PC task {n}"),
+    let tasks = c.program().tasks().unwrap_or_default();
+    (tasks.iter().enumerate())
+        .filter(|(_, t)| t.state != fs020n_as::TaskState::Idle)
+        .filter_map(|(i, t)| {
+            let name = t.main.as_ref()?;
+            Some(match i {
+                0 => format!("{name} in the robot task"),
+                n => format!("{name} in PC task {n}"),
             })
         })
         .collect()
