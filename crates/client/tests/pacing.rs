@@ -14,19 +14,6 @@ use fs020n_client::{
 use fs020n_proto::JointsDeg;
 use fs020n_sim::Fault;
 
-fn circle_csv() -> Trajectory {
-    let text = include_str!("../../../examples/circle.csv");
-    let points = text
-        .lines()
-        .filter(|l| !l.starts_with('#') && !l.starts_with("time"))
-        .map(|l| {
-            let v: Vec<f64> = l.split(',').map(|x| x.trim().parse().unwrap()).collect();
-            TrajectoryPoint::new(v[0], JointsDeg::new([v[1], v[2], v[3], v[4], v[5], v[6]]))
-        })
-        .collect();
-    Trajectory::new(points).unwrap()
-}
-
 /// JT1/JT3 in a figure eight with JT5 turning, 5 s, the tool up to ≈ 0.7 m/s (twice the
 /// circle's speed).
 fn figure_eight() -> Trajectory {

@@ -7,21 +7,7 @@ mod common;
 use std::time::Duration;
 
 use common::*;
-use fs020n_client::{LagCompensation, StreamMode, StreamOptions, Trajectory, TrajectoryPoint};
-use fs020n_proto::JointsDeg;
-
-fn circle_csv() -> Trajectory {
-    let text = include_str!("../../../examples/circle.csv");
-    let points = text
-        .lines()
-        .filter(|l| !l.starts_with('#') && !l.starts_with("time"))
-        .map(|l| {
-            let v: Vec<f64> = l.split(',').map(|x| x.trim().parse().unwrap()).collect();
-            TrajectoryPoint::new(v[0], JointsDeg::new([v[1], v[2], v[3], v[4], v[5], v[6]]))
-        })
-        .collect();
-    Trajectory::new(points).unwrap()
-}
+use fs020n_client::{LagCompensation, StreamMode, StreamOptions};
 
 async fn run(mode: StreamMode, lag: LagCompensation) -> fs020n_client::StreamReport {
     let emu = emulator();

@@ -5,7 +5,9 @@
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use fs020n_client::{BoxedStream, ClientConfig, ConnectFuture, Connector, Robot};
+use fs020n_client::{
+    BoxedStream, ClientConfig, ConnectFuture, Connector, Robot, Trajectory, TrajectoryPoint,
+};
 use fs020n_proto::JointsDeg;
 use fs020n_sim::{ControllerConfig, Emulator};
 
@@ -130,4 +132,18 @@ impl Connector for AnyConnector {
             AnyConnector::Program(c) => c.describe(),
         }
     }
+}
+
+/// `examples/circle.csv`, the circle `play` streams (the tracking goal's path).
+pub(crate) fn circle_csv() -> Trajectory {
+    let text = include_str!("../../../../examples/circle.csv");
+    let points = text
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.starts_with("time"))
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').map(|x| x.trim().parse().unwrap()).collect();
+            TrajectoryPoint::new(v[0], JointsDeg::new([v[1], v[2], v[3], v[4], v[5], v[6]]))
+        })
+        .collect();
+    Trajectory::new(points).unwrap()
 }
