@@ -293,3 +293,18 @@ fn a_start_the_controller_refuses_stops_the_emulator_with_the_monitor_error() {
     assert!(err.contains("(P1038)"), "{err}");
     assert!(err.contains("the file's programs: srv"), "{err}");
 }
+
+#[test]
+fn an_autostart_program_that_stopped_at_once_is_named_with_its_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("undef.as");
+    std::fs::write(&file, ".PROGRAM autostart.pc()\n  x = y + 1\n.END\n").unwrap();
+    let (child, lines) = sim_until_running(&["--as-program", file.to_str().unwrap()]);
+    stop(child);
+    let last = lines.last().cloned().unwrap_or_default();
+    assert!(
+        last.contains("nothing runs: PC task 1 stopped: (E0102)")
+            && last.contains("autostart.pc line 2"),
+        "{last}"
+    );
+}

@@ -396,6 +396,17 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
             Some(robot.local_addr()),
         )
     });
+    // The autostart programs have run to their first wait, as a start at the terminal has
+    // (their ports listening, or the error that stopped them known) before anything is said.
+    if opts.program.is_some() {
+        emulator.with(|c| {
+            for n in 1..=5 {
+                if c.program().task_running(fs020n_as::TaskId::Pc(n)) {
+                    c.program_mut().run_first_steps(fs020n_as::TaskId::Pc(n));
+                }
+            }
+        });
+    }
     for start in &opts.start {
         let started = emulator.with(|c| c.program_mut().start(start));
         if let Err(e) = started {
@@ -421,7 +432,7 @@ pub async fn run_robot(opts: SimOptions) -> io::Result<RunningRobot> {
         }
         tracing::info!(%start, "program started");
     }
-    if !opts.start.is_empty() && !emulator.wait_program_listeners(LISTENERS_WAIT).await {
+    if opts.program.is_some() && !emulator.wait_program_listeners(LISTENERS_WAIT).await {
         tracing::warn!(
             "a started program listens on a port whose host socket is not listening after \
              {LISTENERS_WAIT:?}"

@@ -246,6 +246,22 @@ fn running_programs(c: &fs020n_sim::Controller) -> Vec<String> {
         .collect()
 }
 
+/// The tasks an error stopped, with the error (`PC task 1 stopped: (E0102) … (autostart.pc line 2)`).
+fn stopped_programs(c: &fs020n_sim::Controller) -> Vec<String> {
+    let tasks = c.program().tasks().unwrap_or_default();
+    (tasks.iter().enumerate())
+        .filter(|(_, t)| t.state == fs020n_as::TaskState::Idle)
+        .filter_map(|(i, t)| {
+            // The error names the program and line (`… (autostart.pc line 2)`).
+            let error = t.last_error.as_ref()?;
+            Some(match i {
+                0 => format!("the robot task stopped: {error}"),
+                n => format!("PC task {n} stopped: {error}"),
+            })
+        })
+        .collect()
+}
+
 /// `--signal N=1`: an input signal (1001–1999) and its state.
 fn input_signal(text: &str) -> CliResult<(i32, bool)> {
     let bad = || {
@@ -307,10 +323,20 @@ pub(crate) fn sim(args: &SimArgs, model: &RobotModel, as_json: bool) -> CliResul
                     model.name()
                 );
             } else {
-                let running = (robots.first())
-                    .map(|r| r.emulator().with(|c| running_programs(c)))
+                let (running, stopped) = (robots.first())
+                    .map(|r| {
+                        r.emulator()
+                            .with(|c| (running_programs(c), stopped_programs(c)))
+                    })
                     .unwrap_or_default();
                 match &program {
+                    Some(p) if running.is_empty() && !stopped.is_empty() => println!(
+                        "{} emulated {} with the AS program {p} loaded; nothing runs: {}; \
+                         Ctrl-C to stop",
+                        robots.len(),
+                        model.name(),
+                        stopped.join("; ")
+                    ),
                     Some(p) if running.is_empty() => println!(
                         "{} emulated {} with the AS program {p} loaded; nothing runs: the file \
                          has no autostart program (autostart.pc …); start one with --pcexecute \
