@@ -444,7 +444,8 @@ pub(crate) struct SimArgs {
     #[arg(long, value_name = "CODE", allow_hyphen_values = true)]
     pub error: Option<String>,
     /// Run this AS program file (e.g. a modified protocol-1040 server) instead of the native
-    /// server; the first port it listens on is served at --listen.
+    /// server; the first port it listens on is served at --listen. Its autostart programs
+    /// (autostart.pc …) start; start others with --pcexecute / --execute.
     #[arg(long, value_name = "FILE")]
     pub as_program: Option<std::path::PathBuf>,
     /// With --as-program: print every executed program line (time, task, program:line, text).
