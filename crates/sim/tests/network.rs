@@ -397,3 +397,30 @@ async fn the_listeners_are_ready_only_once_each_port_the_program_listens_on_acce
     }
     ports.stop();
 }
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_program_started_with_the_emulator_is_served_at_its_mapped_port_when_run_robot_returns() {
+    // A program started with the emulator listens at its mapped host port when run_robot
+    // returns: a client connects once, no wait_port (the robot address, which serves the
+    // first port too, does not count for the port's own host socket).
+    let file = std::env::temp_dir().join(format!("fs020n-mapped-{}.as", std::process::id()));
+    std::fs::write(
+        &file,
+        ".PROGRAM srv()\n  TCP_LISTEN .r, 9200\n  TCP_ACCEPT .s, 9200, 60\n.END\n",
+    )
+    .unwrap();
+    let opts = fs020n_sim::SimOptions {
+        listen: SocketAddr::from(([127, 0, 0, 1], 0)),
+        program: Some(file.clone()),
+        ports: fs020n_sim::PortMap::default().map(9200, 0),
+        start: vec![fs020n_sim::ProgramStart::pc("2: srv").unwrap()],
+        ..fs020n_sim::SimOptions::default()
+    };
+    let robot = fs020n_sim::run_robot(opts).await.unwrap();
+    let _ = std::fs::remove_file(&file);
+    let ports = robot.emulator().program_ports();
+    let host = *ports.get(&9200).expect("served at its mapped port");
+    assert_ne!(host.port(), robot.robot_addr().port());
+    TcpStream::connect(host).await.expect("accepts at once");
+    robot.stop();
+}

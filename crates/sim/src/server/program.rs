@@ -190,14 +190,25 @@ impl Emulator {
     pub fn program_listeners_ready(&self) -> bool {
         let (listening, served) =
             self.with(|c| (c.program().listening_ports(), c.program().served_port()));
+        // Taken before the listeners' lock: the two locks are never held together.
+        let recorded = self.program_ports();
         let l = self
             .inner
             .listeners
             .lock()
             .unwrap_or_else(|poisoned| poisoned.into_inner());
         listening.into_iter().all(|p| {
-            let served_here = l.every_port || (l.served_port && Some(p) == served);
-            !served_here || l.bound.contains(&p) || l.unservable.contains(&p)
+            if l.unservable.contains(&p) {
+                return true;
+            }
+            let bound = l.bound.contains(&p);
+            if l.every_port {
+                // Served at its own host port too: listening there (the first port also
+                // listens at the robot address, which alone is not enough).
+                bound && recorded.contains_key(&p)
+            } else {
+                !(l.served_port && Some(p) == served) || bound
+            }
         })
     }
 
