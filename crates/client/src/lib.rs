@@ -73,7 +73,7 @@ pub use curvature::CurvatureCompensation;
 pub use error::{Activity, Cancellation, ClientError, ErrorKind, LinkError, RawRefusal};
 pub use lag::LagCompensation;
 pub use motion::{Completion, MoveHandle, MoveProgress, MoveReport};
-pub use pacing::{TargetPacing, ACCURACY_MM, LMOVE_TIME_S, MAX_HOLD_FRACTION, MIN_HOLD_FRACTION};
+pub use pacing::{TargetPacing, MAX_HOLD_FRACTION, MIN_HOLD_FRACTION};
 pub use record::{MCAP_CHUNK_INTERVAL, RECORD_QUEUE_LINES};
 pub use robot::{Robot, STOP_SETTLE};
 pub use safety::{

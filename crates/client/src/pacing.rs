@@ -22,7 +22,7 @@
 //! trajectory time between them.
 
 use fs020n_kin::RobotModel;
-use fs020n_proto::JointsDeg;
+use fs020n_proto::{JointsDeg, ACCURACY_MM, STREAM_LMOVE_TIME_S};
 use serde::Serialize;
 
 use crate::trajectory::Trajectory;
@@ -44,11 +44,6 @@ pub enum TargetPacing {
     Extrapolated,
 }
 
-/// Duration of the motion program's straight-line moves at monitor speed 100 %, seconds
-/// (`SPEED 0.1 S`, protocol-1040 §2.4); a lower monitor speed lengthens it in proportion.
-pub const LMOVE_TIME_S: f64 = 0.1;
-/// The motion program's ACCURACY, millimetres at the tool (protocol-1040 §4).
-pub const ACCURACY_MM: f64 = 10.0;
 /// Shortest span a target is held, as a fraction of the move's time (20 ms at monitor speed
 /// 100 %): five overlapping moves add up to a constant speed on a straight path.
 pub const MIN_HOLD_FRACTION: f64 = 0.2;
@@ -68,8 +63,8 @@ const SPEED_DIFF_S: f64 = 0.001;
 /// known (the shortest move, so the shortest holds and the least lead to start from).
 pub(crate) fn move_time_s(speed_percent: Option<f64>) -> f64 {
     match speed_percent {
-        Some(p) if p.is_finite() && (1.0..=100.0).contains(&p) => LMOVE_TIME_S * 100.0 / p,
-        _ => LMOVE_TIME_S,
+        Some(p) if p.is_finite() && (1.0..=100.0).contains(&p) => STREAM_LMOVE_TIME_S * 100.0 / p,
+        _ => STREAM_LMOVE_TIME_S,
     }
 }
 
@@ -188,7 +183,7 @@ mod tests {
     fn pace(period_s: f64) -> Pace {
         Pace {
             period_s,
-            move_s: LMOVE_TIME_S,
+            move_s: STREAM_LMOVE_TIME_S,
         }
     }
 
@@ -211,8 +206,8 @@ mod tests {
             move_s: move_time_s(Some(50.0)),
         };
         assert!((move_time_s(Some(50.0)) - 0.2).abs() < 1e-12);
-        assert_eq!(move_time_s(None), LMOVE_TIME_S);
-        assert_eq!(move_time_s(Some(f64::NAN)), LMOVE_TIME_S);
+        assert_eq!(move_time_s(None), STREAM_LMOVE_TIME_S);
+        assert_eq!(move_time_s(Some(f64::NAN)), STREAM_LMOVE_TIME_S);
         let slow_at_half = hold_for(&model, &ramp(1.0), 0.5, half_speed);
         assert!((slow_at_half - 0.04).abs() < 1e-9, "{slow_at_half}");
     }
