@@ -28,8 +28,8 @@ use crate::msg::{
     FollowJointTrajectoryResult, JointTrajectory,
 };
 use crate::replies::{
-    cancel_fields, publish_statuses, send_results, ActionReplies, ActionReply, ActionServer, Goals,
-    ACTION_POLL,
+    cancel_fields, publish_statuses, send_results, ActionReplies, ActionReply, ActionReplyTopics,
+    ActionServer, Goals, ACTION_POLL,
 };
 use crate::shared::{lock, Shared};
 use crate::source::Permit;
@@ -47,6 +47,7 @@ struct Running<'a> {
 pub(crate) async fn action_loop(
     shared: &Shared,
     server: &ActionServer,
+    reply_topics: ActionReplyTopics,
     participant: DomainParticipant,
     trajectories: &ros2_client::Subscription<JointTrajectory>,
     commands: &ros2_client::Subscription<Float64MultiArray>,
@@ -64,7 +65,7 @@ pub(crate) async fn action_loop(
     let feedback_period = Duration::from_secs_f64(1.0 / shared.config.feedback_rate_hz);
     let mut poll = tokio::time::interval(ACTION_POLL);
     poll.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let mut replies = ActionReplies::new(shared, server, participant);
+    let mut replies = ActionReplies::new(shared, server, participant, reply_topics);
     let start = |robot: Arc<Robot>, p: Plan, permit: Permit| -> Running<'_> {
         let (brake, cancel_rx) = watch::channel(false);
         let exec = &shared.config.execution;

@@ -165,9 +165,9 @@ pub struct NodeConfig {
     /// How long a finished goal's result is kept for late result requests, seconds (1 s to a
     /// day). Default 900 (15 min, as rcl_action).
     pub result_retention_s: f64,
-    /// Longest wait of a service reply for the reply reader its request names, seconds (0 to
-    /// 600; 0: never wait). Only requests under the enhanced mapping (rmw_fastrtps) name one;
-    /// see [`crate::reply_gate`]. Default 5.
+    /// Longest wait of a service reply for its requester's reply reader, seconds (0 to 600; 0:
+    /// never wait): the reader the request names (rmw_fastrtps), or a reader of the reply topic
+    /// in the requester's participant; see [`crate::reply_gate`]. Default 5.
     pub reply_reader_wait_s: f64,
     /// Remaps of topic and service names (from, to), as `--ros-args -r` gives them; see
     /// [`NodeConfig::resolve`].

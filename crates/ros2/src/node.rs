@@ -28,7 +28,8 @@ use crate::msg::{
     FollowJointTrajectoryResult, JointState, JointTrajectory, SetSpeedRequest, SetSpeedResponse,
     StringMsg, TfMessage, Time, TriggerRequest, TriggerResponse,
 };
-use crate::services::{speed_loop, trigger_loop, Server, Trigger};
+use crate::replies::ActionReplyTopics;
+use crate::services::{speed_loop, trigger_loop, Service, Trigger};
 use crate::shared::{lock, Shared};
 use crate::source::{Action, RobotSource};
 use crate::urdf;
@@ -181,7 +182,7 @@ pub async fn run(
     let node_name = NodeName::new(&config.namespace, &config.node_name)
         .map_err(|e| Ros2Error::Config(format!("node name {fqn}: {e:?}")))?;
     let mut node = context
-        .new_node(node_name, options)
+        .new_node(node_name.clone(), options)
         .map_err(dds("ROS 2 node"))?;
     let mapping = config.dds.service_mapping.to_client();
 
@@ -241,41 +242,56 @@ pub async fn run(
         joint_state_qos(),
     )?;
 
-    // Services.
+    // Services, each with the DDS topic its replies go on (a reply waits for a reader of it).
+    let reply_topic = |service: &Name| service.to_dds_name("rr", &node_name, "Reply");
     let trigger = ServiceTypeName::new("std_srvs", "Trigger");
     let mut trigger_server =
-        |base: &str| -> Result<Server<TriggerRequest, TriggerResponse>, Ros2Error> {
-            node.create_server(
-                mapping,
-                &split_name(&config.resolve(&format!("~/{base}")))?,
-                &trigger,
-                service_qos(),
-                service_qos(),
-            )
-            .map_err(dds("~/ service"))
+        |base: &str| -> Result<Service<TriggerRequest, TriggerResponse>, Ros2Error> {
+            let service = split_name(&config.resolve(&format!("~/{base}")))?;
+            Ok(Service {
+                server: node
+                    .create_server(mapping, &service, &trigger, service_qos(), service_qos())
+                    .map_err(dds("~/ service"))?,
+                reply_topic: reply_topic(&service),
+            })
         };
     let start_srv = trigger_server("start")?;
     let stop_srv = trigger_server("stop")?;
     let cancel_srv = trigger_server("cancel")?;
-    let speed_srv: Server<SetSpeedRequest, SetSpeedResponse> = node
-        .create_server(
-            mapping,
-            &split_name(&config.resolve("~/set_speed"))?,
-            &ServiceTypeName::new("fs020n_msgs", "SetSpeed"),
-            service_qos(),
-            service_qos(),
-        )
-        .map_err(dds("~/set_speed"))?;
+    let speed_service = split_name(&config.resolve("~/set_speed"))?;
+    let speed_srv: Service<SetSpeedRequest, SetSpeedResponse> = Service {
+        server: node
+            .create_server(
+                mapping,
+                &speed_service,
+                &ServiceTypeName::new("fs020n_msgs", "SetSpeed"),
+                service_qos(),
+                service_qos(),
+            )
+            .map_err(dds("~/set_speed"))?,
+        reply_topic: reply_topic(&speed_service),
+    };
 
     // The action, with the QoS of ROS 2 actions: volatile services and feedback, a
-    // transient-local status.
+    // transient-local status. Its services are `<action>/_action/<service>`.
+    let action_name = config.resolve(&config.action_name());
+    let action_reply = |service: &str| -> Result<String, Ros2Error> {
+        Ok(reply_topic(&split_name(&format!(
+            "{action_name}/_action/{service}"
+        ))?))
+    };
+    let action_replies = ActionReplyTopics {
+        send_goal: action_reply("send_goal")?,
+        cancel_goal: action_reply("cancel_goal")?,
+        get_result: action_reply("get_result")?,
+    };
     let volatile = QosProfile::publisher_default()
         .durability(Durability::Volatile)
         .history(History::KeepLast { depth: 10 });
     let action = node
         .create_action_server::<FollowJointTrajectoryGoal, FollowJointTrajectoryResult, FollowJointTrajectoryFeedback>(
             mapping,
-            &split_name(&config.resolve(&config.action_name()))?,
+            &split_name(&action_name)?,
             &ActionTypeName::new("control_msgs", "FollowJointTrajectory"),
             ActionServerQosPolicies {
                 goal_service: volatile.clone(),
@@ -357,6 +373,7 @@ pub async fn run(
             action_loop(
                 shared,
                 &action,
+                action_replies,
                 context.domain_participant(),
                 &trajectory_topic,
                 &commands_topic

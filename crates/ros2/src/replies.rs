@@ -1,6 +1,5 @@
 //! Reply plumbing: the action's statuses, results and replies, and the services' replies, each
-//! sent once the requester's reply reader is known where the service mapping names one
-//! ([`crate::reply_gate`]).
+//! sent once the requester's reply reader is known ([`crate::reply_gate`]).
 
 use std::time::Duration;
 
@@ -15,10 +14,11 @@ use ros2_client::dds::rustdds::DomainParticipant;
 use ros2_client::service::request_id::RmwRequestId;
 
 use crate::action::{status, GoalTable};
+use crate::config::ServiceMapping;
 use crate::msg::{
     FollowJointTrajectoryFeedback, FollowJointTrajectoryGoal, FollowJointTrajectoryResult,
 };
-use crate::reply_gate::{Guid, Released, ReplyGate};
+use crate::reply_gate::{Awaited, KnownReader, Released, ReplyGate};
 use crate::shared::Shared;
 
 /// The `FollowJointTrajectory` action server.
@@ -89,12 +89,15 @@ pub(crate) enum ActionReply {
 }
 
 impl ActionReply {
-    /// The GUID the request named: its requester's reply reader under the enhanced mapping
-    /// (rmw_fastrtps), else its request writer.
-    fn requester(&self) -> Guid {
-        let (ActionReply::Goal(id, _) | ActionReply::Cancel(id, _) | ActionReply::Result(id, _)) =
-            self;
-        id.writer_gid.to_bytes16()
+    /// The reader this reply waits for: its request's identity under the node's mapping, on
+    /// the reply topic of the service it answers.
+    fn awaited(&self, mapping: ServiceMapping, topics: &ActionReplyTopics) -> Awaited {
+        let (id, topic) = match self {
+            ActionReply::Goal(id, _) => (id, &topics.send_goal),
+            ActionReply::Cancel(id, _) => (id, &topics.cancel_goal),
+            ActionReply::Result(id, _) => (id, &topics.get_result),
+        };
+        Awaited::for_request(mapping, &id.writer_gid.to_bytes16(), topic)
     }
 
     fn send(self, server: &ActionServer) {
@@ -109,26 +112,40 @@ impl ActionReply {
     }
 }
 
-/// The action's replies, each sent once the requester's reply reader is matched
+/// The DDS reply topics of the action's three services (`rr/<action>/_action/send_goalReply`…).
+#[derive(Debug, Clone)]
+pub(crate) struct ActionReplyTopics {
+    pub(crate) send_goal: String,
+    pub(crate) cancel_goal: String,
+    pub(crate) get_result: String,
+}
+
+/// The action's replies, each sent once the requester's reply reader is known
 /// ([`crate::reply_gate`]). ros2-client keeps its servers' reply writers to itself, so the
 /// readers the participant has discovered stand for the readers those writers matched.
 pub(crate) struct ActionReplies<'a> {
     server: &'a ActionServer,
     participant: DomainParticipant,
+    mapping: ServiceMapping,
+    topics: ActionReplyTopics,
     gate: ReplyGate<ActionReply>,
 }
 
 impl<'a> ActionReplies<'a> {
-    /// The replies of `server`, whose requests come under the node's service mapping.
+    /// The replies of `server`, whose requests come under the node's service mapping and whose
+    /// replies go on `topics`.
     pub(crate) fn new(
         shared: &Shared,
         server: &'a ActionServer,
         participant: DomainParticipant,
+        topics: ActionReplyTopics,
     ) -> ActionReplies<'a> {
         ActionReplies {
             server,
             participant,
-            gate: ReplyGate::new(shared.config.dds.service_mapping, reader_wait(shared)),
+            mapping: shared.config.dds.service_mapping,
+            topics,
+            gate: ReplyGate::new(reader_wait(shared)),
         }
     }
 
@@ -139,68 +156,63 @@ impl<'a> ActionReplies<'a> {
 
     /// Sends `reply` now, or holds it until its reader is known.
     pub(crate) fn send(&mut self, reply: ActionReply) {
-        let participant = &self.participant;
-        let requester = reply.requester();
+        let awaited = reply.awaited(self.mapping, &self.topics);
+        let known = known_readers(&self.participant);
         let now = tokio::time::Instant::now();
-        let known = |g: &Guid| discovered_reader(participant, g);
-        if let Some(reply) = self.gate.handle_reply(requester, reply, known, now) {
+        if let Some(reply) = self.gate.handle_reply(awaited, reply, &known, now) {
             reply.send(self.server);
         }
     }
 
-    /// Sends the held replies whose reader is matched now, or that waited long enough.
+    /// Sends the held replies whose reader is known now, or that waited long enough.
     pub(crate) fn poll(&mut self) {
         if self.gate.is_empty() {
             return;
         }
-        let readers: Vec<Guid> = self
-            .participant
-            .discovered_readers()
-            .iter()
-            .map(|r| r.reader_proxy.remote_reader_guid.to_bytes())
-            .collect();
+        let known = known_readers(&self.participant);
         let now = tokio::time::Instant::now();
-        for (reply, why) in self.gate.poll_released(|g| readers.contains(g), now) {
+        for (reply, why) in self.gate.poll_released(&known, now) {
             if why == Released::WaitedOut {
-                tracing::warn!(
-                    "the reply reader a request named was not discovered within {:?}: replying \
-                     anyway",
-                    self.gate.wait()
-                );
+                warn_waited_out(self.gate.wait());
             }
             reply.send(self.server);
         }
     }
 }
 
-/// Gives `reply` back once the reply reader the request `id` named is discovered (at once
-/// when its mapping names none), as [`ActionReplies`] does for the action's replies.
+/// Gives `reply` back once the reader the request `id` waits for is discovered: the reply
+/// reader it names, or a reader of `reply_topic` in its participant ([`Awaited::for_request`]),
+/// as [`ActionReplies`] does for the action's replies.
 pub(crate) async fn when_reader_matched<R>(
     shared: &Shared,
     participant: &DomainParticipant,
     id: &RmwRequestId,
+    reply_topic: &str,
     reply: R,
 ) -> R {
-    let mut gate = ReplyGate::new(shared.config.dds.service_mapping, reader_wait(shared));
-    let known = |g: &Guid| discovered_reader(participant, g);
+    let mut gate = ReplyGate::new(reader_wait(shared));
+    let mapping = shared.config.dds.service_mapping;
+    let awaited = Awaited::for_request(mapping, &id.writer_gid.to_bytes16(), reply_topic);
     let now = tokio::time::Instant::now();
-    if let Some(reply) = gate.handle_reply(id.writer_gid.to_bytes16(), reply, known, now) {
+    if let Some(reply) = gate.handle_reply(awaited, reply, &known_readers(participant), now) {
         return reply;
     }
     loop {
         tokio::time::sleep(ACTION_POLL).await;
         let now = tokio::time::Instant::now();
-        if let Some((reply, why)) = gate.poll_released(known, now).pop() {
+        if let Some((reply, why)) = gate.poll_released(&known_readers(participant), now).pop() {
             if why == Released::WaitedOut {
-                tracing::warn!(
-                    "the reply reader a request named was not discovered within {:?}: replying \
-                     anyway",
-                    reader_wait(shared)
-                );
+                warn_waited_out(gate.wait());
             }
             return reply;
         }
     }
+}
+
+fn warn_waited_out(wait: Duration) {
+    tracing::warn!(
+        "the reply reader a request waits for was not discovered within {wait:?}: replying anyway"
+    );
 }
 
 /// How long a reply waits for the reply reader its request named.
@@ -208,11 +220,16 @@ fn reader_wait(shared: &Shared) -> Duration {
     Duration::from_secs_f64(shared.config.reply_reader_wait_s)
 }
 
-fn discovered_reader(participant: &DomainParticipant, guid: &Guid) -> bool {
+/// The readers `participant` has discovered, with their topics.
+fn known_readers(participant: &DomainParticipant) -> Vec<KnownReader> {
     participant
         .discovered_readers()
         .iter()
-        .any(|r| r.reader_proxy.remote_reader_guid.to_bytes() == *guid)
+        .map(|r| KnownReader {
+            guid: r.reader_proxy.remote_reader_guid.to_bytes(),
+            topic: r.subscription_topic_data.topic_name().clone(),
+        })
+        .collect()
 }
 
 /// The goal id and stamp of a cancel request (ros2-client keeps the fields to itself: read

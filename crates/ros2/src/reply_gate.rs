@@ -1,28 +1,28 @@
-//! Service replies held until the requester's reply reader is matched, as rmw_fastrtps answers —
-//! and only under the service mapping whose requests name such a reader.
+//! Service replies held until the requester's reply reader is known, as the ROS 2 middlewares
+//! answer (rmw_fastrtps waits for the reader its request names, rmw_cyclonedds for a reader of
+//! the reply topic in the client's participant) — under every service mapping.
 //!
-//! What a request's identity is depends on the mapping ([`ServiceMapping`]), never on the
-//! bits of the identity itself:
+//! The reply topic is volatile: a reply written before the server has discovered the client's
+//! reply reader is lost, and a client that calls right after discovering the service (its own
+//! reader matched, the server not yet aware of it — discovery is not symmetric in time) waits
+//! for it forever. So every reply waits for a reader; which one depends on the mapping
+//! ([`ServiceMapping`]), never on the bits of the identity alone ([`Awaited::for_request`]):
 //!
-//! | mapping | the identity a request carries | here |
+//! | mapping | the identity a request carries | the reply waits for |
 //! |---|---|---|
-//! | `Enhanced` (rmw_fastrtps, ROS 2's default) | an RTPS GUID in the sample's related-sample-identity: the client's **reply reader** (or, from a client that sets none, its request writer) | a reply to a reader is held until that reader is known ([`ReplyGate::handle_reply`]), at most the gate's wait |
-//! | `Cyclone` (rmw_cyclonedds_cpp) | a 64-bit client id in the payload (the request writer's instance handle, a random number) after the upper half of the request writer's GUID: **no reader** | out at once, whatever the id |
-//! | `Basic` (DDS-RPC) | the request writer's sample identity: no reader | out at once |
-//!
-//! Under `Enhanced` a reply written before the server has discovered the client's reply reader
-//! is lost (the reply topic is volatile), and a client that calls right after discovering the
-//! service would wait for it forever: that is why it is held. Under the other mappings there is
-//! no reader to wait for: holding would only delay the reply.
+//! | `Enhanced` (rmw_fastrtps, ROS 2's default) | an RTPS GUID in the sample's related-sample-identity: the client's **reply reader** | that reader ([`Awaited::Reader`]) |
+//! | `Enhanced`, a client that sets no related-sample-identity | its request writer's GUID | a reader of the reply topic in the writer's participant (its 12-byte GUID prefix) |
+//! | `Cyclone` (rmw_cyclonedds_cpp) | the upper half of the request writer's GUID, then a 64-bit client id (a random number) | a reader of the reply topic in a participant whose GUID begins with that upper half |
+//! | `Basic` (DDS-RPC) | the request writer's sample identity | a reader of the reply topic in the writer's participant |
 //!
 //! | input | here |
 //! |---|---|
-//! | a reply to send, with the GUID the request named | [`ReplyGate::handle_reply`]: out at once unless [`reply_reader`] names an unknown reader; else held |
+//! | a reply to send, with what it waits for | [`ReplyGate::handle_reply`]: out at once when that reader is known (and no older reply to it is held); else held |
 //! | the readers discovered so far, on every poll | [`ReplyGate::poll_released`]: the held replies whose reader is known now, and those that waited the gate's wait (sent anyway: the reader may exist on a path discovery has not reported) |
 //! | when to poll next | [`ReplyGate::poll_timeout`] |
 //!
-//! Generic over the reply `R`; the "known reader" test is a closure and time is passed in
-//! (`Instant`), so that it is tested without DDS, on virtual time.
+//! Generic over the reply `R`; the readers known are passed in as data ([`KnownReader`]) and
+//! time as an `Instant`, so that the gate is tested without DDS, on virtual time.
 
 use std::time::Duration;
 
@@ -39,21 +39,72 @@ pub type Guid = [u8; 16];
 /// The RTPS entity kinds of user-defined readers (no key, with key): RTPS 2.x, 9.3.1.2.
 const USER_READER_KINDS: [u8; 2] = [0x04, 0x07];
 
-/// The reply reader a request names, if its mapping names one: only under `Enhanced`, where the
-/// identity is a real RTPS GUID and its entity kind says whether it is the client's reply reader
-/// (rmw_fastrtps) or its request writer (a client that sets no related-sample-identity).
-/// `None` under `Cyclone` and `Basic`, whatever the bytes: those identities name no reader.
-pub fn reply_reader(mapping: ServiceMapping, requester: &Guid) -> Option<Guid> {
-    match mapping {
-        ServiceMapping::Enhanced if USER_READER_KINDS.contains(&requester[15]) => Some(*requester),
-        ServiceMapping::Enhanced | ServiceMapping::Cyclone | ServiceMapping::Basic => None,
+/// The length of an RTPS GUID prefix: the participant's part of every GUID.
+const PARTICIPANT_PREFIX: usize = 12;
+
+/// How much of the request writer's GUID a Cyclone-mapping identity carries (its upper half).
+const CYCLONE_UPPER_HALF: usize = 8;
+
+/// A reader the node's participant has discovered on the domain.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct KnownReader {
+    /// Its GUID.
+    pub guid: Guid,
+    /// The DDS topic it reads (`rr/…Reply` for a service's replies).
+    pub topic: String,
+}
+
+/// The reader a reply waits for.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Awaited {
+    /// The reply reader the request named (rmw_fastrtps's related-sample-identity).
+    Reader(Guid),
+    /// Any reader of `reply_topic` whose GUID begins with `prefix`: the requester's participant
+    /// (12 bytes) or, under the Cyclone mapping, the upper half of its GUID (8 bytes).
+    InParticipant {
+        /// The first bytes of the requester's GUID.
+        prefix: Vec<u8>,
+        /// The service's reply topic.
+        reply_topic: String,
+    },
+}
+
+impl Awaited {
+    /// What the reply to a request with identity `requester`, on a service whose replies go on
+    /// `reply_topic`, waits for under `mapping`: the reply reader an `Enhanced` request names;
+    /// otherwise a reader of the reply topic in the requester's participant.
+    pub fn for_request(mapping: ServiceMapping, requester: &Guid, reply_topic: &str) -> Awaited {
+        let prefix = match mapping {
+            ServiceMapping::Enhanced if USER_READER_KINDS.contains(&requester[15]) => {
+                return Awaited::Reader(*requester);
+            }
+            ServiceMapping::Enhanced | ServiceMapping::Basic => PARTICIPANT_PREFIX,
+            ServiceMapping::Cyclone => CYCLONE_UPPER_HALF,
+        };
+        Awaited::InParticipant {
+            prefix: requester[..prefix].to_vec(),
+            reply_topic: reply_topic.to_owned(),
+        }
+    }
+
+    /// `true` when a reader among `known` is the one awaited.
+    pub fn is_among(&self, known: &[KnownReader]) -> bool {
+        match self {
+            Awaited::Reader(guid) => known.iter().any(|r| r.guid == *guid),
+            Awaited::InParticipant {
+                prefix,
+                reply_topic,
+            } => known
+                .iter()
+                .any(|r| r.guid.starts_with(prefix) && r.topic == *reply_topic),
+        }
     }
 }
 
 /// Why a held reply went out.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Released {
-    /// Its reader is matched now.
+    /// Its reader is known now.
     ReaderMatched,
     /// It waited its time; the reader was not seen.
     WaitedOut,
@@ -61,7 +112,7 @@ pub enum Released {
 
 #[derive(Debug)]
 struct Held<R> {
-    reader: Guid,
+    awaited: Awaited,
     reply: R,
     until: Instant,
 }
@@ -69,57 +120,49 @@ struct Held<R> {
 /// The replies waiting for their readers; see the [module documentation](self).
 #[derive(Debug)]
 pub struct ReplyGate<R> {
-    mapping: ServiceMapping,
     held: Vec<Held<R>>,
     wait: Duration,
 }
 
 impl<R> ReplyGate<R> {
-    /// A gate for a service on `mapping`, holding a reply at most `wait` for its reader.
-    pub fn new(mapping: ServiceMapping, wait: Duration) -> ReplyGate<R> {
+    /// A gate holding a reply at most `wait` for its reader.
+    pub fn new(wait: Duration) -> ReplyGate<R> {
         ReplyGate {
-            mapping,
             held: Vec::new(),
             wait,
         }
     }
 
-    /// A reply to a request that named `requester`: `Some` (send it now) unless the mapping
-    /// says `requester` is a reply reader ([`reply_reader`]) that `is_matched` does not know
-    /// yet; then it is held (`None`). Replies to one reader leave in the order they came.
+    /// A reply that waits for `awaited`: `Some` (send it now) when that reader is among
+    /// `known` (or the gate never waits) and no older reply to it is held; else it is held
+    /// (`None`). Replies to one
+    /// reader leave in the order they came.
     pub fn handle_reply(
         &mut self,
-        requester: Guid,
+        awaited: Awaited,
         reply: R,
-        is_matched: impl Fn(&Guid) -> bool,
+        known: &[KnownReader],
         now: Instant,
     ) -> Option<R> {
-        let Some(reader) = reply_reader(self.mapping, &requester) else {
-            return Some(reply);
-        };
-        let queued_before = self.held.iter().any(|h| h.reader == reader);
-        if !queued_before && is_matched(&reader) {
+        let queued_before = self.held.iter().any(|h| h.awaited == awaited);
+        if !queued_before && (self.wait.is_zero() || awaited.is_among(known)) {
             return Some(reply);
         }
         self.held.push(Held {
-            reader,
+            awaited,
             reply,
             until: now + self.wait,
         });
         None
     }
 
-    /// The held replies that may go now, in the order they came: their reader is matched, or
-    /// their wait is over.
-    pub fn poll_released(
-        &mut self,
-        is_matched: impl Fn(&Guid) -> bool,
-        now: Instant,
-    ) -> Vec<(R, Released)> {
+    /// The held replies that may go now, in the order they came: their reader is among
+    /// `known`, or their wait is over.
+    pub fn poll_released(&mut self, known: &[KnownReader], now: Instant) -> Vec<(R, Released)> {
         let mut out = Vec::new();
         let mut kept = Vec::new();
         for h in self.held.drain(..) {
-            if is_matched(&h.reader) {
+            if h.awaited.is_among(known) {
                 out.push((h.reply, Released::ReaderMatched));
             } else if now >= h.until {
                 out.push((h.reply, Released::WaitedOut));
@@ -153,19 +196,33 @@ mod tests {
     use crate::config::DEFAULT_READER_WAIT;
     use proptest::prelude::*;
 
+    /// The reply topic of the node's `~/start` service.
+    const START_REPLY: &str = "rr/fs020n/startReply";
+
     /// A request identity under the Cyclone mapping exactly as ros2-client reassembles it from
     /// an rmw_cyclonedds_cpp request: the upper 8 bytes of the request writer's GUID, then the
     /// client id the payload header carries — rmw_cyclonedds's request writer instance handle,
     /// an arbitrary 64-bit number, in the CDR byte order of the sample (little endian here).
-    fn cyclone_request(writer_prefix: [u8; 8], client_id: u64) -> Guid {
+    fn cyclone_request(writer_upper_half: [u8; 8], client_id: u64) -> Guid {
         let mut g = [0u8; 16];
-        g[..8].copy_from_slice(&writer_prefix);
+        g[..8].copy_from_slice(&writer_upper_half);
         g[8..].copy_from_slice(&client_id.to_le_bytes());
         g
     }
 
     /// A Cyclone DDS participant's GUID prefix (vendor 01.10), upper half.
     const CYCLONE_PREFIX: [u8; 8] = [0x01, 0x10, 0x5e, 0x3c, 0x7a, 0x91, 0x00, 0x2f];
+
+    /// A reader of `topic` in the Cyclone participant whose GUID begins with `upper_half`.
+    fn cyclone_reader(upper_half: [u8; 8], topic: &str) -> KnownReader {
+        let mut guid = [0u8; 16];
+        guid[..8].copy_from_slice(&upper_half);
+        guid[8..].copy_from_slice(&[0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x11, 0x04]);
+        KnownReader {
+            guid,
+            topic: topic.to_owned(),
+        }
+    }
 
     /// GUIDs as Fast DDS 2.x makes them (vendor 01.0f, host, process and participant ids; a
     /// user entity counter, then the entity kind): the reply reader and the request writer of
@@ -179,32 +236,42 @@ mod tests {
         0x03,
     ];
 
+    fn known(guid: Guid, topic: &str) -> KnownReader {
+        KnownReader {
+            guid,
+            topic: topic.to_owned(),
+        }
+    }
+
     /// A short period of the node's polls (every 5 ms) in virtual time.
     const POLL: Duration = Duration::from_millis(5);
-    /// How soon every reply that needs no reader must leave.
-    const AT_ONCE: Duration = Duration::from_millis(100);
 
-    /// Sends `reply` through `gate` at `t0` with no reader ever known, polling every 5 ms of
-    /// virtual time: when it left, or `None` when it did not within `within`.
+    /// Sends `reply` through `gate` at `t0`, waiting for `awaited`; the readers known at time
+    /// `t` are `readers_at(t)`, polled every 5 ms of virtual time: when it left and why, or
+    /// `None` when it did not within `within`.
     fn time_to_reply(
         gate: &mut ReplyGate<u64>,
-        requester: Guid,
+        awaited: Awaited,
         reply: u64,
         t0: Instant,
+        readers_at: impl Fn(Instant) -> Vec<KnownReader>,
         within: Duration,
-    ) -> Option<Duration> {
-        if gate.handle_reply(requester, reply, |_| false, t0).is_some() {
-            return Some(Duration::ZERO);
+    ) -> Option<(Duration, Released)> {
+        if gate
+            .handle_reply(awaited, reply, &readers_at(t0), t0)
+            .is_some()
+        {
+            return Some((Duration::ZERO, Released::ReaderMatched));
         }
         let mut now = t0;
         while now <= t0 + within {
             now += POLL;
-            if gate
-                .poll_released(|_| false, now)
-                .iter()
-                .any(|(r, _)| *r == reply)
+            if let Some((_, why)) = gate
+                .poll_released(&readers_at(now), now)
+                .into_iter()
+                .find(|(r, _)| *r == reply)
             {
-                return Some(now - t0);
+                return Some((now - t0, why));
             }
         }
         None
@@ -225,130 +292,208 @@ mod tests {
     }
 
     #[test]
-    fn every_cyclone_client_is_answered_at_once_whatever_its_id() {
+    fn the_mapping_decides_which_reader_a_reply_waits_for() {
+        assert_eq!(
+            Awaited::for_request(ServiceMapping::Enhanced, &FASTDDS_REPLY_READER, START_REPLY),
+            Awaited::Reader(FASTDDS_REPLY_READER)
+        );
+        let mut with_key = FASTDDS_REPLY_READER;
+        with_key[15] = 0x07;
+        assert_eq!(
+            Awaited::for_request(ServiceMapping::Enhanced, &with_key, START_REPLY),
+            Awaited::Reader(with_key)
+        );
+        // A request writer (no related-sample-identity), and every Basic identity: a reader
+        // of the reply topic in the writer's participant, the 12-byte GUID prefix.
+        for (mapping, requester) in [
+            (ServiceMapping::Enhanced, FASTDDS_REQUEST_WRITER),
+            (ServiceMapping::Basic, FASTDDS_REQUEST_WRITER),
+            (ServiceMapping::Basic, FASTDDS_REPLY_READER),
+        ] {
+            assert_eq!(
+                Awaited::for_request(mapping, &requester, START_REPLY),
+                Awaited::InParticipant {
+                    prefix: requester[..12].to_vec(),
+                    reply_topic: START_REPLY.to_owned()
+                }
+            );
+        }
+        // Cyclone: the upper half, whatever the client id's bits look like.
+        let requester = cyclone_request(CYCLONE_PREFIX, 0x04 << 56);
+        assert_eq!(
+            Awaited::for_request(ServiceMapping::Cyclone, &requester, START_REPLY),
+            Awaited::InParticipant {
+                prefix: CYCLONE_PREFIX.to_vec(),
+                reply_topic: START_REPLY.to_owned()
+            }
+        );
+    }
+
+    #[test]
+    fn every_cyclone_client_is_answered_once_its_participants_reply_reader_is_known() {
         let t0 = Instant::now();
-        let mut gate = ReplyGate::new(ServiceMapping::Cyclone, DEFAULT_READER_WAIT);
-        let ids = instance_ids(10_000);
-        // The ids of the defect: half of them have the bit a reader's entity kind has.
-        assert!(ids.iter().filter(|id| (**id >> 56) & 0x04 != 0).count() > 4_000);
-        let mut ids_with_reader_kinds = vec![0x04 << 56, 0x07 << 56, 0xC4 << 56, 0xC7 << 56];
-        ids_with_reader_kinds.extend(ids);
-        for (n, id) in ids_with_reader_kinds.into_iter().enumerate() {
-            let requester = cyclone_request(CYCLONE_PREFIX, id);
-            let took = time_to_reply(&mut gate, requester, n as u64, t0, AT_ONCE);
-            assert_eq!(took, Some(Duration::ZERO), "client id {id:#018x}");
+        let mut gate = ReplyGate::new(DEFAULT_READER_WAIT);
+        let ids = instance_ids(2_000);
+        // Half of the ids have the bit a reader's entity kind has: they must not matter.
+        assert!(ids.iter().filter(|id| (**id >> 56) & 0x04 != 0).count() > 800);
+        let mut other = CYCLONE_PREFIX;
+        other[7] ^= 0xff;
+        let reader = cyclone_reader(CYCLONE_PREFIX, START_REPLY);
+        let seen_at = t0 + Duration::from_millis(40);
+        let readers_at = |t: Instant| {
+            // From the start: another participant's reply reader and this participant's
+            // reader of another topic; this participant's reply reader from 40 ms.
+            let mut r = vec![
+                cyclone_reader(other, START_REPLY),
+                cyclone_reader(CYCLONE_PREFIX, "rt/joint_states"),
+            ];
+            if t >= seen_at {
+                r.push(reader.clone());
+            }
+            r
+        };
+        for (n, id) in ids.into_iter().enumerate() {
+            let awaited = Awaited::for_request(
+                ServiceMapping::Cyclone,
+                &cyclone_request(CYCLONE_PREFIX, id),
+                START_REPLY,
+            );
+            let mut one = ReplyGate::new(DEFAULT_READER_WAIT);
+            let took = time_to_reply(
+                &mut one,
+                awaited.clone(),
+                n as u64,
+                t0,
+                readers_at,
+                POLL * 20,
+            );
+            assert_eq!(
+                took,
+                Some((Duration::from_millis(40), Released::ReaderMatched)),
+                "client id {id:#018x}"
+            );
+            // Once the reader is known, at once.
+            assert_eq!(
+                gate.handle_reply(awaited, n as u64, &readers_at(seen_at), seen_at),
+                Some(n as u64)
+            );
         }
         assert!(gate.is_empty());
         assert_eq!(gate.poll_timeout(), None);
     }
 
     #[test]
-    fn a_basic_mapping_request_names_no_reader_and_is_answered_at_once() {
+    fn a_client_that_names_only_its_request_writer_is_answered_once_its_reply_reader_is_known() {
+        // The defect: a client whose own reader matched the node's reply writer called at once,
+        // before the node had discovered that reader; the reply went out to nobody.
         let t0 = Instant::now();
-        let mut gate = ReplyGate::new(ServiceMapping::Basic, DEFAULT_READER_WAIT);
-        for (n, requester) in [FASTDDS_REPLY_READER, FASTDDS_REQUEST_WRITER]
-            .into_iter()
-            .enumerate()
-        {
+        let mut reply_reader = FASTDDS_REQUEST_WRITER;
+        reply_reader[14] = 0x14;
+        reply_reader[15] = 0x04;
+        let seen_at = t0 + Duration::from_millis(15);
+        for mapping in [ServiceMapping::Enhanced, ServiceMapping::Basic] {
+            let mut gate = ReplyGate::new(Duration::from_secs(5));
+            let awaited = Awaited::for_request(mapping, &FASTDDS_REQUEST_WRITER, START_REPLY);
+            let readers_at = |t: Instant| {
+                let mut r = vec![known(reply_reader, "rr/fs020n/stopReply")];
+                if t >= seen_at {
+                    r.push(known(reply_reader, START_REPLY));
+                }
+                r
+            };
             assert_eq!(
-                time_to_reply(&mut gate, requester, n as u64, t0, AT_ONCE),
-                Some(Duration::ZERO)
+                time_to_reply(&mut gate, awaited, 1, t0, readers_at, POLL * 10),
+                Some((Duration::from_millis(15), Released::ReaderMatched)),
+                "{mapping:?}"
             );
-        }
-    }
-
-    #[test]
-    fn the_mapping_decides_which_identities_name_a_reader() {
-        assert_eq!(
-            reply_reader(ServiceMapping::Enhanced, &FASTDDS_REPLY_READER),
-            Some(FASTDDS_REPLY_READER)
-        );
-        let mut with_key = FASTDDS_REPLY_READER;
-        with_key[15] = 0x07;
-        assert_eq!(
-            reply_reader(ServiceMapping::Enhanced, &with_key),
-            Some(with_key)
-        );
-        assert_eq!(
-            reply_reader(ServiceMapping::Enhanced, &FASTDDS_REQUEST_WRITER),
-            None
-        );
-        for mapping in [ServiceMapping::Cyclone, ServiceMapping::Basic] {
-            assert_eq!(reply_reader(mapping, &FASTDDS_REPLY_READER), None);
         }
     }
 
     #[test]
     fn a_fastdds_reply_waits_for_its_reader_and_goes_at_the_poll_that_knows_it() {
         let t0 = Instant::now();
-        let reader = FASTDDS_REPLY_READER;
-        let mut gate = ReplyGate::new(ServiceMapping::Enhanced, Duration::from_secs(5));
-        assert_eq!(gate.handle_reply(reader, "a", |_| false, t0), None);
+        let reader = known(FASTDDS_REPLY_READER, START_REPLY);
+        let awaited = Awaited::Reader(FASTDDS_REPLY_READER);
+        let mut gate = ReplyGate::new(Duration::from_secs(5));
+        assert_eq!(gate.handle_reply(awaited, "a", &[], t0), None);
         assert_eq!(gate.poll_timeout(), Some(t0 + Duration::from_secs(5)));
         let one_s = t0 + Duration::from_secs(1);
-        assert!(gate.poll_released(|_| false, one_s).is_empty());
-        // Another reader is matched: not this one's.
-        let mut other = reader;
-        other[14] = 0x20;
-        assert!(gate.poll_released(|g| *g == other, one_s).is_empty());
+        assert!(gate.poll_released(&[], one_s).is_empty());
+        // Another reader of the same participant and topic: not this one.
+        let mut other = reader.clone();
+        other.guid[14] = 0x20;
+        assert!(gate.poll_released(&[other], one_s).is_empty());
         // Its reader is discovered at 1 s: the reply leaves at the next poll, 5 ms later.
         assert_eq!(
-            gate.poll_released(|g| *g == reader, one_s + POLL),
+            gate.poll_released(&[reader], one_s + POLL),
             vec![("a", Released::ReaderMatched)]
         );
         assert!(gate.is_empty());
     }
 
     #[test]
-    fn a_fastdds_reply_to_a_known_reader_or_a_request_writer_goes_at_once() {
+    fn a_reply_whose_reader_is_known_goes_at_once() {
         let t0 = Instant::now();
-        let mut gate = ReplyGate::new(ServiceMapping::Enhanced, Duration::from_secs(5));
-        assert_eq!(
-            gate.handle_reply(FASTDDS_REQUEST_WRITER, "a", |_| false, t0),
-            Some("a")
-        );
+        let mut gate = ReplyGate::new(Duration::from_secs(5));
+        let reader = known(FASTDDS_REPLY_READER, START_REPLY);
         assert_eq!(
             gate.handle_reply(
-                FASTDDS_REPLY_READER,
+                Awaited::Reader(FASTDDS_REPLY_READER),
                 "b",
-                |g| *g == FASTDDS_REPLY_READER,
+                std::slice::from_ref(&reader),
                 t0
             ),
             Some("b")
         );
+        let awaited = Awaited::for_request(
+            ServiceMapping::Enhanced,
+            &FASTDDS_REQUEST_WRITER,
+            START_REPLY,
+        );
+        assert_eq!(gate.handle_reply(awaited, "c", &[reader], t0), Some("c"));
         assert!(gate.is_empty());
         assert_eq!(gate.poll_timeout(), None);
     }
 
     #[test]
-    fn a_fastdds_reply_whose_reader_never_shows_goes_after_the_wait() {
+    fn a_reply_whose_reader_never_shows_goes_after_the_wait() {
         let t0 = Instant::now();
-        let mut gate = ReplyGate::new(ServiceMapping::Enhanced, Duration::from_secs(5));
-        assert_eq!(
-            gate.handle_reply(FASTDDS_REPLY_READER, "a", |_| false, t0),
-            None
-        );
+        let mut gate = ReplyGate::new(Duration::from_secs(5));
+        let awaited = Awaited::Reader(FASTDDS_REPLY_READER);
+        assert_eq!(gate.handle_reply(awaited, "a", &[], t0), None);
         assert!(gate
-            .poll_released(|_| false, t0 + Duration::from_millis(4999))
+            .poll_released(&[], t0 + Duration::from_millis(4999))
             .is_empty());
         assert_eq!(
-            gate.poll_released(|_| false, t0 + Duration::from_secs(5)),
+            gate.poll_released(&[], t0 + Duration::from_secs(5)),
             vec![("a", Released::WaitedOut)]
         );
     }
 
     #[test]
+    fn a_gate_that_never_waits_sends_every_reply_at_once() {
+        let t0 = Instant::now();
+        let mut gate = ReplyGate::new(Duration::ZERO);
+        let awaited = Awaited::Reader(FASTDDS_REPLY_READER);
+        assert_eq!(gate.handle_reply(awaited.clone(), "a", &[], t0), Some("a"));
+        assert_eq!(gate.handle_reply(awaited, "b", &[], t0), Some("b"));
+        assert!(gate.is_empty());
+    }
+
+    #[test]
     fn replies_to_one_reader_keep_their_order_even_once_it_is_matched() {
         let t0 = Instant::now();
-        let reader = FASTDDS_REPLY_READER;
-        let mut other = reader;
+        let reader = known(FASTDDS_REPLY_READER, START_REPLY);
+        let mut other = FASTDDS_REPLY_READER;
         other[14] = 0x20;
-        let mut gate = ReplyGate::new(ServiceMapping::Enhanced, Duration::from_secs(5));
-        assert_eq!(gate.handle_reply(reader, 1, |_| false, t0), None);
-        // Matched now, but an older reply is still held: this one queues behind it.
-        assert_eq!(gate.handle_reply(reader, 2, |_| true, t0), None);
-        assert_eq!(gate.handle_reply(other, 3, |_| false, t0), None);
-        let released = gate.poll_released(|g| *g == reader, t0);
+        let mut gate = ReplyGate::new(Duration::from_secs(5));
+        let to_reader = Awaited::Reader(FASTDDS_REPLY_READER);
+        assert_eq!(gate.handle_reply(to_reader.clone(), 1, &[], t0), None);
+        // Known now, but an older reply is still held: this one queues behind it.
+        let now_known = std::slice::from_ref(&reader);
+        assert_eq!(gate.handle_reply(to_reader, 2, now_known, t0), None);
+        assert_eq!(gate.handle_reply(Awaited::Reader(other), 3, &[], t0), None);
+        let released = gate.poll_released(now_known, t0);
         assert_eq!(
             released,
             vec![(1, Released::ReaderMatched), (2, Released::ReaderMatched)]
@@ -358,38 +503,37 @@ mod tests {
 
     proptest! {
         #[test]
-        fn any_cyclone_client_id_is_answered_at_once(
-            client_id in any::<u64>(),
-            writer_prefix in any::<[u8; 8]>(),
-            seq in any::<u64>(),
-        ) {
-            let t0 = Instant::now();
-            let mut gate = ReplyGate::new(ServiceMapping::Cyclone, DEFAULT_READER_WAIT);
-            let requester = cyclone_request(writer_prefix, client_id);
-            prop_assert_eq!(
-                time_to_reply(&mut gate, requester, seq, t0, AT_ONCE),
-                Some(Duration::ZERO)
-            );
-            prop_assert!(gate.is_empty());
-        }
-
-        #[test]
-        fn any_identity_under_the_enhanced_mapping_is_answered_by_the_time_its_reader_is_known(
+        fn any_request_is_answered_by_the_poll_after_its_reader_is_known_and_never_later_than_the_wait(
             requester in any::<[u8; 16]>(),
-            known_after_polls in 0u32..20,
+            mapping in prop_oneof![
+                Just(ServiceMapping::Enhanced),
+                Just(ServiceMapping::Cyclone),
+                Just(ServiceMapping::Basic),
+            ],
+            known_after_polls in proptest::option::of(0u32..20),
         ) {
             let t0 = Instant::now();
-            let mut gate = ReplyGate::new(ServiceMapping::Enhanced, DEFAULT_READER_WAIT);
-            let known_at = t0 + POLL * known_after_polls;
-            let sent_at = if gate.handle_reply(requester, 1u8, |_| t0 >= known_at, t0).is_some() {
-                Some(t0)
-            } else {
-                (1..=20u32).map(|k| t0 + POLL * k).find(|now| {
-                    !gate.poll_released(|_| *now >= known_at, *now).is_empty()
-                })
+            let mut gate = ReplyGate::new(DEFAULT_READER_WAIT);
+            let awaited = Awaited::for_request(mapping, &requester, START_REPLY);
+            // The reader it waits for, as discovery would report it.
+            let mut guid = requester;
+            if !matches!(awaited, Awaited::Reader(_)) {
+                guid[12..].copy_from_slice(&[0x00, 0x00, 0x21, 0x04]);
+            }
+            let reader = known(guid, START_REPLY);
+            let known_at = known_after_polls.map(|k| t0 + POLL * k);
+            let readers_at = |t: Instant| match known_at {
+                Some(at) if t >= at => vec![reader.clone()],
+                _ => Vec::new(),
             };
-            let sent_at = sent_at.expect("the reply leaves once its reader is known");
-            prop_assert!(sent_at <= known_at);
+            let within = DEFAULT_READER_WAIT + POLL;
+            let (took, why) = time_to_reply(&mut gate, awaited, 1, t0, readers_at, within)
+                .expect("every reply leaves");
+            match known_at {
+                Some(at) => prop_assert_eq!((t0 + took, why), (at, Released::ReaderMatched)),
+                None => prop_assert_eq!((took, why), (DEFAULT_READER_WAIT, Released::WaitedOut)),
+            }
+            prop_assert!(gate.is_empty());
         }
     }
 }

@@ -13,6 +13,13 @@ use crate::source::Action;
 /// A service server of the node.
 pub(crate) type Server<Req, Resp> = ros2_client::Server<Req, Resp>;
 
+/// A service's server and the DDS topic its replies go on (`rr/…Reply`: a reply waits for a
+/// reader of it, [`crate::reply_gate`]).
+pub(crate) struct Service<Req: ros2_client::Message, Resp: ros2_client::Message> {
+    pub(crate) server: Server<Req, Resp>,
+    pub(crate) reply_topic: String,
+}
+
 /// Which `std_srvs/srv/Trigger` service.
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum Trigger {
@@ -28,11 +35,11 @@ pub(crate) enum Trigger {
 pub(crate) async fn trigger_loop(
     shared: &Shared,
     participant: &DomainParticipant,
-    server: &Server<TriggerRequest, TriggerResponse>,
+    service: &Service<TriggerRequest, TriggerResponse>,
     which: Trigger,
 ) -> Result<(), Ros2Error> {
     loop {
-        let (id, _req) = match server.async_receive_request().await {
+        let (id, _req) = match service.server.async_receive_request().await {
             Ok(r) => r,
             Err(e) => {
                 tracing::warn!("{which:?} request not read: {e:?}");
@@ -99,8 +106,9 @@ pub(crate) async fn trigger_loop(
             },
             &format!("~/{which:?}: {}", response.message).to_lowercase(),
         );
-        let response = when_reader_matched(shared, participant, &id, response).await;
-        if let Err(e) = server.async_send_response(id, response).await {
+        let response =
+            when_reader_matched(shared, participant, &id, &service.reply_topic, response).await;
+        if let Err(e) = service.server.async_send_response(id, response).await {
             tracing::warn!("{which:?} response not sent: {e:?}");
         }
     }
@@ -110,10 +118,10 @@ pub(crate) async fn trigger_loop(
 pub(crate) async fn speed_loop(
     shared: &Shared,
     participant: &DomainParticipant,
-    server: &Server<SetSpeedRequest, SetSpeedResponse>,
+    service: &Service<SetSpeedRequest, SetSpeedResponse>,
 ) -> Result<(), Ros2Error> {
     loop {
-        let (id, req) = match server.async_receive_request().await {
+        let (id, req) = match service.server.async_receive_request().await {
             Ok(r) => r,
             Err(e) => {
                 tracing::warn!("set_speed request not read: {e:?}");
@@ -145,8 +153,9 @@ pub(crate) async fn speed_loop(
                 },
             },
         };
-        let response = when_reader_matched(shared, participant, &id, response).await;
-        if let Err(e) = server.async_send_response(id, response).await {
+        let response =
+            when_reader_matched(shared, participant, &id, &service.reply_topic, response).await;
+        if let Err(e) = service.server.async_send_response(id, response).await {
             tracing::warn!("set_speed response not sent: {e:?}");
         }
     }
