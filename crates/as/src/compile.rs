@@ -553,25 +553,7 @@ pub(crate) fn var_display(ty: Ty, global: bool, name: &str) -> String {
 
 /// Compiles modules (all their programs share the globals).
 pub(crate) fn compile(modules: &[crate::ast::Module]) -> Result<Code, LoadError> {
-    let mut c = Compiler {
-        errors: Vec::new(),
-        file: String::new(),
-        globals: Default::default(),
-        global_index: Default::default(),
-        by_name: HashMap::new(),
-        locals: Default::default(),
-        local_index: Default::default(),
-        ops: Vec::new(),
-        lines: Vec::new(),
-        labels: HashMap::new(),
-        fixups: Vec::new(),
-        hidden: 0,
-        not_emulated_fn: None,
-        warnings: Vec::new(),
-        defined: 0,
-        undefined: Vec::new(),
-        trans_params: HashMap::new(),
-    };
+    let mut c = Compiler::new();
     // Program names first (CALL may name a program defined later or in another file).
     let mut order = Vec::new();
     for (mi, m) in modules.iter().enumerate() {
@@ -660,6 +642,57 @@ pub(crate) fn compile(modules: &[crate::ast::Module]) -> Result<Code, LoadError>
     })
 }
 
+/// The name a statement typed at the terminal runs under: no AS name can be written so, so no
+/// `CALL` reaches it.
+pub(crate) const IMMEDIATE_PROGRAM: &str = "(terminal)";
+
+/// Compiles one statement typed at the terminal, given as the body of `m`'s only program,
+/// against the loaded `code`: its names are the loaded globals and programs, a variable it
+/// names first becomes a new global. Appends it to `code` as the last program
+/// ([`IMMEDIATE_PROGRAM`]) and gives its index; the caller removes it when it has run.
+/// A statement that names a program no file defines is refused (nothing to run).
+pub(crate) fn compile_immediate(
+    code: &mut Code,
+    m: &crate::ast::Module,
+) -> Result<usize, LoadError> {
+    let [p] = m.programs.as_slice() else {
+        return Err(LoadError {
+            errors: vec![ParseError::new(
+                &m.file,
+                Span::default(),
+                "one statement is typed at a time",
+            )],
+        });
+    };
+    let mut c = Compiler::new();
+    c.file = m.file.to_string();
+    c.globals = code.globals.clone();
+    c.global_index = code.global_index.clone();
+    c.by_name = code.by_name.clone();
+    c.defined = code.programs.len();
+    for q in &code.programs {
+        let trans = q.params.iter().map(|prm| prm.ty == Ty::Trans).collect();
+        c.trans_params.insert(q.name.clone(), trans);
+    }
+    let mut program = c.program(code.lines.len(), p);
+    if let Some(name) = c.undefined.first() {
+        c.errors.push(c.err(
+            p.span,
+            format!("program {name} is not loaded (load the file that holds it)"),
+        ));
+    }
+    if !c.errors.is_empty() {
+        c.errors.truncate(MAX_REPORTED);
+        return Err(LoadError { errors: c.errors });
+    }
+    program.name = IMMEDIATE_PROGRAM.to_owned();
+    code.globals = c.globals;
+    code.global_index = c.global_index;
+    code.lines.push(Arc::from(m.lines.clone()));
+    code.programs.push(program);
+    Ok(code.programs.len() - 1)
+}
+
 struct Compiler {
     errors: Vec<ParseError>,
     file: String,
@@ -691,6 +724,28 @@ struct Compiler {
 type CResult<T> = Result<T, ParseError>;
 
 impl Compiler {
+    fn new() -> Compiler {
+        Compiler {
+            errors: Vec::new(),
+            file: String::new(),
+            globals: Default::default(),
+            global_index: Default::default(),
+            by_name: HashMap::new(),
+            locals: Default::default(),
+            local_index: Default::default(),
+            ops: Vec::new(),
+            lines: Vec::new(),
+            labels: HashMap::new(),
+            fixups: Vec::new(),
+            hidden: 0,
+            not_emulated_fn: None,
+            warnings: Vec::new(),
+            defined: 0,
+            undefined: Vec::new(),
+            trans_params: HashMap::new(),
+        }
+    }
+
     fn err(&self, span: Span, msg: impl Into<String>) -> ParseError {
         ParseError::new(&self.file, span, msg)
     }

@@ -65,7 +65,7 @@ mod value;
 
 pub use error::{LoadError, ParseError, RuntimeError};
 pub use interp::{
-    BlockSettings, Config, CostModel, HandSignals, Interpreter, ListKind, Refusal, ReloadError,
+    BlockSettings, Config, CostModel, HandSignals, ImmediateError, Interpreter, ListKind, Refusal, ReloadError,
     TaskInfo, TaskState, TerminalLine, TraceLine, MAX_STRING, MAX_TRANSFER,
 };
 pub use load::{check, check_memory, CheckReport, Loaded};

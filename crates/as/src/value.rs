@@ -266,6 +266,23 @@ impl Store {
         }
     }
 
+    /// Makes room for at least `sizes` variables of each type (variables a typed statement
+    /// named first); the variables held are kept.
+    pub(crate) fn grow_to(&mut self, sizes: [usize; 4]) {
+        fn grow<T>(v: &mut Vec<Var<T>>, n: usize)
+        where
+            Var<T>: Default,
+        {
+            while v.len() < n {
+                v.push(Var::default());
+            }
+        }
+        grow(&mut self.reals, sizes[0]);
+        grow(&mut self.strs, sizes[1]);
+        grow(&mut self.joints, sizes[2]);
+        grow(&mut self.trans, sizes[3]);
+    }
+
     /// Array elements held (for the interpreter's memory limit).
     pub(crate) fn element_count(&self) -> usize {
         self.reals.iter().map(Var::element_count).sum::<usize>()

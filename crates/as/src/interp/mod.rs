@@ -23,6 +23,7 @@
 //! | `xmove.rs` | `XMOVE … TILL`: a straight line the signal cuts short |
 //! | `posture.rs` | `LEFTY`, `RIGHTY`, `ABOVE`, `BELOW`, `UWRIST`, `DWRIST`: the IK branch |
 //! | `hands.rs` | `OPEN`/`CLOSE`/`RELAX` and their `I` forms on the hands' signals |
+//! | `immediate.rs` | a statement typed at the terminal (`DO`, `TYPE`, `POINT`, …): compiled against the loaded programs and run at once |
 //! | `locations.rs`, `exist.rs` | `DISTANCE`, `DX`/`DY`/`DZ`, `FRAME`; `EXISTREAL` … `EXISTPROGRAM` |
 //! | `named.rs` | `STRTOPOS`, `STRTOVAL`, `WHICHTASK`: what a string names |
 //! | `listing.rs` | `LIST/R`, `/INT`, `/L`, `/S`: the globals as data-section lines |
@@ -45,6 +46,7 @@ mod expr;
 mod flow;
 mod frames;
 mod hands;
+mod immediate;
 mod listing;
 mod locations;
 mod monitor;
@@ -83,7 +85,9 @@ use task::{SignalState, Task, TaskSlot};
 
 pub use config::{BlockSettings, Config, CostModel, HandSignals};
 pub use listing::ListKind;
-pub use report::{Refusal, ReloadError, TaskInfo, TaskState, TerminalLine, TraceLine};
+pub use report::{
+    ImmediateError, Refusal, ReloadError, TaskInfo, TaskState, TerminalLine, TraceLine,
+};
 
 /// The AS interpreter: programs, variables and up to six tasks (robot task 1, PC tasks 1–5),
 /// advanced on a clock it is given by [`Interpreter::run_until`].

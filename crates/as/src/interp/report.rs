@@ -122,6 +122,29 @@ pub enum Refusal {
     Other(String),
 }
 
+/// Why a statement typed at the terminal ([`Interpreter::immediate`]) did not run to its end.
+///
+/// [`Interpreter::immediate`]: super::Interpreter::immediate
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ImmediateError {
+    /// It does not parse or compile (the loader's message).
+    #[error("{0}")]
+    Syntax(String),
+    /// It stopped with a runtime error: its code and the interpreter's text, as a program's
+    /// error is reported (`(E0102) …`).
+    #[error("{text}")]
+    Runtime {
+        /// The error's code.
+        code: ErrorCode,
+        /// The text, code first.
+        text: String,
+    },
+    /// It would wait (a motion, `TWAIT`, `SWAIT`, a socket call that blocks): the terminal
+    /// runs a statement to its end at once; such a statement belongs in a program.
+    #[error("{0} waits: the terminal runs a statement at once (put it in a program and EXECUTE or PCEXECUTE it)")]
+    Waits(String),
+}
+
 /// Why a running interpreter did not take a new set of programs ([`Interpreter::adopt`]):
 /// the running tasks could not be mapped onto the new programs. Nothing was changed.
 ///
