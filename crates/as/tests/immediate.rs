@@ -28,14 +28,21 @@ fn type_evaluates_any_expression_and_its_lines_come_back_not_as_program_output()
     // The line a program's TYPE prints, to the byte.
     i.pc_execute(2, "typer").expect("typer starts");
     i.run_until(&mut s, ms(20));
-    assert_eq!(lines, s.lines_of(TaskId::Pc(2)), "typed and in a program alike");
+    assert_eq!(
+        lines,
+        s.lines_of(TaskId::Pc(2)),
+        "typed and in a program alike"
+    );
     assert_eq!(lines, [" 15 100cell"]);
 }
 
 #[test]
 fn an_assignment_or_point_makes_a_new_global_that_programs_then_read() {
     let (mut i, mut s) = start(LOADED);
-    assert!(i.immediate("speed_mm = 250", &mut s).expect("runs").is_empty());
+    assert!(i
+        .immediate("speed_mm = 250", &mut s)
+        .expect("runs")
+        .is_empty());
     assert_eq!(i.real("speed_mm"), Some(250.0));
     i.immediate("POINT b = a", &mut s).expect("POINT runs");
     assert_eq!(i.trans("b"), Some([100.0, 200.0, 300.0, 0.0, 90.0, 0.0]));
@@ -79,7 +86,10 @@ fn running_tasks_are_not_disturbed_even_when_every_pc_task_runs() {
     }
     // The counter went on from the value typed; PC task 5's loop went on counting.
     let n = i.real("n").expect("n");
-    assert!((-995.0..-985.0).contains(&n), "n = {n} (before: {before:?})");
+    assert!(
+        (-995.0..-985.0).contains(&n),
+        "n = {n} (before: {before:?})"
+    );
     assert!(i.real("c5").expect("c5") >= before.1 + 9.0);
 }
 

@@ -452,7 +452,8 @@ fn page() -> String {
          - **roles**: I program instruction, M monitor command (MC: also after `MC`), E editor\n  \
          command, F function, S system switch, D `SYSDATA` keyword, W a word inside statements.\n\
          - **runs**: the roles the emulator runs. A role it does not run loads as *not\n  \
-         emulated* (docs/AS.md, the load policy).\n\
+         emulated* (docs/AS.md, the load policy). At the emulated terminal a keyword with\n  \
+         both I and M runs as the instruction (docs/EMULATOR.md, `DO`).\n\
          - **grammar**: the arguments as a program instruction (else as a monitor command, else\n  \
          of the function) in the table's notation: `[…]` may be omitted, `…` repeats, UPPER\n  \
          CASE is literal, `?` undocumented.\n\n\

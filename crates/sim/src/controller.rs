@@ -7,6 +7,7 @@ use std::time::Duration;
 use fs020n_kin::RobotModel;
 use fs020n_proto::{ErrorCode, JointsDeg, Status};
 
+mod immediate;
 mod memory;
 mod native_view;
 mod program_view;
@@ -14,6 +15,7 @@ mod sessions;
 mod start;
 mod tasks;
 
+pub use immediate::ImmediateRefusal;
 pub use memory::{Abort, MemoryLoad, MemoryMut, MemoryView, PoseValue, PowerCycle};
 use memory::{Idle, MonitorState};
 pub use native_view::NativeView;

@@ -51,8 +51,8 @@ mod store;
 mod terminal;
 
 pub use controller::{
-    Abort, Controller, MemoryLoad, MemoryMut, MemoryView, NativeView, PoseValue, PowerCycle,
-    ProgramMut, ProgramStart, ProgramView, StartSpecError,
+    Abort, Controller, ImmediateRefusal, MemoryLoad, MemoryMut, MemoryView, NativeView, PoseValue,
+    PowerCycle, ProgramMut, ProgramStart, ProgramView, StartSpecError,
 };
 pub use fault::{Fault, ReplyFault, MAX_FAULT_BYTES, MAX_FAULT_COUNT, MAX_FAULT_MS};
 /// The terminal protocol the emulator's terminal speaks (its [`fs020n_term::SessionConfig`]

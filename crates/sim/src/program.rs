@@ -294,6 +294,23 @@ impl ProgramServer {
         self.interp.execute_cycles(program, cycles, &mut host)
     }
 
+    /// A statement typed at the terminal, run at once ([`Interpreter::immediate`]).
+    pub(crate) fn immediate(
+        &mut self,
+        m: &mut Machine,
+        statement: &str,
+    ) -> Result<Vec<String>, fs020n_as::ImmediateError> {
+        let mut host = Host {
+            m,
+            net: &mut self.net,
+            planned: &mut self.planned,
+            link: &mut self.link,
+            udp: &mut self.udp,
+            reach: &mut self.reach,
+        };
+        self.interp.immediate(statement, &mut host)
+    }
+
     /// Runs the program's tasks up to `t`; they advance the machine up to each of their steps.
     pub(crate) fn run_until(&mut self, m: &mut Machine, t: Duration) {
         let mut host = Host {

@@ -14,7 +14,7 @@ mod serve;
 use fs020n_term::{SessionConfig, TerminalSession};
 
 use crate::controller::Controller;
-use monitor::{ControllerMonitor, Pending};
+use monitor::{ControllerMonitor, SessionState};
 
 /// One connection to the controller's terminal, as a state machine: feed the client's bytes
 /// with [`TerminalLink::handle_input`], send what [`TerminalLink::poll_transmit`] gives, and
@@ -23,39 +23,34 @@ use monitor::{ControllerMonitor, Pending};
 #[derive(Debug)]
 pub struct TerminalLink {
     session: TerminalSession,
-    /// The question this session asked (`Are you sure ?`) and what `1` does.
-    pending: Option<Pending>,
+    /// The monitor's state of this session (its question, `MESSAGES`, the last `DO`).
+    state: SessionState,
     /// The next line of program output this session prints.
     output_from: u64,
     /// The session is in the middle of a transfer (the controller counts it).
     in_transfer: bool,
-    /// `MESSAGES ON` (the default): program output reaches this session.
-    messages: bool,
 }
 
 impl TerminalLink {
     /// A new connection: the telnet opening, the banner and `login: ` are queued, or, when
     /// AUX1–AUX3 are all in use, a refusal and the end of the session.
     pub fn open(controller: &mut Controller, config: SessionConfig) -> TerminalLink {
-        let mut pending = None;
-        let mut messages = true;
+        let mut state = SessionState::default();
         controller
             .memory_mut()
             .set_refuse_overwrite(config.refuse_overwrite);
         let session = TerminalSession::open(
             &mut ControllerMonitor {
                 c: controller,
-                pending: &mut pending,
-                messages: &mut messages,
+                state: &mut state,
             },
             config,
         );
         TerminalLink {
             session,
-            pending,
+            state,
             output_from: controller.terminal_output_next(),
             in_transfer: false,
-            messages,
         }
     }
 
@@ -69,8 +64,7 @@ impl TerminalLink {
         self.session.handle_input(
             &mut ControllerMonitor {
                 c: controller,
-                pending: &mut self.pending,
-                messages: &mut self.messages,
+                state: &mut self.state,
             },
             bytes,
         );
@@ -91,8 +85,7 @@ impl TerminalLink {
     pub fn handle_close(&mut self, controller: &mut Controller) {
         self.session.handle_close(&mut ControllerMonitor {
             c: controller,
-            pending: &mut self.pending,
-            messages: &mut self.messages,
+            state: &mut self.state,
         });
         self.note_transfer(controller);
     }
@@ -103,7 +96,7 @@ impl TerminalLink {
         let (lines, next) = controller.terminal_output_since(self.output_from);
         self.output_from = next;
         // MESSAGES OFF: PRINT and TYPE output is not shown on this terminal (AS-E p.7-5).
-        if !self.messages {
+        if !self.state.messages {
             return;
         }
         for l in lines {

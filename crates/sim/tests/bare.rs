@@ -85,7 +85,7 @@ async fn a_bare_controller_serves_the_loaded_server_after_pcexecute_and_after_a_
     );
     let fields = poll(robot.robot_addr()).await.expect("the server answers");
     assert_eq!(fields.len(), 14, "{fields:?}");
-    assert_eq!(term.command("TYPE TASK (1001)", false).await.unwrap(), "1");
+    assert_eq!(term.command("TYPE TASK (1001)", false).await.unwrap(), " 1");
 
     assert_eq!(
         term.command("SWITCH AUTOSTART.PC = ON", false)
@@ -94,7 +94,7 @@ async fn a_bare_controller_serves_the_loaded_server_after_pcexecute_and_after_a_
         ""
     );
     robot.emulator().with(|c| c.power_cycle());
-    assert_eq!(term.command("TYPE TASK (1001)", false).await.unwrap(), "1");
+    assert_eq!(term.command("TYPE TASK (1001)", false).await.unwrap(), " 1");
     let fields = poll(robot.robot_addr())
         .await
         .expect("the server answers again");

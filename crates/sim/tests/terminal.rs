@@ -167,10 +167,10 @@ fn load_of_the_server_text_lists_its_programs_and_list_shows_their_text() {
 fn pcexecute_starts_the_loaded_server_and_its_port_answers_a_poll() {
     let mut t = Term::new(bare());
     loaded_ok(&t.load("server1040.as", SERVER));
-    assert_eq!(t.cmd("TYPE TASK (1001)", false), "0");
+    assert_eq!(t.cmd("TYPE TASK (1001)", false), " 0");
     assert_eq!(t.cmd("pcexe 1: autostart.pc", false), "");
     t.advance(Duration::from_millis(200));
-    assert_eq!(t.cmd("TYPE TASK(1001)", false), "1");
+    assert_eq!(t.cmd("TYPE TASK(1001)", false), " 1");
     let status = t.cmd("PCSTATUS 1:", false);
     assert!(status.starts_with("PC status: Program running"), "{status}");
     assert!(
@@ -214,11 +214,11 @@ fn a_running_program_cannot_be_killed_and_an_aborted_one_can() {
     // The server waits in its 3 s TCP_ACCEPT: PCABORT takes effect when that step completes.
     let out = t.cmd("PCABORT 1:", false);
     assert_eq!(out, "");
-    assert_eq!(t.cmd("TYPE TASK (1001)", false), "1");
+    assert_eq!(t.cmd("TYPE TASK (1001)", false), " 1");
     let out = t.cmd("PCKILL 1:", true);
     assert!(out.contains("(P1026)"), "{out}");
     t.advance(Duration::from_millis(3100));
-    assert_eq!(t.cmd("TYPE TASK (1001)", false), "0");
+    assert_eq!(t.cmd("TYPE TASK (1001)", false), " 0");
     assert_eq!(
         t.c.program().task_program(TaskId::Pc(1)).as_deref(),
         Some("autostart.pc")
@@ -250,7 +250,7 @@ fn kill_of_the_running_robot_program_is_refused_and_abort_then_kill_works() {
     assert_eq!(t.cmd("ABORT", false), "");
     // After the current step (a TWAIT of 0.1 s).
     t.advance(Duration::from_millis(150));
-    assert_eq!(t.cmd("TYPE TASK (1)", false), "0");
+    assert_eq!(t.cmd("TYPE TASK (1)", false), " 0");
     assert!(t.cmd("DELETE/P spin", true).contains("(P1018)"));
     t.cmd("KILL", true);
     assert!(t.cmd("STATUS", false).ends_with("No program is running."));
@@ -268,12 +268,12 @@ fn prime_prepares_the_robot_program_and_continue_starts_it() {
     assert!(t.cmd("PRIME nothing", false).starts_with("(P1038)"));
     assert_eq!(t.cmd("PRIME count, 2", false), "");
     t.advance(Duration::from_millis(300));
-    assert_eq!(t.cmd("TYPE TASK (1)", false), "0", "primed, not running");
+    assert_eq!(t.cmd("TYPE TASK (1)", false), " 0", "primed, not running");
     assert_eq!(typed_real(&mut t, "n"), 0.0);
     assert!(t.cmd("STATUS", false).contains("count"), "on the stack");
     assert_eq!(t.cmd("CONTINUE", false), "");
     t.advance(Duration::from_millis(100));
-    assert_eq!(t.cmd("TYPE TASK (1)", false), "1");
+    assert_eq!(t.cmd("TYPE TASK (1)", false), " 1");
     assert!(t.cmd("PRIME count", false).starts_with("(P1009)"));
     t.advance(Duration::from_secs(2));
     assert_eq!(
@@ -329,9 +329,9 @@ fn a_bracket_ends_the_command_word_as_in_signal_of_a_number() {
     let mut t = Term::new(bare());
     loaded_ok(&t.load("hi.as", ".PROGRAM hi()\n.END\n"));
     assert_eq!(t.cmd("signal(2010)", false), "");
-    assert_eq!(t.cmd("TYPE SIG(2010)", false), "-1");
+    assert_eq!(t.cmd("TYPE SIG(2010)", false), " -1");
     assert_eq!(t.cmd("SIGNAL (-2010)", false), "");
-    assert_eq!(t.cmd("TYPE SIG(2010)", false), "0");
+    assert_eq!(t.cmd("TYPE SIG(2010)", false), " 0");
 }
 
 #[test]
@@ -511,14 +511,64 @@ fn type_prints_variables_timers_and_literals() {
     loaded_ok(&t.load("setx.as", p));
     t.cmd("PCEXECUTE 2: setx", false);
     t.advance(Duration::from_millis(1500));
-    assert_eq!(t.cmd("TYPE x", false), "42");
-    assert_eq!(t.cmd("TYPE y[2]", false), "0.5");
+    assert_eq!(t.cmd("TYPE x", false), " 42");
+    assert_eq!(t.cmd("TYPE y[2]", false), " 0.5");
     assert_eq!(t.cmd("TYPE $s", false), "hello");
-    assert_eq!(t.cmd("TYPE 7", false), "7");
-    let timer: f32 = t.cmd("TYPE TIMER(2)", false).parse().unwrap();
+    assert_eq!(t.cmd("TYPE 7", false), " 7");
+    let timer: f32 = t.cmd("TYPE TIMER(2)", false).trim().parse().unwrap();
     assert!((1.3..1.6).contains(&timer), "{timer}");
     assert!(t.cmd("TYPE nothing", false).starts_with("(E0102)"));
     assert!(t.cmd("TYPE $nothing", false).starts_with("(E0104)"));
+}
+
+#[test]
+fn type_takes_any_expression_a_program_may_type() {
+    let mut t = Term::new(bare());
+    let p = ".PROGRAM setp()\n  POINT p[1] = TRANS(100, 200, 300, 0, 90, 0)\n  n = 3\n.END\n";
+    loaded_ok(&t.load("setp.as", p));
+    t.cmd("PCEXECUTE 1: setp", false);
+    t.advance(Duration::from_millis(100));
+    // A function of a pose array element, arithmetic and a string function, as TYPE in a
+    // program prints them (one blank before each number).
+    assert_eq!(t.cmd("TYPE DX(p[1]) + n", false), " 103");
+    assert_eq!(t.cmd("TYPE $LEFT(\"abcdef\", n), n * 2", false), "abc 6");
+    assert_eq!(t.cmd("TYPE DX(p[2])", false).get(..7), Some("(E0103)"));
+}
+
+#[test]
+fn do_and_the_commands_that_are_instructions_run_at_once() {
+    let mut t = Term::new(bare());
+    let p = ".PROGRAM setp()\n  POINT a = TRANS(100, 200, 300, 0, 90, 0)\n.END\n";
+    loaded_ok(&t.load("setp.as", p));
+    t.cmd("PCEXECUTE 1: setp", false);
+    t.advance(Duration::from_millis(100));
+    // POINT at the prompt (a monitor command and an instruction): a new pose variable.
+    assert_eq!(t.cmd("POINT b = SHIFT(a BY 0, 0, 50)", false), "");
+    assert_eq!(t.cmd("TYPE DZ(b)", false), " 350");
+    // DO: one instruction; DO alone runs it again.
+    assert_eq!(t.cmd("DO count = 1", false), "");
+    assert_eq!(t.cmd("DO count = count + 1", false), "");
+    assert_eq!(t.cmd("DO", false), "");
+    assert_eq!(t.cmd("TYPE count", false), " 3");
+    assert_eq!(t.cmd("DO PRINT \"count:\", count", false), "count: 3");
+    // BITS at the prompt sets the outputs, as the instruction does.
+    assert_eq!(t.cmd("BITS 1, 3 = 5", false), "");
+    assert_eq!(t.cmd("TYPE SIG(1), SIG(2), SIG(3)", false), " -1 0 -1");
+    // A motion is not made from the prompt (E1095, as in a PC program): the arm stays.
+    let before = t.c.joints();
+    let out = t.cmd("DO JMOVE a", false);
+    assert!(out.starts_with("(E1095)"), "{out}");
+    t.advance(Duration::from_millis(500));
+    assert_eq!(t.c.joints(), before);
+    // A wait is not run; a statement that does not parse is P0108.
+    let out = t.cmd("DO TWAIT 2", false);
+    assert!(out.contains("TWAIT 2 waits"), "{out}");
+    assert_eq!(t.cmd("DO count = = 2", false), "(P0108)Syntax error.");
+    // SPEED at the prompt is the monitor speed (the instruction's MC form).
+    assert_eq!(t.cmd("SPEED 40", false), "");
+    assert_eq!(t.c.monitor_speed(), 40.0);
+    // No controller error was raised by any of it.
+    assert_eq!(t.c.error(), fs020n_proto::ErrorCode::NONE);
 }
 
 #[test]
@@ -616,8 +666,8 @@ fn a_load_while_a_task_counts_takes_effect_at_once_and_the_count_never_resets_or
             "as if nothing was loaded"
         );
     }
-    assert_eq!(t.cmd("TYPE TASK (1001)", false), "1");
-    assert_eq!(t.cmd("TYPE TASK (1002)", false), "1");
+    assert_eq!(t.cmd("TYPE TASK (1001)", false), " 1");
+    assert_eq!(t.cmd("TYPE TASK (1002)", false), " 1");
     assert_eq!(type_real(&mut t, "m"), 20.0);
     assert_eq!(
         t.c.program().task_program(TaskId::Pc(1)).as_deref(),
@@ -651,9 +701,9 @@ fn server_session(load: bool) -> Vec<Vec<u8>> {
         replies.push(t.c.program_mut().recv(client).bytes);
     }
     if load {
-        assert_eq!(t.cmd("TYPE TASK (1002)", false), "1");
+        assert_eq!(t.cmd("TYPE TASK (1002)", false), " 1");
     }
-    assert_eq!(t.cmd("TYPE TASK (1001)", false), "1");
+    assert_eq!(t.cmd("TYPE TASK (1001)", false), " 1");
     replies
 }
 
@@ -712,7 +762,7 @@ fn a_load_replacing_a_program_a_running_task_has_called_is_refused_with_p1014() 
     }
     assert!(t.cmd("DELETE/P inner", true).contains("(P1018)"));
     t.advance(Duration::from_secs(10));
-    assert_eq!(t.cmd("TYPE done", false), "1");
+    assert_eq!(t.cmd("TYPE done", false), " 1");
 }
 
 #[test]
@@ -779,7 +829,7 @@ fn data_sections_load_with_their_programs_and_are_saved_without_p() {
     assert_eq!(t.c.memory().data_sections().len(), 1);
     t.cmd("PCEXECUTE 2: p", false);
     t.advance(Duration::from_millis(50));
-    assert_eq!(t.cmd("TYPE y", false), "3");
+    assert_eq!(t.cmd("TYPE y", false), " 3");
     t.client.save(t.now, "all.as").unwrap();
     match t.settle().pop() {
         Some(Event::Saved { file, .. }) => {
@@ -844,7 +894,7 @@ fn pcexecute_runs_the_program_as_many_cycles_as_asked_and_pcstatus_counts_them()
     assert!(status.contains("Completed cycles: 1"), "{status}");
     assert!(status.contains("Remaining cycles: 2"), "{status}");
     t.advance(Duration::from_millis(2000));
-    assert_eq!(t.cmd("TYPE n", false), "3");
+    assert_eq!(t.cmd("TYPE n", false), " 3");
     assert!(!t.c.program().task_running(TaskId::Pc(2)));
     // A count that is not a number is refused and nothing starts.
     let refused = t.cmd("PCEXECUTE 2: count, many", false);
@@ -862,15 +912,15 @@ fn pcexecute_minus_one_runs_until_pcabort() {
     assert!(t.c.program().task_running(TaskId::Pc(3)));
     let status = t.cmd("PCSTATUS 3:", false);
     assert!(status.contains("Remaining cycles: Infinite"), "{status}");
-    let n: u32 = t.cmd("TYPE n", false).parse().unwrap();
+    let n: u32 = t.cmd("TYPE n", false).trim().parse().unwrap();
     assert!((45..=51).contains(&n), "{n} cycles of 0.1 s in 5 s");
     t.cmd("PCABORT 3:", false);
     t.advance(Duration::from_millis(500));
     assert!(!t.c.program().task_running(TaskId::Pc(3)));
-    let after: u32 = t.cmd("TYPE n", false).parse().unwrap();
+    let after: u32 = t.cmd("TYPE n", false).trim().parse().unwrap();
     t.advance(Duration::from_millis(1000));
     assert_eq!(
-        t.cmd("TYPE n", false).parse::<u32>().unwrap(),
+        t.cmd("TYPE n", false).trim().parse::<u32>().unwrap(),
         after,
         "no cycle after PCABORT"
     );
@@ -885,7 +935,7 @@ fn execute_with_a_cycle_count_repeats_the_robot_program() {
     t.c.set_power(true).unwrap();
     t.cmd("EXECUTE rob, 4", false);
     t.advance(Duration::from_millis(2000));
-    assert_eq!(t.cmd("TYPE m", false), "4");
+    assert_eq!(t.cmd("TYPE m", false), " 4");
     assert!(!t.c.program().task_running(TaskId::Robot));
 }
 
@@ -901,8 +951,8 @@ fn a_file_in_any_code_page_loads_runs_and_saves_back_byte_for_byte() {
     t.cmd("PCEXECUTE 2: enc", false);
     t.advance(Duration::from_millis(50));
     // The string holds the file's four bytes, not their replacement characters.
-    assert_eq!(t.cmd("TYPE n", false), "4");
-    assert_eq!(t.cmd("TYPE a", false), "163");
+    assert_eq!(t.cmd("TYPE n", false), " 4");
+    assert_eq!(t.cmd("TYPE a", false), " 163");
     t.client.save(t.now, "enc.as").unwrap();
     match t.settle().pop() {
         Some(Event::Saved { file, .. }) => assert_eq!(file, CODE_PAGE_FILE),
@@ -918,13 +968,13 @@ fn instructions_stubbed_for_a_bare_controller_stay_stubbed_through_loads_and_pow
     loaded_ok(&t.load("s.as", file));
     t.cmd("PCEXECUTE 1: autostart.pc", false);
     t.advance(Duration::from_millis(50));
-    assert_eq!(t.cmd("TYPE done", false), "1");
+    assert_eq!(t.cmd("TYPE done", false), " 1");
     t.cmd("SWITCH AUTOSTART.PC = ON", false);
     t.c.power_cycle();
     t.advance(Duration::from_millis(50));
     assert_eq!(
         t.cmd("TYPE done", false),
-        "1",
+        " 1",
         "the rebuilt program ran past the stub"
     );
     // Without the stub the controller does not know the word: a syntax error, nothing loads.
@@ -949,22 +999,22 @@ fn a_load_with_no_task_running_keeps_variables_signals_and_timers_and_its_data_o
     assert!(!t.c.program().task_running(TaskId::Pc(2)));
     // An unrelated file: what the finished program left stays, as on a controller.
     loaded_ok(&t.load("other.as", ".PROGRAM other()\n  y = x\n.END\n"));
-    assert_eq!(t.cmd("TYPE x", false), "42");
-    assert_eq!(t.cmd("TYPE SIG(1)", false), "-1");
-    let timer: f32 = t.cmd("TYPE TIMER(2)", false).parse().unwrap();
+    assert_eq!(t.cmd("TYPE x", false), " 42");
+    assert_eq!(t.cmd("TYPE SIG(1)", false), " -1");
+    let timer: f32 = t.cmd("TYPE TIMER(2)", false).trim().parse().unwrap();
     assert!(
         (0.45..0.6).contains(&timer),
         "TIMER 2 kept running: {timer}"
     );
     t.cmd("PCEXECUTE 3: other", false);
     t.advance(Duration::from_millis(100));
-    assert_eq!(t.cmd("TYPE y", false), "42");
+    assert_eq!(t.cmd("TYPE y", false), " 42");
     // A file's data section overwrites the variable it names.
     loaded_ok(&t.load("data.as", ".REALS\nx = 7\n.END\n"));
-    assert_eq!(t.cmd("TYPE x", false), "7");
+    assert_eq!(t.cmd("TYPE x", false), " 7");
     // A power cycle starts the interpreter again: variables from the data sections only.
     t.c.power_cycle();
-    assert_eq!(t.cmd("TYPE x", false), "7");
+    assert_eq!(t.cmd("TYPE x", false), " 7");
     assert!(t.cmd("TYPE y", false).starts_with("(E0102)"));
 }
 
@@ -986,7 +1036,7 @@ fn pcabort_stops_a_pc_task_between_steps_at_once_and_says_so() {
     t.cmd("PCEXECUTE 2: busy", false);
     t.advance(Duration::from_millis(10));
     assert_eq!(t.cmd("PCABORT 2:", false), "PC program aborted.No = 2");
-    assert_eq!(t.cmd("TYPE TASK (1002)", false), "0");
+    assert_eq!(t.cmd("TYPE TASK (1002)", false), " 0");
 }
 
 #[test]
@@ -1029,9 +1079,9 @@ fn signal_where_zpower_hold_continue_and_messages_answer_as_the_controller() {
     let mut t = Term::new(bare());
     loaded_ok(&t.load("hi.as", ".PROGRAM hi()\n  PRINT \"hello\"\n.END\n"));
     assert_eq!(t.cmd("SIGNAL 1, -2, 2001", false), "");
-    assert_eq!(t.cmd("TYPE SIG(1)", false), "-1");
-    assert_eq!(t.cmd("TYPE SIG(2001)", false), "-1");
-    assert_eq!(t.cmd("TYPE SIG(2)", false), "0");
+    assert_eq!(t.cmd("TYPE SIG(1)", false), " -1");
+    assert_eq!(t.cmd("TYPE SIG(2001)", false), " -1");
+    assert_eq!(t.cmd("TYPE SIG(2)", false), " 0");
     assert!(t.cmd("SIGNAL 1001", false).starts_with("(P"));
     let w = t.cmd("WHERE", false);
     let lines: Vec<&str> = w.lines().collect();
@@ -1119,7 +1169,7 @@ fn commands_take_the_manuals_abbreviations_and_nothing_shorter() {
     // PCEX is the manual's shortest PCEXECUTE, DI its DIRECTORY, STA its STATUS.
     assert_eq!(t.cmd("pcex 1: autostart.pc", false), "");
     t.advance(Duration::from_millis(200));
-    assert_eq!(t.cmd("TYPE TASK(1001)", false), "1");
+    assert_eq!(t.cmd("TYPE TASK(1001)", false), " 1");
     assert!(t.cmd("di", false).contains("autostart.pc"));
     let status = t.cmd("sta", false);
     assert!(
@@ -1278,9 +1328,9 @@ fn abort_lets_the_arm_finish_its_motion_and_the_one_planned_then_the_program_sto
     );
     assert_eq!(t.cmd("ABORT", false), "");
     // The step in progress (JMOVE #b, waiting to be planned) completes: still running.
-    assert_eq!(t.cmd("TYPE TASK (1)", false), "1");
+    assert_eq!(t.cmd("TYPE TASK (1)", false), " 1");
     t.advance(Duration::from_secs(20));
-    assert_eq!(t.cmd("TYPE TASK (1)", false), "0");
+    assert_eq!(t.cmd("TYPE TASK (1)", false), " 0");
     let end = t.c.joints().0;
     let b = [20.0, 20.0, 0.0, 0.0, -30.0, 0.0];
     for k in 0..6 {

@@ -245,6 +245,11 @@ pub const P2076_TRANSFER_IN_PROGRESS: MonitorError = MonitorError {
     code: 2076,
     text: "SAVE/LOAD in progress.",
 };
+/// P0108: a statement that does not parse (**H**, AS-E appendix 4).
+pub const P0108_SYNTAX_ERROR: MonitorError = MonitorError {
+    code: 108,
+    text: "Syntax error.",
+};
 /// P0117: a name that is not a valid program or variable name (**M**).
 pub const P0117_INVALID_NAME: MonitorError = MonitorError {
     code: 117,

@@ -19,7 +19,7 @@ impl Interpreter {
     /// it prints (`TYPE`, `PRINT`) are given back rather than sent to the terminal as a
     /// program's output. It runs as a PC program would (a motion instruction is refused with
     /// E1095) in the slot of an idle PC task, or beside PC task 5 when every one runs: no task
-    /// is disturbed. A statement that would wait is stopped before it waits
+    /// is disturbed, and `TASK(n)` reports the task of that slot as it was. A statement that would wait is stopped before it waits
     /// ([`ImmediateError::Waits`]).
     pub fn immediate(
         &mut self,
@@ -46,14 +46,17 @@ impl Interpreter {
             .find(|&s| self.tasks[s].frames.is_empty())
             .unwrap_or(TaskSlot::at(5));
         let id = TaskId::from_index(slot.index());
-        let kept_task = std::mem::replace(&mut self.tasks[slot], Task::new(id));
+        let aside = std::mem::replace(&mut self.tasks[slot], Task::new(id));
+        self.aside = Some((slot, Box::new(aside)));
         let kept_active = self.active;
         let kept_terminal = std::mem::take(&mut self.terminal);
 
         let outcome = self.run_immediate(slot, prog, sys);
 
         let printed = std::mem::replace(&mut self.terminal, kept_terminal);
-        self.tasks[slot] = kept_task;
+        if let Some((_, aside)) = self.aside.take() {
+            self.tasks[slot] = *aside;
+        }
         self.active = kept_active;
         self.kept.remove(&(slot, prog));
         self.int_epoch += 1;
@@ -72,7 +75,9 @@ impl Interpreter {
         sys: &mut dyn System,
     ) -> Result<(), ImmediateError> {
         if !self.start_task(slot, prog, &[], 1) {
-            return Err(ImmediateError::Syntax("the statement could not start".into()));
+            return Err(ImmediateError::Syntax(
+                "the statement could not start".into(),
+            ));
         }
         let code = self.code.clone();
         for _ in 0..MAX_STEPS {
@@ -89,7 +94,9 @@ impl Interpreter {
                 Ok(Flow::Next | Flow::Shared) => {}
                 Ok(Flow::Wait(_)) => {
                     let line = program.and_then(|q| q.lines.get(pc)).copied().unwrap_or(0);
-                    return Err(ImmediateError::Waits(code.line_text(p, line).trim().to_owned()));
+                    return Err(ImmediateError::Waits(
+                        code.line_text(p, line).trim().to_owned(),
+                    ));
                 }
                 Err(e) => {
                     return Err(ImmediateError::Runtime {

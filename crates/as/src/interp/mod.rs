@@ -151,6 +151,9 @@ pub struct Interpreter {
     poll_ns: Ns,
     terminal: VecDeque<TerminalLine>,
     trace: Option<Vec<TraceLine>>,
+    /// While a typed statement runs ([`Interpreter::immediate`]): its slot and the task put
+    /// aside there, which `TASK(n)` still reports.
+    aside: Option<(TaskSlot, Box<Task>)>,
 }
 
 /// Largest string, bytes.
@@ -222,6 +225,7 @@ impl Interpreter {
             poll_ns,
             terminal: VecDeque::new(),
             trace: None,
+            aside: None,
         })
     }
 

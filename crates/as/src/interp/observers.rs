@@ -20,7 +20,10 @@ impl Interpreter {
     /// hold the system's state rather than a [`System`]).
     pub fn task_state_at(&self, task: TaskId, panel: PanelState, moving: bool) -> TaskState {
         let i = TaskSlot::of(task);
-        let t = &self.tasks[i];
+        let t = match &self.aside {
+            Some((slot, aside)) if *slot == i => aside,
+            _ => &self.tasks[i],
+        };
         match t.run {
             Run::Idle => TaskState::Idle,
             Run::Ending => {

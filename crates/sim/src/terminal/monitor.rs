@@ -3,12 +3,12 @@
 //! abbreviated as the AS keyword table says (the manual's abbreviations).
 
 use fs020n_as::keywords::{self, Lookup, Role};
-use fs020n_as::{ListKind, TaskId};
+use fs020n_as::{ImmediateError, ListKind, TaskId};
 use fs020n_term::server::split_word;
 use fs020n_term::text::{self, MonitorError};
 use fs020n_term::{LoadAnswer, Monitor, Reply, SyntaxError};
 
-use crate::controller::{Abort, Controller, PoseValue};
+use crate::controller::{Abort, Controller, ImmediateRefusal, PoseValue};
 
 /// What the answer to the session's question acts on.
 #[derive(Debug, Clone, PartialEq)]
@@ -21,12 +21,31 @@ pub(crate) enum Pending {
     Edit { name: String, value: PoseValue },
 }
 
+/// What one session keeps between its command lines.
+#[derive(Debug)]
+pub(crate) struct SessionState {
+    /// The question this session asked (`Are you sure ?`) and what `1` does.
+    pub(crate) pending: Option<Pending>,
+    /// `MESSAGES ON` (the default): program output reaches this session.
+    pub(crate) messages: bool,
+    /// The statement of the last `DO` (a `DO` alone runs it again, AS-E p.5-45).
+    pub(crate) last_do: Option<String>,
+}
+
+impl Default for SessionState {
+    fn default() -> Self {
+        SessionState {
+            pending: None,
+            messages: true,
+            last_do: None,
+        }
+    }
+}
+
 /// The controller seen by one session.
 pub(crate) struct ControllerMonitor<'a> {
     pub(crate) c: &'a mut Controller,
-    pub(crate) pending: &'a mut Option<Pending>,
-    /// `MESSAGES ON` (the default): program output reaches this session.
-    pub(crate) messages: &'a mut bool,
+    pub(crate) state: &'a mut SessionState,
 }
 
 /// The headings of joint values (`WHERE`, `HERE #name`).
@@ -83,13 +102,9 @@ fn task_and_rest(rest: &str) -> Result<(u8, &str), MonitorError> {
     }
 }
 
-/// A real as `TYPE` prints it.
+/// A real as `TYPE` prints it: one blank, then the `/D` digits (as the AS instruction).
 fn format_real(v: f32) -> String {
-    if v.fract() == 0.0 && v.abs() < 1.0e9 {
-        format!("{}", v as i64)
-    } else {
-        format!("{v}")
-    }
+    format!(" {}", fs020n_proto::format::format_default(f64::from(v)))
 }
 
 /// `(E0103) Location data is not defined: name` (the manual's text, the name after it as
@@ -99,6 +114,19 @@ fn location_undefined(name: &str) -> Reply {
         .message()
         .unwrap_or_default();
     lines([format!("(E0103) {text}: {name}")])
+}
+
+/// The reply to a statement run at once: the lines it printed; P0108 for one that does not
+/// parse; else its error line, as a program's error is printed.
+fn statement_reply(result: Result<Vec<String>, ImmediateRefusal>) -> Reply {
+    match result {
+        Ok(printed) => Reply::Lines(printed),
+        Err(ImmediateRefusal::Monitor(e)) => Reply::Error(e),
+        Err(ImmediateRefusal::Statement(ImmediateError::Syntax(_))) => {
+            Reply::Error(text::P0108_SYNTAX_ERROR)
+        }
+        Err(ImmediateRefusal::Statement(e)) => lines([e.to_string()]),
+    }
 }
 
 /// `NAME(n)` or `NAME (n)` → n.
@@ -120,7 +148,13 @@ impl ControllerMonitor<'_> {
                 "/S" => self.list_variables(ListKind::Strings, rest),
                 _ => self.list(rest),
             },
-            "TYPE" => self.type_expr(rest),
+            // The instruction, with every expression a program may TYPE; the monitor's own
+            // reading where no AS interpreter runs (the native server).
+            "TYPE" => match self.c.program_mut().immediate(&format!("TYPE {rest}")) {
+                Err(ImmediateRefusal::Monitor(_)) => self.type_expr(rest),
+                result => statement_reply(result),
+            },
+            "DO" => self.do_statement(rest),
             "KILL" => self.ask(Pending::Kill(TaskId::Robot)),
             "PCKILL" => match task_and_rest(rest) {
                 Ok((n, _)) => self.ask(Pending::Kill(TaskId::Pc(n))),
@@ -169,16 +203,16 @@ impl ControllerMonitor<'_> {
             }
             "MESSAGES" => match rest.to_ascii_uppercase().as_str() {
                 "ON" => {
-                    *self.messages = true;
+                    self.state.messages = true;
                     Reply::Lines(Vec::new())
                 }
                 "OFF" => {
-                    *self.messages = false;
+                    self.state.messages = false;
                     Reply::Lines(Vec::new())
                 }
                 "" => lines([format!(
                     "MESSAGES {}",
-                    if *self.messages { "ON" } else { "OFF" }
+                    if self.state.messages { "ON" } else { "OFF" }
                 )]),
                 _ => Reply::Error(text::P0117_INVALID_NAME),
             },
@@ -193,8 +227,41 @@ impl ControllerMonitor<'_> {
                 let _ = self.c.set_power(on);
                 Reply::Lines(Vec::new())
             }
+            // A monitor command that is also a program instruction (`POINT a = b`, `SOUT`,
+            // `BITS`, `PRINT`, `IFPWPRINT`…): run as the instruction, at once.
+            // `SPEED 50` at the prompt is the monitor speed: the instruction's `MC` form.
+            _ if keywords::get(&keyword.to_ascii_lowercase())
+                .is_some_and(|k| k.roles.contains(Role::INSTRUCTION)) =>
+            {
+                let mc = keywords::get(&keyword.to_ascii_lowercase())
+                    .is_some_and(|k| k.runs.contains(Role::AFTER_MC));
+                let prefix = if mc { "MC " } else { "" };
+                self.statement(&format!("{prefix}{keyword}{options} {rest}"))
+            }
             _ => Reply::Error(text::UNKNOWN_COMMAND),
         }
+    }
+
+    /// `DO statement` (AS-E p.5-45): one program instruction run at once; `DO` alone runs
+    /// the last one again. A motion is refused (E1095, as in a PC program): the emulator
+    /// moves the arm only from programs.
+    fn do_statement(&mut self, rest: &str) -> Reply {
+        let statement = if rest.trim().is_empty() {
+            match self.state.last_do.clone() {
+                Some(s) => s,
+                None => return Reply::Lines(Vec::new()),
+            }
+        } else {
+            rest.trim().to_owned()
+        };
+        self.state.last_do = Some(statement.clone());
+        self.statement(&statement)
+    }
+
+    /// A statement run at once against the programs in memory: the lines it printed, or
+    /// its error as a program's error line.
+    fn statement(&mut self, statement: &str) -> Reply {
+        statement_reply(self.c.program_mut().immediate(statement))
     }
 
     /// `SIGNAL n, -m, …`: outputs (1…) and internal signals (2001…) on (`n`) or off (`-n`);
@@ -267,7 +334,7 @@ impl ControllerMonitor<'_> {
     /// Stores `value` in `name` and offers it for editing again.
     fn define(&mut self, name: String, value: PoseValue) -> Reply {
         if let Err(e) = self.c.memory_mut().define_pose(&name, value) {
-            *self.pending = None;
+            self.state.pending = None;
             return Reply::Error(e);
         }
         let headings = match value {
@@ -275,7 +342,7 @@ impl ControllerMonitor<'_> {
             PoseValue::Trans(_) => TRANS_HEADINGS,
         };
         let values = value.values();
-        *self.pending = Some(Pending::Edit { name, value });
+        self.state.pending = Some(Pending::Edit { name, value });
         Reply::Change(vec![
             headings.iter().map(|h| format!("{h:>10}")).collect(),
             values.iter().map(|v| format!("{v:>10.3}")).collect(),
@@ -283,7 +350,7 @@ impl ControllerMonitor<'_> {
     }
 
     fn ask(&mut self, p: Pending) -> Reply {
-        *self.pending = Some(p);
+        self.state.pending = Some(p);
         Reply::AreYouSure
     }
 
@@ -341,6 +408,8 @@ impl ControllerMonitor<'_> {
         Reply::Lines(out)
     }
 
+    /// `TYPE` where no AS interpreter runs (the native server): the simple forms the monitor
+    /// reads itself (`TASK(n)`, `TIMER(n)`, `SIG(n)`, a number, a variable).
     fn type_expr(&self, expr: &str) -> Reply {
         let expr = expr.trim();
         let interp = self.c.interpreter();
@@ -621,12 +690,12 @@ impl Monitor for ControllerMonitor<'_> {
     }
 
     fn close_session(&mut self, terminal: &str) {
-        *self.pending = None;
+        self.state.pending = None;
         self.c.close_terminal(terminal);
     }
 
     fn run(&mut self, line: &str) -> Reply {
-        *self.pending = None;
+        self.state.pending = None;
         let (word, rest) = split_word(line);
         // `signal(-2010)`: a bracket ends the command word; the argument starts with it.
         let (word, rest) = match word.find('(') {
@@ -663,7 +732,7 @@ impl Monitor for ControllerMonitor<'_> {
     }
 
     fn confirmed(&mut self) -> Reply {
-        match self.pending.take() {
+        match self.state.pending.take() {
             Some(Pending::Kill(task)) => done(self.c.program_mut().kill(task)),
             Some(Pending::Delete(name)) => done(self.c.memory_mut().delete(&name)),
             Some(Pending::Edit { .. }) | None => Reply::Lines(Vec::new()),
@@ -674,7 +743,7 @@ impl Monitor for ControllerMonitor<'_> {
     /// value (`,,,-15` changes the fourth); an empty line ends the editing. A field that is
     /// not a number changes nothing and the values are offered again.
     fn change(&mut self, line: &str) -> Reply {
-        let Some(Pending::Edit { name, value }) = self.pending.take() else {
+        let Some(Pending::Edit { name, value }) = self.state.pending.take() else {
             return Reply::Lines(Vec::new());
         };
         if line.trim().is_empty() {
