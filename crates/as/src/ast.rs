@@ -262,6 +262,33 @@ pub enum StmtKind {
         /// The delay, seconds.
         time: Expr,
     },
+    /// `IFPWPRINT`/`IFPWOVERWRITE window, [row, column, background, label colour] = "text", …`
+    /// (AS-E p.6-98, p.6-100): strings written to an interface-panel window.
+    IfpWrite {
+        /// `IFPWOVERWRITE`: the other rows are kept (`IFPWPRINT` clears the window).
+        overwrite: bool,
+        /// The window, 1–8.
+        window: Expr,
+        /// Row, column, background colour, label colour; omitted: the window's last.
+        place: [Option<Expr>; 4],
+        /// The strings, one per row from the row given.
+        texts: Vec<Expr>,
+    },
+    /// `IFPLABEL position, ["label 1"], …, ["label 4"]` (AS-E p.6-96): the labels of an
+    /// interface-panel icon; an omitted label is not changed.
+    IfpLabel {
+        /// The icon's position, 1–112.
+        position: Expr,
+        /// Up to four labels.
+        labels: Vec<Option<Expr>>,
+    },
+    /// `IFPTITLE page, "title"` (AS-E p.6-97): the title of an interface-panel page.
+    IfpTitle {
+        /// The page.
+        page: Expr,
+        /// The title.
+        title: Expr,
+    },
     /// `BITS start, count = value`: `count` signals from `start` set to the binary of `value`.
     Bits {
         /// `BITS32`: up to 32 signals (`BITS`: 16).

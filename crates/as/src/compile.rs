@@ -371,6 +371,12 @@ pub(crate) enum Op {
     /// `DRAW`/`TDRAW` (tool axes): X, Y, Z offsets, O, A, T of the rotation, and the speed
     /// (percent, this motion only).
     Draw(bool, Box<[Option<RExpr>; 7]>),
+    /// `IFPWPRINT`/`IFPWOVERWRITE` (`true`: overwrite): window, row, column, colours, strings.
+    IfpWrite(bool, Box<IfpWriteOp>),
+    /// `IFPLABEL position, labels…` (`None`: a label not changed).
+    IfpLabel(Box<(RExpr, Vec<Option<SExpr>>)>),
+    /// `IFPTITLE page, title`.
+    IfpTitle(Box<(RExpr, SExpr)>),
     /// `DRIVE joint, degrees[, speed]`.
     Drive(Box<(RExpr, RExpr, Option<RExpr>)>),
     /// `C1MOVE` (false: the via point) / `C2MOVE` (true: the end) location.
@@ -476,6 +482,15 @@ pub(crate) struct CParam {
     pub(crate) ty: Ty,
     pub(crate) slot: u32,
     pub(crate) by_ref: bool,
+}
+
+/// The operands of `IFPWPRINT`/`IFPWOVERWRITE`.
+#[derive(Debug, Clone)]
+pub(crate) struct IfpWriteOp {
+    pub(crate) window: RExpr,
+    /// Row, column, background colour, label colour (`None`: the window's last).
+    pub(crate) place: [Option<RExpr>; 4],
+    pub(crate) texts: Vec<SExpr>,
 }
 
 /// A compiled program.
@@ -1371,6 +1386,40 @@ impl Compiler {
                     }
                 }
                 self.emit(Op::Draw(*tool, Box::new(v)), line);
+            }
+            StmtKind::IfpWrite {
+                overwrite,
+                window,
+                place,
+                texts,
+            } => {
+                let mut compiled: [Option<RExpr>; 4] = Default::default();
+                for (slot, e) in compiled.iter_mut().zip(place) {
+                    if let Some(e) = e {
+                        *slot = Some(self.real(e)?);
+                    }
+                }
+                let op = IfpWriteOp {
+                    window: self.real(window)?,
+                    place: compiled,
+                    texts: texts
+                        .iter()
+                        .map(|t| self.string(t))
+                        .collect::<CResult<_>>()?,
+                };
+                self.emit(Op::IfpWrite(*overwrite, Box::new(op)), line);
+            }
+            StmtKind::IfpLabel { position, labels } => {
+                let labels = labels
+                    .iter()
+                    .map(|l| l.as_ref().map(|e| self.string(e)).transpose())
+                    .collect::<CResult<_>>()?;
+                let position = self.real(position)?;
+                self.emit(Op::IfpLabel(Box::new((position, labels))), line);
+            }
+            StmtKind::IfpTitle { page, title } => {
+                let op = Op::IfpTitle(Box::new((self.real(page)?, self.string(title)?)));
+                self.emit(op, line);
             }
             StmtKind::Drive {
                 joint,
@@ -2542,6 +2591,11 @@ fn op_touches(op: &Op) -> bool {
         Op::Dlysig(a, b) => r_touches(a) || r_touches(b),
         Op::RunMask(a, b) => r_touches(a) || opt(b),
         Op::Bits(_, a, b, c) => r_touches(a) || r_touches(b) || r_touches(c),
+        Op::IfpWrite(_, w) => {
+            r_touches(&w.window) || w.place.iter().any(opt) || w.texts.iter().any(s_touches)
+        }
+        Op::IfpLabel(l) => r_touches(&l.0) || l.1.iter().flatten().any(s_touches),
+        Op::IfpTitle(t) => r_touches(&t.0) || s_touches(&t.1),
         Op::On { signal, .. } => r_touches(signal),
         Op::Timer(a, b) => r_touches(a) || r_touches(b),
         Op::UTimer(l, e) => l_touches(l) || r_touches(e),

@@ -564,6 +564,10 @@ fn do_and_the_commands_that_are_instructions_run_at_once() {
     let out = t.cmd("DO TWAIT 2", false);
     assert!(out.contains("TWAIT 2 waits"), "{out}");
     assert_eq!(t.cmd("DO count = = 2", false), "(P0108)Syntax error.");
+    // The interface panel's instruction at the prompt writes the window.
+    assert_eq!(t.cmd("IFPWPRINT 2, 2 = \"from the terminal\"", false), "");
+    let panel = t.c.program().interface_panel().expect("AS programs run");
+    assert_eq!(panel.windows[1].rows[1], "from the terminal");
     // SPEED at the prompt is the monitor speed (the instruction's MC form).
     assert_eq!(t.cmd("SPEED 40", false), "");
     assert_eq!(t.c.monitor_speed(), 40.0);

@@ -23,6 +23,7 @@
 //! | `xmove.rs` | `XMOVE … TILL`: a straight line the signal cuts short |
 //! | `posture.rs` | `LEFTY`, `RIGHTY`, `ABOVE`, `BELOW`, `UWRIST`, `DWRIST`: the IK branch |
 //! | `hands.rs` | `OPEN`/`CLOSE`/`RELAX` and their `I` forms on the hands' signals |
+//! | `interface_panel.rs` | `IFPWPRINT`, `IFPWOVERWRITE`, `IFPLABEL`, `IFPTITLE`: what the interface panel shows |
 //! | `immediate.rs` | a statement typed at the terminal (`DO`, `TYPE`, `POINT`, …): compiled against the loaded programs and run at once |
 //! | `locations.rs`, `exist.rs` | `DISTANCE`, `DX`/`DY`/`DZ`, `FRAME`; `EXISTREAL` … `EXISTPROGRAM` |
 //! | `named.rs` | `STRTOPOS`, `STRTOVAL`, `WHICHTASK`: what a string names |
@@ -47,6 +48,7 @@ mod flow;
 mod frames;
 mod hands;
 mod immediate;
+mod interface_panel;
 mod listing;
 mod locations;
 mod monitor;
@@ -84,6 +86,7 @@ use arith::{ns, Ns};
 use task::{SignalState, Task, TaskSlot};
 
 pub use config::{BlockSettings, Config, CostModel, HandSignals};
+pub use interface_panel::{InterfacePanel, PanelWindow};
 pub use listing::ListKind;
 pub use report::{
     ImmediateError, Refusal, ReloadError, TaskInfo, TaskState, TerminalLine, TraceLine,
@@ -154,6 +157,8 @@ pub struct Interpreter {
     /// While a typed statement runs ([`Interpreter::immediate`]): its slot and the task put
     /// aside there, which `TASK(n)` still reports.
     aside: Option<(TaskSlot, Box<Task>)>,
+    /// What the interface panel shows (`IFPWPRINT` …).
+    panel: Box<InterfacePanel>,
 }
 
 /// Largest string, bytes.
@@ -226,6 +231,7 @@ impl Interpreter {
             terminal: VecDeque::new(),
             trace: None,
             aside: None,
+            panel: Box::default(),
         })
     }
 

@@ -304,6 +304,54 @@ impl Cur<'_> {
                 let time = self.expr()?;
                 LineKind::Stmt(StmtKind::Dlysig { signal, time })
             }
+            "ifpwprint" | "ifpwoverwrite" => {
+                let window = self.expr()?;
+                // `[, row, column, background, label colour]`: each may be omitted.
+                let mut place: [Option<Expr>; 4] = Default::default();
+                for slot in place.iter_mut() {
+                    if !self.eat(&Tok::Comma) {
+                        break;
+                    }
+                    if self.peek() != Some(&Tok::Comma) && self.peek() != Some(&Tok::Assign) {
+                        *slot = Some(self.expr()?);
+                    }
+                }
+                self.expect(
+                    &Tok::Assign,
+                    &format!(
+                        "`=` and the strings after {}'s window and place",
+                        kw.to_uppercase()
+                    ),
+                )?;
+                let mut texts = vec![self.expr()?];
+                while self.eat(&Tok::Comma) {
+                    texts.push(self.expr()?);
+                }
+                LineKind::Stmt(StmtKind::IfpWrite {
+                    overwrite: kw == "ifpwoverwrite",
+                    window,
+                    place,
+                    texts,
+                })
+            }
+            "ifplabel" => {
+                let position = self.expr()?;
+                let mut labels = Vec::new();
+                while labels.len() < 4 && self.eat(&Tok::Comma) {
+                    if self.at_end() || self.peek() == Some(&Tok::Comma) {
+                        labels.push(None);
+                    } else {
+                        labels.push(Some(self.expr()?));
+                    }
+                }
+                LineKind::Stmt(StmtKind::IfpLabel { position, labels })
+            }
+            "ifptitle" => {
+                let page = self.expr()?;
+                self.expect(&Tok::Comma, "\",\" and the title after IFPTITLE's page")?;
+                let title = self.expr()?;
+                LineKind::Stmt(StmtKind::IfpTitle { page, title })
+            }
             "bits" | "bits32" => {
                 let start = self.expr()?;
                 self.expect(

@@ -50,6 +50,12 @@ impl<'a> ProgramView<'a> {
             .unwrap_or_default()
     }
 
+    /// What the interface panel shows (`IFPWPRINT` …, docs/AS.md "The interface panel");
+    /// `None` without AS programs.
+    pub fn interface_panel(&self) -> Option<&'a fs020n_as::InterfacePanel> {
+        self.server().map(|p| p.interpreter().interface_panel())
+    }
+
     /// When the program does something next by itself (a step, a timeout, a poll), `None`
     /// when it waits only for clients. A driver advances the controller then.
     pub fn next_event(&self) -> Option<Duration> {
