@@ -262,6 +262,15 @@ pub enum StmtKind {
         /// The delay, seconds.
         time: Expr,
     },
+    /// `SOUT n = signal expression` (AS-E p.6-88): output `n` (negative: inverted) set to a
+    /// logic of signals — each operand of `AND`, `OR`, `XOR`, `NOT` a signal number
+    /// (negative: that signal OFF).
+    Sout {
+        /// The output (negative: set to the expression's inverse).
+        signal: Expr,
+        /// The signal expression.
+        logic: Expr,
+    },
     /// `IFPWPRINT`/`IFPWOVERWRITE window, [row, column, background, label colour] = "text", …`
     /// (AS-E p.6-98, p.6-100): strings written to an interface-panel window.
     IfpWrite {

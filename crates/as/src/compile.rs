@@ -371,6 +371,8 @@ pub(crate) enum Op {
     /// `DRAW`/`TDRAW` (tool axes): X, Y, Z offsets, O, A, T of the rotation, and the speed
     /// (percent, this motion only).
     Draw(bool, Box<[Option<RExpr>; 7]>),
+    /// `SOUT n = logic`: the output and the logic, its operands read as `SIG(n)`.
+    Sout(RExpr, RExpr),
     /// `IFPWPRINT`/`IFPWOVERWRITE` (`true`: overwrite): window, row, column, colours, strings.
     IfpWrite(bool, Box<IfpWriteOp>),
     /// `IFPLABEL position, labels…` (`None`: a label not changed).
@@ -1387,6 +1389,10 @@ impl Compiler {
                 }
                 self.emit(Op::Draw(*tool, Box::new(v)), line);
             }
+            StmtKind::Sout { signal, logic } => {
+                let op = Op::Sout(self.real(signal)?, self.signal_logic(logic)?);
+                self.emit(op, line);
+            }
             StmtKind::IfpWrite {
                 overwrite,
                 window,
@@ -1790,6 +1796,20 @@ impl Compiler {
                 format!("expected a real value, found {}", other.ty().name()),
             )),
         }
+    }
+
+    /// A signal expression (`SOUT`, AS-E p.6-88): `AND`, `OR`, `XOR` and `NOT` of operands
+    /// that are signal numbers, each read as `SIG(n)` (`-1001`: input 1001 OFF).
+    fn signal_logic(&mut self, e: &Expr) -> CResult<RExpr> {
+        Ok(match &e.kind {
+            ExprKind::Binary(op @ (BinOp::And | BinOp::Or | BinOp::Xor), a, b) => RExpr::Bin(
+                *op,
+                Box::new(self.signal_logic(a)?),
+                Box::new(self.signal_logic(b)?),
+            ),
+            ExprKind::Unary(UnOp::Not, a) => RExpr::Not(Box::new(self.signal_logic(a)?)),
+            _ => RExpr::Func(RFunc::Sig, Box::new([self.real(e)?])),
+        })
     }
 
     fn string(&mut self, e: &Expr) -> CResult<SExpr> {
@@ -2591,6 +2611,7 @@ fn op_touches(op: &Op) -> bool {
         Op::Dlysig(a, b) => r_touches(a) || r_touches(b),
         Op::RunMask(a, b) => r_touches(a) || opt(b),
         Op::Bits(_, a, b, c) => r_touches(a) || r_touches(b) || r_touches(c),
+        Op::Sout(a, b) => r_touches(a) || r_touches(b),
         Op::IfpWrite(_, w) => {
             r_touches(&w.window) || w.place.iter().any(opt) || w.texts.iter().any(s_touches)
         }

@@ -5,7 +5,7 @@ use crate::compile::RExpr;
 use crate::error::RuntimeError;
 use crate::system::System;
 
-use super::arith::{ns, signal_number, Ns, R};
+use super::arith::{ns, signal_number, truthy, Ns, R};
 use super::task::{Flow, Interrupt, SignalState, TaskSlot};
 use super::Interpreter;
 
@@ -152,6 +152,27 @@ impl Interpreter {
     /// `BITS start, count = value`: signals `start` … `start + count − 1` set to the binary
     /// digits of `value` (`start` the least significant).
     #[inline(always)]
+    /// `SOUT n = logic` (AS-E p.6-88): output `n` ON when the logic of signals holds (a
+    /// negative `n`: OFF then), evaluated when the step runs (**M**: the manual's ladder
+    /// pictures could also be read as a lasting connection).
+    pub(super) fn sout(
+        &mut self,
+        i: TaskSlot,
+        signal: &RExpr,
+        logic: &RExpr,
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        let n = signal_number(self.eval_r(i, signal, sys)?);
+        if n == 0 || !Self::signal_number_ok(n.abs(), true) {
+            return Err(Box::new(RuntimeError::IllegalValue(format!(
+                "SOUT {n} (an output or internal signal)"
+            ))));
+        }
+        let holds = truthy(self.eval_r(i, logic, sys)?);
+        self.write_signal(n.abs(), holds == (n > 0));
+        Ok(Flow::Shared)
+    }
+
     pub(super) fn bits_out(
         &mut self,
         i: TaskSlot,

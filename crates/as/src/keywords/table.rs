@@ -573,7 +573,7 @@ pub(super) const TABLE: &[Keyword] = &[
     k("slow_rep_mm").switch().generations(F_ONLY),
     k("slow_repeat").abbr("sl").monitor("").generations(E_F),
     k("slow_start").switch().generations(E_F),
-    k("sout").abbr("so").instruction("signal_number = signal_expression").monitor("signal_number = signal_expression").generations(E_F),
+    k("sout").abbr("so").instruction("signal_number = signal_expression").monitor("signal_number = signal_expression").generations(E_F).runs(INSTRUCTION),
     k("$space").function("(number_of_blanks)").generations(E_F).runs(FUNCTION),
     k("speed").abbr("sp").instruction("speed [, rotational_speed] [ALWAYS]").monitor("monitor_speed").after_mc().generations(E_F).runs(INSTRUCTION.or(AFTER_MC)),
     k("spot_op").switch().generations(E_F),

@@ -304,6 +304,15 @@ impl Cur<'_> {
                 let time = self.expr()?;
                 LineKind::Stmt(StmtKind::Dlysig { signal, time })
             }
+            "sout" => {
+                let signal = self.expr()?;
+                self.expect(
+                    &Tok::Assign,
+                    "`=` and the signal expression after SOUT's signal",
+                )?;
+                let logic = self.expr()?;
+                LineKind::Stmt(StmtKind::Sout { signal, logic })
+            }
             "ifpwprint" | "ifpwoverwrite" => {
                 let window = self.expr()?;
                 // `[, row, column, background, label colour]`: each may be omitted.
