@@ -262,6 +262,12 @@ pub enum StmtKind {
         /// The delay, seconds.
         time: Expr,
     },
+    /// `WEIGHT [mass, cog x, y, z[, inertia x, y, z]]` (AS-E p.6-120): the payload; without
+    /// values the rated payload.
+    Weight {
+        /// Up to seven values (kg, mm in the tool frame, kg·m²); those left out are 0.
+        values: Vec<Expr>,
+    },
     /// `SOUT n = signal expression` (AS-E p.6-88): output `n` (negative: inverted) set to a
     /// logic of signals — each operand of `AND`, `OR`, `XOR`, `NOT` a signal number
     /// (negative: that signal OFF).

@@ -371,6 +371,8 @@ pub(crate) enum Op {
     /// `DRAW`/`TDRAW` (tool axes): X, Y, Z offsets, O, A, T of the rotation, and the speed
     /// (percent, this motion only).
     Draw(bool, Box<[Option<RExpr>; 7]>),
+    /// `WEIGHT values…` (none: the rated payload).
+    Weight(Box<[RExpr]>),
     /// `SOUT n = logic`: the output and the logic, its operands read as `SIG(n)`.
     Sout(RExpr, RExpr),
     /// `IFPWPRINT`/`IFPWOVERWRITE` (`true`: overwrite): window, row, column, colours, strings.
@@ -1388,6 +1390,13 @@ impl Compiler {
                     }
                 }
                 self.emit(Op::Draw(*tool, Box::new(v)), line);
+            }
+            StmtKind::Weight { values } => {
+                let values = values
+                    .iter()
+                    .map(|e| self.real(e))
+                    .collect::<CResult<Vec<_>>>()?;
+                self.emit(Op::Weight(values.into()), line);
             }
             StmtKind::Sout { signal, logic } => {
                 let op = Op::Sout(self.real(signal)?, self.signal_logic(logic)?);
@@ -2612,6 +2621,7 @@ fn op_touches(op: &Op) -> bool {
         Op::RunMask(a, b) => r_touches(a) || opt(b),
         Op::Bits(_, a, b, c) => r_touches(a) || r_touches(b) || r_touches(c),
         Op::Sout(a, b) => r_touches(a) || r_touches(b),
+        Op::Weight(v) => any_r(v),
         Op::IfpWrite(_, w) => {
             r_touches(&w.window) || w.place.iter().any(opt) || w.texts.iter().any(s_touches)
         }

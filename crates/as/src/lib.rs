@@ -66,8 +66,8 @@ mod value;
 pub use error::{LoadError, ParseError, RuntimeError};
 pub use interp::{
     BlockSettings, Config, CostModel, HandSignals, ImmediateError, InterfacePanel, Interpreter,
-    ListKind, PanelWindow, Refusal, ReloadError, TaskInfo, TaskState, TerminalLine, TraceLine,
-    MAX_STRING, MAX_TRANSFER,
+    ListKind, PanelWindow, Payload, Refusal, ReloadError, TaskInfo, TaskState, TerminalLine,
+    TraceLine, MAX_STRING, MAX_TRANSFER,
 };
 pub use load::{check, check_memory, CheckReport, Loaded};
 pub use options::LoadOptions;

@@ -1,10 +1,11 @@
 //! Functions of the controller's state, on virtual time: `$TIME`, `$DATE`, `SYSDATA`,
-//! `$SYSDATA`, `SWITCH` of the panel, `TASK`.
+//! `$SYSDATA`, `SWITCH` of the panel, `TASK`; the payload `WEIGHT` sets.
 
 mod common;
 
-use common::{ms, pc, start_with};
+use common::{ms, pc, run_pc, start_with};
 use fs020n_as::Config;
+use fs020n_proto::ErrorCode;
 
 /// 2026-11-28 23:59:58 UTC, shown at UTC+1: 2026-11-29 00:59:58.
 const CLOCK: (i64, i32) = (1_795_910_398, 3600);
@@ -128,4 +129,22 @@ fn task_reports_whether_a_task_runs() {
     i.run_until(&mut s, ms(10));
     assert_ne!(i.real("a"), Some(0.0), "PC task 1 runs this program");
     assert_eq!(i.real("b"), Some(0.0));
+}
+
+#[test]
+fn weight_sets_the_payload_without_values_the_rated_one_and_refuses_more() {
+    let (i, s) = run_pc("  WEIGHT 7.5, 10, 0, 80, 0.1\n  done = 1", 0.1);
+    assert_eq!(i.real("done"), Some(1.0));
+    let p = i.payload();
+    assert_eq!(
+        (p.mass_kg, p.cog_mm, p.inertia_kg_m2),
+        (7.5, [10.0, 0.0, 80.0], [0.1, 0.0, 0.0])
+    );
+    assert!(s.raised.is_empty());
+    let (i, _) = run_pc("  WEIGHT 3\n  WEIGHT", 0.1);
+    assert_eq!(i.payload().mass_kg, 20.0, "no values: the rated payload");
+    for body in ["  WEIGHT 20.5", "  WEIGHT -1", "  WEIGHT 1, 0, 0, 0, -0.1"] {
+        let (_, s) = run_pc(body, 0.1);
+        assert_eq!(s.raised, [ErrorCode::VALUE_OUT_OF_RANGE], "{body}");
+    }
 }

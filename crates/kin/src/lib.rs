@@ -43,7 +43,7 @@ pub use kinematics::{
 };
 pub use model::{
     ControllerDefaults, FilePosition, Geometry, JointSpec, LimitError, ModelError, RobotModel,
-    FS020N_TOML,
+    FS020N_TOML, RATED_PAYLOAD_KG,
 };
 pub use motion::{JointMove, MotionError};
 pub use pose::{Pose, Xyzoat};

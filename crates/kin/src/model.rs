@@ -13,6 +13,10 @@ use toml::Spanned;
 /// saying where each number comes from.
 pub const FS020N_TOML: &str = include_str!("../models/fs020n.toml");
 
+/// The FS020N's rated payload, kg (the "20" of its name; spec fs020n-model.md): the most
+/// `WEIGHT` accepts, and the payload a program's `WEIGHT` without values sets.
+pub const RATED_PAYLOAD_KG: f64 = 20.0;
+
 /// Limits and dynamics of one joint.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -229,6 +229,14 @@ impl ProgramStore {
         removed
     }
 
+    /// Deletes every program and variable (`SYSINIT`); the switches stay.
+    pub(crate) fn clear(&mut self) {
+        self.programs.clear();
+        self.data.clear();
+        self.defined.clear();
+        self.generation += 1;
+    }
+
     /// The whole memory as one AS file, leaving out the programs named in `except`.
     pub(crate) fn text_without(&self, except: &[&str]) -> Vec<u8> {
         let mut text = Vec::new();

@@ -1344,3 +1344,65 @@ fn abort_lets_the_arm_finish_its_motion_and_the_one_planned_then_the_program_sto
         );
     }
 }
+
+#[test]
+fn weight_sets_the_payload_shows_it_for_editing_and_refuses_more_than_the_rated() {
+    let mut t = Term::new(bare());
+    // A telnet library's `weight 0, 0, 0, 0`: the instruction, at once.
+    assert_eq!(t.cmd("weight 5, 0, 0, 100", false), "");
+    let out = typed(&mut t, "WEIGHT\r\n");
+    assert!(
+        out.contains("Mass[kg]") && out.contains("Iz[kgm2]"),
+        "{out}"
+    );
+    assert!(
+        out.contains("     5.000") && out.contains("   100.000"),
+        "{out}"
+    );
+    assert!(
+        out.ends_with(&format!("{}\r\n", text::CHANGE_QUESTION)),
+        "{out:?}"
+    );
+    // `,,,50` changes the fourth value (the centre of gravity's Z), offered again.
+    let out = typed(&mut t, ",,,50\r\n");
+    assert!(
+        out.contains("    50.000") && !out.contains("   100.000"),
+        "{out}"
+    );
+    let out = typed(&mut t, "\r\n");
+    assert!(out.ends_with('>'), "{out:?}");
+    // More than the rated 20 kg: the program's error line, the payload kept.
+    assert!(t.cmd("WEIGHT 25", false).starts_with("(E0106)"));
+    let out = typed(&mut t, "WEIGHT\r\n");
+    assert!(
+        out.contains("     5.000") && out.contains("    50.000"),
+        "{out}"
+    );
+    typed(&mut t, "\r\n");
+}
+
+#[test]
+fn sysinit_asks_then_deletes_every_program_and_variable_unless_a_task_runs() {
+    let mut t = Term::new(bare());
+    loaded_ok(&t.load("server1040.as", SERVER));
+    t.cmd("DO kept = 5", false);
+    t.cmd("PCEXECUTE 1: autostart.pc", false);
+    t.advance(Duration::from_millis(100));
+    let out = t.cmd("SYSINIT", true);
+    assert!(out.contains("(P1019)"), "a PC task runs: {out}");
+    assert!(!t.c.memory().programs().is_empty());
+    t.cmd("PCABORT 1:", false);
+    t.advance(Duration::from_millis(3100));
+    t.cmd("PCKILL 1:", true);
+    // Answered 0: nothing happens.
+    t.cmd("SYSINIT", false);
+    assert!(!t.c.memory().programs().is_empty());
+    let out = t.cmd("SYSINIT", true);
+    assert!(!out.contains("(P"), "{out}");
+    assert!(t.c.memory().programs().is_empty());
+    assert!(t.c.memory().data_sections().is_empty());
+    assert!(t.cmd("TYPE kept", false).starts_with("(E0102)"));
+    // The empty controller takes a new file.
+    loaded_ok(&t.load("server1040.as", SERVER));
+    assert!(!t.c.memory().programs().is_empty());
+}

@@ -30,6 +30,7 @@
 //! | `listing.rs` | `LIST/R`, `/INT`, `/L`, `/S`: the globals as data-section lines |
 //! | `expr.rs` | expressions (reals, strings, locations, functions, `PRINT` encoding) |
 //! | `tcp.rs`, `udp.rs` | the `TCP_…` and `UDP_…` statements on the system's socket table |
+//! | `payload.rs` | `WEIGHT`: the payload kept |
 //! | `on_error.rs` | `ONE`: a task's error program, and how the task goes on after it |
 //! | `stmt.rs` | one step: the hot path of pure computation, then every other op |
 //! | `arith.rs`, `strings.rs` | free helpers: numbers and overflow, string functions |
@@ -56,6 +57,7 @@ mod motion;
 mod named;
 mod observers;
 mod on_error;
+mod payload;
 mod posture;
 mod print;
 mod reload;
@@ -88,6 +90,7 @@ use task::{SignalState, Task, TaskSlot};
 pub use config::{BlockSettings, Config, CostModel, HandSignals};
 pub use interface_panel::{InterfacePanel, PanelWindow};
 pub use listing::ListKind;
+pub use payload::Payload;
 pub use report::{
     ImmediateError, Refusal, ReloadError, TaskInfo, TaskState, TerminalLine, TraceLine,
 };
@@ -159,6 +162,8 @@ pub struct Interpreter {
     aside: Option<(TaskSlot, Box<Task>)>,
     /// What the interface panel shows (`IFPWPRINT` …).
     panel: Box<InterfacePanel>,
+    /// The payload `WEIGHT` set.
+    payload: Payload,
 }
 
 /// Largest string, bytes.
@@ -232,6 +237,7 @@ impl Interpreter {
             trace: None,
             aside: None,
             panel: Box::default(),
+            payload: Payload::default(),
         })
     }
 

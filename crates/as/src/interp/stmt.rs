@@ -308,6 +308,7 @@ impl Interpreter {
             Op::Pulse(sig, t) => self.pulse(i, sig, t, sys, now)?,
             Op::Dlysig(sig, t) => self.dlysig(i, sig, t, sys, now)?,
             Op::RunMask(sig, count) => self.run_mask(i, sig, count, sys)?,
+            Op::Weight(values) => self.weight(i, values, sys)?,
             Op::Sout(signal, logic) => self.sout(i, signal, logic, sys)?,
             Op::IfpWrite(overwrite, w) => self.ifp_write(i, *overwrite, w, sys)?,
             Op::IfpLabel(l) => self.ifp_label(i, &l.0, &l.1, sys)?,

@@ -672,7 +672,7 @@ pub(super) const TABLE: &[Keyword] = &[
     k("vision_operate").switch().generations(F_ONLY),
     k("wait").abbr("wa").instruction("condition").generations(E_F).runs(INSTRUCTION),
     k("waitrel_auto").switch().generations(E_F),
-    k("weight").abbr("we").instruction("[load_mass, center_of_gravity_x, center_of_gravity_y, center_of_gravity_z, inertia_moment_ab_x_axis, inertia_moment_ab_y_axis, inertia_moment_ab_z_axis]").monitor("[load_mass, center_of_gravity_x, y, z, inertia_moment_ab_x, y, z_axis]").generations(E_F),
+    k("weight").abbr("we").instruction("[load_mass, center_of_gravity_x, center_of_gravity_y, center_of_gravity_z, inertia_moment_ab_x_axis, inertia_moment_ab_y_axis, inertia_moment_ab_z_axis]").monitor("[load_mass, center_of_gravity_x, y, z, inertia_moment_ab_x, y, z_axis]").generations(E_F).runs(INSTRUCTION),
     k("where").abbr("w").monitor("[display_mode]").generations(E_F),
     k("whichtask").function("program_name").generations(E_F).runs(FUNCTION),
     k("while").abbr("wh").instruction("condition DO").generations(E_F).runs(INSTRUCTION),

@@ -304,6 +304,16 @@ impl Cur<'_> {
                 let time = self.expr()?;
                 LineKind::Stmt(StmtKind::Dlysig { signal, time })
             }
+            "weight" => {
+                let mut values = Vec::new();
+                if !self.at_end() {
+                    values.push(self.expr()?);
+                    while values.len() < 7 && self.eat(&Tok::Comma) {
+                        values.push(self.expr()?);
+                    }
+                }
+                LineKind::Stmt(StmtKind::Weight { values })
+            }
             "sout" => {
                 let signal = self.expr()?;
                 self.expect(

@@ -321,6 +321,32 @@ impl Controller {
         Ok(())
     }
 
+    /// `SYSINIT` (AS-E p.5-81): every program and variable deleted, the AS interpreter started
+    /// anew over the empty memory (the switches stay). Refused while a task runs (P1009 the
+    /// robot task, P1019 a PC task) or holds a program on its stack (P1018).
+    fn initialize_memory(&mut self) -> Result<(), MonitorError> {
+        for i in 0..6 {
+            if self.task_facts(i).0 {
+                return Err(if i == 0 {
+                    text::P1009_ALREADY_RUNNING
+                } else {
+                    text::P1019_PC_RUNNING
+                });
+            }
+        }
+        if (0..6).any(|i| self.stack_program(i).is_some()) {
+            return Err(text::P1018_KILL_FIRST);
+        }
+        self.memory.clear();
+        self.monitor.stacks = Default::default();
+        self.monitor.primed = None;
+        self.bump();
+        if matches!(self.server, Server::Program(_)) {
+            self.rebuild(false)?;
+        }
+        Ok(())
+    }
+
     /// Whether `name` is on a task's stack: the program a task was started with (see
     /// [`Controller::stack_program`]) or one a running task has `CALL`ed.
     pub(super) fn on_any_stack(&self, name: &str) -> bool {
@@ -658,6 +684,12 @@ impl MemoryMut<'_> {
     /// P1038 when there is none.
     pub fn delete(&mut self, name: &str) -> Result<(), MonitorError> {
         self.c.delete_program(name)
+    }
+
+    /// `SYSINIT`: deletes every program and variable; refused while a task runs (P1009,
+    /// P1019) or holds a program (P1018). The switches stay.
+    pub fn initialize(&mut self) -> Result<(), MonitorError> {
+        self.c.initialize_memory()
     }
 
     /// Sets a switch (see [`MemoryView::switch`]); `false` for an unknown name.

@@ -19,6 +19,11 @@ pub(crate) enum Pending {
     Delete(String),
     /// `HERE name`: the pose variable offered for editing after `Change?`, and its value.
     Edit { name: String, value: PoseValue },
+    /// `WEIGHT`: the payload offered for editing after `Change?` (mass, centre of gravity,
+    /// inertia).
+    EditWeight([f32; 7]),
+    /// `SYSINIT`: what `1` confirms.
+    Initialize,
 }
 
 /// What one session keeps between its command lines.
@@ -116,6 +121,22 @@ fn location_undefined(name: &str) -> Reply {
     lines([format!("(E0103) {text}: {name}")])
 }
 
+/// `values` with the fields of a line after `Change?` (comma-separated, an empty field keeping
+/// its value: `,,,-15` changes the fourth); `None` when a field is not a number.
+fn edited<const N: usize>(mut values: [f32; N], line: &str) -> Option<[f32; N]> {
+    for (slot, field) in values.iter_mut().zip(line.split(',')) {
+        let field = field.trim();
+        if field.is_empty() {
+            continue;
+        }
+        match field.parse::<f32>() {
+            Ok(v) if v.is_finite() => *slot = v,
+            _ => return None,
+        }
+    }
+    Some(values)
+}
+
 /// The reply to a statement run at once: the lines it printed; P0108 for one that does not
 /// parse; else its error line, as a program's error is printed.
 fn statement_reply(result: Result<Vec<String>, ImmediateRefusal>) -> Reply {
@@ -155,6 +176,8 @@ impl ControllerMonitor<'_> {
                 result => statement_reply(result),
             },
             "DO" => self.do_statement(rest),
+            "WEIGHT" if rest.trim().is_empty() => self.weight(),
+            "SYSINIT" => self.ask(Pending::Initialize),
             "KILL" => self.ask(Pending::Kill(TaskId::Robot)),
             "PCKILL" => match task_and_rest(rest) {
                 Ok((n, _)) => self.ask(Pending::Kill(TaskId::Pc(n))),
@@ -343,6 +366,31 @@ impl ControllerMonitor<'_> {
         };
         let values = value.values();
         self.state.pending = Some(Pending::Edit { name, value });
+        Reply::Change(vec![
+            headings.iter().map(|h| format!("{h:>10}")).collect(),
+            values.iter().map(|v| format!("{v:>10.3}")).collect(),
+        ])
+    }
+
+    /// `WEIGHT` without values (AS-E p.5-85): the payload under its headings, then `Change?`
+    /// (the layout is the emulator's, as `HERE`'s: **M**); a line of values changes it.
+    fn weight(&mut self) -> Reply {
+        let Some(p) = self.c.interpreter().map(fs020n_as::Interpreter::payload) else {
+            return Reply::Error(text::P1038_NO_PROGRAM);
+        };
+        let values = [
+            p.mass_kg,
+            p.cog_mm[0],
+            p.cog_mm[1],
+            p.cog_mm[2],
+            p.inertia_kg_m2[0],
+            p.inertia_kg_m2[1],
+            p.inertia_kg_m2[2],
+        ];
+        self.state.pending = Some(Pending::EditWeight(values));
+        let headings = [
+            "Mass[kg]", "X[mm]", "Y[mm]", "Z[mm]", "Ix[kgm2]", "Iy[kgm2]", "Iz[kgm2]",
+        ];
         Reply::Change(vec![
             headings.iter().map(|h| format!("{h:>10}")).collect(),
             values.iter().map(|v| format!("{v:>10.3}")).collect(),
@@ -735,7 +783,8 @@ impl Monitor for ControllerMonitor<'_> {
         match self.state.pending.take() {
             Some(Pending::Kill(task)) => done(self.c.program_mut().kill(task)),
             Some(Pending::Delete(name)) => done(self.c.memory_mut().delete(&name)),
-            Some(Pending::Edit { .. }) | None => Reply::Lines(Vec::new()),
+            Some(Pending::Initialize) => done(self.c.memory_mut().initialize()),
+            Some(Pending::Edit { .. } | Pending::EditWeight(_)) | None => Reply::Lines(Vec::new()),
         }
     }
 
@@ -743,24 +792,31 @@ impl Monitor for ControllerMonitor<'_> {
     /// value (`,,,-15` changes the fourth); an empty line ends the editing. A field that is
     /// not a number changes nothing and the values are offered again.
     fn change(&mut self, line: &str) -> Reply {
-        let Some(Pending::Edit { name, value }) = self.state.pending.take() else {
-            return Reply::Lines(Vec::new());
-        };
+        let pending = self.state.pending.take();
         if line.trim().is_empty() {
             return Reply::Lines(Vec::new());
         }
-        let mut edited = value.values();
-        for (slot, field) in edited.iter_mut().zip(line.split(',')) {
-            let field = field.trim();
-            if field.is_empty() {
-                continue;
-            }
-            match field.parse::<f32>() {
-                Ok(v) if v.is_finite() => *slot = v,
-                _ => return self.define(name, value),
-            }
+        match pending {
+            Some(Pending::Edit { name, value }) => match edited(value.values(), line) {
+                Some(values) => self.define(name, value.with_values(values)),
+                None => self.define(name, value),
+            },
+            Some(Pending::EditWeight(values)) => match edited(values, line) {
+                Some(values) => {
+                    let list: Vec<String> = values.iter().map(f32::to_string).collect();
+                    match self
+                        .c
+                        .program_mut()
+                        .immediate(&format!("WEIGHT {}", list.join(", ")))
+                    {
+                        Ok(_) => self.weight(),
+                        Err(e) => statement_reply(Err(e)),
+                    }
+                }
+                None => self.weight(),
+            },
+            _ => Reply::Lines(Vec::new()),
         }
-        self.define(name, value.with_values(edited))
     }
 
     fn transfer_blocked(&self) -> bool {
