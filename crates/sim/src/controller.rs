@@ -281,6 +281,12 @@ impl Controller {
         self.machine.error()
     }
 
+    /// The errors raised since the controller started (the last 100, oldest first), with the
+    /// controller time each was raised at: `ERRLOG`.
+    pub fn error_log(&self) -> Vec<(Duration, ErrorCode)> {
+        self.machine.error_log().copied().collect()
+    }
+
     /// Monitor speed, percent.
     pub fn monitor_speed(&self) -> f64 {
         self.machine.monitor_speed()

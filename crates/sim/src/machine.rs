@@ -216,7 +216,12 @@ pub(crate) struct Machine {
     stop_reading_until: Option<Duration>,
     faults: FaultQueue,
     counters: Counters,
+    /// The errors raised, oldest first, at most [`ERROR_LOG_LENGTH`]: `ERRLOG`.
+    error_log: std::collections::VecDeque<(Duration, ErrorCode)>,
 }
+
+/// How many errors the error log keeps (AS-E p.5-69: "the last one hundred errors").
+pub(crate) const ERROR_LOG_LENGTH: usize = 100;
 
 impl Machine {
     /// A machine at time zero.
@@ -254,10 +259,23 @@ impl Machine {
             stop_reading_until: None,
             faults: FaultQueue::default(),
             counters: Counters::default(),
+            error_log: std::collections::VecDeque::new(),
         }
     }
 
     // ----------------------------------------------------------------- observers
+
+    /// The errors raised, oldest first (the last [`ERROR_LOG_LENGTH`]), with when.
+    pub(crate) fn error_log(&self) -> impl Iterator<Item = &(Duration, ErrorCode)> {
+        self.error_log.iter()
+    }
+
+    fn log_error(&mut self, code: ErrorCode) {
+        if self.error_log.len() == ERROR_LOG_LENGTH {
+            self.error_log.pop_front();
+        }
+        self.error_log.push_back((self.now, code));
+    }
 
     pub(crate) fn now(&self) -> Duration {
         self.now
@@ -455,6 +473,7 @@ impl Machine {
     pub(crate) fn raise(&mut self, code: ErrorCode) {
         self.counters.errors += 1;
         self.error = code;
+        self.log_error(code);
         self.robot.brake(&self.model);
     }
 
@@ -510,6 +529,7 @@ impl Machine {
         self.robot.halt();
         self.error = ErrorCode::EMERGENCY_STOP;
         self.counters.errors += 1;
+        self.log_error(ErrorCode::EMERGENCY_STOP);
         tracing::warn!("emergency stop pressed");
     }
 

@@ -1406,3 +1406,24 @@ fn sysinit_asks_then_deletes_every_program_and_variable_unless_a_task_runs() {
     loaded_ok(&t.load("server1040.as", SERVER));
     assert!(!t.c.memory().programs().is_empty());
 }
+
+#[test]
+fn errlog_lists_the_errors_raised_oldest_first_with_their_time() {
+    let mut t = Term::new(bare());
+    assert_eq!(t.cmd("ERRLOG", false), "No error.");
+    let p = ".PROGRAM bad()\n  x = 1 / 0\n.END\n";
+    loaded_ok(&t.load("bad.as", p));
+    t.advance(Duration::from_millis(1500));
+    t.cmd("PCEXECUTE 1: bad", false);
+    t.advance(Duration::from_millis(100));
+    t.cmd("ERESET", false);
+    t.advance(Duration::from_millis(61_000));
+    t.c.set_estop(true);
+    let log = t.cmd("ERRLOG", false);
+    let lines: Vec<&str> = log.lines().collect();
+    assert_eq!(lines.len(), 4, "{log}");
+    assert!(lines[0].starts_with("1-[0:00:01."), "{log}");
+    assert!(lines[1].starts_with("  (E0108)"), "{log}");
+    assert!(lines[2].starts_with("2-[0:01:02."), "{log}");
+    assert!(lines[3].starts_with("  (E3808)"), "{log}");
+}

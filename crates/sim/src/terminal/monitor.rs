@@ -178,6 +178,7 @@ impl ControllerMonitor<'_> {
             "DO" => self.do_statement(rest),
             "WEIGHT" if rest.trim().is_empty() => self.weight(),
             "SYSINIT" => self.ask(Pending::Initialize),
+            "ERRLOG" => self.error_log(),
             "KILL" => self.ask(Pending::Kill(TaskId::Robot)),
             "PCKILL" => match task_and_rest(rest) {
                 Ok((n, _)) => self.ask(Pending::Kill(TaskId::Pc(n))),
@@ -370,6 +371,31 @@ impl ControllerMonitor<'_> {
             headings.iter().map(|h| format!("{h:>10}")).collect(),
             values.iter().map(|v| format!("{v:>10.3}")).collect(),
         ])
+    }
+
+    /// `ERRLOG` (AS-E p.5-69): the errors raised, oldest first, numbered, each as
+    /// `n-[time]` and the code with its message on the next line. The manual's lines carry
+    /// the date and time of the controller's clock; the emulator has no wall clock, so the
+    /// time is the controller's since it started, `h:mm:ss.mmm` (**M**).
+    fn error_log(&self) -> Reply {
+        let log = self.c.error_log();
+        if log.is_empty() {
+            return lines(["No error."]);
+        }
+        let mut out = Vec::with_capacity(log.len() * 2);
+        for (n, (at, code)) in log.iter().enumerate() {
+            let ms = at.as_millis();
+            out.push(format!(
+                "{}-[{}:{:02}:{:02}.{:03}]",
+                n + 1,
+                ms / 3_600_000,
+                ms / 60_000 % 60,
+                ms / 1000 % 60,
+                ms % 1000
+            ));
+            out.push(format!("  ({code}){}", code.message().unwrap_or("")));
+        }
+        Reply::Lines(out)
     }
 
     /// `WEIGHT` without values (AS-E p.5-85): the payload under its headings, then `Change?`
