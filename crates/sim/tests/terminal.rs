@@ -1427,3 +1427,28 @@ fn errlog_lists_the_errors_raised_oldest_first_with_their_time() {
     assert!(lines[2].starts_with("2-[0:01:02."), "{log}");
     assert!(lines[3].starts_with("  (E3808)"), "{log}");
 }
+
+#[test]
+fn point_without_an_assignment_offers_the_value_for_editing() {
+    let mut t = Term::new(bare());
+    assert_eq!(t.cmd("POINT a = TRANS(100, 200, 300, 0, 90, 0)", false), "");
+    let out = typed(&mut t, "POINT a\r\n");
+    assert!(out.contains("X[mm]") && out.contains("   200.000"), "{out}");
+    assert!(
+        out.ends_with(&format!("{}\r\n", text::CHANGE_QUESTION)),
+        "{out:?}"
+    );
+    typed(&mut t, ",,350\r\n");
+    typed(&mut t, "\r\n");
+    assert_eq!(t.cmd("TYPE DZ(a)", false), " 350");
+    // A variable without a value: zeros, which it then has.
+    let out = typed(&mut t, "POINT #j\r\n");
+    assert!(out.contains("JT1") && out.contains("     0.000"), "{out}");
+    typed(&mut t, "\r\n");
+    assert!(t
+        .c
+        .memory()
+        .data_sections()
+        .iter()
+        .any(|d| String::from_utf8_lossy(d).contains("#j")));
+}

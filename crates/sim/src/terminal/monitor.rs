@@ -177,6 +177,7 @@ impl ControllerMonitor<'_> {
             },
             "DO" => self.do_statement(rest),
             "WEIGHT" if rest.trim().is_empty() => self.weight(),
+            "POINT" if options.is_empty() && !rest.contains('=') => self.point(rest.trim()),
             "SYSINIT" => self.ask(Pending::Initialize),
             "ERRLOG" => self.error_log(),
             "KILL" => self.ask(Pending::Kill(TaskId::Robot)),
@@ -371,6 +372,19 @@ impl ControllerMonitor<'_> {
             headings.iter().map(|h| format!("{h:>10}")).collect(),
             values.iter().map(|v| format!("{v:>10.3}")).collect(),
         ])
+    }
+
+    /// `POINT name` without `=` (AS-E p.5-48): the variable's value (zeros when it has none,
+    /// which it then takes) offered for editing after `Change?`, as `HERE` offers it.
+    fn point(&mut self, name: &str) -> Reply {
+        let interp = self.c.interpreter();
+        let value = match name.strip_prefix('#') {
+            Some(joints) => {
+                PoseValue::Joints(interp.and_then(|i| i.joints(joints)).unwrap_or([0.0; 6]))
+            }
+            None => PoseValue::Trans(interp.and_then(|i| i.trans(name)).unwrap_or([0.0; 6])),
+        };
+        self.define(name.to_owned(), value)
     }
 
     /// `ERRLOG` (AS-E p.5-69): the errors raised, oldest first, numbered, each as
