@@ -1,6 +1,7 @@
 //! No input panics the parser or the interpreter: arbitrary bytes, mutations of real program
 //! texts, and random programs built from the statements the interpreter supports, each run for
-//! a bounded stretch of virtual time with a client sending random requests.
+//! a bounded stretch of virtual time with a client sending random requests, and statements
+//! typed at the terminal while they run.
 //!
 //! The number of cases defaults to a few hundred per property (seconds in a debug build); set
 //! `FS020N_FUZZ_CASES` for more. The coverage-guided target is `fuzz/fuzz_targets/as_program.rs`.
@@ -306,6 +307,45 @@ proptest! {
     fn mutated_server_text_never_panics(seed in any::<u64>(), n in 1usize..12, requests in proptest::collection::vec(request(), 1..8)) {
         let text = mutate(SERVER_1040, seed, n);
         exercise(&text, 120, &requests);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(cases(150)))]
+
+    /// Statements typed at the terminal (`Interpreter::immediate`) while random programs run —
+    /// generated statements, block statements cut in half and arbitrary bytes — never panic,
+    /// and leave the loaded programs as they were.
+    #[test]
+    fn typed_statements_never_panic(seed in any::<u64>(), noise in proptest::collection::vec(any::<u8>(), 0..200)) {
+        let mut g = Gen(seed | 1);
+        let text = g.program();
+        let Ok(module) = fs020n_as::parse("fuzz.as", &text) else {
+            return Ok(());
+        };
+        let Ok(mut interp) = Interpreter::new(&[module], Config::default()) else {
+            return Ok(());
+        };
+        let programs: Vec<String> = interp.programs().iter().map(|p| p.to_string()).collect();
+        let mut sys = VirtualSystem::new();
+        interp.start(&mut sys);
+        let _ = interp.execute("main", &mut sys);
+        let noise = String::from_utf8_lossy(&noise).into_owned();
+        let mut t = Duration::ZERO;
+        for k in 0..8u64 {
+            t += Duration::from_millis(7);
+            interp.run_until(&mut sys, t);
+            let typed = match k % 4 {
+                0 => g.stmt(2),
+                1 => g.stmt(2).lines().next().unwrap_or("").to_owned(),
+                2 => noise.clone(),
+                _ => format!("TYPE {}", g.real(2)),
+            };
+            let _ = interp.immediate(&typed, &mut sys);
+        }
+        interp.run_until(&mut sys, t + Duration::from_millis(20));
+        let after: Vec<String> = interp.programs().iter().map(|p| p.to_string()).collect();
+        prop_assert_eq!(after, programs);
     }
 }
 
