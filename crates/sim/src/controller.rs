@@ -20,6 +20,7 @@ pub use memory::{Abort, MemoryLoad, MemoryMut, MemoryView, PoseValue, PowerCycle
 use memory::{Idle, MonitorState};
 pub use native_view::NativeView;
 pub use program_view::{ProgramMut, ProgramView};
+pub(crate) use start::{split_program, split_task};
 pub use start::{ProgramStart, StartSpecError};
 
 use crate::fault::Fault;

@@ -30,6 +30,32 @@ pub struct StartSpecError {
     why: &'static str,
 }
 
+/// `[n:] rest` of the monitor's task commands (`PCEXECUTE`, `PCABORT`, `PCKILL`,
+/// `PCSTATUS`): the task number as written before the colon (`None` without one: task 1) and
+/// the rest. Text before a colon that is not digits is no task number (it stays in the rest).
+/// The monitor and the command line read starts with this one grammar; each judges the parts
+/// (the monitor leniently, with its P-codes; the command line strictly, with
+/// [`StartSpecError`]).
+pub(crate) fn split_task(spec: &str) -> (Option<&str>, &str) {
+    let spec = spec.trim();
+    match spec.split_once(':') {
+        Some((n, tail)) if n.trim().chars().all(|c| c.is_ascii_digit()) => {
+            (Some(n.trim()), tail.trim())
+        }
+        _ => (None, spec),
+    }
+}
+
+/// `program[, cycles[, step]]` of `EXECUTE`/`PCEXECUTE`/`PRIME`: the name as written (with any
+/// arguments in brackets) and the cycle count as written (`None` when omitted or empty). The
+/// step is not modelled: a program starts at its first step.
+pub(crate) fn split_program(spec: &str) -> (&str, Option<&str>) {
+    let mut parts = spec.splitn(3, ',');
+    let name = parts.next().unwrap_or("").trim();
+    let cycles = parts.next().map(str::trim).filter(|c| !c.is_empty());
+    (name, cycles)
+}
+
 impl ProgramStart {
     /// `[task:] program[, cycles]` of `PCEXECUTE`: task 1 when omitted.
     pub fn pc(spec: &str) -> Result<ProgramStart, StartSpecError> {
@@ -37,8 +63,8 @@ impl ProgramStart {
             spec: spec.to_owned(),
             why,
         };
-        let (task, rest) = match spec.split_once(':') {
-            Some((n, rest)) => match n.trim().parse::<u8>() {
+        let (task, rest) = match split_task(spec) {
+            (Some(n), rest) => match n.parse::<u8>() {
                 Ok(n @ 1..=5) => (n, rest),
                 _ => {
                     return Err(err(
@@ -46,7 +72,7 @@ impl ProgramStart {
                     ))
                 }
             },
-            None => (1, spec),
+            (None, rest) => (1, rest),
         };
         let (program, cycles) = program_and_cycles(rest).map_err(err)?;
         Ok(ProgramStart {
@@ -71,11 +97,8 @@ impl ProgramStart {
 }
 
 fn program_and_cycles(spec: &str) -> Result<(String, i64), &'static str> {
-    let (name, cycles) = match spec.split_once(',') {
-        Some((name, cycles)) => (name, Some(cycles.trim())),
-        None => (spec, None),
-    };
-    let name = name.trim().to_ascii_lowercase();
+    let (name, cycles) = split_program(spec);
+    let name = name.to_ascii_lowercase();
     let valid = name.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
         && name
             .chars()
@@ -84,7 +107,7 @@ fn program_and_cycles(spec: &str) -> Result<(String, i64), &'static str> {
         return Err("the program's name starts with a letter and has letters, digits, `_` and `.`");
     }
     let cycles = match cycles {
-        None | Some("") => 1,
+        None => 1,
         Some(n) => n
             .parse::<i64>()
             .map_err(|_| "the cycle count is a whole number (-1: until aborted)")?,

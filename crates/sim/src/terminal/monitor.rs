@@ -8,7 +8,9 @@ use fs020n_term::server::split_word;
 use fs020n_term::text::{self, MonitorError};
 use fs020n_term::{LoadAnswer, Monitor, Reply, SyntaxError};
 
-use crate::controller::{Abort, Controller, ImmediateRefusal, PoseValue};
+use crate::controller::{
+    split_program, split_task, Abort, Controller, ImmediateRefusal, PoseValue,
+};
 
 /// What the answer to the session's question acts on.
 #[derive(Debug, Clone, PartialEq)]
@@ -70,20 +72,18 @@ fn done(r: Result<(), MonitorError>) -> Reply {
     }
 }
 
-/// `n: rest` → (n, rest); without a task number, task 1.
-/// `program[, cycles[, step]]` of `EXECUTE`/`PCEXECUTE`: the name (arguments in parentheses
-/// dropped) and the cycle count, 1 when not given. The step is not modelled: a program starts
-/// at its first step. A count that is not a whole number is refused (the emulator does not
-/// evaluate expressions at the monitor).
+/// `program[, cycles[, step]]` of `EXECUTE`/`PCEXECUTE`/`PRIME` ([`split_program`]), as the
+/// monitor judges it: arguments in brackets dropped, the cycle count 1 when not given. A count
+/// that is not a whole number is refused (the emulator does not evaluate expressions at the
+/// monitor).
 fn program_and_cycles(spec: &str) -> Result<(&str, i64), Reply> {
-    let mut parts = spec.splitn(3, ',');
-    let name = parts.next().unwrap_or("").trim();
+    let (name, cycles) = split_program(spec);
     let name = name.split('(').next().unwrap_or("").trim();
     if name.is_empty() {
         return Err(Reply::Error(text::P1038_NO_PROGRAM));
     }
-    let cycles = match parts.next().map(str::trim) {
-        None | Some("") => 1,
+    let cycles = match cycles {
+        None => 1,
         Some(n) => match n.parse::<i64>() {
             Ok(n) => n,
             Err(_) => return Err(lines([text::EMULATOR_CYCLES_NOT_A_NUMBER])),
@@ -92,18 +92,15 @@ fn program_and_cycles(spec: &str) -> Result<(&str, i64), Reply> {
     Ok((name, cycles))
 }
 
+/// `[n:] rest` ([`split_task`]) as the monitor judges it: task 1 without a number, P0117 for
+/// a number outside 1–5.
 fn task_and_rest(rest: &str) -> Result<(u8, &str), MonitorError> {
-    let rest = rest.trim();
-    match rest.split_once(':') {
-        Some((n, tail)) if n.trim().chars().all(|c| c.is_ascii_digit()) => {
-            let n: u8 = n.trim().parse().unwrap_or(0);
-            if (1..=5).contains(&n) {
-                Ok((n, tail.trim()))
-            } else {
-                Err(text::P0117_INVALID_NAME)
-            }
-        }
-        _ => Ok((1, rest)),
+    match split_task(rest) {
+        (Some(n), tail) => match n.parse::<u8>() {
+            Ok(n @ 1..=5) => Ok((n, tail)),
+            _ => Err(text::P0117_INVALID_NAME),
+        },
+        (None, rest) => Ok((1, rest)),
     }
 }
 
