@@ -19,8 +19,8 @@ impl Interpreter {
     /// it prints (`TYPE`, `PRINT`) are given back rather than sent to the terminal as a
     /// program's output. It runs as a PC program would (a motion instruction is refused with
     /// E1095) in the slot of an idle PC task, or beside PC task 5 when every one runs: no task
-    /// is disturbed, and `TASK(n)` reports the task of that slot as it was. A statement that would wait is stopped before it waits
-    /// ([`ImmediateError::Waits`]).
+    /// is disturbed, and `TASK(n)` reports the task of that slot as it was. A statement that
+    /// would wait is stopped before it waits ([`ImmediateError::Waits`]).
     pub fn immediate(
         &mut self,
         statement: &str,
