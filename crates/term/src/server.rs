@@ -225,6 +225,9 @@ pub struct TerminalSession {
     out: VecDeque<u8>,
     /// The last byte typed was a CR (a LF right after it is the same line end).
     after_cr: bool,
+    /// `Are you sure ?` was just answered by its key: a line end typed after it belongs to the
+    /// answer (it is swallowed, not an empty command).
+    after_answer: bool,
     /// The last byte queued for the client.
     last_byte: u8,
 }
@@ -245,6 +248,7 @@ impl TerminalSession {
             file: Vec::new(),
             out: VecDeque::new(),
             after_cr: false,
+            after_answer: false,
             last_byte: 0,
         };
         if s.config.ttype_login {
@@ -385,6 +389,27 @@ impl TerminalSession {
         );
         let mut lines = Vec::new();
         for &b in bytes {
+            if std::mem::take(&mut self.after_answer) && matches!(b, b'\r' | b'\n') {
+                // `1` CR LF: the line end after the answer's key.
+                self.after_answer = true;
+                self.after_cr = b == b'\r';
+                continue;
+            }
+            if self.state == State::Confirm && b.is_ascii_graphic() {
+                // The question takes one key (a client may send `1` alone and wait for the
+                // prompt); it is echoed on the question's line and acted on at once.
+                self.after_cr = false;
+                self.after_answer = true;
+                self.emit(&[b, b'\r', b'\n']);
+                self.state = State::Monitor;
+                if b == b'1' {
+                    let reply = monitor.confirmed();
+                    self.reply(reply);
+                } else {
+                    self.prompt();
+                }
+                continue;
+            }
             let after_cr = std::mem::replace(&mut self.after_cr, b == b'\r');
             if typing {
                 match b {
@@ -416,14 +441,8 @@ impl TerminalSession {
                 }
             }
             State::Monitor => self.on_command(monitor, line),
-            State::Confirm => {
-                if line == "1" {
-                    let reply = monitor.confirmed();
-                    self.reply(reply);
-                } else {
-                    self.prompt();
-                }
-            }
+            // An empty line (or blanks) answers no; a key answers at once (`on_text`).
+            State::Confirm => self.prompt(),
             State::Change => {
                 let reply = monitor.change(line);
                 self.reply(reply);

@@ -445,6 +445,45 @@ fn a_refusal_printed_after_the_echoed_answer_is_in_the_reply() {
     assert!(link.shelf.programs.contains_key("p"));
 }
 
+/// What the session sends for `bytes` typed raw.
+fn typed(link: &mut Link, bytes: &[u8]) -> String {
+    link.session.handle_input(&mut link.shelf, bytes);
+    let mut out = Vec::new();
+    while let Some(b) = link.session.poll_transmit() {
+        out.extend(b);
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+#[test]
+fn the_question_takes_one_key_and_a_line_end_after_it_is_no_second_command() {
+    // A telnet library answers `1` alone and waits for the prompt; another sends `1` CR LF.
+    for (answer, then) in [(&b"1"[..], &b""[..]), (b"1", b"\r\n"), (b"1\r\n", b""), (b"1\n", b"")] {
+        let mut link = Link::new(ClientConfig::default(), 64);
+        link.login();
+        link.shelf.programs.insert("p".into(), String::new());
+        let asked = typed(&mut link, b"KILL p\r\n");
+        assert!(asked.ends_with(text::ARE_YOU_SURE), "{asked:?}");
+        let out = typed(&mut link, answer);
+        assert_eq!(out, "1\r\n>", "answer {answer:?}");
+        assert!(!link.shelf.programs.contains_key("p"), "killed on the key");
+        assert_eq!(typed(&mut link, then), "", "the line end is the answer's");
+        // The next command is answered once, with one prompt.
+        let out = typed(&mut link, b"DIRECTORY/P\r\n");
+        assert_eq!(out.matches('>').count(), 1, "{out:?}");
+    }
+    // `0` answers no at once, as does an empty line.
+    for no in [&b"0"[..], b"\r\n"] {
+        let mut link = Link::new(ClientConfig::default(), 64);
+        link.login();
+        link.shelf.programs.insert("p".into(), String::new());
+        typed(&mut link, b"KILL p\r\n");
+        let out = typed(&mut link, no);
+        assert!(out.ends_with('>'), "{out:?}");
+        assert!(link.shelf.programs.contains_key("p"), "kept after {no:?}");
+    }
+}
+
 #[test]
 fn a_controller_that_asks_the_terminal_type_logs_in_only_a_client_that_answers_it() {
     for generation in [Generation::C, Generation::D] {
