@@ -174,8 +174,19 @@ def test_a_python_telnet_script_uploads_starts_and_talks_to_its_program(controll
     t.send(b"1\r\n")
     after = t.read_until(b"\r\n>").decode()
     assert "(P" not in after, after
+    # The question takes one key: a library that answers `1` alone and waits for the prompt.
     t.send(b"DELETE/P echo.pc\r\n")
     t.read_until(b"0) ")
-    t.send(b"1\r\n")
+    t.send(b"1")
     t.read_until(b"\r\n>")
     assert "echo.pc" not in t.command("DIRECTORY/P")
+
+    # Instructions typed at the prompt run as in a program: DO, TYPE of any expression, SOUT,
+    # the payload.
+    assert "(P" not in t.command("DO gain = 2.5")
+    typed = t.command("TYPE gain * 4, $LEFT(\"robot\", 3)")
+    assert "\r\n 10rob\r\n" in typed, typed
+    assert "(P" not in t.command("SOUT 5 = 1 AND -2")
+    assert t.command("TYPE SIG(5)").split()[-2] == "-1"
+    assert "(P" not in t.command("WEIGHT 0, 0, 0, 0")
+    assert "(E1095)" in t.command("DO JMOVE #PPOINT(10)"), "a motion is not made from the prompt"
