@@ -156,12 +156,15 @@ pub fn pc_aborted(task: u8) -> String {
     format!("PC program aborted.No = {task}")
 }
 
-/// The line of `PCSTATUS` that says whether the task runs (**H**).
+/// The line of `PCSTATUS` that says whether the task runs (**H** for the words; **M** for the
+/// period after "not running": the manual's PCSTATUS example shows none, its STATUS line
+/// `Stepper status:  Program is not running.` has one, and a telnet library fixed "after tests
+/// on a real robot" looks for `Program is not running.` with it in PCSTATUS's answer).
 pub fn pc_status_line(running: bool) -> &'static str {
     if running {
         "PC status: Program running"
     } else {
-        "PC status: Program is not running"
+        "PC status: Program is not running."
     }
 }
 
