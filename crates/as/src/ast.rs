@@ -641,6 +641,15 @@ pub enum MonitorCommand {
         /// Task number 1–5 (default 1).
         task: Option<Expr>,
     },
+    /// `PCEND [n[: mode]]` (AS-E p.10-5): PC task `n` ends at the end of its current cycle
+    /// (its next `STOP`/`RETURN`/`.END` of the main program) whatever cycles remain; mode −1
+    /// cancels a PCEND given before.
+    PcEnd {
+        /// Task number 1–5 (default 1).
+        task: Option<Expr>,
+        /// 1 (default) or −1 (cancel).
+        mode: Option<Expr>,
+    },
     /// `ABORT`: robot task 1 stops after the current step.
     Abort,
     /// `HOLD`: robot task 1 and its motion pause.

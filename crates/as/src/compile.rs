@@ -345,6 +345,8 @@ pub(crate) enum Op {
         cycles: Option<RExpr>,
     },
     PcAbort(Option<RExpr>),
+    /// `PCEND [n[: mode]]`: the task and the mode (−1 cancels).
+    PcEnd(Option<RExpr>, Option<RExpr>),
     McAbort,
     McHold,
     McContinue,
@@ -1243,6 +1245,10 @@ impl Compiler {
                     MonitorCommand::PcAbort { task } => {
                         Op::PcAbort(task.as_ref().map(|e| self.real(e)).transpose()?)
                     }
+                    MonitorCommand::PcEnd { task, mode } => Op::PcEnd(
+                        task.as_ref().map(|e| self.real(e)).transpose()?,
+                        mode.as_ref().map(|e| self.real(e)).transpose()?,
+                    ),
                     MonitorCommand::Abort => Op::McAbort,
                     MonitorCommand::Hold => Op::McHold,
                     MonitorCommand::Continue => Op::McContinue,

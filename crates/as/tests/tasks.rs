@@ -432,3 +432,32 @@ fn a_task_in_a_subroutine_reports_the_subroutine_and_the_program_it_was_started_
     assert_eq!(pc1.program.as_deref(), Some("sub"));
     assert_eq!(pc1.main.as_deref(), Some("autostart.pc"));
 }
+
+#[test]
+fn pcend_ends_a_pc_task_at_the_end_of_its_cycle_and_minus_one_cancels_it() {
+    let src = ".PROGRAM loop()\n  n = n + 1\n  TWAIT 0.1\n  done = n\n.END\n\
+               .PROGRAM ender()\n  PCEND 2:\n.END\n\
+               .PROGRAM canceller()\n  PCEND 2: -1\n.END\n\
+               .REALS\nn = 0\n.END\n";
+    let (mut i, mut s) = start(src);
+    i.pc_execute_cycles(2, "loop", -1).expect("starts");
+    i.run_until(&mut s, ms(250));
+    // PCEND then its cancel: the loop goes on.
+    i.pc_execute(1, "ender").expect("starts");
+    i.run_until(&mut s, ms(260));
+    assert!(s.raised.is_empty(), "{:?}", s.raised);
+    i.pc_execute(1, "canceller").expect("starts");
+    i.run_until(&mut s, ms(600));
+    assert_eq!(i.task_state(TaskId::Pc(2), &s), TaskState::Running);
+    // PCEND typed at the terminal: the cycle under way ends (`done` catches up), no other.
+    i.immediate("PCEND 2:", &mut s).expect("runs");
+    let n = i.real("n").expect("n");
+    i.run_until(&mut s, ms(2000));
+    assert_eq!(i.task_state(TaskId::Pc(2), &s), TaskState::Idle);
+    assert_eq!(i.real("n"), Some(n), "no new cycle began");
+    assert_eq!(i.real("done"), Some(n), "the cycle under way ended");
+    assert!(s.raised.is_empty(), "{:?}", s.raised);
+    // Out of range: E0106.
+    let (_, s) = run_pc("  PCEND 7:", 0.1);
+    assert_eq!(s.raised, [ErrorCode::VALUE_OUT_OF_RANGE]);
+}

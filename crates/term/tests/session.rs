@@ -458,7 +458,12 @@ fn typed(link: &mut Link, bytes: &[u8]) -> String {
 #[test]
 fn the_question_takes_one_key_and_a_line_end_after_it_is_no_second_command() {
     // A telnet library answers `1` alone and waits for the prompt; another sends `1` CR LF.
-    for (answer, then) in [(&b"1"[..], &b""[..]), (b"1", b"\r\n"), (b"1\r\n", b""), (b"1\n", b"")] {
+    for (answer, then) in [
+        (&b"1"[..], &b""[..]),
+        (b"1", b"\r\n"),
+        (b"1\r\n", b""),
+        (b"1\n", b""),
+    ] {
         let mut link = Link::new(ClientConfig::default(), 64);
         link.login();
         link.shelf.programs.insert("p".into(), String::new());

@@ -67,6 +67,15 @@ impl Interpreter {
         outcome.map(|()| printed.into_iter().map(|l| l.text).collect())
     }
 
+    /// The task of `slot` as the other tasks see it: the one put aside there while a typed
+    /// statement runs in that slot.
+    pub(super) fn task_seen_mut(&mut self, slot: TaskSlot) -> &mut Task {
+        match &mut self.aside {
+            Some((s, aside)) if *s == slot => aside,
+            _ => &mut self.tasks[slot],
+        }
+    }
+
     /// Runs program `prog` in `slot` until it reaches its end.
     fn run_immediate(
         &mut self,

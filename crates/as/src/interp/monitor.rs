@@ -106,6 +106,32 @@ impl Interpreter {
         Ok(Flow::Shared)
     }
 
+    /// `PCEND [n[: mode]]` (AS-E p.10-5): PC task `n` ends at the end of its current cycle;
+    /// mode −1 cancels. A task number outside 1–5 or a mode other than 1 or −1 is E0106.
+    pub(super) fn pc_end(
+        &mut self,
+        i: TaskSlot,
+        task: &Option<RExpr>,
+        mode: &Option<RExpr>,
+        sys: &mut dyn System,
+    ) -> R<Flow> {
+        let n = match task {
+            Some(t) => self.eval_r(i, t, sys)?.trunc(),
+            None => 1.0,
+        };
+        let m = match mode {
+            Some(m) => self.eval_r(i, m, sys)?.trunc(),
+            None => 1.0,
+        };
+        if !(1.0..=5.0).contains(&n) || (m != 1.0 && m != -1.0) {
+            return Err(Box::new(RuntimeError::IllegalValue(format!(
+                "PCEND {n}: {m} (a PC task 1–5; 1, or -1 to cancel)"
+            ))));
+        }
+        self.task_seen_mut(TaskSlot::at(n as usize)).end_after_cycle = m == 1.0;
+        Ok(Flow::Shared)
+    }
+
     /// `MC CONTINUE`: resumes the motion and a paused robot program.
     #[inline(always)]
     pub(super) fn mc_continue(&mut self, sys: &mut dyn System, now: Ns) -> R<Flow> {

@@ -227,6 +227,7 @@ impl Interpreter {
             t.ready_at = now;
             t.cycles_left = if cycles == 0 { 1 } else { cycles };
             t.cycles_done = 0;
+            t.end_after_cycle = false;
             t.motion = MotionParams::default();
             t.last_error = None;
             t.line_buf.clear();
@@ -311,7 +312,7 @@ impl Interpreter {
         if repeat {
             t.cycles_done = t.cycles_done.saturating_add(1);
         }
-        if repeat && t.cycles_left != 1 {
+        if repeat && t.cycles_left != 1 && !t.end_after_cycle {
             if t.cycles_left > 1 {
                 t.cycles_left -= 1;
             }

@@ -338,6 +338,7 @@ impl Interpreter {
                 cycles,
             } => self.pc_execute_stmt(i, task, program, args, cycles, sys, code)?,
             Op::PcAbort(task) => self.pc_abort(i, task, sys)?,
+            Op::PcEnd(task, mode) => self.pc_end(i, task, mode, sys)?,
             Op::McAbort | Op::McHold | Op::McContinue | Op::McSpeed(_) | Op::McEreset if robot => {
                 return Err(Box::new(RuntimeError::PcOnly(
                     "MC is allowed only in PC programs".into(),

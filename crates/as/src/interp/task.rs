@@ -198,6 +198,8 @@ pub(super) struct Task {
     /// While that program runs: the depth of its frame (the task stops when it returns).
     pub(super) error_depth: Option<usize>,
     /// `ABORT`/`PCABORT` came while a step waited: the task stops once that step completes.
+    /// `PCEND`: the task ends at the end of its current cycle, whatever cycles remain.
+    pub(super) end_after_cycle: bool,
     pub(super) abort_after_step: bool,
 }
 
@@ -223,6 +225,7 @@ impl Task {
             error_program: None,
             error_depth: None,
             abort_after_step: false,
+            end_after_cycle: false,
         }
     }
 }

@@ -443,7 +443,7 @@ pub(super) const TABLE: &[Keyword] = &[
     k("pause").abbr("pa").instruction("").generations(E_F).runs(INSTRUCTION),
     k("pcabort").abbr("pca").instruction("[PC program_number :]").monitor("[PC program_number :]").after_mc().generations(E_F).runs(INSTRUCTION.or(AFTER_MC)),
     k("pccontinue").abbr("pcc").monitor("[PC program_number] [NEXT]").generations(E_F),
-    k("pcend").abbr("pcen").instruction("[PC program_number : task_number]").monitor("[PC program_number : task_number]").generations(E_F),
+    k("pcend").abbr("pcen").instruction("[PC program_number : task_number]").monitor("[PC program_number : task_number]").generations(E_F).runs(INSTRUCTION),
     k("pcendmsg_mask").switch().generations(F_ONLY),
     k("pcexecute").abbr("pcex").instruction("[PC program_number :] [program_name], [execution_cycle], [step_number]").monitor("[PC program_number :] [program_name], [execution_cycle], [step_number]").after_mc().generations(E_F).runs(INSTRUCTION.or(AFTER_MC)),
     k("pckill").abbr("pck").monitor("[PC program_number :]").generations(E_F),

@@ -54,6 +54,7 @@ const OWN_COLON: &[&str] = &[
     "type",
     "pcexecute",
     "pcabort",
+    "pcend",
     "execute",
     "mc",
     "value",
@@ -456,7 +457,7 @@ impl Cur<'_> {
                 };
                 LineKind::Stmt(self.monitor(cmd)?)
             }
-            "execute" | "pcexecute" | "pcabort" => LineKind::Stmt(self.monitor(kw)?),
+            "execute" | "pcexecute" | "pcabort" | "pcend" => LineKind::Stmt(self.monitor(kw)?),
             "enable" | "disable" => {
                 let nspan = self.span();
                 let name = match self.next().map(|t| t.tok) {
@@ -799,6 +800,22 @@ impl Cur<'_> {
             "pcabort" => MonitorCommand::PcAbort {
                 task: self.task_prefix()?,
             },
+            "pcend" => {
+                // `PCEND`, `PCEND 2`, `PCEND 2:`, `PCEND 2: -1`.
+                let (task, mode) = match self.task_prefix()? {
+                    Some(task) => {
+                        let mode = if self.at_end() {
+                            None
+                        } else {
+                            Some(self.expr()?)
+                        };
+                        (Some(task), mode)
+                    }
+                    None if self.at_end() => (None, None),
+                    None => (Some(self.expr()?), None),
+                };
+                MonitorCommand::PcEnd { task, mode }
+            }
             "abort" => MonitorCommand::Abort,
             "hold" => MonitorCommand::Hold,
             "continue" => MonitorCommand::Continue,
