@@ -250,17 +250,19 @@ impl ControllerMonitor<'_> {
                 Reply::Lines(Vec::new())
             }
             // A monitor command that is also a program instruction (`POINT a = b`, `SOUT`,
-            // `BITS`, `PRINT`, `IFPWPRINT`…): run as the instruction, at once.
-            // `SPEED 50` at the prompt is the monitor speed: the instruction's `MC` form.
-            _ if keywords::get(&keyword.to_ascii_lowercase())
-                .is_some_and(|k| k.roles.contains(Role::INSTRUCTION)) =>
-            {
-                let mc = keywords::get(&keyword.to_ascii_lowercase())
-                    .is_some_and(|k| k.runs.contains(Role::AFTER_MC));
-                let prefix = if mc { "MC " } else { "" };
-                self.statement(&format!("{prefix}{keyword}{options} {rest}"))
-            }
-            _ => Reply::Error(text::UNKNOWN_COMMAND),
+            // `BITS`, `PRINT`, `IFPWPRINT`…): run as the instruction, at once. `SPEED 50` at
+            // the prompt is the monitor speed: the instruction's `MC` form.
+            _ => match keywords::get(&keyword.to_ascii_lowercase()) {
+                Some(k) if k.roles.contains(Role::INSTRUCTION) => {
+                    let prefix = if k.runs.contains(Role::AFTER_MC) {
+                        "MC "
+                    } else {
+                        ""
+                    };
+                    self.statement(&format!("{prefix}{keyword}{options} {rest}"))
+                }
+                _ => Reply::Error(text::UNKNOWN_COMMAND),
+            },
         }
     }
 
@@ -410,11 +412,14 @@ impl ControllerMonitor<'_> {
     }
 
     /// `WEIGHT` without values (AS-E p.5-85): the payload under its headings, then `Change?`
-    /// (the layout is the emulator's, as `HERE`'s: **M**); a line of values changes it.
+    /// (the layout is the emulator's, as `HERE`'s: **M**); a line of values changes it. A
+    /// controller no program has run on yet carries the rated payload.
     fn weight(&mut self) -> Reply {
-        let Some(p) = self.c.interpreter().map(fs020n_as::Interpreter::payload) else {
-            return Reply::Error(text::P1038_NO_PROGRAM);
-        };
+        let p = self
+            .c
+            .interpreter()
+            .map(fs020n_as::Interpreter::payload)
+            .unwrap_or_default();
         let values = [
             p.mass_kg,
             p.cog_mm[0],
