@@ -50,6 +50,21 @@ const WORDS: &[&str] = &[
     "DEL",
     "SAVE",
     "SAVE/P",
+    // Instructions run at the prompt, and the commands with a question or a Change? dialog.
+    "DO",
+    "POINT",
+    "POINT/X",
+    "WEIGHT",
+    "SYSINIT",
+    "ERRLOG",
+    "SOUT",
+    "BITS",
+    "IFPWPRINT",
+    "PCEND",
+    "SPEED",
+    "PRINT",
+    "CALL",
+    "HERE",
 ];
 
 proptest! {
