@@ -121,6 +121,7 @@ pub fn pendant_router(emulator: Emulator, token: Option<String>, bound: SocketAd
         .route("/faults", post(faults_post).delete(faults_delete))
         .route("/abs_speed", get(abs_speed_get).post(abs_speed_post))
         .route("/tasks", get(tasks_get))
+        .route("/interface-panel", get(interface_panel_get))
         .route("/network", get(network_get))
         .route("/network/hosts", post(network_hosts_post))
         .fallback(not_found)
@@ -190,7 +191,7 @@ async fn index() -> Json<Value> {
             "POST /estop/press", "POST /estop/release", "POST /reset", "POST /power-cycle",
             "POST /speed",
             "GET /abs_speed", "POST /abs_speed", "POST /faults", "DELETE /faults",
-            "GET /tasks", "GET /network", "POST /network/hosts"
+            "GET /tasks", "GET /interface-panel", "GET /network", "POST /network/hosts"
         ],
         "docs": "docs/EMULATOR.md"
     }))
@@ -285,6 +286,24 @@ async fn tasks_get(
             "start the emulator with an AS program (fs020n sim --as-program FILE) to see its tasks",
         )
     })
+}
+
+/// What the AS program's interface panel shows (`IFPWPRINT` …): its windows' rows, the icons'
+/// labels, the pages' titles.
+async fn interface_panel_get(
+    State(st): State<AppState>,
+) -> Result<Json<fs020n_as::InterfacePanel>, ApiError> {
+    st.emulator
+        .with(|c| c.program().interface_panel().cloned())
+        .map(Json)
+        .ok_or_else(|| {
+            ApiError::new(
+                StatusCode::NOT_FOUND,
+                "this emulator runs the native server, not an AS program",
+                "start the emulator with an AS program (fs020n sim --as-program FILE) to see \
+                 its interface panel",
+            )
+        })
 }
 
 /// The emulated controller's place on the network: its address, the host map, the port map,

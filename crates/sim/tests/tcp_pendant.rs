@@ -612,3 +612,37 @@ async fn pendant_network_shows_the_address_host_map_and_served_ports_and_replace
     ports.stop();
     p.stop();
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn pendant_shows_what_the_programs_interface_panel_shows() {
+    let text = ".PROGRAM autostart.pc()\n\
+  IFPWPRINT 2, 1, 1, 4, 10 = \"Ready\", \"cycle 7\"\n\
+  IFPTITLE 1, \"Cell\"\n\
+.END\n";
+    let program = fs020n_sim::ServerProgram::from_source("panel.as", text).unwrap();
+    let emu = Emulator::with_program(ControllerConfig::default(), program);
+    let p = serve_pendant(emu.clone(), local(), None).await.unwrap();
+    let addr = p.local_addr();
+    let mut v = Value::Null;
+    for _ in 0..200 {
+        let (code, got) = http(addr, "GET", "/interface-panel", None, None).await;
+        assert_eq!(code, 200, "{got}");
+        v = got;
+        if v["titles"]["1"] == "Cell" {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    assert_eq!(
+        v["windows"][1]["rows"],
+        serde_json::json!(["Ready", "cycle 7", "", ""])
+    );
+    assert_eq!(v["windows"][1]["background"], 4);
+    assert_eq!(v["titles"]["1"], "Cell");
+    // The native server has no interface panel: 404 with what to do.
+    let native = serve_pendant(Emulator::new(ControllerConfig::default()), local(), None)
+        .await
+        .unwrap();
+    let (code, v) = http(native.local_addr(), "GET", "/interface-panel", None, None).await;
+    assert_eq!(code, 404, "{v}");
+}
