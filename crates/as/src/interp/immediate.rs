@@ -3,6 +3,8 @@
 //! chapter 5). It is compiled against the loaded programs — their global variables, a new
 //! name becoming a new global — and run at once to its end in a task slot of its own.
 
+use std::sync::Arc;
+
 use crate::compile::{compile_immediate, Op};
 use crate::system::{System, TaskId};
 
@@ -29,16 +31,12 @@ impl Interpreter {
         let source = format!(".PROGRAM immediate()\n{statement}\n.END\n");
         let module = crate::parser::parse("terminal", &source)
             .map_err(|e| ImmediateError::Syntax(first_message(&e)))?;
-        let mut code = (*self.code).clone();
-        let prog = compile_immediate(&mut code, &module)
+        // The statement joins the loaded code for its run (copied only when shared).
+        let code = Arc::make_mut(&mut self.code);
+        let prog = compile_immediate(code, &module)
             .map_err(|e| ImmediateError::Syntax(first_message(&e)))?;
-        self.globals.grow_to([
-            code.globals[0].len(),
-            code.globals[1].len(),
-            code.globals[2].len(),
-            code.globals[3].len(),
-        ]);
-        self.code = std::sync::Arc::new(code);
+        let sizes = code.globals.each_ref().map(Vec::len);
+        self.globals.grow_to(sizes);
 
         // A slot of its own: an idle PC task's, or PC task 5's with its task kept aside.
         let slot = (1..=5)
@@ -60,10 +58,9 @@ impl Interpreter {
         self.active = kept_active;
         self.kept.remove(&(slot, prog));
         self.int_epoch += 1;
-        let mut code = (*self.code).clone();
+        let code = Arc::make_mut(&mut self.code);
         code.programs.pop();
         code.lines.pop();
-        self.code = std::sync::Arc::new(code);
         outcome.map(|()| printed.into_iter().map(|l| l.text).collect())
     }
 
