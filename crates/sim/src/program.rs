@@ -209,15 +209,8 @@ impl ProgramServer {
             reach: Reach::default(),
             task: MotionTaskState::NotRunning,
         };
-        let mut host = Host {
-            m,
-            net: &mut p.net,
-            planned: &mut p.planned,
-            link: &mut p.link,
-            udp: &mut p.udp,
-            reach: &mut p.reach,
-        };
-        p.interp.start(&mut host);
+        let (interp, mut host) = p.with_host(m);
+        interp.start(&mut host);
         p
     }
 
@@ -276,14 +269,10 @@ impl ProgramServer {
         &mut self.interp
     }
 
-    /// `EXECUTE program, cycles` in robot task 1, with the controller's checks.
-    pub(crate) fn execute(
-        &mut self,
-        m: &mut Machine,
-        program: &str,
-        cycles: i64,
-    ) -> Result<(), fs020n_as::Refusal> {
-        let mut host = Host {
+    /// The interpreter and the system it runs on: the machine `m` with this server's sockets,
+    /// motion link and network reach.
+    fn with_host<'a>(&'a mut self, m: &'a mut Machine) -> (&'a mut Interpreter, Host<'a>) {
+        let host = Host {
             m,
             net: &mut self.net,
             planned: &mut self.planned,
@@ -291,7 +280,18 @@ impl ProgramServer {
             udp: &mut self.udp,
             reach: &mut self.reach,
         };
-        self.interp.execute_cycles(program, cycles, &mut host)
+        (&mut self.interp, host)
+    }
+
+    /// `EXECUTE program, cycles` in robot task 1, with the controller's checks.
+    pub(crate) fn execute(
+        &mut self,
+        m: &mut Machine,
+        program: &str,
+        cycles: i64,
+    ) -> Result<(), fs020n_as::Refusal> {
+        let (interp, mut host) = self.with_host(m);
+        interp.execute_cycles(program, cycles, &mut host)
     }
 
     /// A statement typed at the terminal, run at once ([`Interpreter::immediate`]).
@@ -300,29 +300,15 @@ impl ProgramServer {
         m: &mut Machine,
         statement: &str,
     ) -> Result<Vec<String>, fs020n_as::ImmediateError> {
-        let mut host = Host {
-            m,
-            net: &mut self.net,
-            planned: &mut self.planned,
-            link: &mut self.link,
-            udp: &mut self.udp,
-            reach: &mut self.reach,
-        };
-        self.interp.immediate(statement, &mut host)
+        let (interp, mut host) = self.with_host(m);
+        interp.immediate(statement, &mut host)
     }
 
     /// Runs the program's tasks up to `t`; they advance the machine up to each of their steps.
     pub(crate) fn run_until(&mut self, m: &mut Machine, t: Duration) {
-        let mut host = Host {
-            m,
-            net: &mut self.net,
-            planned: &mut self.planned,
-            link: &mut self.link,
-            udp: &mut self.udp,
-            reach: &mut self.reach,
-        };
-        self.interp.run_until(&mut host, t);
-        let task = self.interp.task_state(TaskId::Robot, &host);
+        let (interp, mut host) = self.with_host(m);
+        interp.run_until(&mut host, t);
+        let task = interp.task_state(TaskId::Robot, &host);
         self.task = match task {
             fs020n_as::TaskState::Idle => MotionTaskState::NotRunning,
             fs020n_as::TaskState::Running => MotionTaskState::Running,
