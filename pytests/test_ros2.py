@@ -897,8 +897,9 @@ def test_every_cyclone_mapping_client_is_answered_whatever_its_id():
     and a random 64-bit client id in its request header (rmw_cyclonedds_cpp uses its request
     writer's instance handle, an arbitrary number), half of them with the bit 0x04 in the id's
     last byte (what a reader's entity kind has): each gets the reply to its own request, and
-    takes none of the others' as its own. The node holds a reply for a reader up to 600 s here
-    (`reply_reader_wait_s`): a reply held by mistake would not come within the test at all."""
+    takes none of the others' as its own. The node holds a reply for its reader up to 600 s here
+    (`reply_reader_wait_s`): a reply held for a reader that never shows (the client id read as a
+    GUID) would not come within the test at all."""
     domain = fresh_domain()
     node = Node(domain, extra=("--service-mapping", "cyclone", "--ros-args", "-p", "reply_reader_wait_s:=600.0"))
     try:

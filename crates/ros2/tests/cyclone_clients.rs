@@ -4,8 +4,10 @@
 //! 64-bit client id (the request writer's instance handle, an arbitrary number) and a sequence
 //! number. Every client must get the reply to its own request, whatever its id.
 //!
-//! The node runs with `reply_reader_wait_s` = 600: a reply the node held for a reader (what it
-//! did for about half of all Cyclone client ids) would not come within the test's run at all.
+//! The node runs with `reply_reader_wait_s` = 600: a reply held for a reader that never shows
+//! (the client id read as a reader's GUID, what an old gate did for about half of all ids)
+//! would not come within the test's run at all; the reply each request waits for — a reader
+//! of the reply topic in the client's participant — is there.
 //! The clients are a separate RustDDS participant on 127.0.0.1, on a random domain.
 #![allow(clippy::expect_used)] // test code: a failed expectation is a failed test
 
