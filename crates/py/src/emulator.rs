@@ -446,6 +446,18 @@ impl Emulator {
         json_to_py(py, &v)
     }
 
+    /// What the AS program's interface panel shows (`IFPWPRINT` …) as a dict: `windows` (a
+    /// list of 8, each with `rows`, `row`, `column`, `background`, `label_colour`), `labels` by
+    /// icon position, `titles` by page; `None` when the emulator runs the native server.
+    fn interface_panel(&self, py: Python<'_>) -> PyResult<Option<Py<PyAny>>> {
+        let Some(panel) = self.with(|c| c.program().interface_panel().cloned()) else {
+            return Ok(None);
+        };
+        let v = serde_json::to_value(panel)
+            .map_err(|e| base_error(py, &format!("cannot describe the interface panel: {e}")))?;
+        json_to_py(py, &v).map(Some)
+    }
+
     /// The whole state as a dict (what the pendant API's GET /state returns).
     fn snapshot(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
         let v = serde_json::to_value(self.emulator.snapshot())

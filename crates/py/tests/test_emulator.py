@@ -121,3 +121,24 @@ def test_an_as_program_file_runs_as_the_controller_and_a_robot_drives_it(tmp_pat
 def test_stubs_need_an_as_program_or_a_bare_controller():
     with pytest.raises(ValueError, match="stubs apply to AS programs"):
         fs020n.Emulator(stubs=["GUNON"])
+
+
+def test_interface_panel_shows_what_the_program_wrote(tmp_path):
+    # A cell's status on its interface panel, as a pytest of the AS program reads it.
+    path = tmp_path / "panel.as"
+    path.write_text(
+        ".PROGRAM autostart.pc()\n"
+        "  IFPWPRINT 1 = \"Cell ready\", \"parts: 0\"\n"
+        "  IFPLABEL 3, \"Start\"\n"
+        ".END\n"
+    )
+    with fs020n.Emulator(as_program=path) as emu:
+        deadline = time.monotonic() + 10
+        panel = emu.interface_panel()
+        while panel["labels"].get("3") is None and time.monotonic() < deadline:
+            time.sleep(0.01)
+            panel = emu.interface_panel()
+        assert panel["windows"][0]["rows"] == ["Cell ready", "parts: 0", "", ""]
+        assert panel["labels"]["3"][0] == "Start"
+    with fs020n.Emulator() as emu:
+        assert emu.interface_panel() is None
