@@ -511,8 +511,6 @@ pub fn tokenize_bytes(
     Ok(out)
 }
 
-/// A decimal number at the start of `chars` (digits, optional fraction, optional exponent
-/// with at least one digit): its value and length in bytes.
 /// The bytes of a string constant, its backslash escapes read: `\n` LF, `\r` CR, `\t` TAB,
 /// `\\` a backslash, `\ooo` (three octal digits) that byte — the form controllers save
 /// non-printing bytes in (`"\005"`, observed in public saves; the E manual says control
@@ -531,37 +529,30 @@ pub(crate) fn unescape(text: &[u8]) -> Vec<u8> {
         let octal = text
             .get(k + 1..k + 4)
             .filter(|d| d.iter().all(|b| (b'0'..=b'7').contains(b)));
-        match (text[k + 1], octal) {
-            (_, Some(d)) => {
-                let v = d.iter().fold(0u32, |v, b| v * 8 + u32::from(b - b'0'));
-                out.push(u8::try_from(v).unwrap_or(u8::MAX));
-                k += 4;
-            }
-            (b'n', None) => {
-                out.push(b'\n');
-                k += 2;
-            }
-            (b'r', None) => {
-                out.push(b'\r');
-                k += 2;
-            }
-            (b't', None) => {
-                out.push(b'\t');
-                k += 2;
-            }
-            (b'\\', None) => {
-                out.push(b'\\');
-                k += 2;
-            }
-            _ => {
-                out.push(c);
-                k += 1;
-            }
+        let simple = match text[k + 1] {
+            b'n' => Some(b'\n'),
+            b'r' => Some(b'\r'),
+            b't' => Some(b'\t'),
+            b'\\' => Some(b'\\'),
+            _ => None,
+        };
+        if let Some(d) = octal {
+            let v = d.iter().fold(0u32, |v, b| v * 8 + u32::from(b - b'0'));
+            out.push(u8::try_from(v).unwrap_or(u8::MAX));
+            k += 4;
+        } else if let Some(b) = simple {
+            out.push(b);
+            k += 2;
+        } else {
+            out.push(c);
+            k += 1;
         }
     }
     out
 }
 
+/// A decimal number at the start of `chars` (digits, optional fraction, optional exponent
+/// with at least one digit): its value and length in bytes.
 fn lex_number(chars: &[u8]) -> (f64, usize) {
     let mut j = 0;
     while j < chars.len() && chars[j].is_ascii_digit() {
